@@ -1,0 +1,60 @@
+"""Command-line interface: ``grainmech <command> ...``.
+
+The CLI is thin: it parses arguments, calls the library and writes files through
+:mod:`grainmech.io`. Each sub-command lives in its own module exposing
+``register(subparsers)``; the parser's ``func(args) -> int`` does the work.
+User errors (:class:`~grainmech.errors.GrainmechError`, missing files) print one line on
+stderr and exit with status 2; ``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Sequence
+
+from grainmech import __version__
+from grainmech.errors import GrainmechError
+
+#: sub-command modules, each with ``register(subparsers)``
+_COMMANDS = ("stiffness", "contact")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="grainmech",
+        description="Stiffness, fabric and cyclic behaviour of granular materials from "
+                    "their micro-structure.")
+    parser.add_argument("--version", action="version", version=f"grainmech {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in _COMMANDS:
+        try:
+            mod = importlib.import_module(f"grainmech.cli.{name}")
+        except ModuleNotFoundError as exc:  # a command whose module is not there yet
+            if exc.name == f"grainmech.cli.{name}":
+                continue
+            raise
+        mod.register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except (GrainmechError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        if args.debug:
+            raise
+        msg = str(exc) if not isinstance(exc, OSError) else f"{exc.strerror}: {exc.filename}"
+        print(f"grainmech: error: {msg}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

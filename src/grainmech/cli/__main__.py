@@ -1,0 +1,5 @@
+import sys
+
+from grainmech.cli import main
+
+sys.exit(main())

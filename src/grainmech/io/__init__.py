@@ -1,0 +1,1 @@
+"""Input/output at the edges: configs, units, result files. Only this package writes files."""
