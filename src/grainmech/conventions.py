@@ -233,8 +233,8 @@ def reorder(M: np.ndarray, to: Sequence[str], frm: Sequence[str] | None = None) 
         perm = [src.index(_canon(x)) for x in to]
     except ValueError as exc:
         raise ValueError(f"orders {tuple(frm)} and {tuple(to)} do not hold the same components") from exc
-    if len(perm) != m:
-        raise ValueError(f"target order has {len(perm)} components, matrix has {m}")
+    if len(perm) != m or len(set(perm)) != m:
+        raise ValueError(f"orders {tuple(frm)} and {tuple(to)} do not hold the same components")
     if M.ndim == 1:
         return M[perm]
     return M[np.ix_(perm, perm)]
@@ -263,9 +263,15 @@ def seed_normal(gamma: np.ndarray, beta: np.ndarray) -> np.ndarray:
 def seed_angles(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Inverse of :func:`seed_normal`: (gamma, beta) of unit normals (..., 3)."""
     n = np.asarray(n, dtype=float)
-    gamma = np.arccos(np.clip(n[..., 2], -1.0, 1.0))
-    beta = np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi)
+    gamma = np.arctan2(np.hypot(n[..., 0], n[..., 1]), n[..., 2])
+    beta = _angle_mod(np.arctan2(n[..., 0], n[..., 1]))
     return gamma, beta
+
+
+def _angle_mod(a: np.ndarray) -> np.ndarray:
+    """Map angles to [0, 2 pi) (np.mod can return exactly 2 pi for tiny negative input)."""
+    out = np.mod(a, 2 * np.pi)
+    return np.where(out >= 2 * np.pi, 0.0, out)
 
 
 def seed_normal_2d(theta: np.ndarray) -> np.ndarray:
@@ -280,4 +286,4 @@ def seed_normal_2d(theta: np.ndarray) -> np.ndarray:
 def seed_theta(n: np.ndarray) -> np.ndarray:
     """Inverse of :func:`seed_normal_2d`: theta in [0, 2 pi)."""
     n = np.asarray(n, dtype=float)
-    return np.mod(np.arctan2(n[..., 0], n[..., 1]), 2 * np.pi)
+    return _angle_mod(np.arctan2(n[..., 0], n[..., 1]))
