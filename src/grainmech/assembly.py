@@ -54,6 +54,7 @@ __all__ = [
     "love_weber_stress",
     "StressResult",
     "numba_available",
+    "static_contact_forces",
 ]
 
 _CHUNK = 1 << 18  # contacts per NumPy chunk: bounds temporary memory (~30 MB)
@@ -238,7 +239,7 @@ def _b_mandel(M: np.ndarray) -> np.ndarray:
 try:  # optional compiled kernel (extra "fast")
     import numba as _nb
 
-    @_nb.njit(parallel=True, fastmath=False, cache=True)
+    @_nb.njit(parallel=True, fastmath=True, cache=True)
     def _moments_numba3(n, l_, w, kn, ks, nchunks):  # pragma: no cover - exercised when numba present
         N = n.shape[0]
         out = np.zeros((nchunks, 27))
@@ -300,7 +301,7 @@ try:  # optional compiled kernel (extra "fast")
                 out[c, k] = a[k]
         return out.sum(axis=0)
 
-    @_nb.njit(parallel=True, fastmath=False, cache=True)
+    @_nb.njit(parallel=True, fastmath=True, cache=True)
     def _moments_numba2(n, l_, w, kn, ks, nchunks):  # pragma: no cover
         N = n.shape[0]
         out = np.zeros((nchunks, 9))
@@ -463,3 +464,38 @@ def love_weber_stress(forces: np.ndarray, branch: np.ndarray, weights: np.ndarra
     skew = 0.5 * (full - full.T)
     ns = np.linalg.norm(sym)
     return StressResult(sym, skew, float(np.linalg.norm(skew) / ns) if ns > 0 else 0.0)
+
+
+def static_contact_forces(contacts: ContactSet, sigma: np.ndarray) -> np.ndarray:
+    """Static estimate of the contact forces carrying a given stress.
+
+    The forces ``f_c = sigma . F^{-1} . l_c`` with the branch fabric
+    ``F = sum_c w_c l_c (x) l_c`` reproduce the Love-Weber stress exactly:
+    ``sum_c w_c f_c (x) l_c = sigma F^{-1} F = sigma`` (seed Eq. 2.6). For an isotropic
+    fabric and ``sigma = P I`` this is the seed's Eq. 4.43, ``f = 3 V P / (N l) n``; for
+    an anisotropic fabric or stress the forces have tangential components (the basis of
+    the seed's Sec. 6.3.2 state estimate, see the driver docs).
+
+    Parameters
+    ----------
+    contacts : ContactSet
+    sigma : array (d, d)
+        Symmetric stress, compression positive.
+
+    Returns
+    -------
+    array (n, d)
+        Force exerted by particle A on particle B at each row.
+    """
+    s = _as_array("sigma", sigma, "(d, d)")
+    d = contacts.dim
+    if s.shape != (d, d):
+        raise GrainmechError(f"sigma must have shape ({d}, {d}), got {s.shape}")
+    if not np.all(np.isfinite(s)) or not np.allclose(s, s.T, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(s).max())):
+        raise GrainmechError("sigma must be a finite symmetric tensor")
+    F = (contacts.branch * contacts.weights[:, None]).T @ contacts.branch
+    if np.linalg.matrix_rank(F) < d:
+        raise GrainmechError("the branch vectors do not span space (branch fabric is singular); "
+                             "no contact forces can carry a general stress")
+    G = s @ np.linalg.inv(F)
+    return contacts.branch @ G.T

@@ -1,0 +1,113 @@
+"""TOML configuration reading with strict keys and units at the edge.
+
+A config is read with :func:`load_toml` and consumed through :class:`Section`, which hands
+out values by key (converting units with :func:`grainmech.io.units.to_float`) and, when
+closed with :meth:`Section.finish`, raises :class:`~grainmech.errors.ConfigError` for any
+key that was not used — unknown keys are errors, never silently ignored.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Iterable
+
+from grainmech.errors import ConfigError, GrainmechError
+from grainmech.io.units import to_float
+
+__all__ = ["load_toml", "Section"]
+
+_MISSING = object()
+
+
+def load_toml(path: str | Path) -> dict:
+    """Read a TOML file; syntax errors become a GrainmechError naming file and line."""
+    p = Path(path)
+    if not p.exists():
+        raise GrainmechError(f"config file not found: {p}")
+    if p.is_dir():
+        raise GrainmechError(f"config path is a directory, not a file: {p}")
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise GrainmechError(f"{p}: invalid TOML: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise GrainmechError(f"{p}: not a UTF-8 text file ({exc.reason})") from None
+
+
+class Section:
+    """One table of a config, with its dotted name for error messages."""
+
+    def __init__(self, data: Any, name: str) -> None:
+        if not isinstance(data, dict):
+            raise ConfigError(name, data, "expected a table")
+        self.data = data
+        self.name = name
+        self._used: set[str] = set()
+
+    def key(self, k: str) -> str:
+        return f"{self.name}.{k}" if self.name else k
+
+    def has(self, k: str) -> bool:
+        return k in self.data
+
+    def raw(self, k: str, default: Any = _MISSING) -> Any:
+        self._used.add(k)
+        if k not in self.data:
+            if default is _MISSING:
+                raise ConfigError(self.key(k), None, "required key is missing")
+            return default
+        return self.data[k]
+
+    def number(self, k: str, unit: str | None = None, default: Any = _MISSING, *,
+               min: float | None = None, max: float | None = None,
+               min_inclusive: bool = True, max_inclusive: bool = True) -> float:
+        """A float in ``unit`` with an optional allowed range (named in the error)."""
+        v = self.raw(k, default)
+        if v is default and default is not _MISSING:
+            return v
+        x = to_float(v, unit, self.key(k))
+        lo_bad = min is not None and (x < min if min_inclusive else x <= min)
+        hi_bad = max is not None and (x > max if max_inclusive else x >= max)
+        if lo_bad or hi_bad:
+            lo = "" if min is None else ("[" if min_inclusive else "(") + f"{min:g}"
+            hi = "" if max is None else f"{max:g}" + ("]" if max_inclusive else ")")
+            rng = f"{lo or '(-inf'}, {hi or 'inf)'}"
+            raise ConfigError(self.key(k), v, f"must lie in {rng}" + (f" (in {unit})" if unit else ""))
+        return x
+
+    def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None) -> int:
+        v = self.raw(k, default)
+        if v is default and default is not _MISSING:
+            return v
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ConfigError(self.key(k), v, "expected an integer")
+        if min is not None and v < min:
+            raise ConfigError(self.key(k), v, f"must be >= {min}")
+        return v
+
+    def choice(self, k: str, options: Iterable[str], default: Any = _MISSING) -> str:
+        opts = tuple(options)
+        v = self.raw(k, default)
+        if v not in opts:
+            raise ConfigError(self.key(k), v, f"must be one of {', '.join(map(repr, opts))}")
+        return v
+
+    def boolean(self, k: str, default: Any = _MISSING) -> bool:
+        v = self.raw(k, default)
+        if not isinstance(v, bool):
+            raise ConfigError(self.key(k), v, "expected true or false")
+        return v
+
+    def section(self, k: str, default: Any = _MISSING) -> "Section":
+        v = self.raw(k, default)
+        return Section(v, self.key(k))
+
+    def finish(self) -> None:
+        """Raise for keys that were never read (unknown or misspelt keys)."""
+        unknown = sorted(set(self.data) - self._used)
+        if unknown:
+            k = unknown[0]
+            raise ConfigError(self.key(k), self.data[k], "unknown key"
+                              + (f" (other unknown keys: {', '.join(unknown[1:])})" if len(unknown) > 1 else ""))
