@@ -162,8 +162,8 @@ def test_packing_scale_eq_4_1():
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(void_ratio=-0.1, coordination=6, radius=1), "void_ratio must be > 0"),
-    (dict(void_ratio=0.5, coordination=0, radius=1), "coordination must be > 0"),
+    (dict(void_ratio=-0.1, coordination=6, radius=1), "void_ratio = -0.1: must be > 0"),
+    (dict(void_ratio=0.5, coordination=0, radius=1), "coordination = 0.0: must be > 0"),
     (dict(void_ratio=0.5, coordination=6, radius=float("nan")), "radius must be > 0"),
 ])
 def test_bad_packing_inputs(kwargs, match):

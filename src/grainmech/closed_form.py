@@ -79,19 +79,15 @@ def packing_scale(void_ratio: float, coordination: float, radius: float, *, dim:
     (contacts_per_volume, length) : (float, float)
         Multiply ``contacts_per_volume * length**2`` for the closed forms' ``scale``.
     """
-    e = _positive("void_ratio", void_ratio)
-    m = _positive("coordination", coordination)
-    rho = _positive("radius", radius)
-    if dim == 3:
-        per_particle = 3.0 / (4.0 * np.pi * rho**3 * (1.0 + e))
-    elif dim == 2:
-        per_particle = 1.0 / (np.pi * rho**2 * (1.0 + e))
-    else:
+    from grainmech.fabric.packing import contact_ends_per_volume, contacts_per_volume
+
+    if dim not in (2, 3):
         raise GrainmechError(f"dim must be 2 or 3, got {dim!r}")
+    rho = _positive("radius", radius)
     if convention == "physical":
-        return 0.5 * m * per_particle, 2.0 * rho
+        return float(contacts_per_volume(void_ratio, coordination, rho, dim)), 2.0 * rho
     if convention == "seed":
-        return m * per_particle, rho
+        return float(contact_ends_per_volume(void_ratio, coordination, rho, dim)), rho
     raise GrainmechError(f"convention must be 'physical' or 'seed', got {convention!r}")
 
 

@@ -45,6 +45,7 @@ class Section:
         self.data = data
         self.name = name
         self._used: set[str] = set()
+        self._children: list[Section] = []
 
     def key(self, k: str) -> str:
         return f"{self.name}.{k}" if self.name else k
@@ -102,10 +103,14 @@ class Section:
 
     def section(self, k: str, default: Any = _MISSING) -> "Section":
         v = self.raw(k, default)
-        return Section(v, self.key(k))
+        child = Section(v, self.key(k))
+        self._children.append(child)
+        return child
 
     def finish(self) -> None:
-        """Raise for keys that were never read (unknown or misspelt keys)."""
+        """Raise for keys that were never read (unknown or misspelt keys), here and in sub-tables."""
+        for child in self._children:
+            child.finish()
         unknown = sorted(set(self.data) - self._used)
         if unknown:
             k = unknown[0]

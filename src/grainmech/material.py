@@ -1,0 +1,223 @@
+"""A packing described by its fabric, and its small-strain stiffness under a stress state.
+
+:class:`Packing` is the analytical input of grainmech: a contact-normal density (seed
+Eq. 4.7 / 4.9) plus the number of contacts per volume and the branch length (Eq. 4.1),
+in either counting convention (``docs/conventions.md``). :func:`packing_stiffness`
+computes the stiffness tensor (seed Eq. 2.41) for constant contact stiffnesses or for
+Hertz-Mindlin contacts whose stiffness follows from the contact forces carrying an
+isotropic stress (seed Sec. 4.2.2, Eq. 4.43).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from grainmech.assembly import ContactSet, love_weber_stress, stiffness
+from grainmech.errors import GrainmechError
+
+__all__ = [
+    "Packing",
+    "ContactStiffness",
+    "ConstantStiffness",
+    "normal_forces_for_stress",
+    "StiffnessResult",
+    "packing_stiffness",
+]
+
+#: extra quadrature degree used when contact stiffness varies with direction (a
+#: non-polynomial function of n: f^(1/3)); Lebedev of this degree resolves it to ~1e-10
+#: for the fabrics accepted (checked against a doubled degree in the tests)
+DEGREE_VARYING_STIFFNESS = 41
+
+
+@dataclass(frozen=True)
+class Packing:
+    """Fabric density plus packing density.
+
+    Parameters
+    ----------
+    density : grainmech.fabric density
+        ``SphericalDensity`` (3D) or ``FourierDensity`` (2D).
+    contacts_per_volume : float
+        Entries per unit volume (physical contacts, or the seed's Eq. 4.1 count).
+    branch_length : float
+        Length carried in the kinematics: centre-to-centre distance (physical) or the
+        particle radius (seed).
+    convention : {"physical", "seed"}
+    radius : float or None
+        Particle radius (needed for Hertz contacts); defaults from ``branch_length``.
+    """
+
+    density: Any
+    contacts_per_volume: float
+    branch_length: float
+    convention: str = "physical"
+    radius: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("contacts_per_volume", "branch_length"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v <= 0:
+                raise GrainmechError(f"{name} must be > 0, got {v!r}")
+        if self.convention not in ("physical", "seed"):
+            raise GrainmechError(f"convention must be 'physical' or 'seed', got {self.convention!r}")
+        if self.radius is None:
+            r = self.branch_length / 2 if self.convention == "physical" else self.branch_length
+            object.__setattr__(self, "radius", r)
+
+    @property
+    def dim(self) -> int:
+        return int(self.density.dim)
+
+    @classmethod
+    def from_grains(cls, density: Any, *, void_ratio: float, coordination: float, radius: float,
+                    convention: str = "physical") -> "Packing":
+        """Equal grains of radius ``radius`` at void ratio e with coordination m (Eq. 4.1)."""
+        from grainmech.closed_form import packing_scale
+
+        nv, length = packing_scale(void_ratio, coordination, radius, dim=density.dim,
+                                   convention=convention)
+        return cls(density, nv, length, convention, float(radius))
+
+    def contact_set(self, kn: Any = 0.0, ks: Any = 0.0, extra_degree: int = 4) -> ContactSet:
+        """Quadrature contact set (seed Eq. 2.41); see :meth:`ContactSet.from_density`."""
+        return ContactSet.from_density(self.density, contacts_per_volume=self.contacts_per_volume,
+                                       branch_length=self.branch_length, kn=kn, ks=ks,
+                                       extra_degree=extra_degree, convention=self.convention)
+
+
+class ContactStiffness(Protocol):
+    """Anything giving tangent contact stiffnesses from normal forces (array -> (kn, ks))."""
+
+    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@dataclass(frozen=True)
+class ConstantStiffness:
+    """Constant contact stiffnesses (seed Sec. 4.2.1), force/length."""
+
+    kn: float
+    ks: float
+
+    def __post_init__(self) -> None:
+        for name in ("kn", "ks"):
+            v = getattr(self, name)
+            if not np.isfinite(v) or v < 0:
+                raise GrainmechError(f"{name} must be >= 0, got {v!r}")
+
+    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        shape = np.shape(normal_force)
+        return np.full(shape, float(self.kn)), np.full(shape, float(self.ks))
+
+
+def normal_forces_for_stress(contacts: ContactSet, sigma: np.ndarray) -> np.ndarray:
+    """Purely normal contact forces carrying the stress ``sigma`` (Love-Weber, Eq. 2.6).
+
+    Seeks ``N_c = n_c . A . n_c`` (a quadratic form in the normal, the lowest-order
+    field able to carry a general stress with a 2nd-order fabric) with the symmetric
+    ``A`` solved from ``sum_c w_c N_c (n_c . l_c) n_c (x) n_c = sigma``. For an
+    isotropic fabric and ``sigma = P I`` this is the seed's Eq. 4.43,
+    ``N = 3 V P / (N l)``. Raises if any force comes out tensile (the stress cannot be
+    carried by compressive normal forces of this form).
+
+    Parameters
+    ----------
+    contacts : ContactSet
+        Normals must be parallel to the branch vectors (spheres/discs).
+    sigma : array (d, d)
+        Compression positive.
+
+    Returns
+    -------
+    array (n,)
+        Normal forces, >= 0.
+    """
+    s = np.asarray(sigma, dtype=float)
+    d = contacts.dim
+    if s.shape != (d, d) or not np.all(np.isfinite(s)):
+        raise GrainmechError(f"sigma must be a finite ({d}, {d}) array, got shape {s.shape}")
+    n, l_, w = contacts.normals, contacts.branch, contacts.weights
+    proj = np.einsum("ci,ci->c", n, l_)
+    iu = np.triu_indices(d)
+    # basis of symmetric A: E_ab (a<=b) -> N_c = sum_ab A_ab q_c,ab
+    q = np.stack([n[:, a] * n[:, b] * (1.0 if a == b else 2.0) for a, b in zip(*iu)], axis=1)
+    nn = np.stack([n[:, a] * n[:, b] for a, b in zip(*iu)], axis=1)
+    M = (nn * (w * proj)[:, None]).T @ q
+    rhs = s[iu]
+    try:
+        coef = np.linalg.solve(M, rhs)
+    except np.linalg.LinAlgError:
+        raise GrainmechError("the contact normals do not span space: no normal forces carry this stress") from None
+    N = q @ coef
+    scale = np.abs(N).max() if N.size else 0.0
+    if np.any(N < -1e-12 * scale):
+        i = int(np.argmin(N))
+        raise GrainmechError(
+            f"stress {s.tolist()} cannot be carried by compressive normal forces of this fabric: "
+            f"the force along n = {np.round(n[i], 4).tolist()} would be {N[i]:.4g} (tension)")
+    return np.clip(N, 0.0, None)
+
+
+@dataclass(frozen=True)
+class StiffnessResult:
+    """Stiffness of a packing under a stress state.
+
+    Attributes
+    ----------
+    C : array (6, 6) or (3, 3)
+        Voigt stiffness in library order.
+    contacts : ContactSet
+        The quadrature set with the contact stiffnesses used.
+    normal_forces : array (n,)
+        Normal force per quadrature direction (zeros for constant stiffness).
+    stress : array (d, d)
+        Love-Weber stress of those forces (equals the requested stress).
+    """
+
+    C: np.ndarray
+    contacts: ContactSet
+    normal_forces: np.ndarray
+    stress: np.ndarray = field(repr=False)
+
+
+def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any = None) -> StiffnessResult:
+    """Small-strain stiffness of a packing (seed Eq. 2.41) at a given stress.
+
+    Parameters
+    ----------
+    packing : Packing
+    contact : ContactStiffness
+        :class:`ConstantStiffness` or a Hertz-Mindlin adapter
+        (:class:`grainmech.contact.HertzMindlin` provides ``stiffness(N)``).
+    stress : float or array (d, d), optional
+        Isotropic pressure P (float) or a stress tensor, compression positive. Required
+        when the contact stiffness depends on the force.
+
+    Returns
+    -------
+    StiffnessResult
+    """
+    d = packing.dim
+    const = isinstance(contact, ConstantStiffness)
+    if stress is None:
+        if not const:
+            raise GrainmechError("a stress (or pressure) is needed for force-dependent contact stiffness")
+        sigma = np.zeros((d, d))
+    else:
+        sigma = np.asarray(stress, dtype=float)
+        if sigma.ndim == 0:
+            if not np.isfinite(sigma) or sigma <= 0:
+                raise GrainmechError(f"pressure must be > 0, got {float(sigma)!r}")
+            sigma = float(sigma) * np.eye(d)
+    # constant stiffness or uniform forces: a degree-4 integrand is exact
+    isotropic_fabric = packing.density.order == 0 and np.allclose(sigma, sigma[0, 0] * np.eye(d))
+    extra = 4 if const or isotropic_fabric else DEGREE_VARYING_STIFFNESS
+    geom = packing.contact_set(extra_degree=extra)
+    N = np.zeros(len(geom)) if stress is None else normal_forces_for_stress(geom, sigma)
+    kn, ks = contact.stiffness(N)
+    cs = geom.with_stiffness(kn, ks)
+    s = love_weber_stress(N[:, None] * cs.normals, cs.branch, cs.weights).stress
+    return StiffnessResult(stiffness(cs), cs, N, s)
