@@ -22,6 +22,7 @@ __all__ = [
     "Packing",
     "ContactStiffness",
     "ConstantStiffness",
+    "HertzMindlinStiffness",
     "normal_forces_for_stress",
     "StiffnessResult",
     "packing_stiffness",
@@ -111,6 +112,34 @@ class ConstantStiffness:
     def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         shape = np.shape(normal_force)
         return np.full(shape, float(self.kn)), np.full(shape, float(self.ks))
+
+
+@dataclass(frozen=True)
+class HertzMindlinStiffness:
+    """Hertz normal and Mindlin no-slip tangential stiffness from the normal force.
+
+    ``kn = 2 E* a`` (seed Eq. 3.7) and ``ks = 8 G* a`` (Eq. 3.11-3.12 with theta = 1),
+    ``a = (3 N R* / (4 E*))^(1/3)`` (Eq. 3.2), via :mod:`grainmech.contact.geometry`.
+
+    Parameters
+    ----------
+    params : grainmech.contact.Hertz (or a subclass)
+        Grain materials and radii.
+    """
+
+    params: Any
+
+    @classmethod
+    def for_equal_spheres(cls, shear_modulus: float, poisson: float, radius: float) -> "HertzMindlinStiffness":
+        from grainmech.contact import Hertz
+
+        return cls(Hertz(shear_modulus, poisson, radius))
+
+    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        from grainmech.contact import hertz_normal_stiffness, mindlin_tangential_stiffness_from_force
+
+        N = np.asarray(normal_force, dtype=float)
+        return hertz_normal_stiffness(N, self.params), mindlin_tangential_stiffness_from_force(N, self.params)
 
 
 def normal_forces_for_stress(contacts: ContactSet, sigma: np.ndarray) -> np.ndarray:
