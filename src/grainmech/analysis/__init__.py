@@ -1,0 +1,25 @@
+"""Analysis of driver results: modulus reduction, damping, directional moduli, references.
+
+See ``docs/analysis.md``.
+"""
+
+from grainmech.analysis.directional import apparent_moduli
+from grainmech.analysis.empirical import (
+    DARENDELI_PHI,
+    P_ATM,
+    DarendeliCurves,
+    darendeli,
+    hardin_drnevich,
+    masing_damping_hyperbolic,
+)
+from grainmech.analysis.loops import (
+    LoopProperties,
+    ModulusReduction,
+    condensed_modulus,
+    loop_properties,
+    modulus_reduction,
+)
+
+__all__ = ["DARENDELI_PHI", "P_ATM", "DarendeliCurves", "LoopProperties", "ModulusReduction",
+           "apparent_moduli", "condensed_modulus", "darendeli", "hardin_drnevich", "loop_properties",
+           "masing_damping_hyperbolic", "modulus_reduction"]

@@ -1,0 +1,136 @@
+"""Empirical modulus-reduction and damping curves (references for the driver's output).
+
+* Hardin & Drnevich (1972): hyperbolic ``G/Gmax = 1/(1 + gamma/gamma_r)`` and
+  ``D = D_max (1 - G/Gmax)``.
+* Darendeli (2001), PhD thesis, Univ. of Texas at Austin, Ch. 8-9: modified hyperbola
+  with reference strain from mean effective stress, PI, OCR and Masing damping scaled by
+  cycles and frequency. **Mean stress in atmospheres**: the function takes Pa and
+  converts explicitly with ``P_ATM = 101325 Pa``.
+
+Strains are given as plain strains (not percent); Darendeli's formulae in percent are
+applied internally.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from grainmech.errors import ConfigError
+
+__all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "darendeli", "DarendeliCurves",
+           "masing_damping_hyperbolic"]
+
+#: standard atmosphere [Pa] used for the Pa -> atm conversion of Darendeli's mean stress
+P_ATM = 101325.0
+
+#: Darendeli (2001) calibrated coefficients phi_1..phi_12 (all soils, Table 8.12)
+DARENDELI_PHI = (0.0352, 0.0010, 0.3246, 0.3483, 0.9190, 0.8005,
+                 0.0129, -0.1069, -0.2889, 0.2919, 0.6329, -0.0057)
+
+
+def _strain(gamma: Any) -> np.ndarray:
+    g = np.asarray(gamma, dtype=float)
+    if not np.all(np.isfinite(g)) or np.any(g <= 0):
+        raise ConfigError("gamma", gamma, "strains must be finite and > 0")
+    return g
+
+
+def hardin_drnevich(gamma: Any, gamma_r: float, d_max: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Hardin-Drnevich (1972) hyperbolic curves.
+
+    Parameters
+    ----------
+    gamma : array, shear strain amplitude (dimensionless)
+    gamma_r : float, reference strain ``tau_max / G_max``
+    d_max : float, maximum damping ratio (dimensionless)
+
+    Returns
+    -------
+    G_ratio, damping : arrays like ``gamma``
+    """
+    g = _strain(gamma)
+    if not gamma_r > 0:
+        raise ConfigError("gamma_r", gamma_r, "must be > 0")
+    if not 0 <= d_max < 1:
+        raise ConfigError("d_max", d_max, "must lie in [0, 1)")
+    r = 1.0 / (1.0 + g / gamma_r)
+    return r, d_max * (1.0 - r)
+
+
+def masing_damping_hyperbolic(gamma: Any, gamma_r: float) -> np.ndarray:
+    """Masing damping ratio of the hyperbola ``tau = G gamma/(1 + gamma/gamma_r)``.
+
+    ``D = (1/pi) [4 (gamma - gamma_r ln(1 + gamma/gamma_r)) (gamma + gamma_r)/gamma^2 - 2]``
+    (Darendeli 2001, Eq. 9.4a with a = 1, as a ratio). Returns a ratio.
+    """
+    g = _strain(gamma)
+    return (4.0 * (g - gamma_r * np.log1p(g / gamma_r)) * (g + gamma_r) / g ** 2 - 2.0) / np.pi
+
+
+@dataclass(frozen=True)
+class DarendeliCurves:
+    """Darendeli (2001) curves; strains and damping as ratios (not percent)."""
+
+    gamma: np.ndarray
+    G_ratio: np.ndarray
+    damping: np.ndarray
+    gamma_r: float
+    d_min: float
+    curvature: float
+
+
+def darendeli(gamma: Any, mean_stress: float, *, pi: float = 0.0, ocr: float = 1.0,
+              n_cycles: float = 10.0, frequency: float = 1.0) -> DarendeliCurves:
+    """Darendeli (2001) modulus reduction and damping.
+
+    Parameters
+    ----------
+    gamma : array
+        Shear strain amplitudes (dimensionless, NOT percent).
+    mean_stress : float
+        Mean effective stress ``sigma'_0`` **in Pa** (converted to atm with ``P_ATM``).
+    pi : float
+        Plasticity index [%].
+    ocr : float
+        Over-consolidation ratio.
+    n_cycles : float
+        Number of loading cycles ``N``.
+    frequency : float
+        Loading frequency [Hz].
+
+    Notes
+    -----
+    With ``phi`` = :data:`DARENDELI_PHI` and ``s = sigma'_0 / P_ATM``:
+    ``gamma_r[%] = (phi1 + phi2 PI OCR^phi3) s^phi4``, ``a = phi5``,
+    ``G/Gmax = 1 / (1 + (gamma/gamma_r)^a)``,
+    ``D_min[%] = (phi6 + phi7 PI OCR^phi8) s^phi9 (1 + phi10 ln f)``,
+    ``b = phi11 + phi12 ln N``,
+    ``D = b (G/Gmax)^0.1 D_Masing + D_min`` with ``D_Masing = c1 D1 + c2 D1^2 + c3 D1^3``,
+    ``D1`` the a = 1 Masing damping [%] and ``c1 = -1.1143 a^2 + 1.8618 a + 0.2523``,
+    ``c2 = 0.0805 a^2 - 0.0710 a - 0.0095``, ``c3 = -0.0005 a^2 + 0.0002 a + 0.0003``.
+    """
+    g = _strain(gamma)
+    for name, v, lo in (("mean_stress", mean_stress, 0.0), ("ocr", ocr, 0.0),
+                        ("n_cycles", n_cycles, 0.0), ("frequency", frequency, 0.0)):
+        if not (np.isfinite(v) and v > lo):
+            raise ConfigError(name, v, "must be finite and > 0")
+    if not (np.isfinite(pi) and pi >= 0):
+        raise ConfigError("pi", pi, "must be finite and >= 0")
+    p = DARENDELI_PHI
+    s_atm = mean_stress / P_ATM
+    gr_pct = (p[0] + p[1] * pi * ocr ** p[2]) * s_atm ** p[3]
+    a = p[4]
+    g_pct = 100.0 * g
+    ratio = 1.0 / (1.0 + (g_pct / gr_pct) ** a)
+    dmin_pct = (p[5] + p[6] * pi * ocr ** p[7]) * s_atm ** p[8] * (1.0 + p[9] * np.log(frequency))
+    b = p[10] + p[11] * np.log(n_cycles)
+    d1 = 100.0 * masing_damping_hyperbolic(g_pct, gr_pct)
+    c1 = -1.1143 * a ** 2 + 1.8618 * a + 0.2523
+    c2 = 0.0805 * a ** 2 - 0.0710 * a - 0.0095
+    c3 = -0.0005 * a ** 2 + 0.0002 * a + 0.0003
+    dm = c1 * d1 + c2 * d1 ** 2 + c3 * d1 ** 3
+    d_pct = b * ratio ** 0.1 * dm + dmin_pct
+    return DarendeliCurves(g, ratio, d_pct / 100.0, gr_pct / 100.0, dmin_pct / 100.0, a)

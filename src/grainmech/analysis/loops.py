@@ -1,0 +1,135 @@
+"""Secant modulus and damping from strain-controlled cycles.
+
+For one closed stress-strain loop ``(gamma, tau)`` (engineering shear strain):
+
+* amplitude ``gamma_a = (max gamma - min gamma)/2``, ``tau_a`` half the stress range
+  between the two strain extremes;
+* secant modulus ``G = tau_a / gamma_a``;
+* dissipated energy ``dW = |oint tau d gamma|`` (trapezoidal loop area);
+* damping ratio ``D = dW / (4 pi W)`` with ``W = tau_a gamma_a / 2`` (Kramer 1996, Sec. 6.4.2;
+  Darendeli 2001, Ch. 2).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from grainmech.errors import ConfigError
+
+__all__ = ["LoopProperties", "loop_properties", "ModulusReduction", "modulus_reduction",
+           "condensed_modulus"]
+
+
+@dataclass(frozen=True)
+class LoopProperties:
+    """Properties of one loop (units: strain dimensionless, stress and energy per volume)."""
+
+    gamma_a: float
+    tau_a: float
+    secant_modulus: float
+    dissipated: float
+    stored: float
+    damping: float
+
+
+def loop_properties(gamma: Any, tau: Any) -> LoopProperties:
+    """Secant modulus and damping ratio of one closed loop.
+
+    Parameters
+    ----------
+    gamma, tau : arrays (k,)
+        Engineering shear strain and shear stress along one full cycle (first and last
+        points at the same strain).
+    """
+    g = np.asarray(gamma, dtype=float)
+    t = np.asarray(tau, dtype=float)
+    if g.ndim != 1 or g.shape != t.shape or g.size < 4:
+        raise ConfigError("gamma/tau", (g.shape, t.shape), "must be 1-D arrays of equal length >= 4")
+    if not (np.all(np.isfinite(g)) and np.all(np.isfinite(t))):
+        raise ConfigError("gamma/tau", "non-finite", "must be finite")
+    imax, imin = int(np.argmax(g)), int(np.argmin(g))
+    ga = 0.5 * (g[imax] - g[imin])
+    if ga <= 0:
+        raise ConfigError("gamma", "constant", "the loop has zero strain amplitude")
+    ta = 0.5 * (t[imax] - t[imin])
+    dW = abs(float(np.sum(0.5 * (t[1:] + t[:-1]) * np.diff(g))))
+    W = 0.5 * ta * ga
+    D = dW / (4 * np.pi * W) if W > 0 else 0.0
+    return LoopProperties(float(ga), float(ta), float(ta / ga), dW, float(W), float(D))
+
+
+def condensed_modulus(C: np.ndarray, component: int, stress_control: Sequence[bool]) -> float:
+    """Small-strain modulus ``d sigma_k / d eps_k`` with the other components controlled.
+
+    Strain-controlled components are held (zero increment), stress-controlled ones free
+    (zero stress increment): ``C_kk - C_kS C_SS^-1 C_Sk``.
+    """
+    sc = np.asarray(stress_control, dtype=bool)
+    C = np.asarray(C, dtype=float)
+    k = int(component)
+    if sc[k]:
+        raise ConfigError("component", k, "must be strain controlled")
+    if not sc.any():
+        return float(C[k, k])
+    return float(C[k, k] - C[k, sc] @ np.linalg.solve(C[np.ix_(sc, sc)], C[sc, k]))
+
+
+@dataclass(frozen=True)
+class ModulusReduction:
+    """Modulus reduction and damping against amplitude.
+
+    Attributes
+    ----------
+    amplitude : (k,) engineering shear strain amplitudes
+    G : (k,) secant moduli of the last cycle
+    damping : (k,) damping ratios of the last cycle
+    G_max : float
+        Small-strain modulus from the initial tangent (:func:`condensed_modulus`).
+    results : list of DriverResult
+    """
+
+    amplitude: np.ndarray
+    G: np.ndarray
+    damping: np.ndarray
+    G_max: float
+    results: list
+
+    @property
+    def G_ratio(self) -> np.ndarray:
+        return self.G / self.G_max
+
+
+def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
+                      steps_per_cycle: int = 80, waveform: str = "triangle",
+                      **run_options: Any) -> ModulusReduction:
+    """Strain-controlled cyclic simple shear (``gamma_xz``, constant ``sigma_zz``) per amplitude.
+
+    Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
+
+    Raises
+    ------
+    GrainmechError
+        If a run fails (its message is passed on).
+    """
+    from grainmech.driver import cyclic_simple_shear, run
+    from grainmech.errors import GrainmechError
+
+    amps = np.asarray(amplitudes, dtype=float)
+    if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
+        raise ConfigError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
+    G, D, res = [], [], []
+    for a in amps:
+        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform)
+        r = run(point, path, **run_options)
+        if not r.success:
+            raise GrainmechError(f"amplitude {a:g}: {r.message}")
+        last = slice(len(path) - steps_per_cycle, len(path) + 1)
+        lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
+        G.append(lp.secant_modulus)
+        D.append(lp.damping)
+        res.append(r)
+    Gmax = condensed_modulus(point.tangent, 4, path.stress_control[0])
+    return ModulusReduction(amps, np.array(G), np.array(D), Gmax, res)

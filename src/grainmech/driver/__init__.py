@@ -1,0 +1,37 @@
+"""Material-point driver (issue 4): contact set + contact law + loading path.
+
+Public API
+----------
+:class:`MaterialPoint` (``isotropic``, ``at_stress`` with ``initial="state-estimate"`` or
+``"path-following"``, ``from_forces``), :func:`run` -> :class:`DriverResult`,
+:class:`SolverOptions`, and the path builders of :mod:`grainmech.driver.paths`.
+See ``docs/driver.md``.
+"""
+
+from grainmech.driver._laws import ContactLaw, IwanLaw, make_law
+from grainmech.driver.paths import (
+    COMPONENTS,
+    Control,
+    LoadPath,
+    concatenate,
+    constant_mean_stress,
+    cycles,
+    cyclic_simple_shear,
+    cyclic_triaxial,
+    fig610_path,
+    fig610_stress,
+    isotropic_compression,
+    parse_mask,
+    segment,
+    simple_shear,
+    triaxial,
+)
+from grainmech.driver.point import MaterialPoint, evaluate, geometric_stiffness, geometry, tangent
+from grainmech.driver.solver import DriverResult, SolverOptions, run
+
+__all__ = [
+    "COMPONENTS", "Control", "ContactLaw", "DriverResult", "IwanLaw", "LoadPath", "MaterialPoint",
+    "SolverOptions", "concatenate", "constant_mean_stress", "cycles", "cyclic_simple_shear",
+    "cyclic_triaxial", "evaluate", "fig610_path", "fig610_stress", "geometric_stiffness", "geometry", "isotropic_compression",
+    "make_law", "parse_mask", "run", "segment", "simple_shear", "tangent", "triaxial",
+]

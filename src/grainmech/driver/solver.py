@@ -1,0 +1,275 @@
+"""Drive a material point along a loading path (mixed stress/strain control).
+
+Each step solves for the strain increment whose strain-controlled components are
+prescribed and whose stress-controlled components bring the Love-Weber stress to the
+target. Newton iterations on the stress-controlled components use the consistent tangent
+``C_SS`` (seed Eq. 2.26 from the laws' tangent stiffnesses); every iteration re-evaluates
+the laws from the last *converged* state with the total trial increment (no drift of the
+history variables). A step that does not converge is split in two halves, recursively up
+to ``max_depth`` levels. A failure is never hidden: the result carries ``success``,
+``status`` and a ``message`` naming the step and the cause, and everything computed
+until then.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from grainmech.driver.paths import LoadPath
+from grainmech.driver.point import MaterialPoint, _fractions, evaluate, geometric_stiffness, tangent
+from grainmech.errors import ConfigError, GrainmechError
+
+__all__ = ["run", "DriverResult", "SolverOptions"]
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the increment solver.
+
+    Attributes
+    ----------
+    rtol : float
+        Stress residual tolerance relative to the stress scale of the step
+        (``max |sigma|`` at its start and target).
+    max_iter : int
+        Newton iterations per (sub)step.
+    max_depth : int
+        Halvings of a step (2**max_depth substeps at most).
+    engineering : bool
+        Also compute engineering constants of the tangent at each step.
+    finite_deformation : bool
+        Add the first-order finite-deformation correction of seed Eq. 2.36-2.38
+        (errata E-2.34) to the stress increments, ``G(sigma_mid) : d eps`` with the
+        mid-step stress (:func:`grainmech.driver.point.geometric_stiffness`). Newton uses
+        ``C + G(sigma_start)``; the reported ``tangent`` stays the contact tangent ``C``.
+        The contact sums keep the reference geometry (``l``, ``V`` not updated), so the
+        option is first order in the total strain.
+    """
+
+    rtol: float = 1e-9
+    max_iter: int = 30
+    max_depth: int = 8
+    engineering: bool = False
+    finite_deformation: bool = False
+
+    def __post_init__(self) -> None:
+        if not (0 < self.rtol < 1e-2):
+            raise ConfigError("rtol", self.rtol, "must lie in (0, 1e-2)")
+        if int(self.max_iter) < 1:
+            raise ConfigError("max_iter", self.max_iter, "must be >= 1")
+        if not (0 <= int(self.max_depth) <= 30):
+            raise ConfigError("max_depth", self.max_depth, "must lie in [0, 30]")
+
+
+@dataclass(frozen=True)
+class DriverResult:
+    """Everything computed along a path; row 0 is the initial state.
+
+    Attributes
+    ----------
+    success : bool
+    status : int
+        0 done; 1 a step failed (stress target not reached).
+    message : str
+    strain : (k+1, 6) total strain, engineering shear, compression positive
+    stress : (k+1, 6) stress [force/length^2]
+    tangent : (k+1, 6, 6) Voigt tangent stiffness
+    sliding_fraction, open_fraction : (k+1,) weighted fractions of contacts
+    dissipation : (k+1,) cumulative dissipated energy per unit volume
+    work : (k+1,) cumulative work ``int sigma . d eps`` per unit volume (trapezoidal)
+    stored : (k+1,) elastic energy per unit volume held by the contacts (law's estimate)
+    substeps, iterations : (k+1,) int, per step
+    engineering : dict of name -> (k+1,) arrays, if requested
+    final : MaterialPoint
+        Last converged state (restart from it).
+    n_steps : int
+        Steps requested.
+    """
+
+    success: bool
+    status: int
+    message: str
+    strain: np.ndarray
+    stress: np.ndarray
+    tangent: np.ndarray
+    sliding_fraction: np.ndarray
+    open_fraction: np.ndarray
+    dissipation: np.ndarray
+    work: np.ndarray
+    stored: np.ndarray
+    substeps: np.ndarray
+    iterations: np.ndarray
+    final: MaterialPoint = field(repr=False)
+    n_steps: int = 0
+    engineering: dict = field(default_factory=dict, repr=False)
+
+
+class _StepFailure(Exception):
+    def __init__(self, cause: str) -> None:
+        super().__init__(cause)
+        self.cause = cause
+
+
+def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: np.ndarray,
+           opts: SolverOptions) -> tuple[MaterialPoint, int, Any]:
+    """Newton iterations for one (sub)step; returns (point, iterations, response)."""
+    de = np.where(sc, 0.0, d_strain)
+    scale = max(float(np.abs(point.stress).max()), float(np.abs(target[sc]).max()) if sc.any() else 0.0)
+    Gm = geometric_stiffness(point.stress) if opts.finite_deformation else np.zeros((6, 6))
+    C = point.tangent + Gm
+    if scale == 0.0:
+        scale = float(np.abs(C).max() * np.abs(de).max()) or 1.0
+    tol = opts.rtol * scale
+    if sc.any():
+        rhs = target[sc] - point.stress[sc] - C[np.ix_(sc, ~sc)] @ de[~sc]
+        try:
+            de[sc] = np.linalg.solve(C[np.ix_(sc, sc)], rhs)
+        except np.linalg.LinAlgError:
+            de[sc] = 0.0
+        if not np.all(np.isfinite(de)):
+            de[sc] = 0.0
+    for it in range(1, opts.max_iter + 1):
+        ev = evaluate(point, de)
+        if opts.finite_deformation:
+            # G at the mid-step stress (contact part of the trial): second-order accurate
+            mid = point.stress + 0.5 * (ev.stress - (point.stress - point.correction))
+            corr = point.correction + geometric_stiffness(mid) @ de
+        else:
+            corr = point.correction
+        sig = ev.stress + corr
+        r = sig[sc] - target[sc]
+        if not sc.any() or np.abs(r).max() <= tol:
+            new = replace(point, state=ev.state, response=ev.response,
+                          strain=point.strain + de, stress=sig, correction=corr)
+            return new, it, ev.response
+        C = tangent(point.contacts, ev.response) + Gm
+        J = C[np.ix_(sc, sc)]
+        cond = np.linalg.cond(J)
+        if not np.isfinite(cond) or cond > 1e13:
+            sl, op = _fractions(point.contacts, ev.response)
+            raise _StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
+                               f"sliding, {100 * op:.0f}% open")
+        de[sc] = de[sc] - np.linalg.solve(J, r)
+        if not np.all(np.isfinite(de)):
+            raise _StepFailure("Newton update not finite")
+    sl, op = _fractions(point.contacts, ev.response)
+    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
+                       f"{np.abs(r).max():.3g} > {tol:.3g}), {100 * sl:.0f}% of contacts sliding, "
+                       f"{100 * op:.0f}% open")
+
+
+def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters):
+    """Advance from ``point`` by strain ``d_strain`` and to stress target ``t1`` (from ``t0``)."""
+    try:
+        new, it, resp = _solve(point, sc, d_strain, t1, opts)
+        counters[0] += 1
+        counters[1] += it
+        counters[2] += float(np.dot(point.contacts.weights, resp.dissipation))
+        counters[3] += float(np.dot(0.5 * (point.stress + new.stress), new.strain - point.strain))
+        return new
+    except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
+        err: Exception = _StepFailure(f"contact law error: {exc}")
+    except _StepFailure as exc:
+        err = exc
+    if depth >= opts.max_depth:
+        raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")  # type: ignore[attr-defined]
+    tm = 0.5 * (t0 + t1)
+    mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters)
+    return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters)
+
+
+def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None = None,
+        **kwargs: Any) -> DriverResult:
+    """Drive ``point`` along ``path``.
+
+    Parameters
+    ----------
+    point : MaterialPoint
+        Initial converged state (e.g. :meth:`MaterialPoint.isotropic`).
+    path : LoadPath
+        Steps with control masks and increments (:mod:`grainmech.driver.paths`).
+    options : SolverOptions, optional
+    **kwargs
+        Fields of :class:`SolverOptions` (``rtol``, ``max_iter``, ``max_depth``,
+        ``engineering``) as a shortcut.
+
+    Returns
+    -------
+    DriverResult
+        ``success`` False if a step failed; the arrays hold the steps done before.
+    """
+    if options is None:
+        options = SolverOptions(**kwargs)
+    elif kwargs:
+        options = replace(options, **kwargs)
+    if not isinstance(path, LoadPath):
+        raise ConfigError("path", type(path).__name__, "must be a LoadPath")
+    m = len(path)
+    rows = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored", "sub", "it")}
+
+    def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
+        sl, op = pt.fractions()
+        rows["strain"].append(pt.strain.copy())
+        rows["stress"].append(pt.stress.copy())
+        rows["tangent"].append(pt.tangent)
+        rows["sl"].append(sl)
+        rows["op"].append(op)
+        rows["diss"].append(diss)
+        rows["work"].append(work)
+        rows["stored"].append(pt.stored_energy())
+        rows["sub"].append(sub)
+        rows["it"].append(it)
+
+    record(point, 0.0, 0.0, 0, 0)
+    diss = work = 0.0
+    t_stress = point.stress.copy()
+    t_strain = point.strain.copy()
+    prev = None
+    success, status, message = True, 0, f"completed {m} steps"
+    for k in range(m):
+        sc = path.stress_control[k]
+        inc = path.increment[k]
+        if prev is not None:  # a component switching control restarts from the state
+            switched = sc != prev
+            t_stress = np.where(switched & sc, point.stress, t_stress)
+            t_strain = np.where(switched & ~sc, point.strain, t_strain)
+        prev = sc
+        new_t_stress = np.where(sc, t_stress + inc, point.stress)
+        new_t_strain = np.where(~sc, t_strain + inc, point.strain)
+        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
+        t0 = np.where(sc, point.stress, 0.0)
+        counters = [0, 0, 0.0, 0.0]
+        try:
+            point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters)
+        except _StepFailure as exc:
+            success, status = False, 1
+            message = f"step {k + 1}: stress target not reachable: {exc.cause}"
+            break
+        t_stress = np.where(sc, new_t_stress, point.stress)
+        t_strain = np.where(~sc, new_t_strain, point.strain)
+        diss += counters[2]
+        work += counters[3]
+        record(point, diss, work, counters[0], counters[1])
+
+    arr = {k: np.array(v) for k, v in rows.items()}
+    eng: dict = {}
+    if options.engineering:
+        from grainmech.tensors import engineering_constants
+
+        dicts = []
+        for C in arr["tangent"]:
+            try:
+                dicts.append(engineering_constants(C).as_dict())
+            except GrainmechError:
+                dicts.append(None)
+        keys = next((list(d) for d in dicts if d), [])
+        for key in keys:
+            vals = [d.get(key) if d else None for d in dicts]
+            if all(isinstance(v, (int, float)) for v in vals):
+                eng[key] = np.array(vals, dtype=float)
+    return DriverResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"],
+                        arr["sl"], arr["op"], arr["diss"], arr["work"], arr["stored"],
+                        arr["sub"].astype(int), arr["it"].astype(int), point, m, eng)

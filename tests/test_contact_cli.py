@@ -1,0 +1,123 @@
+"""``grainmech contact CONFIG.toml -o OUTDIR``: files, columns, physics, and user errors."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grainmech.cli import main
+from grainmech.contact import MindlinDeresiewicz, md_dissipation_per_cycle, md_loading_displacement
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+REQUIRED = ("step", "normal_displacement", "tangential_displacement", "normal_force",
+            "tangential_force", "dissipated_energy")
+
+
+def _read(path: Path) -> dict[str, np.ndarray]:
+    with path.open() as fh:
+        rows = list(csv.DictReader(fh))
+    return {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+
+
+BASE = """
+[contact]
+law = "mindlin-deresiewicz"
+shear_modulus = "29 GPa"
+poisson = 0.22
+radius1 = "1 mm"
+friction = 0.5
+
+[initial]
+normal_force = "10 N"
+
+[[path]]
+kind = "cycles"
+count = 1
+steps = 12
+tangential_force_amplitude = "3 N"
+"""
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    p = tmp_path / "c.toml"
+    p.write_text(text)
+    return p
+
+
+def test_example_runs_and_writes_csv_and_png(tmp_path):
+    out = tmp_path / "out"
+    assert main(["contact", str(EXAMPLES / "contact_md_growing_cycles.toml"), "-o", str(out)]) == 0
+    data = _read(out / "contact.csv")
+    for col in REQUIRED:
+        assert col in data
+    assert data["step"][0] == 0 and np.all(np.diff(data["step"]) == 1)
+    png = (out / "contact.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not [f for f in out.iterdir() if f.name.startswith(".")]      # no temp files left
+    # dissipation never decreases; |T| <= mu N
+    assert np.all(np.diff(data["dissipated_energy"]) >= 0)
+    assert np.all(np.abs(data["tangential_force"]) <= 0.5 * data["normal_force"] * (1 + 1e-9))
+    # the last full cycle at 4 N dissipates the Mindlin–Deresiewicz energy
+    p = MindlinDeresiewicz(29e9, 0.22, 1e-3, friction=0.5)
+    seg = data["segment"] == 2
+    idx = np.nonzero(seg)[0]
+    # segment 2: ramp to +4 (20 steps) then two cycles of 80 steps; the second cycle is the last 80
+    W = data["dissipated_energy"][idx[-1]] - data["dissipated_energy"][idx[-81]]
+    assert W == pytest.approx(float(md_dissipation_per_cycle(4.0, 10.0, p)), rel=1e-8)
+
+
+def test_first_loading_matches_mindlin_curve(tmp_path):
+    out = tmp_path / "o"
+    assert main(["contact", str(_write(tmp_path, BASE)), "-o", str(out), "--no-plot"]) == 0
+    assert not (out / "contact.png").exists()
+    data = _read(out / "contact.csv")
+    p = MindlinDeresiewicz(29e9, 0.22, 1e-3, friction=0.5)
+    first = data["segment"] == 0
+    T = data["tangential_force"][first]
+    d = data["tangential_displacement"][first]
+    np.testing.assert_allclose(d[:6], md_loading_displacement(T[:6], 10.0, p), rtol=1e-9)
+    assert T[5] == pytest.approx(3.0, rel=1e-9)                  # steps/2 = 6 steps to +A
+
+
+def test_units_and_plain_si_numbers_agree(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    main(["contact", str(_write(tmp_path, BASE)), "-o", str(a), "--no-plot"])
+    si = BASE.replace('"29 GPa"', "29e9").replace('"1 mm"', "0.001").replace('"10 N"', "10.0") \
+             .replace('"3 N"', "3.0")
+    main(["contact", str(_write(tmp_path, si)), "-o", str(b), "--no-plot"])
+    da, db = _read(a / "contact.csv"), _read(b / "contact.csv")
+    for k in REQUIRED:
+        np.testing.assert_allclose(da[k], db[k], rtol=1e-12)
+
+
+@pytest.mark.parametrize("edit, key", [
+    (("friction = 0.5", "friction = 0.5\nfrictoin = 0.4"), "contact.frictoin"),
+    (("poisson = 0.22", "poisson = 0.6"), "poisson"),
+    (("friction = 0.5", "friction = -0.5"), "friction"),
+    (('radius1 = "1 mm"', 'radius1 = "1 N"'), "contact.radius1"),
+    (("count = 1", "count = 1\nstepz = 3"), "path[0].stepz"),
+    (('tangential_force_amplitude = "3 N"', 'tangential_force_amplitude = "6 N"'), "friction limit"),
+    (('law = "mindlin-deresiewicz"', 'law = "mindlin"'), "contact.law"),
+])
+def test_user_errors_exit_2_with_one_line_naming_the_key(tmp_path, capsys, edit, key):
+    cfg = BASE.replace(*edit)
+    rc = main(["contact", str(_write(tmp_path, cfg)), "-o", str(tmp_path / "o")])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert key in err and err.count("\n") == 1
+
+
+def test_missing_config_file_is_a_user_error(tmp_path, capsys):
+    assert main(["contact", str(tmp_path / "nope.toml"), "-o", str(tmp_path / "o")]) == 2
+
+
+def test_cylinder_example_runs(tmp_path):
+    out = tmp_path / "rods"
+    assert main(["contact", str(EXAMPLES / "contact_cylinder_rods.toml"), "-o", str(out), "--no-plot"]) == 0
+    data = _read(out / "contact.csv")
+    assert np.all(np.isfinite(data["tangential_force"]))
+    assert data["dissipated_energy"][-1] > 0
