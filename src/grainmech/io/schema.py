@@ -116,3 +116,40 @@ def build_stress(sec: Section, dim: int) -> Any:
             raise ConfigError(sec.key("tensor"), raw, f"must be a symmetric {dim}x{dim} array")
         return S
     return None
+
+
+LAWS = ("linear", "hertz-mindlin", "mindlin-deresiewicz")
+
+
+def build_law(sec: Section, packing: Any) -> Any:
+    """Incremental contact law parameters (``grainmech.contact``) from ``[contacts]``.
+
+    ``law``: ``"mindlin-deresiewicz"`` (``shear_modulus``, ``poisson``, ``friction`` or
+    ``friction_angle``), ``"hertz-mindlin"`` (same; friction optional, default infinite)
+    or ``"linear"`` (``kn``, ``ks``, optional friction).
+    """
+    from grainmech import contact
+
+    law = sec.choice("law", LAWS)
+    if sec.has("friction") and sec.has("friction_angle"):
+        raise ConfigError(sec.key("friction_angle"), sec.data["friction_angle"],
+                          "give either friction or friction_angle, not both")
+    mu = None
+    if sec.has("friction"):
+        mu = sec.number("friction", None, min=0)
+    elif sec.has("friction_angle"):
+        phi = sec.number("friction_angle", "rad", min=0, max=np.pi / 2, max_inclusive=False)
+        mu = float(np.tan(phi))
+    if law == "linear":
+        kn = sec.number("kn", "N/m", min=0, min_inclusive=False)
+        ks = sec.number("ks", "N/m", min=0)
+        return contact.LinearSpring(kn, ks, friction=np.inf if mu is None else mu)
+    G = sec.number("shear_modulus", "Pa", min=0, min_inclusive=False)
+    nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
+    r = packing.radius
+    if law == "hertz-mindlin":
+        return contact.HertzMindlin(G, nu, r, friction=np.inf if mu is None else mu)
+    if mu is None:
+        raise ConfigError(sec.key("friction"), None, "is required for law = 'mindlin-deresiewicz' "
+                          "(or give friction_angle)")
+    return contact.MindlinDeresiewicz(G, nu, r, friction=mu)

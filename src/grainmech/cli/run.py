@@ -1,0 +1,226 @@
+"""``grainmech run [CONFIG.toml] [-o OUTDIR] [--quiet]``: the material-point driver from a config.
+
+Without CONFIG it runs the built-in default (``grainmech/data/default_run.toml``): cyclic
+simple shear of an isotropic Hertz-Mindlin/Mindlin-Deresiewicz quartz sand at several
+strain amplitudes, and writes CSV tables, a JSON summary and PNG plots (loops, G/Gmax and
+damping with Darendeli 2001 and Hardin-Drnevich 1972 for the same mean stress).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from grainmech.errors import ConfigError, GrainmechError
+
+TEST_KINDS = ("cyclic-simple-shear", "path")
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser("run", help="drive a material point along a loading path (default: cyclic simple shear)",
+                       description=__doc__.splitlines()[0])
+    p.add_argument("config", nargs="?", help="TOML config (see examples/run_*.toml)")
+    p.add_argument("-o", "--outdir", default="grainmech-out", help="output folder (default ./grainmech-out)")
+    p.add_argument("--quiet", action="store_true", help="no progress messages")
+    p.set_defaults(func=main)
+
+
+def _progress(quiet: bool, msg: str) -> None:
+    if not quiet:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def _segments(sec: Any) -> Any:
+    """``[[test.segments]]`` -> LoadPath (each: control, change | direction+amplitude+cycles)."""
+    from grainmech.driver import concatenate, cycles, parse_mask, segment
+    from grainmech.io.config import Section
+    from grainmech.io.units import to_float
+
+    raw = sec.raw("segments")
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(sec.key("segments"), raw, "must be a non-empty array of tables [[test.segments]]")
+    parts = []
+    for i, item in enumerate(raw):
+        s = Section(item, f"{sec.key('segments')}[{i}]")
+        ctrl_text = s.raw("control")
+        try:
+            ctrl = parse_mask(str(ctrl_text))
+        except GrainmechError as exc:
+            raise ConfigError(s.key("control"), ctrl_text, str(exc)) from None
+        mask = [c == "S" for c in str(ctrl_text).upper()]
+        units = ["Pa" if m else None for m in mask]
+        if s.has("change"):
+            ch = s.raw("change")
+            if not isinstance(ch, list) or len(ch) != 6:
+                raise ConfigError(s.key("change"), ch, "must list 6 values (xx, yy, zz, yz, xz, xy)")
+            change = [to_float(v, u, s.key("change")) for v, u in zip(ch, units)]
+            parts.append(segment(ctrl, change, s.integer("steps", min=1)))
+        else:
+            d = s.raw("direction")
+            if not isinstance(d, list) or len(d) != 6:
+                raise ConfigError(s.key("direction"), d, "must list 6 values")
+            direction = [float(to_float(v, None, s.key("direction"))) for v in d]
+            k = int(np.argmax(np.abs(direction)))
+            amp = s.number("amplitude", units[k], min=0, min_inclusive=False)
+            parts.append(cycles(ctrl, direction, amp, s.integer("n_cycles", min=1),
+                                s.integer("steps_per_cycle", min=4),
+                                s.choice("waveform", ("triangle", "sine"), "triangle")))
+        s.finish()
+    return concatenate(parts)
+
+
+def compute(cfg: dict, quiet: bool = True) -> dict:
+    """Config -> results (no file writing)."""
+    from grainmech.driver import MaterialPoint, run
+    from grainmech.io.config import Section
+    from grainmech.io.schema import build_fabric, build_law, build_packing
+
+    root = Section(cfg, "")
+    density = build_fabric(root.section("fabric", {}))
+    if density.dim != 3:
+        raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
+    packing = build_packing(root.section("packing"), density)
+    law = build_law(root.section("contacts"), packing)
+    ini = root.section("initial")
+    pressure = ini.number("pressure", "Pa", min=0, min_inclusive=False)
+    quad = root.section("quadrature", {})
+    degree = quad.integer("degree", 23, min=4)
+    test = root.section("test")
+    kind = test.choice("kind", TEST_KINDS)
+    ref = root.section("reference", {})
+    out: dict[str, Any] = {"kind": kind, "pressure": pressure}
+    if kind == "cyclic-simple-shear":
+        amps = test.raw("amplitudes")
+        if not isinstance(amps, list) or not amps:
+            raise ConfigError(test.key("amplitudes"), amps, "must be a non-empty list of strains")
+        try:
+            bad = [a for a in amps if isinstance(a, bool) or not np.isfinite(float(a)) or float(a) <= 0]
+        except (TypeError, ValueError):
+            bad = [amps]
+        if bad:
+            raise ConfigError(test.key("amplitudes"), amps, "every amplitude must be a positive strain")
+        n_cycles = test.integer("n_cycles", 2, min=2)
+        spc = test.integer("steps_per_cycle", 40, min=8)
+        waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
+        refs = dict(pi=ref.number("plasticity_index", None, 0.0, min=0),
+                    ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
+                    n_cycles=ref.number("n_cycles", None, 10.0, min=0, min_inclusive=False),
+                    frequency=ref.number("frequency", "Hz", 1.0, min=0, min_inclusive=False),
+                    phi=ref.number("friction_angle", "rad", float(np.radians(33.0)), min=0, max=np.pi / 2))
+        root.finish()
+        point = MaterialPoint.isotropic(packing, law, pressure, extra_degree=degree)
+        from grainmech.analysis import condensed_modulus, loop_properties
+        from grainmech.driver import cyclic_simple_shear
+
+        G, D, results = [], [], []
+        t0 = time.perf_counter()
+        for i, a in enumerate(amps):
+            a = float(a)
+            path = cyclic_simple_shear(a, n_cycles, spc, waveform)
+            _progress(quiet, f"[{i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
+                             f"({len(path)} steps, {len(point.contacts)} directions)")
+            r = run(point, path)
+            results.append(r)
+            if not r.success:
+                out.update(results=results, amplitudes=amps[:i + 1], G=G, damping=D, success=False,
+                           message=f"amplitude {a:g}: {r.message}")
+                break
+            last = slice(len(path) - spc, len(path) + 1)
+            lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
+            G.append(lp.secant_modulus)
+            D.append(lp.damping)
+        else:
+            out.update(success=True, message="done")
+        out["seconds"] = time.perf_counter() - t0
+        Gmax = condensed_modulus(point.tangent, 4, cyclic_simple_shear(1e-6, 1, 8).stress_control[0])
+        out.update(results=results, amplitudes=[float(a) for a in amps[:len(G)]], G=G, damping=D, G_max=Gmax,
+                   reference=refs, point=point)
+        return out
+    path = _segments(test)
+    root.finish()
+    point = MaterialPoint.isotropic(packing, law, pressure, extra_degree=degree)
+    _progress(quiet, f"path: {len(path)} steps, {len(point.contacts)} directions")
+    t0 = time.perf_counter()
+    r = run(point, path, engineering=True)
+    out.update(results=[r], success=r.success, message=r.message, seconds=time.perf_counter() - t0, point=point)
+    return out
+
+
+def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
+    """Files: CSV per run, modulus_reduction.csv, summary.json, PNG plots."""
+    from grainmech import plots
+    from grainmech.io.results import driver_table, ensure_dir, write_csv, write_json, write_text
+
+    d = ensure_dir(outdir)
+    summary: dict[str, Any] = {"source": source, "kind": out["kind"], "success": out["success"],
+                               "message": out["message"], "seconds": out.get("seconds"),
+                               "initial_pressure_Pa": out["pressure"], "files": []}
+    for i, r in enumerate(out["results"]):
+        cols, rows = driver_table(r)
+        name = f"run_{i:02d}.csv" if out["kind"] == "cyclic-simple-shear" else "path.csv"
+        write_csv(d / name, cols, rows)
+        summary["files"].append(name)
+    if out["kind"] == "cyclic-simple-shear" and out["G"]:
+        from grainmech.analysis import darendeli, hardin_drnevich
+
+        amps = np.asarray(out["amplitudes"])
+        G = np.asarray(out["G"])
+        Dm = np.asarray(out["damping"])
+        ref = out["reference"]
+        p = out["pressure"]
+        gam = np.logspace(np.log10(min(amps.min(), 1e-6)), np.log10(max(amps.max(), 1e-2)), 60)
+        dar = darendeli(gam, p, pi=ref["pi"], ocr=ref["ocr"], n_cycles=ref["n_cycles"],
+                        frequency=ref["frequency"])
+        tau_max = p * np.sin(ref["phi"])
+        gamma_r = tau_max / out["G_max"]
+        d_max = (33.0 - 1.5 * np.log10(ref["n_cycles"])) / 100.0
+        hd_r, hd_d = hardin_drnevich(gam, gamma_r, d_max)
+        write_csv(d / "modulus_reduction.csv", ["amplitude", "G_Pa", "G_over_Gmax", "damping"],
+                  zip(amps, G, G / out["G_max"], Dm))
+        summary["files"].append("modulus_reduction.csv")
+        plots.loops(out["results"][:len(G)], amps, d / "loops.png")
+        plots.modulus_reduction(amps, G / out["G_max"], Dm, d / "modulus_reduction.png",
+                                {"Darendeli (2001)": (gam, dar.G_ratio, dar.damping),
+                                 "Hardin-Drnevich (1972)": (gam, hd_r, hd_d)})
+        summary["files"] += ["loops.png", "modulus_reduction.png"]
+        summary.update(G_max_Pa=out["G_max"], amplitudes=amps, G_Pa=G, G_over_Gmax=G / out["G_max"], damping=Dm,
+                       darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=gamma_r,
+                       hardin_drnevich_d_max=d_max)
+    elif out["kind"] == "path":
+        plots.path_plot(out["results"][0], d / "path.png")
+        summary["files"].append("path.png")
+    import json
+    write_text(d / "config_used.json", json.dumps(cfg, indent=2, default=str))
+    summary["files"].append("config_used.json")
+    write_json(d / "summary.json", summary)
+    return summary
+
+
+def main(args: argparse.Namespace) -> int:
+    from grainmech.io.config import load_toml
+
+    if args.config:
+        cfg = load_toml(args.config)
+        source = args.config
+    else:
+        cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
+        source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
+    _progress(args.quiet, f"grainmech run: {source}")
+    out = compute(cfg, quiet=args.quiet)
+    summary = write_outputs(out, Path(args.outdir), cfg, source)
+    if out["kind"] == "cyclic-simple-shear" and out["G"]:
+        _progress(args.quiet, f"Gmax = {out['G_max']:.4g} Pa")
+        for a, g, dd in zip(summary["amplitudes"], summary["G_over_Gmax"], summary["damping"]):
+            _progress(args.quiet, f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %")
+    _progress(args.quiet, f"wrote {len(summary['files'])} files to {args.outdir}")
+    if not out["success"]:
+        print(f"grainmech: error: {out['message']} (results so far are in {args.outdir})", file=sys.stderr)
+        return 1
+    return 0

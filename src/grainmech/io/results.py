@@ -1,0 +1,111 @@
+"""Result files, written atomically (a crash never leaves a half-written file).
+
+Every writer goes through :func:`atomic_write`: the data are written to a temporary file
+in the target directory and moved into place with :func:`os.replace`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable, Iterable, Sequence
+
+import numpy as np
+
+from grainmech.conventions import ORDER_3D
+from grainmech.errors import GrainmechError
+
+__all__ = ["atomic_write", "write_text", "write_json", "write_csv", "write_npz", "driver_table",
+           "ensure_dir"]
+
+
+def ensure_dir(path: str | Path) -> Path:
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise GrainmechError(f"output path exists and is not a directory: {p}")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise GrainmechError(f"cannot create output directory {p}: {exc.strerror}") from None
+    return p
+
+
+def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool = False) -> Path:
+    """Call ``writer(fh)`` on a temporary file next to ``path``, then move it into place."""
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    try:
+        with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"newline": "", "encoding": "utf-8"})) as fh:
+            writer(fh)
+        os.replace(tmp, p)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return p
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    return atomic_write(path, lambda fh: fh.write(text))
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if np.isfinite(v) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def write_json(path: str | Path, obj: Any) -> Path:
+    """JSON with NumPy values converted and non-finite numbers written as null."""
+    return atomic_write(path, lambda fh: json.dump(_jsonable(obj), fh, indent=2))
+
+
+def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> Path:
+    def w(fh: Any) -> None:
+        wr = csv.writer(fh)
+        wr.writerow(header)
+        for r in rows:
+            wr.writerow([f"{v:.10g}" if isinstance(v, (float, np.floating)) else v for v in r])
+    return atomic_write(path, w)
+
+
+def write_npz(path: str | Path, **arrays: Any) -> Path:
+    def w(fh: Any) -> None:
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        fh.write(buf.getvalue())
+    return atomic_write(path, w, binary=True)
+
+
+def driver_table(result: Any) -> tuple[list[str], np.ndarray]:
+    """Columns and rows (one per step) of a :class:`grainmech.driver.DriverResult`.
+
+    Strain uses engineering shear (``gamma_yz = 2 e_yz``...), compression positive; stress
+    in Pa; energies per unit volume (J/m^3).
+    """
+    cols = ["step"] + [f"strain_{c}" for c in ORDER_3D] + [f"stress_{c}" for c in ORDER_3D]
+    cols += ["sliding_fraction", "open_fraction", "dissipated_energy", "work", "stored_energy"]
+    data = [np.arange(len(result.stress))[:, None], result.strain, result.stress,
+            result.sliding_fraction[:, None], result.open_fraction[:, None], result.dissipation[:, None],
+            result.work[:, None], result.stored[:, None]]
+    for k, v in sorted(result.engineering.items()):
+        cols.append(k)
+        data.append(np.asarray(v)[:, None])
+    return cols, np.hstack(data)

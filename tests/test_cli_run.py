@@ -1,0 +1,107 @@
+"""`grainmech run`: default-style cyclic simple shear and a path config, files and errors."""
+
+import json
+
+import numpy as np
+import pytest
+
+from grainmech.cli import main
+
+CYCLIC = """
+[packing]
+void_ratio = 0.65
+coordination = "chang"
+radius = "0.25 mm"
+[contacts]
+law = "mindlin-deresiewicz"
+shear_modulus = "44 GPa"
+poisson = 0.08
+friction = 0.5
+[initial]
+pressure = "100 kPa"
+[test]
+kind = "cyclic-simple-shear"
+amplitudes = [1e-6, 1e-4, 1e-3]
+n_cycles = 2
+steps_per_cycle = 16
+[quadrature]
+degree = 11
+"""
+
+PATH = """
+[packing]
+void_ratio = 0.65
+coordination = 6.75
+radius = "0.25 mm"
+[contacts]
+law = "linear"
+kn = "1e6 N/m"
+ks = "5e5 N/m"
+[initial]
+pressure = "100 kPa"
+[test]
+kind = "path"
+[[test.segments]]
+control = "SSESSS"        # drained triaxial compression: eps_zz prescribed, other stresses held
+change = [0, 0, 1e-4, 0, 0, 0]
+steps = 5
+[[test.segments]]
+control = "EESEEE"
+direction = [0, 0, 0, 0, 1, 0]
+amplitude = 1e-5
+n_cycles = 1
+steps_per_cycle = 8
+"""
+
+
+def test_cyclic_simple_shear_outputs(tmp_path, capsys):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(CYCLIC)
+    out = tmp_path / "out"
+    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    for f in ("summary.json", "modulus_reduction.csv", "loops.png", "modulus_reduction.png", "run_00.csv"):
+        assert (out / f).stat().st_size > 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["success"] and s["initial_pressure_Pa"] == pytest.approx(1e5)
+    ratio = np.array(s["G_over_Gmax"])
+    # smallest amplitude: secant modulus equals the small-strain modulus within 1 % (issue 4)
+    assert ratio[0] == pytest.approx(1.0, abs=0.01)
+    assert np.all(np.diff(ratio) < 0) and np.all(np.diff(s["damping"]) > 0)
+    # Gmax is the condensed tangent of the isotropic Hertz-Mindlin packing (closed form, Walton)
+    from grainmech.closed_form import walton
+    _, G_w = walton(44e9, 0.08, 1e5, porosity=0.65 / 1.65, coordination=6.75)
+    assert s["G_max_Pa"] == pytest.approx(G_w, rel=1e-6)
+    assert capsys.readouterr().err == ""
+
+
+def test_path_config_and_linear_law(tmp_path):
+    cfg = tmp_path / "p.toml"
+    cfg.write_text(PATH)
+    out = tmp_path / "o"
+    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    import csv
+    rows = list(csv.DictReader((out / "path.csv").open()))
+    assert len(rows) == 1 + 5 + 8
+    # linear law, drained triaxial: sigma_zz - p0 = E eps_zz (isotropic packing)
+    from grainmech import fabric, material
+    from grainmech.assembly import stiffness
+    pk = material.Packing.from_grains(fabric.isotropic(3), void_ratio=0.65, coordination=6.75, radius=2.5e-4)
+    C = stiffness(pk.contact_set(1e6, 5e5))
+    E = 1 / np.linalg.inv(C)[2, 2]
+    assert float(rows[5]["stress_zz"]) - 1e5 == pytest.approx(E * 1e-4, rel=1e-8)
+    assert float(rows[5]["stress_xx"]) == pytest.approx(1e5, rel=1e-9)
+
+
+@pytest.mark.parametrize("edit, needle", [
+    (("friction = 0.5", ""), "contacts.friction"),
+    (("kind = \"cyclic-simple-shear\"", "kind = \"torsion\""), "test.kind"),
+    (("amplitudes = [1e-6, 1e-4, 1e-3]", "amplitudes = [1e-6, -1]"), "test.amplitudes"),
+    (("pressure = \"100 kPa\"", "pressure = \"15 parsecs\""), "initial.pressure"),
+    (("degree = 11", "degree = 11\nextra = 1"), "quadrature.extra"),
+])
+def test_bad_run_configs(tmp_path, capsys, edit, needle):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(CYCLIC.replace(*edit))
+    assert main(["run", str(cfg), "-o", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err
