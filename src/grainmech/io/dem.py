@@ -1,0 +1,932 @@
+"""Readers (and writers) of DEM contact networks: LIGGGHTS, LAMMPS, generic CSV/NPZ.
+
+Every reader returns a :class:`grainmech.network.ContactNetwork` in grainmech's
+convention (``docs/conventions.md``, ``docs/dem.md``): each contact once, from particle
+A = ``id1`` to B = ``id2``, branch ``l = x_B - x_A`` (periodic minimum image), force
+``f`` exerted **by A on B**, compression positive.
+
+DEM sign conventions, converted here and nowhere else:
+
+* LIGGGHTS ``compute pair/gran/local`` and LAMMPS ``compute pair/local`` (``fx fy fz``)
+  report the force acting **on the first particle** ``i`` (exerted by ``j``). A
+  compressive contact pushes ``i`` away from ``j``: that force is ``-f`` in grainmech's
+  terms, so the readers negate it (``force_on="id1"``).
+* The generic table (and YADE's ``i.phys.normalForce + i.phys.shearForce``, which is the
+  force applied on ``id2``) already holds the force on ``id2`` (``force_on="id2"``).
+
+Files are read as a stream in chunks of lines (``np.loadtxt`` on each chunk), keeping
+only the needed columns, so memory is bounded by the output arrays (about 80 bytes per
+contact), not by the file. Malformed lines, missing columns, NaN/inf values, duplicate
+or unknown particle ids raise :class:`~grainmech.errors.GrainmechError` naming the file,
+the line, the column and the value.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any, Iterable, Sequence
+
+import numpy as np
+
+from grainmech.errors import GrainmechError
+from grainmech.network import Box, ContactNetwork
+
+__all__ = [
+    "read_network",
+    "read_liggghts",
+    "read_lammps",
+    "read_table",
+    "write_liggghts",
+    "write_table",
+    "LIGGGHTS_KEYWORD_COLUMNS",
+    "detect_format",
+]
+
+CHUNK_LINES = 1 << 16
+
+#: Output columns of LIGGGHTS ``compute pair/gran/local`` per keyword, in the compute's fixed
+#: output order (LIGGGHTS-PUBLIC 3.8 ``ComputePairGranLocal::post_force_pp``; the order in
+#: which keywords are given on the command line does not matter). ``history`` has a
+#: model-dependent width (``history:N``); ``heatFlux`` is always the last column.
+LIGGGHTS_KEYWORD_COLUMNS: dict[str, tuple[str, ...]] = {
+    "pos": ("x1", "y1", "z1", "x2", "y2", "z2"),
+    "vel": ("vx1", "vy1", "vz1", "vx2", "vy2", "vz2"),
+    "id": ("id1", "id2", "periodic"),
+    "force": ("fx", "fy", "fz"),
+    "force_normal": ("fnx", "fny", "fnz"),
+    "force_tangential": ("ftx", "fty", "ftz"),
+    "torque": ("tx", "ty", "tz"),
+    "torque_normal": ("tnx", "tny", "tnz"),
+    "torque_tangential": ("ttx", "tty", "ttz"),
+    "history": (),
+    "contactArea": ("area",),
+    "delta": ("delta",),
+    "contactPoint": ("cpx", "cpy", "cpz"),
+    "ms_id": ("ms1", "ms2"),
+    "heatFlux": ("heat",),
+}
+_KEYWORD_ORDER = tuple(LIGGGHTS_KEYWORD_COLUMNS)
+#: keyword sets recognised from the column count alone (widths are unique)
+_AUTO_KEYWORDS = (
+    ("pos", "id", "force", "contactPoint", "delta"),  # 16 (the documented default)
+    ("pos", "id", "force", "contactPoint"),  # 15
+    ("pos", "id", "force", "delta"),  # 13
+    ("pos", "id", "force"),  # 12
+    ("id", "force"),  # 6
+)
+
+# aliases of descriptive column names -> canonical names
+_ALIASES = {
+    "id1": "id1", "id2": "id2", "i": "id1", "j": "id2", "patom1": "id1", "patom2": "id2",
+    "batom1": "id1", "batom2": "id2",
+    "fx": "fx", "fy": "fy", "fz": "fz", "force_x": "fx", "force_y": "fy", "force_z": "fz",
+    "x1": "x1", "y1": "y1", "z1": "z1", "x2": "x2", "y2": "y2", "z2": "z2",
+    "cpx": "cpx", "cpy": "cpy", "cpz": "cpz", "contact_x": "cpx", "contact_y": "cpy", "contact_z": "cpz",
+    "delta": "delta", "overlap": "delta", "kn": "kn", "ks": "ks", "periodic": "periodic",
+    "index": "index", "dist": "dist", "eng": "eng", "force": "fmag", "area": "area",
+    "fnx": "fnx", "fny": "fny", "fnz": "fnz", "ftx": "ftx", "fty": "fty", "ftz": "ftz",
+}
+_PARTICLE_ALIASES = {
+    "id": "id", "x": "x", "y": "y", "z": "z", "xu": "x", "yu": "y", "zu": "z",
+    "xs": "xs", "ys": "ys", "zs": "zs", "xsu": "xs", "ysu": "ys", "zsu": "zs",
+    "radius": "radius", "diameter": "diameter", "r": "radius",
+}
+
+
+# --------------------------------------------------------------------------- chunked parser
+
+class _LineReader:
+    """Text file with line numbers (1-based) for error messages."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        try:
+            self.fh: IO[str] = open(path, "r", encoding="utf-8", errors="strict", newline=None)
+        except IsADirectoryError:
+            raise GrainmechError(f"{path}: is a directory, not a file") from None
+        except FileNotFoundError:
+            raise GrainmechError(f"{path}: file not found") from None
+        self.line = 0
+        self._pushed: list[str] = []
+
+    def readline(self) -> str:
+        if self._pushed:
+            self.line += 1
+            return self._pushed.pop()
+        try:
+            s = self.fh.readline()
+        except UnicodeDecodeError as exc:
+            raise GrainmechError(f"{self.path}:{self.line + 1}: not a UTF-8 text file ({exc.reason})") from None
+        if s:
+            self.line += 1
+        return s
+
+    def unread(self, s: str) -> None:
+        self._pushed.append(s)
+        self.line -= 1
+
+    def chunk(self, n: int) -> list[str]:
+        try:
+            lines = list(itertools.islice(self.fh, n))
+        except UnicodeDecodeError as exc:
+            raise GrainmechError(f"{self.path}: not a UTF-8 text file ({exc.reason})") from None
+        self.line += len(lines)
+        return lines
+
+    def close(self) -> None:
+        self.fh.close()
+
+    def __enter__(self) -> "_LineReader":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _diagnose(lines: Sequence[str], names: Sequence[str], delimiter: str | None, path: Path,
+              line0: int) -> None:
+    """Raise a precise error for the first bad line of a chunk."""
+    ncol = len(names)
+    for k, s in enumerate(lines):
+        parts = s.strip().split(delimiter) if delimiter else s.split()
+        ln = line0 + k
+        if not s.strip():
+            raise GrainmechError(f"{path}:{ln}: empty line inside the data (expected {ncol} columns)")
+        if len(parts) != ncol:
+            raise GrainmechError(f"{path}:{ln}: expected {ncol} columns ({' '.join(names)}), found "
+                                 f"{len(parts)}: {s.strip()[:80]!r}")
+        for name, v in zip(names, parts):
+            try:
+                float(v)
+            except ValueError:
+                raise GrainmechError(f"{path}:{ln}: column {name!r}: value {v.strip()!r} is not a number") from None
+    raise GrainmechError(f"{path}:{line0}-{line0 + len(lines) - 1}: could not parse the data block")
+
+
+def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], count: int | None,
+                delimiter: str | None = None, stop_prefix: str | None = None,
+                int_cols: Iterable[str] = ()) -> tuple[dict[str, np.ndarray], int]:
+    """Read ``count`` data rows (or to EOF / a line starting with ``stop_prefix``).
+
+    Returns the wanted columns (by canonical name -> column index) and the line number of
+    the first data row.
+    """
+    first = rd.line + 1
+    parts: dict[str, list[np.ndarray]] = {k: [] for k in want}
+    cols = list(want.values())
+    keys = list(want)
+    done = 0
+    int_set = set(int_cols)
+    while count is None or done < count:
+        n = CHUNK_LINES if count is None else min(CHUNK_LINES, count - done)
+        line0 = rd.line + 1
+        lines = rd.chunk(n)
+        if stop_prefix is not None or count is None:
+            # cut at a new item / trailing blank lines
+            cut = len(lines)
+            for k, s in enumerate(lines):
+                st = s.strip()
+                if (stop_prefix and st.startswith(stop_prefix)) or (count is None and not st):
+                    cut = k
+                    break
+            if cut < len(lines):
+                rest = lines[cut:]
+                lines = lines[:cut]
+                rd.line -= len(rest)
+                if count is not None:
+                    raise GrainmechError(f"{rd.path}:{rd.line + 1}: expected {count} data rows, found "
+                                         f"{done + len(lines)} before {rest[0].strip()[:40]!r}")
+                tail = [s for s in rest if s.strip() and not s.lstrip().startswith("#")]
+                if tail and not (stop_prefix and tail[0].strip().startswith(stop_prefix)):
+                    raise GrainmechError(f"{rd.path}:{rd.line + 1 + rest.index(tail[0])}: data after an "
+                                         f"empty line: {tail[0].strip()[:60]!r}")
+                if lines:
+                    _append_chunk(lines, names, cols, keys, parts, delimiter, rd.path, line0)
+                    done += len(lines)
+                break
+        if not lines:
+            if count is not None and done < count:
+                raise GrainmechError(f"{rd.path}:{rd.line}: file ends after {done} of {count} data rows")
+            break
+        _append_chunk(lines, names, cols, keys, parts, delimiter, rd.path, line0)
+        done += len(lines)
+    out: dict[str, np.ndarray] = {}
+    for k in keys:
+        a = np.concatenate(parts[k]) if parts[k] else np.zeros(0)
+        if k in int_set:
+            ai = np.rint(a).astype(np.int64)
+            bad = np.flatnonzero(ai != a)
+            if bad.size:
+                b = int(bad[0])
+                raise GrainmechError(f"{rd.path}:{first + b}: column {names[want[k]]!r}: value {float(a[b])!r} "
+                                     "is not an integer id")
+            a = ai
+        out[k] = a
+    return out, first
+
+
+def _append_chunk(lines, names, cols, keys, parts, delimiter, path, line0) -> None:
+    try:
+        arr = np.loadtxt(lines, delimiter=delimiter, ndmin=2, dtype=float, comments=None)
+    except ValueError:
+        _diagnose(lines, names, delimiter, path, line0)
+        raise  # pragma: no cover
+    if arr.shape[1] != len(names):
+        _diagnose(lines, names, delimiter, path, line0)
+    sub = arr[:, cols]
+    fin = np.isfinite(sub)
+    if not fin.all():
+        r, c = np.argwhere(~fin)[0]
+        raise GrainmechError(f"{path}:{line0 + int(r)}: column {names[cols[c]]!r}: value {float(sub[r, c])!r} "
+                             "is not finite")
+    for k, c in zip(keys, cols):
+        parts[k].append(sub[:, list(cols).index(c)].copy())
+
+
+# --------------------------------------------------------------------------- dump headers
+
+@dataclass
+class _Dump:
+    box: Box | None
+    count: int | None
+    names: list[str]
+    timestep: int | None
+
+
+def _parse_box(rd: _LineReader, item: str) -> Box:
+    """Box from a ``ITEM: BOX BOUNDS [xy xz yz] bx by bz`` header (LAMMPS dump format)."""
+    words = item.split()[3:]
+    tilt = words[:3] == ["xy", "xz", "yz"]
+    flags = words[3:] if tilt else words
+    if len(flags) != 3:
+        flags = ["pp", "pp", "pp"]
+    rows = []
+    for _ in range(3):
+        s = rd.readline()
+        try:
+            vals = [float(v) for v in s.split()]
+        except ValueError:
+            raise GrainmechError(f"{rd.path}:{rd.line}: bad BOX BOUNDS line {s.strip()!r}") from None
+        if len(vals) != (3 if tilt else 2) or not np.all(np.isfinite(vals)):
+            raise GrainmechError(f"{rd.path}:{rd.line}: expected {3 if tilt else 2} finite numbers in "
+                                 f"BOX BOUNDS, got {s.strip()!r}")
+        rows.append(vals)
+    periodic = [f[:1] == "p" for f in flags]
+    if not tilt:
+        lo = [r[0] for r in rows]
+        hi = [r[1] for r in rows]
+        return Box.orthogonal(lo, hi, periodic)
+    (xlb, xhb, xy), (ylb, yhb, xz), (zlb, zhb, yz) = rows
+    xlo = xlb - min(0.0, xy, xz, xy + xz)
+    xhi = xhb - max(0.0, xy, xz, xy + xz)
+    ylo = ylb - min(0.0, yz)
+    yhi = yhb - max(0.0, yz)
+    cell = np.array([[xhi - xlo, 0.0, 0.0], [xy, yhi - ylo, 0.0], [xz, yz, zhb - zlb]])
+    return Box(np.array([xlo, ylo, zlb]), cell, np.array(periodic))
+
+
+def _read_dump_header(rd: _LineReader, data_item: str) -> _Dump:
+    """Read ITEM sections up to the data header ``ITEM: <data_item> names...``."""
+    box = None
+    count = None
+    ts = None
+    while True:
+        s = rd.readline()
+        if not s:
+            raise GrainmechError(f"{rd.path}:{rd.line}: file ends before 'ITEM: {data_item}'")
+        st = s.strip()
+        if not st:
+            continue
+        if not st.startswith("ITEM:"):
+            raise GrainmechError(f"{rd.path}:{rd.line}: expected an 'ITEM:' line of a LAMMPS/LIGGGHTS "
+                                 f"dump, got {st[:60]!r}")
+        if st.startswith("ITEM: TIMESTEP"):
+            v = rd.readline().strip()
+            try:
+                ts = int(v)
+            except ValueError:
+                raise GrainmechError(f"{rd.path}:{rd.line}: bad TIMESTEP {v!r}") from None
+        elif st.startswith("ITEM: NUMBER OF"):
+            v = rd.readline().strip()
+            try:
+                count = int(v)
+            except ValueError:
+                raise GrainmechError(f"{rd.path}:{rd.line}: bad {st[6:]} value {v!r}") from None
+            if count < 0:
+                raise GrainmechError(f"{rd.path}:{rd.line}: negative count {count}")
+        elif st.startswith("ITEM: BOX BOUNDS"):
+            box = _parse_box(rd, st)
+        elif st.startswith(f"ITEM: {data_item}"):
+            names = st.split()[2:]
+            if not names:
+                raise GrainmechError(f"{rd.path}:{rd.line}: 'ITEM: {data_item}' line names no columns")
+            return _Dump(box, count, names, ts)
+        elif st.startswith("ITEM: ENTRIES") or st.startswith("ITEM: ATOMS"):
+            raise GrainmechError(f"{rd.path}:{rd.line}: expected 'ITEM: {data_item}', got {st[:40]!r} "
+                                 "(wrong kind of dump: contacts need 'dump local', particles 'dump custom')")
+        else:
+            # unknown item with one value line (e.g. ITEM: TIME)
+            rd.readline()
+
+
+def _liggghts_names(names: list[str], keywords: Sequence[str] | None, columns: Sequence[str] | None,
+                    path: Path, line: int, lammps: bool = False) -> list[str]:
+    """Map dump column headers to canonical names."""
+    if columns is not None:
+        cols = [c.strip() for c in columns]
+        if len(cols) != len(names):
+            raise GrainmechError(f"{path}:{line}: --columns names {len(cols)} columns but the file has "
+                                 f"{len(names)} ({' '.join(names)})")
+        return [_ALIASES.get(c, c) for c in cols]
+    low = [n.lower() for n in names]
+    if all(n in _ALIASES for n in low):
+        return [_ALIASES[n] for n in low]
+    body = [n for n in low if n != "index"]
+    prefix = ["index"] * (len(low) - len(body))
+    if keywords is not None:
+        cand = [tuple(keywords)]
+    elif lammps:
+        raise GrainmechError(
+            f"{path}:{line}: cannot tell what the columns {' '.join(names)} hold; LAMMPS local dumps "
+            "name them after the compute (c_ID[k]). Give their meanings with --columns, e.g. "
+            "--columns id1,id2,fx,fy,fz (property/local patom1 patom2 + pair/local fx fy fz)")
+    else:
+        cand = [k for k in _AUTO_KEYWORDS if sum(len(LIGGGHTS_KEYWORD_COLUMNS[w]) for w in k) == len(body)]
+        if not cand:
+            raise GrainmechError(
+                f"{path}:{line}: cannot tell what the {len(body)} columns {' '.join(names)} hold; give the "
+                "keywords of 'compute pair/gran/local' in order (e.g. --keywords pos,id,force,"
+                "contactPoint,delta) or name every column with --columns")
+    kw = cand[0]
+    out: list[str] = []
+    parsed: dict[str, int] = {}
+    for w in kw:
+        base, _, num = w.partition(":")
+        if base not in LIGGGHTS_KEYWORD_COLUMNS:
+            raise GrainmechError(f"unknown compute pair/gran/local keyword {w!r}; known: "
+                                 f"{', '.join(k for k in _KEYWORD_ORDER if k != 'history')}, history:N")
+        if base == "history":
+            try:
+                parsed[base] = int(num)
+            except ValueError:
+                raise GrainmechError(f"keyword 'history' needs its width, e.g. history:3 (got {w!r})") from None
+        else:
+            parsed[base] = len(LIGGGHTS_KEYWORD_COLUMNS[base])
+    for base in _KEYWORD_ORDER:  # the compute writes its columns in a fixed order
+        if base == "history" and base in parsed:
+            out += [f"hist{q + 1}" for q in range(parsed[base])]
+        elif base in parsed:
+            out += list(LIGGGHTS_KEYWORD_COLUMNS[base])
+    if len(out) != len(body):
+        raise GrainmechError(f"{path}:{line}: keywords {','.join(kw)} give {len(out)} columns but the file "
+                             f"has {len(body)} data columns ({' '.join(names)})")
+    return prefix + out
+
+
+# --------------------------------------------------------------------------- particles
+
+@dataclass
+class _Particles:
+    ids: np.ndarray
+    pos: np.ndarray
+    radii: np.ndarray | None
+    box: Box | None
+    path: Path
+    first_line: int
+
+
+def _particle_columns(names: list[str], path: Path, line: int) -> dict[str, int]:
+    canon = [_PARTICLE_ALIASES.get(n.lower(), n.lower()) for n in names]
+    want: dict[str, int] = {}
+    for k, c in enumerate(canon):
+        if c in ("id", "x", "y", "z", "xs", "ys", "zs", "radius", "diameter") and c not in want:
+            want[c] = k
+    if "id" not in want:
+        raise GrainmechError(f"{path}:{line}: particle table has no 'id' column (columns: {' '.join(names)})")
+    have_xyz = all(c in want for c in "xyz")
+    have_s = all(c in want for c in ("xs", "ys", "zs"))
+    if not (have_xyz or have_s):
+        raise GrainmechError(f"{path}:{line}: particle table needs columns x y z (or xu yu zu, xs ys zs); "
+                             f"found {' '.join(names)}")
+    if have_xyz:
+        for c in ("xs", "ys", "zs"):
+            want.pop(c, None)
+    return want
+
+
+def _finish_particles(cols: dict[str, np.ndarray], box: Box | None, path: Path, first: int) -> _Particles:
+    ids = cols["id"]
+    if "x" in cols:
+        pos = np.stack([cols["x"], cols["y"], cols["z"]], axis=1)
+    else:
+        if box is None:
+            raise GrainmechError(f"{path}: scaled coordinates (xs ys zs) need a box")
+        pos = box.origin + np.stack([cols["xs"], cols["ys"], cols["zs"]], axis=1) @ box.cell
+    radii = None
+    if "radius" in cols:
+        radii = cols["radius"]
+    elif "diameter" in cols:
+        radii = 0.5 * cols["diameter"]
+    if radii is not None and radii.size and not np.all(radii > 0):
+        k = int(np.flatnonzero(~(radii > 0))[0])
+        raise GrainmechError(f"{path}:{first + k}: particle {int(ids[k])}: radius must be > 0, got {float(radii[k])!r}")
+    order = np.argsort(ids, kind="stable")
+    sid = ids[order]
+    dup = np.flatnonzero(sid[1:] == sid[:-1])
+    if dup.size:
+        k = int(order[dup[0] + 1])
+        raise GrainmechError(f"{path}:{first + k}: particle id {ids[k]} appears twice")
+    return _Particles(ids, pos, radii, box, path, first)
+
+
+def _read_particles_dump(path: Path) -> _Particles:
+    with _LineReader(path) as rd:
+        hd = _read_dump_header(rd, "ATOMS")
+        want = _particle_columns(hd.names, path, rd.line)
+        cols, first = _read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id",))
+    return _finish_particles(cols, hd.box, path, first)
+
+
+# --------------------------------------------------------------------------- assembling
+
+def _lookup(ids_sorted: np.ndarray, order: np.ndarray, q: np.ndarray, path: Path, first: int,
+            col: str, ppath: Path) -> np.ndarray:
+    pos = np.searchsorted(ids_sorted, q)
+    pos = np.minimum(pos, len(ids_sorted) - 1)
+    bad = np.flatnonzero(ids_sorted[pos] != q) if len(ids_sorted) else np.arange(len(q))
+    if bad.size:
+        k = int(bad[0])
+        raise GrainmechError(f"{path}:{first + k}: particle id {int(q[k])} (column {col}) is not listed in "
+                             f"{ppath} ({bad.size} contact(s) reference unlisted particles)")
+    return order[pos]
+
+
+def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particles | None,
+           box: Box | None, force_on: str, source: str) -> ContactNetwork:
+    for c in ("id1", "id2", "fx", "fy", "fz"):
+        if c not in cols:
+            raise GrainmechError(f"{path}: contact data has no {c!r} column")
+    if force_on not in ("id1", "id2"):
+        raise GrainmechError(f"force_on must be 'id1' or 'id2', got {force_on!r}")
+    id1, id2 = cols["id1"], cols["id2"]
+    same = np.flatnonzero(id1 == id2)
+    if same.size:
+        k = int(same[0])
+        raise GrainmechError(f"{path}:{first + k}: contact of particle {id1[k]} with itself")
+    f = np.stack([cols["fx"], cols["fy"], cols["fz"]], axis=1)
+    if force_on == "id1":
+        f = -f  # force on A (by B) -> force by A on B
+    has_pos = all(c in cols for c in ("x1", "y1", "z1", "x2", "y2", "z2"))
+    if parts is None:
+        if not has_pos:
+            raise GrainmechError(f"{path}: the contacts carry no positions (pos keyword / x1..z2 columns); "
+                                 "give the particle file (--particles)")
+        allid = np.concatenate([id1, id2])
+        allpos = np.concatenate([np.stack([cols["x1"], cols["y1"], cols["z1"]], 1),
+                                 np.stack([cols["x2"], cols["y2"], cols["z2"]], 1)])
+        uid, idx = np.unique(allid, return_index=True)
+        parts = _Particles(uid, allpos[idx], None, None, path, first)
+    box = box if box is not None else parts.box
+    if box is None:
+        r = parts.radii if parts.radii is not None else np.zeros(len(parts.ids))
+        lo = (parts.pos - r[:, None]).min(axis=0)
+        hi = (parts.pos + r[:, None]).max(axis=0)
+        box = Box.orthogonal(lo, hi, False)
+        source += " (no box in the files: volume of the particles' bounding box, not periodic)"
+    order = np.argsort(parts.ids, kind="stable")
+    sid = parts.ids[order]
+    ia = _lookup(sid, order, id1, path, first, "id1", parts.path)
+    ib = _lookup(sid, order, id2, path, first, "id2", parts.path)
+    l_ = box.minimum_image(parts.pos[ib] - parts.pos[ia])
+    L = np.linalg.norm(l_, axis=1)
+    zero = np.flatnonzero(L <= 0)
+    if zero.size:
+        k = int(zero[0])
+        raise GrainmechError(f"{path}:{first + k}: particles {id1[k]} and {id2[k]} have the same centre")
+    overlap = cols.get("delta")
+    cp = np.stack([cols["cpx"], cols["cpy"], cols["cpz"]], 1) if all(
+        c in cols for c in ("cpx", "cpy", "cpz")) else None
+    kn = cols.get("kn")
+    ks = cols.get("ks")
+    return ContactNetwork(parts.ids, parts.pos, parts.radii, box, ia, ib, f, l_, overlap, cp, kn, ks, source)
+
+
+_CONTACT_WANT = ("id1", "id2", "fx", "fy", "fz", "x1", "y1", "z1", "x2", "y2", "z2", "cpx", "cpy", "cpz",
+                 "delta", "kn", "ks")
+
+
+def read_liggghts(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
+                  keywords: Sequence[str] | None = None, columns: Sequence[str] | None = None,
+                  force_on: str = "id1", lammps: bool = False) -> ContactNetwork:
+    """Read a LIGGGHTS ``dump local`` of ``compute pair/gran/local`` (+ particle ``dump custom``).
+
+    Parameters
+    ----------
+    contacts : path
+        ``dump local`` file (first snapshot is read). Its ``ITEM: ENTRIES`` header names
+        the columns: descriptive names (``id1 id2 fx fy fz x1 ... cpx ... delta``) are used
+        directly; otherwise (``c_ID[1] c_ID[2] ...``) they are the output of the compute
+        keywords in order, given by ``keywords`` or recognised from the column count for
+        ``pos,id,force,contactPoint,delta`` (16 columns), ``pos,id,force,contactPoint`` (15),
+        ``pos,id,force,delta`` (13), ``pos,id,force`` (12) and ``id,force`` (6). Widths
+        per keyword: :data:`LIGGGHTS_KEYWORD_COLUMNS` (``history:N`` for N history values).
+    particles : path, optional
+        ``dump custom`` with ``id x y z radius`` (also ``xu``, ``xs`` scaled, ``diameter``).
+        Required unless the contacts carry positions (``pos``); radii are needed for the
+        Hertz law and the rotations of the relaxed solve.
+    keywords, columns : sequence of str, optional
+        Compute keywords in output order, or a name for every column.
+    force_on : {"id1", "id2"}
+        Which particle the file's force acts on; LIGGGHTS reports the force on the first
+        particle (default ``"id1"``), which the reader negates.
+
+    Returns
+    -------
+    ContactNetwork
+        Box from the dumps (orthogonal or triclinic, periodic flags from the boundary
+        codes); branch vectors from the particle centres by minimum image.
+    """
+    cpath = Path(contacts)
+    ppath = Path(particles) if particles is not None else None
+    parts = _read_particles_dump(ppath) if ppath is not None else None
+    with _LineReader(cpath) as rd:
+        hd = _read_dump_header(rd, "ENTRIES")
+        canon = _liggghts_names(hd.names, keywords, columns, cpath, rd.line, lammps=lammps)
+        skip = ("x1", "y1", "z1", "x2", "y2", "z2") if parts is not None else ()
+        want = {c: k for k, c in enumerate(canon) if c in _CONTACT_WANT and c not in skip}
+        for c in ("id1", "id2", "fx", "fy", "fz"):
+            if c not in want:
+                raise GrainmechError(f"{cpath}:{rd.line}: the contact dump has no {c!r} column "
+                                     f"(columns: {' '.join(hd.names)} read as {' '.join(canon)})")
+        cols, first = _read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id1", "id2"))
+    box = hd.box if hd.box is not None else (parts.box if parts else None)
+    src = f"{'LAMMPS' if lammps else 'LIGGGHTS'} {cpath}" + (f" + {ppath}" if ppath else "")
+    return _build(cols, cpath, first, parts, box, force_on, src)
+
+
+def read_lammps(contacts: str | os.PathLike, particles: str | os.PathLike, *,
+                columns: Sequence[str] | None = None, force_on: str = "id1") -> ContactNetwork:
+    """Read a LAMMPS ``dump local`` of ``compute property/local`` + ``compute pair/local``.
+
+    The dump must hold the two particle ids (``patom1 patom2``) and the force components
+    (``fx fy fz`` of ``compute pair/local``, the force on atom I due to atom J, negated
+    here); name the columns with ``columns`` (e.g. ``["id1", "id2", "fx", "fy", "fz"]``,
+    ``index`` for the index column) unless the header already uses such names. Positions
+    and radii come from the particle ``dump custom`` (``id x y z radius``).
+    """
+    return read_liggghts(contacts, particles, columns=columns, force_on=force_on, lammps=True)
+
+
+# --------------------------------------------------------------------------- generic table
+
+def _table_box(meta: dict[str, str], path: Path) -> Box | None:
+    def nums(key: str, n: int) -> np.ndarray:
+        try:
+            v = np.array([float(x) for x in meta[key].replace(",", " ").split()])
+        except ValueError:
+            raise GrainmechError(f"{path}: '# {key}:' must list {n} numbers, got {meta[key]!r}") from None
+        if v.size != n or not np.all(np.isfinite(v)):
+            raise GrainmechError(f"{path}: '# {key}:' must list {n} finite numbers, got {meta[key]!r}")
+        return v
+    if "box" in meta:
+        b = nums("box", 6)
+        per = nums("periodic", 3) != 0 if "periodic" in meta else np.ones(3, bool)
+        return Box.orthogonal(b[0::2], b[1::2], per)
+    if "cell" in meta:
+        c = nums("cell", 9).reshape(3, 3)
+        o = nums("origin", 3) if "origin" in meta else np.zeros(3)
+        per = nums("periodic", 3) != 0 if "periodic" in meta else np.ones(3, bool)
+        return Box(o, c, per)
+    return None
+
+
+def _csv_header(rd: _LineReader) -> tuple[list[str], dict[str, str], str | None]:
+    meta: dict[str, str] = {}
+    while True:
+        s = rd.readline()
+        if not s:
+            raise GrainmechError(f"{rd.path}:{rd.line}: no header line with column names")
+        st = s.strip()
+        if not st:
+            continue
+        if st.startswith("#"):
+            m = re.match(r"#\s*([A-Za-z_]+)\s*:\s*(.*)$", st)
+            if m:
+                meta[m.group(1).lower()] = m.group(2).strip()
+            continue
+        delim = "," if "," in st else None
+        names = [x.strip() for x in (st.split(",") if delim else st.split())]
+        return names, meta, delim
+
+
+def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: np.asarray(z[k]) for k in z.files}
+    except (OSError, ValueError) as exc:
+        raise GrainmechError(f"{path}: not a readable .npz file ({exc})") from None
+
+
+def _npz_cols(z: dict[str, np.ndarray], path: Path, names: Iterable[str], int_cols: Iterable[str]) -> dict:
+    out = {}
+    n = None
+    for k in names:
+        if k not in z:
+            continue
+        a = z[k]
+        if a.ndim != 1:
+            raise GrainmechError(f"{path}: array {k!r} must be one-dimensional, got shape {a.shape}")
+        if n is not None and a.shape[0] != n:
+            raise GrainmechError(f"{path}: array {k!r} has {a.shape[0]} rows, others {n}")
+        n = a.shape[0]
+        if k in set(int_cols):
+            if not np.issubdtype(a.dtype, np.integer):
+                af = a.astype(float)
+                if not np.all(np.isfinite(af)) or np.any(np.rint(af) != af):
+                    bad = int(np.flatnonzero(~np.isfinite(af) | (np.rint(af) != af))[0])
+                    raise GrainmechError(f"{path}: array {k!r} row {bad}: {a[bad].item()!r} is not an integer id")
+            out[k] = a.astype(np.int64)
+        else:
+            af = a.astype(float)
+            bad = np.flatnonzero(~np.isfinite(af))
+            if bad.size:
+                raise GrainmechError(f"{path}: array {k!r} row {int(bad[0])}: value "
+                                     f"{float(af[bad[0]])!r} is not finite")
+            out[k] = af
+    return out
+
+
+def _npz_box(z: dict[str, np.ndarray], path: Path) -> Box | None:
+    if "cell" not in z:
+        return None
+    o = z.get("origin", np.zeros(3))
+    per = z.get("periodic", np.ones(3, bool))
+    try:
+        return Box(np.asarray(o, float).reshape(3), np.asarray(z["cell"], float).reshape(3, 3),
+                   np.asarray(per).astype(bool).reshape(3))
+    except ValueError:
+        raise GrainmechError(f"{path}: 'cell' must be 3x3, 'origin' and 'periodic' 3 values") from None
+
+
+def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
+               force_on: str | None = None) -> ContactNetwork:
+    """Read the generic contact table (CSV or NPZ) and particle table; see ``docs/dem.md``.
+
+    Contact columns (CSV header or NPZ array names): ``id1, id2, fx, fy, fz`` required
+    (force exerted **by id1 on id2**, i.e. acting on id2; compression gives
+    ``f . (x2 - x1) > 0``); optional ``x1 y1 z1 x2 y2 z2``, ``cpx cpy cpz`` (contact
+    point), ``delta`` (overlap), ``kn ks`` (contact stiffness). Particle columns: ``id, x,
+    y, z, radius``. The box comes from comment lines ``# box: xlo xhi ylo yhi zlo zhi`` or
+    ``# cell: ax ay az bx by bz cx cy cz`` with ``# origin: x y z``, and
+    ``# periodic: 1 1 1`` (NPZ: arrays ``cell``, ``origin``, ``periodic``), in either
+    file. ``# force_on: id1`` declares the opposite force convention.
+    """
+    cpath = Path(contacts)
+    ppath = Path(particles) if particles is not None else None
+    parts = None
+    box = None
+    meta_force = None
+    if ppath is not None:
+        if ppath.suffix.lower() == ".npz":
+            z = _read_npz(ppath)
+            cols = _npz_cols(z, ppath, ("id", "x", "y", "z", "radius", "diameter"), ("id",))
+            for c in ("id", "x", "y", "z"):
+                if c not in cols:
+                    raise GrainmechError(f"{ppath}: particle table has no {c!r} array (arrays: {', '.join(z)})")
+            pbox = _npz_box(z, ppath)
+            parts = _finish_particles(cols, pbox, ppath, 0)
+        else:
+            with _LineReader(ppath) as rd:
+                names, meta, delim = _csv_header(rd)
+                want = _particle_columns(names, ppath, rd.line)
+                pcols, first = _read_block(rd, names, want, None, delimiter=delim, int_cols=("id",))
+            pbox = _table_box(meta, ppath)
+            parts = _finish_particles(pcols, pbox, ppath, first)
+        box = parts.box
+    if cpath.suffix.lower() == ".npz":
+        z = _read_npz(cpath)
+        cols = _npz_cols(z, cpath, _CONTACT_WANT, ("id1", "id2"))
+        for c in ("id1", "id2", "fx", "fy", "fz"):
+            if c not in cols:
+                raise GrainmechError(f"{cpath}: contact table has no {c!r} array (arrays: {', '.join(z)})")
+        first = 0
+        box = _npz_box(z, cpath) or box
+        if "force_on" in z:
+            meta_force = str(z["force_on"])
+    else:
+        with _LineReader(cpath) as rd:
+            names, meta, delim = _csv_header(rd)
+            canon = [_ALIASES.get(n.lower(), n.lower()) for n in names]
+            want = {c: k for k, c in enumerate(canon) if c in _CONTACT_WANT}
+            for c in ("id1", "id2", "fx", "fy", "fz"):
+                if c not in want:
+                    raise GrainmechError(f"{cpath}:{rd.line}: contact table has no {c!r} column "
+                                         f"(columns: {', '.join(names)})")
+            cols, first = _read_block(rd, names, want, None, delimiter=delim, int_cols=("id1", "id2"))
+        box = _table_box(meta, cpath) or box
+        meta_force = meta.get("force_on")
+    fo = force_on or meta_force or "id2"
+    src = f"table {cpath}" + (f" + {ppath}" if ppath else "")
+    return _build(cols, cpath, first, parts, box, fo, src)
+
+
+# --------------------------------------------------------------------------- dispatch
+
+def detect_format(path: str | os.PathLike) -> str:
+    """``"npz"``, ``"csv"``, ``"liggghts"`` (any ``ITEM:`` dump) from suffix and first line."""
+    p = Path(path)
+    if p.suffix.lower() == ".npz":
+        return "npz"
+    try:
+        with open(p, "r", encoding="utf-8", errors="replace") as fh:
+            head = fh.readline().strip()
+    except FileNotFoundError:
+        raise GrainmechError(f"{p}: file not found") from None
+    except IsADirectoryError:
+        raise GrainmechError(f"{p}: is a directory, not a file") from None
+    if head.startswith("ITEM:"):
+        return "liggghts"
+    return "csv"
+
+
+def read_network(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
+                 format: str = "auto", keywords: Sequence[str] | None = None,
+                 columns: Sequence[str] | None = None, force_on: str | None = None) -> ContactNetwork:
+    """Read a contact network; ``format`` is ``auto``, ``liggghts``, ``lammps``, ``csv`` or ``npz``.
+
+    ``auto`` picks ``npz`` by suffix, ``liggghts`` for files starting with ``ITEM:``
+    (LAMMPS local dumps are read the same way; their columns must be named with
+    ``columns``), else ``csv``.
+    """
+    fmt = detect_format(contacts) if format == "auto" else format
+    if fmt == "liggghts":
+        return read_liggghts(contacts, particles, keywords=keywords, columns=columns,
+                             force_on=force_on or "id1")
+    if fmt == "lammps":
+        if particles is None:
+            raise GrainmechError("LAMMPS local dumps carry no positions: give the particle dump (--particles)")
+        return read_lammps(contacts, particles, columns=columns, force_on=force_on or "id1")
+    if fmt in ("csv", "npz"):
+        return read_table(contacts, particles, force_on=force_on)
+    raise GrainmechError(f"format must be auto, liggghts, lammps, csv or npz, got {format!r}")
+
+
+# --------------------------------------------------------------------------- writers
+
+def _chmod_default(path: str) -> None:
+    """Give a mkstemp file the permissions of a normally created file (0666 & ~umask)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(path, 0o666 & ~mask)
+
+
+def _atomic_write_text(path: Path, write) -> None:
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            write(fh)
+        _chmod_default(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _box_header(box: Box) -> list[str]:
+    c = box.cell
+    flags = " ".join("pp" if p else "ff" for p in box.periodic)
+    if np.allclose(c, np.diag(np.diag(c))):
+        lo, hi = box.origin, box.origin + np.diag(c)
+        return [f"ITEM: BOX BOUNDS {flags}"] + [f"{lo[k]:.17g} {hi[k]:.17g}" for k in range(3)]
+    if abs(c[0, 1]) + abs(c[0, 2]) + abs(c[1, 2]) > 0:
+        raise GrainmechError("LAMMPS boxes need a = (lx,0,0), b = (xy,ly,0), c = (xz,yz,lz)")
+    xlo, ylo, zlo = box.origin
+    lx, ly, lz = c[0, 0], c[1, 1], c[2, 2]
+    xy, xz, yz = c[1, 0], c[2, 0], c[2, 1]
+    xlb = xlo + min(0.0, xy, xz, xy + xz)
+    xhb = xlo + lx + max(0.0, xy, xz, xy + xz)
+    ylb = ylo + min(0.0, yz)
+    yhb = ylo + ly + max(0.0, yz)
+    return [f"ITEM: BOX BOUNDS xy xz yz {flags}", f"{xlb:.17g} {xhb:.17g} {xy:.17g}",
+            f"{ylb:.17g} {yhb:.17g} {xz:.17g}", f"{zlo:.17g} {zlo + lz:.17g} {yz:.17g}"]
+
+
+def write_liggghts(net: ContactNetwork, contacts: str | os.PathLike, particles: str | os.PathLike, *,
+                   keywords: Sequence[str] = ("pos", "id", "force", "contactPoint", "delta"),
+                   timestep: int = 0, compute_id: str = "fc") -> None:
+    """Write a network as LIGGGHTS dumps (``dump local`` with ``c_ID[k]`` headers + ``dump custom``).
+
+    The force is written as LIGGGHTS reports it: the force on the first particle
+    (``-f``); ``pos`` holds both centres inside the box (as LIGGGHTS remaps them; the
+    reader takes the minimum image). Supports the keywords ``pos id force contactPoint delta``,
+    written in the compute's fixed order.
+    """
+    C = net.n_contacts
+    blocks = []
+    x1 = net.positions[net.i]
+    for w in [k for k in _KEYWORD_ORDER if k in keywords]:
+        if w == "pos":  # both centres as stored (LIGGGHTS remaps them into the box)
+            blocks.append(np.hstack([x1, net.positions[net.j]]))
+        elif w == "id":
+            per = (np.abs(net.positions[net.j] - (x1 + net.branch)).max(axis=1) > 1e-12).astype(float)
+            blocks.append(np.stack([net.ids[net.i], net.ids[net.j], per], 1).astype(float))
+        elif w == "force":
+            blocks.append(-net.force)
+        elif w == "contactPoint":
+            if net.contact_point is not None:
+                blocks.append(net.contact_point)
+            else:
+                # LIGGGHTS for spheres: (x_i r_j + x_j r_i) / (r_i + r_j), x_j the ghost image
+                if net.radii is not None:
+                    t = net.radii[net.i] / (net.radii[net.i] + net.radii[net.j])
+                else:
+                    t = np.full(C, 0.5)
+                blocks.append(x1 + t[:, None] * net.branch)
+        elif w == "delta":
+            if net.overlap is not None:
+                blocks.append(net.overlap[:, None])
+            elif net.radii is not None:
+                blocks.append((net.radii[net.i] + net.radii[net.j] - net.branch_length)[:, None])
+            else:
+                blocks.append(np.zeros((C, 1)))
+        else:
+            raise GrainmechError(f"write_liggghts: unsupported keyword {w!r}")
+    data = np.hstack(blocks) if blocks else np.zeros((C, 0))
+    names = " ".join(f"c_{compute_id}[{k + 1}]" for k in range(data.shape[1]))
+
+    def wc(fh):
+        fh.write(f"ITEM: TIMESTEP\n{timestep}\nITEM: NUMBER OF ENTRIES\n{C}\n")
+        fh.write("\n".join(_box_header(net.box)) + "\n")
+        fh.write(f"ITEM: ENTRIES {names}\n")
+        for s in range(0, C, CHUNK_LINES):
+            np.savetxt(fh, data[s:s + CHUNK_LINES], fmt="%.17g")
+
+    _atomic_write_text(Path(contacts), wc)
+    P = net.n_particles
+    r = net.radii if net.radii is not None else np.full(P, np.nan)
+    if not np.all(np.isfinite(r)):
+        raise GrainmechError("write_liggghts: the network has no radii")
+
+    def wp(fh):
+        fh.write(f"ITEM: TIMESTEP\n{timestep}\nITEM: NUMBER OF ATOMS\n{P}\n")
+        fh.write("\n".join(_box_header(net.box)) + "\n")
+        fh.write("ITEM: ATOMS id type x y z radius\n")
+        arr = np.column_stack([net.ids, np.ones(P), net.positions, r])
+        np.savetxt(fh, arr, fmt=["%d", "%d", "%.17g", "%.17g", "%.17g", "%.17g"])
+
+    _atomic_write_text(Path(particles), wp)
+
+
+def write_table(net: ContactNetwork, contacts: str | os.PathLike, particles: str | os.PathLike) -> None:
+    """Write the generic contact and particle tables (CSV, or NPZ by suffix); see :func:`read_table`."""
+    cp, pp = Path(contacts), Path(particles)
+    C = net.n_contacts
+    cols = {"id1": net.ids[net.i], "id2": net.ids[net.j], "fx": net.force[:, 0], "fy": net.force[:, 1],
+            "fz": net.force[:, 2]}
+    if net.overlap is not None:
+        cols["delta"] = net.overlap
+    if net.contact_point is not None:
+        cols.update(cpx=net.contact_point[:, 0], cpy=net.contact_point[:, 1], cpz=net.contact_point[:, 2])
+    if net.kn is not None and net.ks is not None:
+        cols.update(kn=net.kn, ks=net.ks)
+    pcols = {"id": net.ids, "x": net.positions[:, 0], "y": net.positions[:, 1], "z": net.positions[:, 2]}
+    if net.radii is not None:
+        pcols["radius"] = net.radii
+    box = {"cell": net.box.cell, "origin": net.box.origin, "periodic": net.box.periodic}
+    for path, data, extra in ((cp, cols, box), (pp, pcols, {})):
+        if path.suffix.lower() == ".npz":
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
+            os.close(fd)
+            try:
+                np.savez(tmp, **data, **extra)
+                _chmod_default(tmp)
+                os.replace(tmp, path)
+            except BaseException:
+                if os.path.exists(tmp):
+                    os.unlink(tmp)
+                raise
+            continue
+
+        def w(fh, data=data, extra=extra):
+            if extra:
+                fh.write("# grainmech generic contact table; force exerted by id1 on id2 (compression positive)\n")
+                fh.write("# cell: " + " ".join(f"{v:.17g}" for v in net.box.cell.ravel()) + "\n")
+                fh.write("# origin: " + " ".join(f"{v:.17g}" for v in net.box.origin) + "\n")
+                fh.write("# periodic: " + " ".join(str(int(v)) for v in net.box.periodic) + "\n")
+            names = list(data)
+            fh.write(",".join(names) + "\n")
+            arr = np.column_stack([data[k] for k in names])
+            fmt = ["%d" if k in ("id", "id1", "id2") else "%.17g" for k in names]
+            for s in range(0, len(arr), CHUNK_LINES):
+                np.savetxt(fh, arr[s:s + CHUNK_LINES], fmt=fmt, delimiter=",")
+
+        _atomic_write_text(path, w)

@@ -1,0 +1,302 @@
+"""DEM readers: LIGGGHTS / LAMMPS local dumps, generic CSV/NPZ tables, sign conventions, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainmech.errors import GrainmechError
+from grainmech.io import dem as demio
+from grainmech.io.dem import read_liggghts, read_network, write_liggghts, write_table
+from grainmech.network import Box, lattice_network, network_stress, random_network
+
+TRICLINIC = np.array([[10.0, 0, 0], [2.0, 9.0, 0], [1.0, -1.5, 11.0]])
+
+
+def _direct_stress(pos, I, J, f_by_i_on_j, cell):
+    """sigma = (1/V) sum f (x) l with l the minimum image of x_j - x_i (independent sum)."""
+    inv = np.linalg.inv(cell)
+    s = (pos[J] - pos[I]) @ inv
+    s -= np.round(s)
+    l_ = s @ cell
+    full = np.einsum("ci,cj->ij", f_by_i_on_j, l_) / abs(np.linalg.det(cell))
+    return 0.5 * (full + full.T)
+
+
+@pytest.mark.parametrize("cell", [None, TRICLINIC], ids=["orthogonal", "triclinic"])
+def test_liggghts_roundtrip_and_stress(tmp_path, cell):
+    net = random_network(150, cell=cell, seed=9)
+    c, p = tmp_path / "contacts.dump", tmp_path / "particles.dump"
+    write_liggghts(net, c, p)
+    # the file holds the force on the FIRST particle (LIGGGHTS convention): -f
+    lines = c.read_text().splitlines()
+    first = np.array(lines[lines.index(next(x for x in lines if x.startswith("ITEM: ENTRIES"))) + 1].split(),
+                     dtype=float)
+    np.testing.assert_allclose(first[9:12], -net.force[0], rtol=1e-15)
+    back = read_network(c, p)
+    np.testing.assert_allclose(back.force, net.force, rtol=0, atol=0)
+    np.testing.assert_allclose(back.positions, net.positions, rtol=1e-15)
+    np.testing.assert_allclose(back.radii, net.radii, rtol=1e-15)
+    np.testing.assert_allclose(back.box.cell, net.box.cell, rtol=1e-15, atol=1e-15)
+    np.testing.assert_allclose(back.box.origin, net.box.origin, atol=1e-15)
+    assert back.box.periodic.all()
+    np.testing.assert_allclose(back.branch, net.branch, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(back.overlap, net.overlap, rtol=1e-12)
+    assert back.contact_point is not None
+    ref = _direct_stress(net.positions, net.i, net.j, net.force, net.box.cell)
+    st = network_stress(back)
+    np.testing.assert_allclose(st.stress, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+    assert st.mean > 0  # compressive overlaps -> positive pressure
+    # contacts only (positions from the 'pos' columns, box from the contact dump)
+    only = read_liggghts(c)
+    np.testing.assert_allclose(network_stress(only).stress, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+
+
+def _two_particle_dump(path, force_on_first, header="c_fc[1] c_fc[2] c_fc[3] c_fc[4] c_fc[5] c_fc[6] "
+                       "c_fc[7] c_fc[8] c_fc[9] c_fc[10] c_fc[11] c_fc[12]", extra=""):
+    fx = force_on_first
+    path.write_text(
+        "ITEM: TIMESTEP\n100\nITEM: NUMBER OF ENTRIES\n1\nITEM: BOX BOUNDS pp ff pp\n"
+        "0 10\n0 10\n0 10\n"
+        f"ITEM: ENTRIES {header}\n"
+        f"1 5 5 2.9 5 5 3 7 0 {fx} 0 0{extra}\n")
+
+
+def _particles(path, rows="3 1 1 5 5 1.0\n7 1 2.9 5 5 1.0\n", header="id type x y z radius"):
+    path.write_text("ITEM: TIMESTEP\n100\nITEM: NUMBER OF ATOMS\n2\nITEM: BOX BOUNDS pp ff pp\n"
+                    f"0 10\n0 10\n0 10\nITEM: ATOMS {header}\n{rows}")
+
+
+def test_liggghts_sign_convention_two_spheres(tmp_path):
+    """Particle 3 at x=1, particle 7 at x=2.9 (radii 1, overlap 0.1). The compressed contact
+    pushes particle 3 (the first) towards -x: LIGGGHTS writes fx = -F on particle 3.
+    grainmech: force by A=3 on B=7 is +F e_x, N = +F, sigma_xx = F * 1.9 / V > 0."""
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    _two_particle_dump(c, -50.0)
+    _particles(p)
+    net = read_network(c, p)
+    np.testing.assert_allclose(net.force, [[50.0, 0, 0]])
+    np.testing.assert_allclose(net.branch, [[1.9, 0, 0]])
+    np.testing.assert_allclose(net.normal_force, [50.0])
+    np.testing.assert_array_equal(net.box.periodic, [True, False, True])
+    st = network_stress(net)
+    np.testing.assert_allclose(st.stress[0, 0], 50.0 * 1.9 / 1000.0)
+    # across the periodic boundary: particle 7 at x=9.1 is 1.9 away from x=1 through x=0
+    _particles(p, rows="3 1 1 5 5 1.0\n7 1 9.1 5 5 1.0\n")
+    _two_particle_dump(c, +50.0)  # particle 3 now pushed towards +x
+    net = read_network(c, p)
+    np.testing.assert_allclose(net.branch, [[-1.9, 0, 0]], atol=1e-12)
+    np.testing.assert_allclose(net.normal_force, [50.0])
+    # declaring the opposite convention flips the sign
+    net2 = read_liggghts(c, p, force_on="id2")
+    np.testing.assert_allclose(net2.normal_force, [-50.0])
+
+
+def test_liggghts_keywords_and_descriptive_headers(tmp_path):
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    _particles(p)
+    # 13 columns: pos,id,force,delta recognised from the width
+    _two_particle_dump(c, -50.0, header=" ".join(f"c_x[{k}]" for k in range(1, 14)), extra=" 0.1")
+    net = read_network(c, p)
+    np.testing.assert_allclose(net.overlap, [0.1])
+    # explicit keywords with history
+    _two_particle_dump(c, -50.0, header=" ".join(f"c_x[{k}]" for k in range(1, 16)), extra=" 0.3 0.2 0.1")
+    net = read_liggghts(c, p, keywords=["pos", "id", "force", "history:3"])
+    np.testing.assert_allclose(net.force, [[50.0, 0, 0]])
+    with pytest.raises(GrainmechError, match="keywords pos,id,force give 12 columns but the file has 15"):
+        read_liggghts(c, p, keywords=["pos", "id", "force"])
+    # descriptive names in any order
+    c.write_text("ITEM: TIMESTEP\n1\nITEM: NUMBER OF ENTRIES\n1\nITEM: BOX BOUNDS pp pp pp\n0 10\n0 10\n0 10\n"
+                 "ITEM: ENTRIES fz fy fx id2 id1\n0 0 -50 7 3\n")
+    np.testing.assert_allclose(read_network(c, p).force, [[50.0, 0, 0]])
+
+
+def test_unrecognised_width_asks_for_keywords(tmp_path):
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    _particles(p)
+    _two_particle_dump(c, -50.0, header=" ".join(f"c_x[{k}]" for k in range(1, 15)), extra=" 1 2")
+    with pytest.raises(GrainmechError, match=r"c\.dump:9: cannot tell what the 14 columns"):
+        read_network(c, p)
+
+
+def test_lammps_local_dump(tmp_path):
+    """compute property/local patom1 patom2 + compute pair/local fx fy fz (force on atom I)."""
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    _particles(p)
+    c.write_text("ITEM: TIMESTEP\n1\nITEM: NUMBER OF ENTRIES\n1\nITEM: BOX BOUNDS pp pp pp\n0 10\n0 10\n0 10\n"
+                 "ITEM: ENTRIES index c_pp[1] c_pp[2] c_pl[1] c_pl[2] c_pl[3]\n1 3 7 -50 0 0\n")
+    with pytest.raises(GrainmechError, match="--columns"):
+        read_network(c, p, format="lammps")
+    net = read_network(c, p, format="lammps", columns=["index", "id1", "id2", "fx", "fy", "fz"])
+    np.testing.assert_allclose(net.normal_force, [50.0])
+    np.testing.assert_allclose(network_stress(net).stress[0, 0], 50 * 1.9 / 1000)
+
+
+def test_triclinic_box_and_scaled_coordinates(tmp_path):
+    box = Box(np.array([1.0, -2.0, 0.5]), TRICLINIC, np.array([True, True, True]))
+    lines = demio._box_header(box)
+    assert lines[0] == "ITEM: BOX BOUNDS xy xz yz pp pp pp"
+    # LAMMPS: xlo_bound = xlo + min(0, xy, xz, xy+xz), xhi_bound = xhi + max(...)
+    np.testing.assert_allclose([float(v) for v in lines[1].split()], [1.0, 14.0, 2.0])
+    np.testing.assert_allclose([float(v) for v in lines[2].split()], [-3.5, 7.0, 1.0])
+    p = tmp_path / "p.dump"
+    s = np.array([[0.1, 0.2, 0.3], [0.5, 0.5, 0.5]])
+    p.write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\n" + "\n".join(lines) + "\n"
+                 "ITEM: ATOMS id xs ys zs diameter\n" + "\n".join(f"{k + 1} {a} {b} {c} 2.0" for k, (a, b, c)
+                                                                 in enumerate(s)) + "\n")
+    parts = demio._read_particles_dump(p)
+    np.testing.assert_allclose(parts.pos, box.origin + s @ TRICLINIC)
+    np.testing.assert_allclose(parts.radii, [1.0, 1.0])
+    np.testing.assert_allclose(parts.box.cell, TRICLINIC, atol=1e-14)
+
+
+@pytest.mark.parametrize("suffix", ["csv", "npz"])
+def test_generic_table_roundtrip(tmp_path, suffix):
+    net = random_network(120, cell=TRICLINIC, seed=1)
+    c, p = tmp_path / f"c.{suffix}", tmp_path / f"p.{suffix}"
+    write_table(net, c, p)
+    back = read_network(c, p)
+    np.testing.assert_allclose(back.force, net.force, rtol=0, atol=0)
+    np.testing.assert_allclose(back.branch, net.branch, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(back.box.cell, TRICLINIC)
+    ref = _direct_stress(net.positions, net.i, net.j, net.force, TRICLINIC)
+    np.testing.assert_allclose(network_stress(back).stress, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+
+
+def test_generic_csv_sign_and_box_comment(tmp_path):
+    c, p = tmp_path / "c.csv", tmp_path / "p.csv"
+    p.write_text("# box: 0 10 0 10 0 10\nid,x,y,z,radius\n3,1,5,5,1\n7,2.9,5,5,1\n")
+    c.write_text("id1,id2,fx,fy,fz\n3,7,50,0,0\n")  # force by 3 on 7: pushes 7 to +x
+    net = read_network(c, p)
+    np.testing.assert_allclose(net.normal_force, [50.0])
+    assert net.volume == pytest.approx(1000.0)
+    c.write_text("# force_on: id1\nid1,id2,fx,fy,fz\n3,7,-50,0,0\n")
+    np.testing.assert_allclose(read_network(c, p).normal_force, [50.0])
+
+
+# ---------------------------------------------------------------- errors name file, line, column, value
+
+@pytest.mark.parametrize("row,match", [
+    ("3,7,50,abc,0", r"c\.csv:3: column 'fy': value 'abc' is not a number"),
+    ("3,7,50,0", r"c\.csv:3: expected 5 columns"),
+    ("3,7,nan,0,0", r"c\.csv:3: column 'fx': value nan is not finite"),
+    ("3,9,50,0,0", r"c\.csv:3: particle id 9 \(column id2\) is not listed in .*p\.csv"),
+    ("3,3,50,0,0", r"c\.csv:3: contact of particle 3 with itself"),
+    ("3.5,7,50,0,0", r"c\.csv:3: column 'id1': value 3.5 is not an integer id"),
+])
+def test_table_errors(tmp_path, row, match):
+    c, p = tmp_path / "c.csv", tmp_path / "p.csv"
+    p.write_text("# box: 0 10 0 10 0 10\nid,x,y,z,radius\n3,1,5,5,1\n7,2.9,5,5,1\n")
+    c.write_text(f"id1,id2,fx,fy,fz\n3,7,50,0,0\n{row}\n")
+    with pytest.raises(GrainmechError, match=match):
+        read_network(c, p)
+
+
+def test_missing_columns_and_bad_particles(tmp_path):
+    c, p = tmp_path / "c.csv", tmp_path / "p.csv"
+    p.write_text("id,x,y,z,radius\n3,1,5,5,1\n7,2.9,5,5,1\n")
+    c.write_text("id1,id2,fx,fy\n3,7,50,0\n")
+    with pytest.raises(GrainmechError, match=r"c\.csv:1: contact table has no 'fz' column"):
+        read_network(c, p)
+    p.write_text("id,x,y,radius\n3,1,5,1\n")
+    c.write_text("id1,id2,fx,fy,fz\n3,7,50,0,0\n")
+    with pytest.raises(GrainmechError, match=r"p\.csv:1: particle table needs columns x y z"):
+        read_network(c, p)
+    p.write_text("id,x,y,z,radius\n3,1,5,5,1\n3,2.9,5,5,1\n")
+    with pytest.raises(GrainmechError, match=r"p\.csv:3: particle id 3 appears twice"):
+        read_network(c, p)
+    p.write_text("id,x,y,z,radius\n3,1,5,5,1\n7,2.9,5,5,-1\n")
+    with pytest.raises(GrainmechError, match=r"p\.csv:3: particle 7: radius must be > 0"):
+        read_network(c, p)
+
+
+def test_dump_errors(tmp_path):
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    _particles(p)
+    _two_particle_dump(c, -50.0)
+    text = c.read_text()
+    c.write_text(text.replace("NUMBER OF ENTRIES\n1", "NUMBER OF ENTRIES\n2"))
+    with pytest.raises(GrainmechError, match=r"c\.dump:10: file ends after 1 of 2 data rows"):
+        read_network(c, p)
+    c.write_text(text.replace(" 7 0 -50.0", " 7 0 inf"))
+    with pytest.raises(GrainmechError, match=r"c\.dump:10: column 'c_fc\[10\]': value inf is not finite"):
+        read_network(c, p)
+    c.write_text(text.replace("ITEM: ENTRIES", "ITEM: ATOMS"))
+    with pytest.raises(GrainmechError, match=r"c\.dump:9: expected 'ITEM: ENTRIES'"):
+        read_network(c, p)
+    _particles(p, rows="3 1 1 5 5 1.0\n8 1 2.9 5 5 1.0\n")
+    c.write_text(text)
+    with pytest.raises(GrainmechError, match=r"c\.dump:10: particle id 7 \(column id2\) is not listed"):
+        read_network(c, p)
+    with pytest.raises(GrainmechError, match="file not found"):
+        read_network(tmp_path / "nope.dump", p)
+
+
+def test_chunked_reading_matches(tmp_path, monkeypatch):
+    net = lattice_network("fcc", 3, 1.0, 1e-3)
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    write_liggghts(net, c, p)
+    monkeypatch.setattr(demio, "CHUNK_LINES", 7)  # many chunks, last one partial
+    back = read_network(c, p)
+    np.testing.assert_allclose(back.force, net.force, rtol=0, atol=0)
+    np.testing.assert_array_equal(back.i, net.i)
+    # an error in a late chunk still names the right line
+    lines = c.read_text().splitlines()
+    k = 9 + 500  # line number (1-based) of the 500th contact
+    lines[k - 1] = lines[k - 1].replace(" ", " x", 1)
+    c.write_text("\n".join(lines) + "\n")
+    with pytest.raises(GrainmechError, match=rf"c\.dump:{k}: "):
+        read_network(c, p)
+
+
+def test_liggghts_keyword_order_is_fixed_by_the_compute(tmp_path):
+    """`compute ... pair/gran/local force id pos` still writes pos, id, force (fixed order)."""
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    _particles(p)
+    _two_particle_dump(c, -50.0)
+    net = read_liggghts(c, p, keywords=["force", "id", "pos"])
+    np.testing.assert_allclose(net.force, [[50.0, 0, 0]])
+    with pytest.raises(GrainmechError, match="unknown compute pair/gran/local keyword 'forces'"):
+        read_liggghts(c, p, keywords=["forces", "id", "pos"])
+
+
+def test_liggghts_file_written_by_hand_from_a_packing(tmp_path):
+    """Dumps formatted here (not by grainmech's writer): triclinic LAMMPS bounds, centres
+    remapped into the cell, force on the first particle, both particles listed."""
+    net = random_network(120, cell=TRICLINIC, seed=21)
+    H = TRICLINIC
+    origin = np.array([-1.0, 2.0, 0.5])
+    frac = np.mod(net.positions @ np.linalg.inv(H), 1.0)
+    pos = origin + frac @ H  # wrapped centres
+    xy, xz, yz = (float(v) for v in (H[1, 0], H[2, 0], H[2, 1]))
+    xlo, ylo, zlo = (float(v) for v in origin)
+    xhi, yhi, zhi = (float(v) for v in origin + np.diag(H))
+    bounds = (f"ITEM: BOX BOUNDS xy xz yz pp pp pp\n"
+              f"{xlo + min(0, xy, xz, xy + xz)!r} {xhi + max(0, xy, xz, xy + xz)!r} {xy!r}\n"
+              f"{ylo + min(0, yz)!r} {yhi + max(0, yz)!r} {xz!r}\n{zlo!r} {zhi!r} {yz!r}\n")
+    C = net.n_contacts
+    with open(tmp_path / "c.dump", "w") as fh:
+        fh.write(f"ITEM: TIMESTEP\n5\nITEM: NUMBER OF ENTRIES\n{C}\n{bounds}"
+                 "ITEM: ENTRIES c_c[1] c_c[2] c_c[3] c_c[4] c_c[5] c_c[6] c_c[7] c_c[8] c_c[9] c_c[10] c_c[11] "
+                 "c_c[12] c_c[13]\n")
+        for c in range(C):
+            a, b = net.i[c], net.j[c]
+            f_on_a = -net.force[c]
+            vals = [*pos[a], *pos[b], net.ids[a], net.ids[b], 0, *f_on_a, net.overlap[c]]
+            fh.write(" ".join(repr(float(v)) for v in vals) + "\n")
+    with open(tmp_path / "p.dump", "w") as fh:
+        fh.write(f"ITEM: TIMESTEP\n5\nITEM: NUMBER OF ATOMS\n{net.n_particles}\n{bounds}"
+                 "ITEM: ATOMS id type radius x y z vx\n")
+        for k in range(net.n_particles):
+            fh.write(f"{net.ids[k]} 1 " + " ".join(repr(float(v)) for v in (net.radii[k], *pos[k])) + " 0.0\n")
+    back = read_network(tmp_path / "c.dump", tmp_path / "p.dump")
+    np.testing.assert_allclose(back.box.cell, H, atol=1e-13)
+    np.testing.assert_allclose(back.box.origin, origin, atol=1e-13)
+    np.testing.assert_allclose(back.positions, pos, rtol=0, atol=0)
+    np.testing.assert_allclose(back.force, net.force, rtol=0, atol=0)
+    np.testing.assert_allclose(back.branch, net.branch, atol=1e-12)
+    ref = _direct_stress(net.positions, net.i, net.j, net.force, H)
+    np.testing.assert_allclose(network_stress(back).stress, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+    # contact file alone (centres from its pos columns, box from its header)
+    alone = read_network(tmp_path / "c.dump")
+    np.testing.assert_allclose(network_stress(alone).stress, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())

@@ -1,0 +1,381 @@
+"""Measures, affine and relaxed stiffness of contact networks (grainmech.network)."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from grainmech.errors import GrainmechError
+from grainmech.network import (
+    Box,
+    ContactNetwork,
+    affine_stiffness,
+    contact_stiffnesses,
+    coordination,
+    lattice_network,
+    network_fabric,
+    network_stress,
+    random_network,
+    rattlers,
+    relaxed_stiffness,
+)
+
+G, NU = 29e9, 0.15
+
+
+def hertz_kn_ks(R1, R2, overlap, G=G, nu=NU):
+    """Independent Hertz-Mindlin tangent stiffnesses (Johnson 1985 Eq. 4.22, 7.42)."""
+    E = 2 * G * (1 + nu)
+    Es = 1.0 / (2 * (1 - nu ** 2) / E)
+    Gs = 1.0 / (2 * (2 - nu) / G)
+    Rs = R1 * R2 / (R1 + R2)
+    a = np.sqrt(Rs * overlap)
+    return 2 * Es * a, 8 * Gs * a
+
+
+# ---------------------------------------------------------------- lattices: analytic values
+
+@pytest.mark.parametrize("kind", ["sc", "fcc"])
+def test_lattice_relaxed_equals_affine_equals_analytic(kind):
+    R, dl = 1.0, 2e-3
+    net = lattice_network(kind, 3, R, dl, shear_modulus=G, poisson=NU)
+    kn, ks, used = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    assert used == "overlap"
+    kn0, ks0 = hertz_kn_ks(R, R, dl)
+    np.testing.assert_allclose(kn, kn0, rtol=1e-12)
+    np.testing.assert_allclose(ks, ks0, rtol=1e-12)
+    d = 2 * R - dl  # nearest-neighbour distance
+    ref = np.zeros((6, 6))
+    if kind == "sc":
+        # C11 = kn/a, C12 = 0, C44 = ks/(2a), a = d
+        ref[:3, :3] = np.eye(3) * kn0 / d
+        ref[3:, 3:] = np.eye(3) * ks0 / (2 * d)
+    else:
+        # cube edge a = sqrt(2) d, 4 particles and 24 contacts per cube:
+        # C11 = 2(kn+ks)/a, C12 = (kn-ks)/a, C44 = (kn+ks)/a
+        a = np.sqrt(2) * d
+        ref[:3, :3] = (kn0 - ks0) / a
+        ref[[0, 1, 2], [0, 1, 2]] = 2 * (kn0 + ks0) / a
+        ref[3:, 3:] = np.eye(3) * (kn0 + ks0) / a
+    Ca = affine_stiffness(net, kn, ks)
+    res = relaxed_stiffness(net, kn, ks, solver="direct")
+    res_cg = relaxed_stiffness(net, kn, ks, solver="cg")
+    scale = np.abs(ref).max()
+    np.testing.assert_allclose(Ca, ref, atol=1e-10 * scale)
+    np.testing.assert_allclose(res.C_affine, ref, atol=1e-10 * scale)
+    np.testing.assert_allclose(res.C_relaxed, ref, atol=1e-9 * scale)
+    np.testing.assert_allclose(res_cg.C_relaxed, ref, atol=1e-9 * scale)
+    assert res.n_rattlers == 0
+
+
+def test_affine_matches_direct_tensor_sum():
+    net = random_network(150, seed=3)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    n, l_ = net.normals, net.branch
+    C4 = np.zeros((3, 3, 3, 3))
+    for c in range(net.n_contacts):
+        K = kn[c] * np.outer(n[c], n[c]) + ks[c] * (np.eye(3) - np.outer(n[c], n[c]))
+        C4 += np.einsum("ik,j,l->ijkl", K, l_[c], l_[c])
+    C4 /= net.volume
+    C4 = 0.25 * (C4 + C4.transpose(1, 0, 2, 3) + C4.transpose(0, 1, 3, 2) + C4.transpose(1, 0, 3, 2))
+    pairs = [(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]
+    ref = np.array([[C4[i, j, k, l] for k, l in pairs] for i, j in pairs])
+    np.testing.assert_allclose(affine_stiffness(net, kn, ks), ref, rtol=1e-10, atol=1e-12 * ref.max())
+    res = relaxed_stiffness(net, kn, ks, remove_rattlers=False)
+    np.testing.assert_allclose(res.C_affine, ref, rtol=1e-10, atol=1e-12 * ref.max())
+
+
+def test_geometric_term_sc_shear():
+    """With the geometric term, ks -> ks - N/|l|: C44 of the sc lattice = (ks - N/d)/(2d)."""
+    net = lattice_network("sc", 3, 1.0, 1e-3)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    d = 2.0 - 1e-3
+    N = net.normal_force[0]
+    C = affine_stiffness(net, kn, ks, geometric=True)
+    np.testing.assert_allclose(C[3, 3], (ks[0] - N / d) / (2 * d), rtol=1e-10)
+    np.testing.assert_allclose(C[0, 0], kn[0] / d, rtol=1e-10)
+
+
+# ---------------------------------------------------------------- relaxed: independent reference
+
+def _energy_hessian_reference(net, kn, ks):
+    """Relaxed stiffness by brute force: quadratic energy evaluated with np.cross, Hessian by
+    polarisation, dense pseudo-inverse. Independent of the sparse assembly."""
+    P, C = net.n_particles, net.n_contacts
+    n = net.normals
+    rA = net.radii[net.i][:, None] * n
+    rB = -net.radii[net.j][:, None] * n
+    V = net.volume
+
+    def delta(q, eps):
+        u = q[: 3 * P].reshape(P, 3)
+        th = q[3 * P:].reshape(P, 3)
+        return (net.branch @ eps.T + u[net.i] - u[net.j]
+                + np.cross(th[net.i], rA) - np.cross(th[net.j], rB))
+
+    def energy(q, eps):
+        D = delta(q, eps)
+        Dn = np.einsum("ij,ij->i", D, n)
+        Dt = D - Dn[:, None] * n
+        return 0.5 * np.sum(kn * Dn ** 2 + ks * np.einsum("ij,ij->i", Dt, Dt)) / V
+
+    nd = 6 * P
+    units = []
+    for a, (i, j) in enumerate([(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]):
+        e = np.zeros((3, 3))
+        e[i, j] = e[j, i] = 1.0 if i == j else 0.5
+        units.append(e)
+    # quadratic form in z = (q, e): energy(z) = 1/2 z^T M z; M by polarisation
+    nz = nd + 6
+
+    def en(z):
+        eps = sum(z[nd + a] * units[a] for a in range(6))
+        return energy(z[:nd], eps)
+
+    I = np.eye(nz)
+    diag = np.array([en(I[k]) for k in range(nz)])
+    M = np.zeros((nz, nz))
+    for a in range(nz):
+        for b in range(a + 1, nz):
+            M[a, b] = M[b, a] = en(I[a] + I[b]) - diag[a] - diag[b]
+    M[np.arange(nz), np.arange(nz)] = 2 * diag
+    H, B, A = M[:nd, :nd], M[:nd, nd:], M[nd:, nd:]
+    return A, A - B.T @ np.linalg.pinv(H, rcond=1e-10) @ B
+
+
+def test_relaxed_matches_bruteforce_energy_minimisation():
+    net = random_network(14, coordination=8.0, seed=11)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    A_ref, C_ref = _energy_hessian_reference(net, kn, ks)
+    res = relaxed_stiffness(net, kn, ks, remove_rattlers=False, solver="direct")
+    s = np.abs(A_ref).max()
+    np.testing.assert_allclose(res.C_affine, A_ref, atol=1e-8 * s)
+    np.testing.assert_allclose(res.C_relaxed, C_ref, atol=1e-7 * s)
+    assert np.abs(res.correction).max() > 1e-3 * s  # the disorder does relax
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 10 ** 6), z=st.floats(4.5, 9.0), ratio=st.floats(0.0, 1.5),
+       rot=st.booleans())
+def test_relaxed_no_stiffer_than_affine(seed, z, ratio, rot):
+    net = random_network(60, coordination=z, seed=seed)
+    rng = np.random.default_rng(seed)
+    kn = rng.uniform(0.5, 2.0, net.n_contacts) * 1e6
+    ks = ratio * kn * rng.uniform(0.5, 1.0, net.n_contacts)
+    res = relaxed_stiffness(net, kn, ks, rotations=rot)
+    # affine of the full network >= affine of the rattler-free network >= relaxed
+    Cfull = affine_stiffness(net, kn, ks)
+    for D in (res.correction, Cfull - res.C_relaxed):
+        ev = np.linalg.eigvalsh(0.5 * (D + D.T))
+        assert ev.min() >= -1e-9 * np.abs(Cfull).max()
+    assert res.residual < 1e-6
+
+
+def test_cg_matches_direct_and_displacements_equilibrate():
+    net = random_network(200, seed=5)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    a = relaxed_stiffness(net, kn, ks, solver="direct", return_displacements=True)
+    b = relaxed_stiffness(net, kn, ks, solver="cg", tol=1e-11)
+    np.testing.assert_allclose(b.C_relaxed, a.C_relaxed, atol=1e-7 * np.abs(a.C_affine).max())
+    # net force and moment on every particle vanish for the relaxed field (unit e_xx)
+    q = a.displacements[:, :, 0]
+    n = net.normals
+    rA, rB = net.radii[net.i][:, None] * n, -net.radii[net.j][:, None] * n
+    e = np.diag([1.0, 0, 0])
+    D = net.branch @ e.T + q[net.i, :3] - q[net.j, :3] + np.cross(q[net.i, 3:], rA) - np.cross(q[net.j, 3:], rB)
+    Dn = np.einsum("ij,ij->i", D, n)
+    f = kn[:, None] * Dn[:, None] * n + ks[:, None] * (D - Dn[:, None] * n)
+    ratt = rattlers(net, None, (kn > 0) & (net.normal_force > 0))
+    keep = ~ratt[net.i] & ~ratt[net.j]
+    F = np.zeros((net.n_particles, 3))
+    M = np.zeros((net.n_particles, 3))
+    np.add.at(F, net.j[keep], f[keep])
+    np.add.at(F, net.i[keep], -f[keep])
+    np.add.at(M, net.j[keep], np.cross(rB[keep], f[keep]))
+    np.add.at(M, net.i[keep], np.cross(rA[keep], -f[keep]))
+    fscale = np.abs(f).max()
+    assert np.abs(F).max() < 1e-7 * fscale
+    assert np.abs(M).max() < 1e-7 * fscale * net.radii.max()
+
+
+def test_frictionless_rotations_are_floppy_but_harmless():
+    net = random_network(80, seed=7)
+    kn, _, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    ks = np.zeros_like(kn)
+    a = relaxed_stiffness(net, kn, ks, rotations=True)
+    b = relaxed_stiffness(net, kn, ks, rotations=False)
+    np.testing.assert_allclose(a.C_relaxed, b.C_relaxed, atol=1e-7 * np.abs(a.C_affine).max())
+
+
+# ---------------------------------------------------------------- stress, fabric, coordination
+
+def test_stress_direct_sum_and_skew():
+    net = random_network(120, seed=2)
+    st_ = network_stress(net)
+    full = sum(np.outer(f, l_) for f, l_ in zip(net.force, net.branch)) / net.volume
+    np.testing.assert_allclose(st_.stress, 0.5 * (full + full.T), rtol=1e-12)
+    np.testing.assert_allclose(st_.skew, 0.5 * (full - full.T), rtol=1e-12, atol=1e-12 * np.abs(full).max())
+    assert st_.skew_ratio > 1e-4  # random tangential forces: not in moment equilibrium
+    lat = lattice_network("fcc", 3, 1.0, 1e-3)
+    s2 = network_stress(lat)
+    assert s2.skew_ratio < 1e-14
+    # isotropic pressure of the fcc lattice: p = (C/V) N d / 3, compression positive
+    N = lat.normal_force[0]
+    p_ref = lat.n_contacts / lat.volume * N * (2 - 1e-3) / 3
+    np.testing.assert_allclose(s2.stress, np.eye(3) * p_ref, rtol=1e-12, atol=1e-12 * p_ref)
+    assert s2.mean > 0
+
+
+def test_fabric_tensors():
+    net = random_network(200, seed=4)
+    fab = network_fabric(net)
+    n = net.normals
+    np.testing.assert_allclose(fab.normal2, n.T @ n / len(n), rtol=1e-12)
+    np.testing.assert_allclose(fab.normal4, np.einsum("ci,cj,ck,cl->ijkl", n, n, n, n) / len(n), rtol=1e-12)
+    l_ = net.branch
+    np.testing.assert_allclose(fab.branch2, l_.T @ l_ / np.sum(l_ * l_), rtol=1e-12)
+    lat = network_fabric(lattice_network("sc", 3, 1.0, 1e-3))
+    np.testing.assert_allclose(lat.normal2, np.eye(3) / 3, atol=1e-15)
+    assert lat.normal_anisotropy.deviator_norm < 1e-12
+
+
+def _chain_network():
+    """Cube corner cluster: 5 particles mutually touching (each has 4 contacts) plus a
+    2-particle tail (a - b) attached to particle 0; the tail are rattlers."""
+    pos = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1], [-1, 0, 0], [-2, 0, 0.]]) * 2.0
+    pairs = [(a, b) for a, b in itertools.combinations(range(5), 2)] + [(0, 5), (5, 6)]
+    I = np.array([p[0] for p in pairs])
+    J = np.array([p[1] for p in pairs])
+    box = Box.orthogonal([-10] * 3, [10] * 3, False)
+    br = pos[J] - pos[I]
+    f = br / np.linalg.norm(br, axis=1)[:, None]
+    f[-1] *= 0.0  # the last contact carries no force
+    return ContactNetwork(np.arange(7) + 10, pos, np.ones(7), box, I, J, f, br)
+
+
+def test_coordination_and_rattlers():
+    net = _chain_network()
+    co = coordination(net)
+    assert co.n_contacts == 12 and co.n_force_carrying == 11
+    np.testing.assert_allclose(co.z, 24 / 7)
+    np.testing.assert_allclose(co.z_force, 22 / 7)
+    # particles 5 and 6 are rattlers (1 and 0 force-carrying contacts), the 5-clique keeps z = 4
+    np.testing.assert_array_equal(rattlers(net), [False] * 5 + [True] * 2)
+    np.testing.assert_allclose(co.z_mechanical, 4.0)
+    assert co.n_rattlers == 2
+    # with a threshold of 5 the removal cascades to everything
+    assert coordination(net, min_contacts=5).z_mechanical == 0.0
+
+
+def test_contact_stiffness_sources():
+    net = random_network(50, seed=8)
+    kn_o, ks_o, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU, source="overlap")
+    kn_f, ks_f, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU, source="force")
+    # forces were made from the same overlaps by Hertz (tangential part does not change N)
+    np.testing.assert_allclose(kn_f, kn_o, rtol=1e-10)
+    ref = hertz_kn_ks(net.radii[net.i], net.radii[net.j], net.overlap)
+    np.testing.assert_allclose(kn_o, ref[0], rtol=1e-12)
+    np.testing.assert_allclose(ks_o, ref[1], rtol=1e-12)
+    kn_c, ks_c, used = contact_stiffnesses(net, kn=3.0, ks=2.0)
+    assert used == "constant" and np.all(kn_c == 3.0) and np.all(ks_c == 2.0)
+    with pytest.raises(GrainmechError, match="shear_modulus"):
+        contact_stiffnesses(net, source="overlap")
+
+
+def test_2d_square_lattice_and_perturbed():
+    """Square lattice of discs (spacing a): C11 = C22 = kn, C12 = 0, C66 = ks/2 (per unit
+    thickness); a perturbed copy relaxes (affine - relaxed PSD, non-zero)."""
+    n, a = 4, 1.3
+    pos = np.array([[i * a, j * a] for i in range(n) for j in range(n)], float)
+    idx = lambda i, j: (i % n) * n + (j % n)  # noqa: E731
+    I = np.array([idx(i, j) for i in range(n) for j in range(n) for _ in (0, 1)])
+    J = np.array([idx(i + 1, j) if k == 0 else idx(i, j + 1) for i in range(n) for j in range(n) for k in (0, 1)])
+    box = Box.orthogonal([0, 0], [n * a, n * a], True)
+    kn, ks = np.full(I.size, 3.0), np.full(I.size, 1.0)
+    for noise in (0.0, 0.1):
+        p = pos + np.random.default_rng(0).normal(scale=noise, size=pos.shape)
+        br = box.minimum_image(p[J] - p[I])
+        net = ContactNetwork(np.arange(n * n), p, np.full(n * n, 0.5 * a), box, I, J, br.copy(), br)
+        res = relaxed_stiffness(net, kn, ks)
+        if noise == 0.0:
+            np.testing.assert_allclose(affine_stiffness(net, kn, ks), np.diag([3.0, 3.0, 0.5]), atol=1e-12)
+            np.testing.assert_allclose(res.C_relaxed, np.diag([3.0, 3.0, 0.5]), atol=1e-10)
+        else:
+            ev = np.linalg.eigvalsh(res.correction)
+            assert ev.min() >= -1e-12 and ev.max() > 1e-3
+
+
+@settings(max_examples=5, deadline=None)
+@given(seed=st.integers(0, 10 ** 6))
+def test_relaxed_stiffness_is_objective(seed):
+    """Rotating the whole network (centres, cell, forces) rotates both tensors (seed Eq. 2.28-2.29)."""
+    from scipy.spatial.transform import Rotation
+
+    from grainmech.tensors import rotate_stiffness
+
+    net = random_network(50, seed=seed)
+    R = Rotation.random(random_state=seed).as_matrix()
+    box = Box(net.box.origin @ R.T, net.box.cell @ R.T, net.box.periodic)
+    rot = ContactNetwork(net.ids, net.positions @ R.T, net.radii, box, net.i, net.j, net.force @ R.T,
+                         net.branch @ R.T, net.overlap)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    a = relaxed_stiffness(net, kn, ks)
+    b = relaxed_stiffness(rot, kn, ks)
+    s = np.abs(a.C_affine).max()
+    np.testing.assert_allclose(b.C_affine, rotate_stiffness(a.C_affine, R), atol=1e-10 * s)
+    np.testing.assert_allclose(b.C_relaxed, rotate_stiffness(a.C_relaxed, R), atol=1e-8 * s)
+
+
+def test_report_closed_form_isotropic_for_cubic_lattice():
+    """FCC contacts have an isotropic 2nd-order fabric: the seed closed form reduces to
+    C11 = s(3kn+2ks)/15, C12 = s(kn-ks)/15, C44 = s(2kn+3ks)/30 with s = (C/V) d^2."""
+    from grainmech.network import network_report
+
+    dl = 1e-3
+    net = lattice_network("fcc", 3, 1.0, dl)
+    rep = network_report(net, shear_modulus=G, poisson=NU, relaxed=False)
+    kn, ks = hertz_kn_ks(1.0, 1.0, dl)
+    s = net.n_contacts / net.volume * (2 - dl) ** 2
+    C = np.array(rep["stiffness_closed_form"])
+    np.testing.assert_allclose(np.diag(C), [s * (3 * kn + 2 * ks) / 15] * 3 + [s * (2 * kn + 3 * ks) / 30] * 3,
+                               rtol=1e-9)
+    np.testing.assert_allclose(C[0, 1], s * (kn - ks) / 15, rtol=1e-9)
+    for key in ("stress", "fabric", "coordination", "stiffness_affine", "order"):
+        assert key in rep
+    assert rep["stiffness_relaxed"] is None
+
+
+def test_equal_area_density_plot_is_normalised():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from grainmech.network import plot_normal_density, plot_rose
+
+    rng = np.random.default_rng(0)
+    n = rng.normal(size=(40000, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    P = 2 * len(n)
+    pos = rng.random((P, 3)) * 100
+    I, J = np.arange(0, P, 2), np.arange(1, P, 2)
+    pos[J] = pos[I] + 2 * n
+    box = Box.orthogonal([-10] * 3, [110] * 3, False)
+    net = ContactNetwork(np.arange(P), pos, np.ones(P), box, I, J, n, 2 * n)
+    fig = plot_normal_density(net)
+    mesh = fig.axes[0].collections[0]
+    vals = mesh.get_array()
+    assert abs(float(vals.mean()) - 1.0) < 0.03  # uniform on the sphere -> density 1 everywhere
+    # no bias at the rim (cells cut by the projection circle are normalised by their inside area)
+    c = mesh.get_coordinates()  # (bins+1, bins+1, 2) corners
+    mid = 0.25 * (c[:-1, :-1] + c[1:, :-1] + c[:-1, 1:] + c[1:, 1:])
+    r = np.hypot(mid[..., 0], mid[..., 1]).ravel()
+    v = np.ma.asarray(vals).ravel()
+    rim = (r > 1.2) & ~np.ma.getmaskarray(v)
+    assert rim.sum() > 50 and abs(float(v[rim].mean()) - 1.0) < 0.06
+    plt.close(fig)
+    plt.close(plot_rose(net))
