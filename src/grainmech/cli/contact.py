@@ -47,13 +47,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from grainmech.io.results import atomic_write
 
 from grainmech.errors import ConfigError, GrainmechError
 
@@ -254,17 +254,7 @@ def simulate(params: Any, init: dict, segments: list[_Segment]) -> dict[str, np.
 # files
 # ---------------------------------------------------------------------------------------
 def _atomic_write(path: Path, writer) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            writer(fh)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    atomic_write(path, writer, binary=True)
 
 
 def write_csv(path: Path, data: dict[str, np.ndarray]) -> None:

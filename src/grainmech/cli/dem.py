@@ -27,9 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
@@ -94,24 +92,10 @@ def _options(path: str | None) -> dict:
     return opts
 
 
-def _chmod_default(path: str) -> None:
-    """Give a mkstemp file the permissions of a normally created file (0666 & ~umask)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(path, 0o666 & ~mask)
-
-
 def _atomic(path: Path, write: Callable[[Any], None], binary: bool = False) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8"})) as fh:
-            write(fh)
-        _chmod_default(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from grainmech.io.results import atomic_write
+
+    atomic_write(path, write, binary=binary, newline=None)
 
 
 def _write_matrix(path: Path, M: Any, order: list[str]) -> None:

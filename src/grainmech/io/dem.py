@@ -26,7 +26,6 @@ from __future__ import annotations
 import itertools
 import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, Iterable, Sequence
@@ -778,27 +777,10 @@ def read_network(contacts: str | os.PathLike, particles: str | os.PathLike | Non
 
 # --------------------------------------------------------------------------- writers
 
-def _chmod_default(path: str) -> None:
-    """Give a mkstemp file the permissions of a normally created file (0666 & ~umask)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(path, 0o666 & ~mask)
-
-
 def _atomic_write_text(path: Path, write) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent or ".", prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            write(fh)
-        _chmod_default(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    from grainmech.io.results import atomic_write
+
+    atomic_write(Path(path), write, newline="\n")
 
 
 def _box_header(box: Box) -> list[str]:
@@ -889,7 +871,6 @@ def write_liggghts(net: ContactNetwork, contacts: str | os.PathLike, particles: 
 def write_table(net: ContactNetwork, contacts: str | os.PathLike, particles: str | os.PathLike) -> None:
     """Write the generic contact and particle tables (CSV, or NPZ by suffix); see :func:`read_table`."""
     cp, pp = Path(contacts), Path(particles)
-    C = net.n_contacts
     cols = {"id1": net.ids[net.i], "id2": net.ids[net.j], "fx": net.force[:, 0], "fy": net.force[:, 1],
             "fz": net.force[:, 2]}
     if net.overlap is not None:
@@ -904,16 +885,9 @@ def write_table(net: ContactNetwork, contacts: str | os.PathLike, particles: str
     box = {"cell": net.box.cell, "origin": net.box.origin, "periodic": net.box.periodic}
     for path, data, extra in ((cp, cols, box), (pp, pcols, {})):
         if path.suffix.lower() == ".npz":
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".npz")
-            os.close(fd)
-            try:
-                np.savez(tmp, **data, **extra)
-                _chmod_default(tmp)
-                os.replace(tmp, path)
-            except BaseException:
-                if os.path.exists(tmp):
-                    os.unlink(tmp)
-                raise
+            from grainmech.io.results import write_npz
+
+            write_npz(path, **data, **extra)
             continue
 
         def w(fh, data=data, extra=extra):

@@ -34,13 +34,28 @@ def ensure_dir(path: str | Path) -> Path:
     return p
 
 
-def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool = False) -> Path:
-    """Call ``writer(fh)`` on a temporary file next to ``path``, then move it into place."""
+def _chmod_default(path: str) -> None:
+    """Give a mkstemp file (mode 0600) the permissions of a normally created file."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(path, 0o666 & ~mask)
+
+
+def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool = False,
+                 newline: str | None = "") -> Path:
+    """Call ``writer(fh)`` on a temporary file next to ``path``, then move it into place.
+
+    The file object is binary if ``binary``, else UTF-8 text with the given ``newline``
+    translation (``""``: none, as the csv module wants). The final file gets the usual
+    permissions (``0666 & ~umask``).
+    """
     p = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     try:
-        with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"newline": "", "encoding": "utf-8"})) as fh:
+        with os.fdopen(fd, "wb" if binary else "w",
+                       **({} if binary else {"newline": newline, "encoding": "utf-8"})) as fh:
             writer(fh)
+        _chmod_default(tmp)
         os.replace(tmp, p)
     except BaseException:
         try:
