@@ -620,3 +620,16 @@ def test_seed_table1_fabrics():
     tet = T.symmetry_class(_seed_eq_4_19(np.diag([1.3, 1.3, 0.4])))
     assert tet.name == "transversely isotropic"
     assert np.allclose(np.abs(tet.axis), EX)
+
+
+def test_trigonal_nearly_aligned_frame_is_not_snapped_off_its_twofold_axis():
+    """Regression (found by hypothesis): a trigonal tensor rotated by pi - 2.4e-7 about its
+    3-fold axis looked 'aligned' to 1e-6 and was snapped to the coordinate frame, leaving a
+    spurious C15 of 6e-7 relative in the standard form."""
+    rng = np.random.default_rng(0)
+    C = nye_form("trigonal", list(rng.uniform(-1, 1, 52)), rng.uniform(0.05, 2.0))
+    Cr = T.rotate_stiffness(C, rot([0.0, 0.0, 1.0, 1.192092896e-07]))
+    r = T.symmetry_class(Cr)
+    assert r.name == "trigonal"
+    Cn = T.rotate_stiffness(Cr, r.axes)
+    assert abs(Cn[0, 4]) < 1e-10 * np.abs(Cn).max()
