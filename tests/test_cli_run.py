@@ -59,8 +59,11 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
     cfg.write_text(CYCLIC)
     out = tmp_path / "out"
     assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
-    for f in ("summary.json", "modulus_reduction.csv", "loops.png", "modulus_reduction.png", "run_00.csv"):
+    for f in ("summary.json", "modulus_reduction.csv", "loops.png", "modulus_reduction.png", "run_00.csv",
+              "index.html"):
         assert (out / f).stat().st_size > 0
+    page = (out / "index.html").read_text()
+    assert page.count("data:image/png;base64,") == 2 and "Gmax" in page and "mindlin-deresiewicz" in page
     s = json.loads((out / "summary.json").read_text())
     assert s["success"] and s["initial_pressure_Pa"] == pytest.approx(1e5)
     ratio = np.array(s["G_over_Gmax"])

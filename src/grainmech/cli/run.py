@@ -197,10 +197,55 @@ def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
         plots.path_plot(out["results"][0], d / "path.png")
         summary["files"].append("path.png")
     import json
-    write_text(d / "config_used.json", json.dumps(cfg, indent=2, default=str))
+    cfg_text = json.dumps(cfg, indent=2, default=str)
+    write_text(d / "config_used.json", cfg_text)
     summary["files"].append("config_used.json")
     write_json(d / "summary.json", summary)
+    summary["files"].append("summary.json")
+    _write_index(d, summary, cfg_text)
+    summary["files"].append("index.html")
     return summary
+
+
+def _write_index(d: Path, summary: dict, cfg_text: str) -> None:
+    """``index.html``: key numbers, the plots and the exact inputs used."""
+    import html
+
+    from grainmech import __version__
+    from grainmech.io.html import Section, write_page
+
+    status = "completed" if summary["success"] else f"STOPPED: {summary['message']}"
+    intro = (f"<p>grainmech {html.escape(__version__)} &mdash; {html.escape(str(summary['source']))}; "
+             f"test <b>{html.escape(summary['kind'])}</b>, initial isotropic stress "
+             f"{summary['initial_pressure_Pa']:.6g} Pa; {html.escape(status)}"
+             + (f" in {summary['seconds']:.1f} s" if summary.get("seconds") else "") + ".</p>")
+    sections = []
+    if "G_max_Pa" in summary:
+        rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td></tr>"
+                       for a, g, r, dd in zip(summary["amplitudes"], summary["G_Pa"], summary["G_over_Gmax"],
+                                              summary["damping"]))
+        table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
+                 f"<th>damping [%]</th></tr>{rows}</table>")
+        intro += (f"<p>Small-strain shear modulus Gmax = {summary['G_max_Pa']:.5g} Pa "
+                  "(condensed tangent at the initial state).</p>" + table)
+        sections.append(Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
+                                "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
+                                "amplitude, with Darendeli (2001) (reference strain "
+                                f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
+                                f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
+                                f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
+                                ("modulus_reduction.png", "modulus_reduction.csv")))
+        sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
+                                "Shear stress against normalised shear strain for every amplitude.",
+                                ("loops.png",)))
+    if (d / "path.png").exists():
+        sections.append(Section("path", "Strain and stress along the path", d / "path.png",
+                                "Every component, compression positive, engineering shear strain.",
+                                ("path.png", "path.csv")))
+    sections.append(Section("inputs", "Inputs used", None, "The configuration exactly as read.",
+                            ("config_used.json", "summary.json"),
+                            raw_html=f"<pre>{html.escape(cfg_text)}</pre>"))
+    write_page(d / "index.html", "grainmech run", intro, sections)
 
 
 def main(args: argparse.Namespace) -> int:
