@@ -81,7 +81,7 @@ def test_text_output_and_orders(tmp_path, capsys):
     (("law = \"linear\"", "law = \"elastoplastic\""), "contacts.law"),
     (("b22 = 0.1", "b22 = 0.1\nc33 = 1"), "fabric.c33"),
     (("a20 = 0.2", "a20 = 3.0"), "negative"),
-    (("coordination = 9", "coordination = \"nonsense\""), "correlation"),
+    (("coordination = 9", "coordination = \"nonsense\""), "packing.coordination"),
 ])
 def test_bad_configs_give_one_line_and_exit_2(tmp_path, capsys, edit, needle):
     path = _write(tmp_path, LINEAR.replace(*edit))

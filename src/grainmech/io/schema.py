@@ -66,7 +66,7 @@ def build_fabric(sec: Section) -> Any:
 
 def build_packing(sec: Section, density: Any) -> Any:
     """Packing from ``[packing]`` and a density."""
-    from grainmech.fabric import coordination_number
+    from grainmech.fabric import CORRELATIONS, coordination_number
     from grainmech.material import Packing
 
     convention = sec.choice("convention", ("physical", "seed"), "physical")
@@ -77,10 +77,17 @@ def build_packing(sec: Section, density: Any) -> Any:
         return Packing(density, nv, bl, convention, radius)
     e = sec.number("void_ratio", None, min=0, min_inclusive=False)
     coord = sec.raw("coordination")
-    if isinstance(coord, str) and not coord.strip()[0].isdigit():
-        m = float(coordination_number(e, coord.strip().lower()))
+    name = coord.strip().lower() if isinstance(coord, str) else None
+    if name is not None and name in CORRELATIONS:
+        m = float(coordination_number(e, name))
     else:
-        m = sec.number("coordination", None, min=0, min_inclusive=False)
+        try:
+            m = sec.number("coordination", None, min=0, min_inclusive=False)
+        except ConfigError:
+            if isinstance(coord, str):
+                raise ConfigError(sec.key("coordination"), coord, "must be a positive number or one of "
+                                  f"{', '.join(map(repr, sorted(CORRELATIONS)))}") from None
+            raise
     radius = sec.number("radius", "m", min=0, min_inclusive=False)
     return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
 

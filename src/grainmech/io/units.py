@@ -62,10 +62,12 @@ def to_float(value: Any, unit: str | None, key: str) -> float:
             import pint
             try:
                 q = ureg.Quantity(text)
-            except (pint.errors.UndefinedUnitError, pint.errors.DefinitionSyntaxError,
-                    AttributeError, TypeError, ValueError, AssertionError) as exc:
-                raise ConfigError(key, value, f"cannot read this quantity ({exc})") from None
+            except Exception as exc:  # pint's parser raises many kinds (TokenError, ZeroDivisionError...)
+                detail = str(exc) or type(exc).__name__
+                raise ConfigError(key, value, f"cannot read this quantity ({detail})") from None
             target = unit if unit else "dimensionless"
+            if not isinstance(q, ureg.Quantity):  # e.g. "2" parsed as a plain number
+                q = ureg.Quantity(float(q), "dimensionless")
             try:
                 out = float(q.to(target).magnitude)
             except pint.errors.DimensionalityError:
