@@ -81,6 +81,11 @@ class Packing:
 
         nv, length = packing_scale(void_ratio, coordination, radius, dim=density.dim,
                                    convention=convention)
+        if not (np.isfinite(nv) and nv > 0 and np.isfinite(length) and length > 0):
+            raise GrainmechError(
+                f"radius = {radius!r} with void_ratio = {void_ratio!r} and coordination = {coordination!r} "
+                f"gives contacts_per_volume = {nv!r}, branch_length = {length!r} (overflow or underflow): "
+                "give lengths in consistent units")
         return cls(density, nv, length, convention, float(radius))
 
     def contact_set(self, kn: Any = 0.0, ks: Any = 0.0, extra_degree: int = 4) -> ContactSet:
@@ -246,7 +251,19 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
     extra = 4 if const or isotropic_fabric else DEGREE_VARYING_STIFFNESS
     geom = packing.contact_set(extra_degree=extra)
     N = np.zeros(len(geom)) if stress is None else normal_forces_for_stress(geom, sigma)
-    kn, ks = contact.stiffness(N)
+    with np.errstate(all="ignore"):
+        kn, ks = contact.stiffness(N)
+    bad = ~(np.isfinite(kn) & np.isfinite(ks))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise GrainmechError(
+            f"contact stiffness is not finite (kn = {float(np.asarray(kn)[i]):.4g}, ks = {float(np.asarray(ks)[i]):.4g} "
+            f"at normal force {N[i]:.4g}): the inputs overflow; check radius ({packing.radius:.4g}), "
+            "void_ratio, coordination, shear_modulus, poisson and the pressure for a consistent unit system")
     cs = geom.with_stiffness(kn, ks)
     s = love_weber_stress(N[:, None] * cs.normals, cs.branch, cs.weights).stress
-    return StiffnessResult(stiffness(cs), cs, N, s)
+    C = stiffness(cs)
+    if not np.all(np.isfinite(C)):
+        raise GrainmechError("the stiffness overflows: check radius, void_ratio, coordination, the contact "
+                             "stiffness or shear_modulus and the pressure for a consistent unit system")
+    return StiffnessResult(C, cs, N, s)

@@ -1314,8 +1314,12 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
     _check_finite_symmetric(M, 1e-10)
     M = 0.5 * (M + M.T)
     Mm = voigt_to_mandel(M)
-    Mn = Mm / np.linalg.norm(Mm)
-    kel = np.linalg.eigvalsh(Mm)
+    peak = float(np.abs(Mm).max())
+    if peak == 0.0:
+        raise GrainmechError("C is zero: no symmetry class")
+    Mn = Mm / peak  # scale first: the Frobenius norm of a tiny/huge matrix under/overflows
+    Mn = Mn / np.linalg.norm(Mn)
+    kel = peak * np.linalg.eigvalsh(Mm / peak)
     if M.shape[0] == 3:
         return _symmetry_class_2d(Mn, tol, kel)
     search = _Search3D(Mn)

@@ -443,7 +443,8 @@ def _norm(v: np.ndarray) -> np.ndarray:
 
 
 def _check_increments(state: ContactState, d_normal: ArrayLike,
-                      d_tangential: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+                      d_tangential: ArrayLike, *, check_finite: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray]:
     n, dim = state.n_contacts, state.dim
     dn = np.asarray(d_normal, dtype=float)
     if dn.ndim == 0:
@@ -455,11 +456,17 @@ def _check_increments(state: ContactState, d_normal: ArrayLike,
         dt = dt[:, None]
     if dt.shape != (n, dim):
         raise ValueError(f"d_tangential must have shape ({n}, {dim}), got {dt.shape}")
-    if not np.all(np.isfinite(dn)):
-        raise ValueError("d_normal must be finite")
-    if not np.all(np.isfinite(dt)):
-        raise ValueError("d_tangential must be finite")
+    if check_finite:
+        _check_finite(dn, dt)
     return dn, dt
+
+
+def _check_finite(dn: np.ndarray, dt: np.ndarray, status: int | None = None) -> None:
+    """Raise the errors of non-finite increments (``status`` from the compiled kernel)."""
+    if (status == 1) if status is not None else not np.all(np.isfinite(dn)):
+        raise ValueError("d_normal must be finite")
+    if (status == 2) if status is not None else not np.all(np.isfinite(dt)):
+        raise ValueError("d_tangential must be finite")
 
 
 def _reproject(T: np.ndarray, e: np.ndarray, normals: ArrayLike | None) -> tuple[np.ndarray, np.ndarray]:
@@ -487,7 +494,8 @@ def _reproject(T: np.ndarray, e: np.ndarray, normals: ArrayLike | None) -> tuple
 # Public entry point
 # ---------------------------------------------------------------------------------------
 def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangential: ArrayLike,
-           *, normals: ArrayLike | None = None) -> tuple[ContactState, ContactResponse]:
+           *, normals: ArrayLike | None = None, backend: str = "auto"
+           ) -> tuple[ContactState, ContactResponse]:
     """Advance ``n`` contacts by one increment of relative displacement (pure function).
 
     Parameters
@@ -504,6 +512,14 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         Current contact normals. If given, the stored tangential force and memory axis
         are first rotated into the current tangent plane (magnitudes kept), for contacts
         whose normal turns.
+    backend : {"auto", "numpy", "numba"}
+        ``numpy``: the vectorised reference implementation of this module. ``numba``:
+        the compiled per-contact kernel of :mod:`grainmech.contact._kernel` (same
+        algorithm, agrees to rounding; :class:`MindlinDeresiewicz`,
+        :class:`HertzMindlin`, :class:`LinearSpring` and frictionless :class:`Hertz`;
+        raises ``ValueError`` for other laws and ``ImportError`` without numba).
+        ``auto`` (default): ``numba`` when numba is importable and the law is
+        supported, else ``numpy``.
 
     Returns
     -------
@@ -521,8 +537,12 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
     if state.reversals.shape[1] != _max_rev(params):
         raise ValueError(f"state was built for max_reversals = {state.reversals.shape[1]}, "
                          f"params have {_max_rev(params)}; build it with initial_state(params, ...)")
-    dn, dt = _check_increments(state, d_normal, d_tangential)
+    kernel = _select_kernel(params, backend)
+    dn, dt = _check_increments(state, d_normal, d_tangential,
+                               check_finite=kernel is None or normals is not None)
     T0, e0 = _reproject(state.tangential_force, state.axis, normals)
+    if kernel is not None:
+        return _update_compiled(kernel, params, state, T0, e0, dn, dt)
 
     alpha0 = state.approach
     alpha1 = alpha0 + dn
@@ -574,6 +594,131 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         open=~closed1,
         dissipation=diss,
     )
+    return new_state, resp
+
+
+# ---------------------------------------------------------------------------------------
+# Compiled backend (grainmech.contact._kernel): selection and dispatch
+# ---------------------------------------------------------------------------------------
+_BACKENDS = ("auto", "numpy", "numba")
+_KERNEL: object = None   # the module once imported; False if numba is unavailable
+
+
+def _load_kernel() -> object:
+    """Import :mod:`grainmech.contact._kernel` once (``False`` when numba is missing)."""
+    global _KERNEL
+    if _KERNEL is None:
+        try:
+            from grainmech.contact import _kernel
+        except ImportError:
+            _KERNEL = False
+        else:
+            _KERNEL = _kernel
+    return _KERNEL
+
+
+def _kernel_supports(params: object) -> bool:
+    """Laws of the compiled kernel: Hertz-type (spheres) and linear springs, not rods."""
+    return isinstance(params, (Hertz, LinearSpring))
+
+
+def _select_kernel(params: object, backend: str) -> object:
+    """The kernel module for ``backend``, or ``None`` for the NumPy path."""
+    if backend == "numpy":
+        return None
+    if backend not in _BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(map(repr, _BACKENDS))}, got {backend!r}")
+    supported = _kernel_supports(params)
+    if backend == "numba":
+        if not supported:
+            raise ValueError(f"backend='numba' does not support {type(params).__name__} "
+                             f"(use backend='numpy' or 'auto')")
+        mod = _load_kernel()
+        if mod is False:
+            raise ImportError("backend='numba' needs numba, which is not importable")
+        return mod
+    if not supported:
+        return None
+    mod = _load_kernel()
+    return None if mod is False else mod
+
+
+_KERNEL_CONSTANTS: dict = {}
+
+
+def _kernel_constants(params: object) -> tuple:
+    """Scalar constants and tables of the compiled kernel for ``params`` (cached)."""
+    try:
+        return _KERNEL_CONSTANTS[params]
+    except (KeyError, TypeError):
+        pass
+    kind = law_kind(params)
+    code = {"md": 0, "jenkins": 1, "frictionless": 2}[kind]
+    linear = isinstance(params, LinearSpring)
+    if linear:
+        E = R = Gs = 1.0
+        kn_lin, ks_lin = float(params.kn), float(params.ks)  # type: ignore[attr-defined]
+    else:
+        E = float(params.effective_modulus)  # type: ignore[attr-defined]
+        R = float(params.effective_radius)  # type: ignore[attr-defined]
+        Gs = float(params.effective_shear_modulus)  # type: ignore[attr-defined]
+        kn_lin = ks_lin = 0.0
+    mu = float(params.friction)  # type: ignore[attr-defined]
+    if kind == "md":
+        p = float(params.stick_exponent)  # type: ignore[attr-defined]
+    else:
+        p = 1.0 / 3.0
+    m_exp = 1.0 / (1.0 - p)
+    consts = (code, linear, E, R, Gs, kn_lin, ks_lin, mu, math.isfinite(mu), float(_ratio(params)),
+              p, m_exp, int(_max_rev(params)), _h_series(m_exp), _g_series(p),
+              np.ascontiguousarray(_GL_X), np.ascontiguousarray(_GL_W),
+              # spheres (p = 1/3): shortcuts in the dissipation integrals (see _kernel);
+              # kt0(N) = k8 N**(1/3) (seed Eq. 3.2, 3.11)
+              (not linear) and p == 1.0 / 3.0,
+              0.0 if linear else 8.0 * Gs * float(np.cbrt(0.75 * R / E)))
+    try:
+        _KERNEL_CONSTANTS[params] = consts
+    except TypeError:  # pragma: no cover - unhashable user subclass
+        pass
+    return consts
+
+
+def _update_compiled(kernel: object, params: object, state: ContactState, T0: np.ndarray,
+                     e0: np.ndarray, dn: np.ndarray, dt: np.ndarray
+                     ) -> tuple[ContactState, ContactResponse]:
+    """:func:`update` through the compiled kernel (validated, re-projected inputs)."""
+    def c(x: np.ndarray, dtype: object) -> np.ndarray:
+        # C-contiguous and writeable (a read-only array would compile another variant)
+        x = np.ascontiguousarray(x, dtype=dtype)
+        return x if x.flags.writeable else x.copy()
+
+    alpha0 = c(state.approach, dtype=float)
+    dn = c(dn, dtype=float)
+    # the closed forms of the normal law, vectorised as in the reference path
+    N1 = _normal_force(params, alpha0 + dn)
+    if isinstance(params, Hertz):
+        rad1 = geo.hertz_contact_radius_from_force(N1, params)
+        rad0 = geo.hertz_contact_radius_from_force(
+            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)
+    else:
+        rad0 = rad1 = N1
+    out = kernel.update_kernel(  # type: ignore[attr-defined]
+        _kernel_constants(params), alpha0, c(state.normal_force, dtype=float),
+        c(T0, dtype=float), c(e0, dtype=float), c(state.direction, dtype=np.int8),
+        c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),
+        c(state.dissipated_energy, dtype=float), dn, c(dt, dtype=float), N1, rad0, rad1)
+    (status, flags, alpha1, N1, T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn, kn, opn,
+     energy) = out
+    if status:
+        _check_finite(dn, dt, status)
+    if flags.any():
+        for code in (1, 2):  # the reference raises for the rising-N reversals first
+            bad = np.nonzero(flags == code)[0]
+            if bad.size:
+                raise ReversalMemoryError(bad, _max_rev(params))
+        raise RuntimeError("Mindlin-Deresiewicz branch integration did not terminate")  # pragma: no cover
+    new_state = ContactState(alpha1, N1, T1, e1, s1, k1, P1, slide, energy)
+    resp = ContactResponse(N1, T1, kn, ks, ks_perp, ktn, e1, slide, opn, diss)
     return new_state, resp
 
 

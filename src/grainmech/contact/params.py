@@ -141,6 +141,14 @@ class Hertz:
                                _positive("shear_modulus2", self.shear_modulus2))
         if self.poisson2 is not None:
             object.__setattr__(self, "poisson2", _poisson("poisson2", self.poisson2))
+        try:
+            derived = (self.effective_modulus, self.effective_shear_modulus, self.effective_radius)
+        except (ZeroDivisionError, OverflowError):
+            derived = (math.inf,)
+        if not all(math.isfinite(v) and v > 0 for v in derived):
+            raise ConfigError("shear_modulus", self.shear_modulus,
+                              "with the radii gives no finite contact modulus/radius (overflow): "
+                              "use a consistent unit system")
 
     # -- derived constants -------------------------------------------------------
     @property

@@ -1,0 +1,786 @@
+r"""Compiled (numba) per-contact kernel of :func:`grainmech.contact.update`.
+
+The NumPy implementation in :mod:`grainmech.contact.law` is the reference; this module
+evaluates *the same* algorithm contact by contact in a compiled scalar loop (optionally
+parallel over contacts), which removes the per-call overhead of the many small NumPy
+operations of the vectorised path. It is selected with ``update(..., backend="auto" |
+"numba")`` and covers
+
+* :class:`~grainmech.contact.MindlinDeresiewicz` (Hertz normal law, seed Eq. 3.6–3.7,
+  Mindlin–Deresiewicz tangential law with the Thornton–Randall rules, seed Eq. 3.9–3.16),
+* :class:`~grainmech.contact.HertzMindlin` and :class:`~grainmech.contact.LinearSpring`
+  (no-slip spring, seed Eq. 3.11 with theta = 1, Eq. 3.12, with a Coulomb cap),
+* frictionless :class:`~grainmech.contact.Hertz`.
+
+Rods (:class:`~grainmech.contact.Cylinder`, whose normal law needs a Newton inversion of
+the integral of seed Eq. 3.8) stay on the NumPy path.
+
+Nothing here is a new model: every branch mirrors a line of the reference, with the
+same floating-point evaluation order where that is possible, so the two paths agree to
+rounding (the power and cube-root functions of NumPy and of the compiled code may
+differ in the last bits; ``tests/test_contact_kernel.py`` checks agreement to 1e-12).
+This module imports numba at import time; :mod:`grainmech.contact.law` imports it
+lazily and falls back to NumPy when numba is missing.
+
+Agreement with the reference, precisely:
+
+* The closed forms of the normal law (``N``, seed Eq. 3.6; the contact radius, Eq. 3.2,
+  hence ``kn`` and ``kt0``) are evaluated by the caller with the reference's vectorised
+  NumPy functions and are identical. The elastic–Coulomb laws then agree bit for bit.
+* NumPy evaluates ``**`` with its own SIMD routine, which differs from the C library's
+  in the last bit for a few per cent of the arguments, so the Mindlin–Deresiewicz
+  forces, tangents and dissipation agree to rounding, not bit for bit (measured: 1e-15
+  of ``mu N`` on forces, 1e-15 of ``kt0`` on stiffnesses).
+* An event that falls *exactly* on the end of a step (a branch that ends, to rounding,
+  on the reversal point it started from) may be taken by one path and not by the other.
+  The two states are then equivalent (a loop of zero width closed or still remembered;
+  the next reversal there erases it) but their ``depth`` differs by two.
+* The reference recombines ``T = tau e + T_perp`` for all contacts of a call when any
+  contact realigns its memory axis; the kernel always does, so its result for a contact
+  never depends on the other contacts of the call (one ulp of ``T`` at most).
+* Sphere-only shortcuts in the dissipation integrals (``z^(3/2) = z sqrt(z)`` and, in
+  the Gauss–Legendre sum over a fall of ``N``, ``(N_a/N)^(2/3) = (t_a/t)^2``,
+  ``kt0(N) = 8 G* (3 R*/(4 E*))^(1/3) N^(1/3)``) are exact identities evaluated with
+  different rounding.
+
+Structure: ``_rows`` advances a chunk of contacts; the kernel runs the chunks in a loop
+(serial) or a ``prange`` (parallel, from :data:`PARALLEL_THRESHOLD` contacts). The
+helpers taking arrays are inlined at numba-IR level, which removes per-call reference
+counting from the per-contact loop.
+
+Notation (as in :mod:`grainmech.contact.law`): ``Q = mu N - s tau`` is the distance of
+the current state from the friction limit it moves towards; ``P_j = mu N + s_j tau_j``
+the invariant of remembered reversal ``j``; ``y`` the argument of theta (seed Eq. 3.13
+on the virgin branch, Eq. 3.14–3.15 on a Masing branch), ``theta = y**p``; ``z =
+y**(1-p)``, linear in the displacement at constant ``N``; ``c = 1`` on the virgin branch
+and ``2`` on a Masing branch.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import get_num_threads, njit, prange
+
+__all__ = ["update_kernel", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS"]
+
+#: law codes (``law_kind`` of :mod:`grainmech.contact.law`)
+LAW_MD = 0
+LAW_JENKINS = 1
+LAW_FRICTIONLESS = 2
+
+#: status codes returned by the kernel
+OK = 0
+BAD_DNORMAL = 1        # d_normal not finite
+BAD_DTANGENTIAL = 2    # d_tangential not finite
+#: per-contact flags
+FLAG_MEMORY_RISING = 1   # reversal memory full in the rising-N reversal (checked first)
+FLAG_MEMORY_FLAT = 2     # reversal memory full in the constant/falling-N reversal
+FLAG_NO_TERMINATION = 3  # branch integration did not terminate (never observed)
+
+_EPS = 1e-12
+_CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
+_JIT = dict(cache=True, error_model="numpy", fastmath=False)
+
+
+# ---------------------------------------------------------------------------------------
+# Closed forms of the normal law and of the no-slip tangential stiffness
+# ---------------------------------------------------------------------------------------
+@njit(**_JIT)
+def _clip01(x):
+    return min(max(x, 0.0), 1.0)
+
+
+@njit(**_JIT)
+def _contact_radius(N, E, R):
+    """Hertz contact radius ``a = (3 N R* / (4 E*))^(1/3)`` (seed Eq. 3.2)."""
+    Np = N if N > 0.0 else 0.0
+    return np.cbrt(0.75 * Np * R / E)
+
+
+@njit(**_JIT)
+def _kn(N, linear, E, R, kn_lin):
+    """Tangent normal stiffness: Hertz ``2 E* a`` (seed Eq. 3.7) or ``kn``; 0 when open."""
+    if linear:
+        return kn_lin if N > 0.0 else 0.0
+    return 2.0 * E * _contact_radius(N, E, R)
+
+
+@njit(**_JIT)
+def _kt0(N, linear, E, R, Gs, ks_lin):
+    """No-slip tangential stiffness ``8 G* a`` (seed Eq. 3.11 with theta = 1, Eq. 3.12) or ``ks``."""
+    if linear:
+        return ks_lin if N > 0.0 else 0.0
+    a = _contact_radius(N, E, R)
+    a = a if a > 0.0 else 0.0
+    return 8.0 * Gs * a
+
+
+@njit(**_JIT)
+def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
+    """Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
+    ``kt1 = kt0(N1)`` if the approach does not change."""
+    if linear:
+        return ks_lin if (N0 > 0.0 or N1 > 0.0) else 0.0
+    da = a1 - a0
+    dN = N1 - N0
+    if abs(da) > 1e-14 * max(abs(a0), abs(a1)):
+        return dN / (r * da)
+    return kt1
+
+
+# ---------------------------------------------------------------------------------------
+# Energy functions of the Iwan representation (module notes of grainmech.contact.law)
+# ---------------------------------------------------------------------------------------
+@njit(inline="always", **_JIT)
+def _H(z, m, hcoef, sph):
+    """``H(z) = int_z^1 g`` with ``g(z) = 1 + (m-1) z^m - m z^(m-1)``, ``m = 1/(1-p)``;
+    series in ``1 - z`` near 1 (``H ~ (1-z)^3``).
+
+    ``sph`` (spheres, ``p = 1/3``, ``m = 3/2``): ``z^m = z sqrt(z)``, the same value to a
+    few ulp as the general power (the law's decisions never depend on ``H``).
+    """
+    z = _clip01(z)
+    eps = 1.0 - z
+    if eps < 0.05:
+        ser = 0.0
+        for j in range(hcoef.shape[0] - 1, 1, -1):
+            ser = ser * eps + hcoef[j]
+        return ser * eps ** 3
+    G1 = 1.0 + (m - 1.0) / (m + 1.0) - 1.0
+    if sph:
+        zm = z * math.sqrt(z)
+        zm1 = z * zm
+    else:
+        zm = z ** m
+        zm1 = z ** (m + 1.0)
+    return G1 - (z + (m - 1.0) * zm1 / (m + 1.0) - zm)
+
+
+@njit(inline="always", **_JIT)
+def _g_of_y(y, p, gcoef, theta=-1.0):
+    """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
+
+    ``theta``: ``y**p`` if already known (``< 0``: compute it).
+    """
+    y = _clip01(y)
+    eps = 1.0 - y
+    if eps < 0.02:
+        ser = 0.0
+        for j in range(gcoef.shape[0] - 1, 1, -1):
+            ser = ser * eps + gcoef[j]
+        v = ser * eps ** 2
+    else:
+        th = theta if theta >= 0.0 else y ** p
+        v = 1.0 - y - (th - y) / (1.0 - p)
+    return max(v, 0.0)
+
+
+# ---------------------------------------------------------------------------------------
+# Mindlin–Deresiewicz law along the memory axis (one contact)
+# ---------------------------------------------------------------------------------------
+@njit(inline="always", **_JIT)
+def _top(P, k, back):
+    """``P[k - back]`` if ``k - back >= 0`` else 0."""
+    col = k - back
+    if col >= 0:
+        return P[col]
+    return 0.0
+
+
+@njit(inline="always", **_JIT)
+def _reverse(Q, k, muN, P, maxrev):
+    """Start a branch in the opposite direction at force level ``muN``.
+
+    A virgin contact at ``T ~ 0`` only turns; a reversal at the point where the current
+    branch started erases it (pop); otherwise the reversal is remembered (push ``P = Q``).
+    On the new branch ``Q' = 2 mu N - Q``. Returns ``(Q, k, overflow)``.
+    """
+    Pt = _top(P, k, 1)
+    skeleton_zero = (k == 0) and (Q >= muN * (1.0 - _EPS))
+    fresh = (k > 0) and (Q + Pt >= 2.0 * muN * (1.0 - _EPS))
+    if not skeleton_zero and not fresh:
+        if k >= maxrev:
+            return Q, k, True
+        P[k] = Q
+        k += 1
+    elif fresh:
+        k -= 1
+    return 2.0 * muN - Q, k, False
+
+
+@njit(**_JIT)
+def _z_of_n(Nv, na, z0, c, q):
+    """Falling N at fixed displacement: ``z - 1/c = (z0 - 1/c) (na/N)**(1-p)`` (exact)."""
+    ratio = (na / max(Nv, 1e-300)) ** q
+    return _clip01(1.0 / c + (z0 - 1.0 / c) * ratio)
+
+
+@njit(inline="always", **_JIT)
+def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_lin,
+               gcoef, glx, glw, sph, k8):
+    """Exact integration of a fall of ``N`` (``N0 -> N1``) at fixed tangential displacement.
+
+    Thornton & Randall's rate law (seed Eq. 3.11 with ``d delta = 0``,
+    ``d tau = s mu dN (1 - theta)``, every ``P_j`` constant; seed Eq. 3.16 for the
+    shifted reversal points). Events located exactly within the fall: sliding on the
+    virgin branch, erasure of the last reversal, Masing closure (bisection). Dissipation
+    by 12-point Gauss–Legendre in ``N^(1/3)``. Returns ``(Q, s, k, dissipation, ok)``.
+    """
+    diss = 0.0
+    Na = N0
+    Nb = N1
+    q = 1.0 - p
+    it = 0
+    while Na > Nb:
+        it += 1
+        if it > 2 * max(maxrev, 1) + 6:
+            return Q, s, k, diss, False
+        c = 2.0 if k > 0 else 1.0
+        Pt = _top(P, k, 1)
+        if k >= 2:
+            Qt = _top(P, k, 2)
+        elif k == 1:
+            Qt = Pt
+        else:
+            Qt = 0.0
+        na = Na
+        nb = Nb
+        muNa = mu * na
+        y0 = _clip01((Q + Pt) / (c * muNa))
+        z0 = y0 ** q
+
+        sliding_now = (k == 0) and (z0 <= 0.0)
+        n_slide = 0.0
+        if k == 0 and z0 < 1.0:
+            n_slide = na * _clip01(1.0 - z0) ** m_exp
+        if sliding_now:
+            n_slide = na
+        n_erase = 0.0
+        if k > 0 and z0 > 0.5:
+            n_erase = na * _clip01(2.0 * z0 - 1.0) ** m_exp
+
+        # Masing target reached while N falls (Q decreases monotonically with N)
+        n_target = 0.0
+        if k > 0:
+            Qb = c * mu * nb * _z_of_n(nb, na, z0, c, q) ** m_exp - Pt
+            if Qb <= Qt:
+                lo = nb
+                hi = na
+                for _ in range(64):
+                    mid = 0.5 * (lo + hi)
+                    if c * mu * mid * _z_of_n(mid, na, z0, c, q) ** m_exp - Pt <= Qt:
+                        lo = mid
+                    else:
+                        hi = mid
+                n_target = hi
+        n_event = max(max(n_slide, n_erase), n_target)
+        if sliding_now:
+            n_event = 0.0
+        n_stop = max(n_event, nb)
+
+        # dissipation on [n_stop, na]: rate mu N g(y) w / kt0 with w = -mu dN
+        ta = np.cbrt(na)
+        tb = np.cbrt(n_stop)
+        half = 0.5 * (ta - tb)
+        mid = 0.5 * (ta + tb)
+        acc = 0.0
+        for g in range(glx.shape[0]):
+            tg = mid + half * glx[g]
+            Ng = tg * tg * tg
+            if sph and tg > 1e-100:
+                # (na/N)**(2/3) = (ta/tg)**2, y = z**(3/2), theta = y**(1/3) = z**(1/2),
+                # kt0 = 8 G* a ~ N**(1/3) = k8 tg
+                if sliding_now:
+                    yg = 0.0
+                    th = 0.0
+                else:
+                    rt = ta / tg
+                    zg = _clip01(1.0 / c + (z0 - 1.0 / c) * (rt * rt))
+                    th = math.sqrt(zg)
+                    yg = zg * th
+                gg = _g_of_y(yg, p, gcoef, th)
+                kt = k8 * tg
+            else:
+                if sliding_now:
+                    yg = 0.0
+                else:
+                    yg = _z_of_n(Ng, na, z0, c, q) ** m_exp
+                gg = _g_of_y(yg, p, gcoef)
+                kt = _kt0(Ng, linear, E, R, Gs, ks_lin)
+            f = mu * mu * Ng * gg / kt if kt > 0.0 else 0.0
+            acc += glw[g] * f * 3.0 * tg * tg
+        diss += half * acc
+
+        # state at n_stop
+        if sliding_now:
+            Qi = 0.0
+        else:
+            z_stop = _z_of_n(n_stop, na, z0, c, q)
+            Qi = c * mu * n_stop * z_stop ** m_exp - Pt
+        ev = (n_event >= nb) and (n_event > 0.0) and not sliding_now
+        is_slide = ev and (k == 0) and (n_slide >= n_event)
+        is_target = ev and (k > 0) and (n_target >= n_event) and (n_target > 0.0)
+        is_erase = ev and (k > 0) and (not is_target) and (n_erase >= n_event)
+        if is_slide:
+            Qi = 0.0
+        if is_target:
+            Qi = Qt
+            k = k - 2 if k >= 2 else 0
+        if is_erase:
+            # back on the previous branch: direction flips
+            Qi = Pt
+            s = -s
+            k = k - 1
+        Q = Qi
+        Na = n_stop
+    return Q, s, k, diss, True
+
+
+@njit(inline="always", **_JIT)
+def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p, m_exp, r,
+             maxrev, linear, E, R, Gs, ks_lin, hcoef, gcoef, glx, glw, sph, k8):
+    """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
+
+    Seed Eq. 3.11, ``d tau = 8 G* a theta d delta + s mu dN (1 - theta)``, with theta from
+    Eq. 3.13 (virgin) and Eq. 3.14–3.15 (Masing branches); no slip under rising ``N`` when
+    ``8 G* a |d delta| <= mu dN`` (Eq. 3.10, 3.16), else ``N`` first along the no-slip
+    boundary, then the displacement at constant ``N`` integrated exactly in ``z``.
+
+    Returns ``(tau, s, k, dissipation, elastic, flag)``; ``P`` (the contact's reversal
+    row) is updated in place.
+    """
+    diss = 0.0
+    muN0 = mu * N0
+    muN1 = mu * N1
+    Q = min(max(muN0 - s * tau, 0.0), 2.0 * muN0)
+    if d > 0.0:
+        dsign = 1
+    elif d < 0.0:
+        dsign = -1
+    else:
+        dsign = 0
+    u = 0.0
+
+    # rising N: elastic (Eq. 3.10) or N first on the no-slip boundary
+    dalpha = a1 - a0
+    bound = mu * r * max(dalpha, 0.0)
+    elastic = rising and (abs(d) <= bound)
+    if elastic:
+        tau_e = tau + kbar * d
+        Q = muN1 - s * tau_e
+    if rising and not elastic:
+        if dsign != s:
+            Q, k, full = _reverse(Q, k, muN0, P, maxrev)
+            if full:
+                return tau, s, k, diss, False, FLAG_MEMORY_RISING
+            s = dsign
+        u = abs(d) - bound
+
+    # falling N at fixed displacement (exact), then the displacement
+    if falling:
+        Q, s, k, dd, ok = _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs,
+                                     ks_lin, gcoef, glx, glw, sph, k8)
+        if not ok:
+            return tau, s, k, diss, False, FLAG_NO_TERMINATION
+        diss += dd
+    if (not rising) and (d != 0.0) and (N1 > 0.0):
+        if dsign != s:
+            Q, k, full = _reverse(Q, k, muN1, P, maxrev)
+            if full:
+                return tau, s, k, diss, False, FLAG_MEMORY_FLAT
+            s = dsign
+        u = abs(d)
+
+    # displacement u >= 0 along s at constant N1: exact branch integration with events
+    q = 1.0 - p
+    it = 0
+    while u > 0.0 and N1 > 0.0:
+        it += 1
+        if it > 2 * maxrev + 4:
+            return tau, s, k, diss, False, FLAG_NO_TERMINATION
+        c = 2.0 if k > 0 else 1.0
+        Pt = _top(P, k, 1)
+        if k >= 2:
+            Qt = _top(P, k, 2)
+        elif k == 1:
+            Qt = Pt
+        else:
+            Qt = 0.0
+        muN = muN1
+        y = _clip01((Q + Pt) / (c * muN))
+        yt = _clip01((Qt + Pt) / (c * muN))
+        z = y ** q
+        zt = yt ** q
+        lam = q * kt1 / (c * muN)
+        zend = z - lam * u
+        hit = not (zend > zt)
+        zstop = zt if hit else zend
+        pref = c * muN * muN / (q * kt1)
+        if hit:
+            used = (z - zt) / lam if math.isfinite(lam) else 0.0
+        else:
+            used = u
+        diss += pref * max(_H(zstop, m_exp, hcoef, sph) - _H(z, m_exp, hcoef, sph), 0.0)
+        rem = max(u - used, 0.0)
+        if hit:
+            Qnew = Qt
+        else:
+            Qnew = c * muN * zstop ** m_exp - Pt
+        if hit and k == 0:
+            # gross sliding on the virgin branch
+            diss += muN * rem
+            rem = 0.0
+            Qnew = 0.0
+        if hit:
+            # Masing's memory rule: the loop closes, pop two reversals (one on the first loop)
+            k = k - 2 if k >= 2 else 0
+        Q = Qnew
+        u = rem if hit else 0.0
+
+    tau_new = s * (muN1 - Q)
+    if (not rising) and (not falling) and d == 0.0:
+        tau_new = tau
+    if not N1 > 0.0:
+        tau_new = 0.0
+    tau_new = min(max(tau_new, -muN1), muN1)
+    return tau_new, s, k, diss, elastic and (N1 > 0.0), 0
+
+
+# ---------------------------------------------------------------------------------------
+# One contact: 3D treatment, Coulomb cap, tangents
+# ---------------------------------------------------------------------------------------
+@njit(inline="always", **_JIT)
+def _dot_rows(A, i, B, j):
+    out = A[i, 0] * B[j, 0]
+    for c in range(1, A.shape[1]):
+        out = out + A[i, c] * B[j, c]
+    return out
+
+
+@njit(**_JIT)
+def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
+         hcoef, gcoef, glx, glw, sph, k8,
+         alpha0, N0s, T0s, e0s, dir0, depth0, P0, diss0, dn, dt, N1s, rad0, rad1,
+         alpha1o, N1o, T1, e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, kn_o, open_o,
+         tp, dp, flags):
+    """Advance contacts ``lo <= i < hi`` (writes their rows of every output array; ``tp``, ``dp`` are
+    scratch rows for the perpendicular force and displacement)."""
+    dim = T0s.shape[1]
+    for i in range(lo, hi):
+        a0 = alpha0[i]
+        a1 = a0 + dn[i]
+        N1 = N1s[i]             # seed Eq. 3.6 (or kn alpha), evaluated by the caller
+        closed0 = a0 > 0.0
+        closing = (a1 > 0.0) and not closed0
+        # a step that closes an open contact: only the part of the path in contact counts
+        frac = a1 / (a1 - a0) if closing else 1.0
+        a0e = 0.0 if closing else a0
+        N0 = N0s[i] if closed0 else 0.0
+        virgin = not closed0
+        for c in range(dim):
+            dp[i, c] = dt[i, c] * frac                    # dt_eff (kept in dp until split)
+            T1[i, c] = 0.0 if virgin else T0s[i, c]       # T0 (an open contact has no force)
+        for c in range(P0.shape[1]):
+            P1[i, c] = P0[i, c]
+
+        alpha1o[i] = a1
+        N1o[i] = N1
+        open_o[i] = not (a1 > 0.0)
+        if linear:
+            kn = _kn(N1, linear, E, R, kn_lin)
+            kt01 = _kt0(N1, linear, E, R, Gs, ks_lin)
+        else:
+            # contact radius (seed Eq. 3.2, by the caller) for kn = 2 E* a (Eq. 3.7) and
+            # kt0 = 8 G* a (Eq. 3.11 with theta = 1)
+            a_1 = rad1[i]
+            kn = 2.0 * E * a_1
+            kt01 = 8.0 * Gs * (a_1 if a_1 > 0.0 else 0.0)
+        kn_o[i] = kn
+        closed1 = N1 > 0.0
+        if linear:
+            kt00 = _kt0(N0, linear, E, R, Gs, ks_lin)
+        else:
+            kt00 = 8.0 * Gs * (rad0[i] if rad0[i] > 0.0 else 0.0)
+        rising = N1 > N0
+        kbar = _secant_kt(N0, N1, a0e, a1, linear, r, ks_lin, kt01) if rising else kt01
+        if (kt00 > 0.0) and (kt01 < kt00):
+            rho = kt01 / kt00
+        else:
+            rho = 1.0
+
+        if law == LAW_FRICTIONLESS:
+            for c in range(dim):
+                T1[i, c] = 0.0
+                e1[i, c] = 0.0
+            s1o[i] = 1
+            k1o[i] = 0
+            slide_o[i] = False
+            diss_o[i] = 0.0
+            ks_o[i] = 0.0
+            ksp_o[i] = 0.0
+            ktn_o[i] = 0.0
+            continue
+
+        if law == LAW_JENKINS:
+            # elastic spring (seed Eq. 3.11 with theta = 1), rescaled when the area shrinks,
+            # Coulomb cap by radial return
+            Tn0 = math.sqrt(_dot_rows(T1, i, T1, i))
+            diss = (1.0 - rho) * Tn0 ** 2 / (2.0 * kt00) if kt00 > 0.0 else 0.0
+            for c in range(dim):
+                T1[i, c] = rho * T1[i, c] + kbar * dp[i, c]
+            tn = math.sqrt(_dot_rows(T1, i, T1, i))
+            cap = mu * N1 if mu_finite else math.inf
+            if not closed1:
+                cap = 0.0
+            over = tn > cap
+            scale = 1.0
+            if over:
+                scale = cap / tn if tn > 0.0 else cap
+                slip = (tn - cap) / kt01 if kt01 > 0.0 else 0.0
+                diss = diss + cap * slip
+            for c in range(dim):
+                T1[i, c] = T1[i, c] * scale if closed1 else 0.0
+            t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+            for c in range(dim):
+                e1[i, c] = T1[i, c] / t1n if t1n > 0.0 else 0.0
+            slide = closed1 and (cap > 0.0) and (t1n >= cap * (1.0 - 1e-12))
+            if mu_finite:
+                slide = slide or (closed1 and mu == 0.0)
+            s1o[i] = 1
+            k1o[i] = 0
+            slide_o[i] = slide
+            diss_o[i] = diss
+            ks_o[i] = 0.0 if (slide or not closed1) else kt01
+            ksp_o[i] = kt01 if closed1 else 0.0
+            ktn_o[i] = ((mu if mu_finite else 0.0) if slide else 0.0) * kn
+            continue
+
+        # ---- hysteretic law (seed Eq. 3.9-3.16): memory axis, split along/across it
+        s = 1 if virgin else int(dir0[i])
+        k = 0 if virgin else int(depth0[i])
+        P = P1[i]
+        diss = 0.0
+        tn0 = math.sqrt(_dot_rows(T1, i, T1, i))
+        dtn = math.sqrt(_dot_rows(dp, i, dp, i))
+        fresh = (k == 0) and (tn0 == 0.0) and (dtn > 0.0)
+        for c in range(dim):
+            if fresh:
+                e1[i, c] = dp[i, c] / dtn
+            elif virgin:
+                e1[i, c] = 0.0
+            else:
+                e1[i, c] = e0s[i, c]
+        if fresh:
+            s = 1
+        tau = _dot_rows(T1, i, e1, i)
+        d_par = _dot_rows(dp, i, e1, i)
+        for c in range(dim):
+            tp[i, c] = T1[i, c] - tau * e1[i, c]
+            dp[i, c] = dp[i, c] - d_par * e1[i, c]
+        falling = N1 < N0
+
+        # across the axis: elastic (no-slip) with rescaling when the area shrinks
+        tp2 = _dot_rows(tp, i, tp, i)
+        if kt00 > 0.0:
+            diss += (1.0 - rho) * tp2 / (2.0 * kt00)
+        for c in range(dim):
+            tp[i, c] = rho * tp[i, c] + kbar * dp[i, c]
+
+        # along the axis: the 1D Mindlin-Deresiewicz / Thornton-Randall law
+        elastic = False
+        if mu > 0.0:
+            tau, s, k, d_diss, elastic, flag = _md_axis(
+                tau, s, k, P, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, mu, p, m_exp,
+                r, maxrev, linear, E, R, Gs, ks_lin, hcoef, gcoef, glx, glw, sph, k8)
+            if flag != 0:
+                flags[i] = flag
+                continue
+            diss += d_diss
+        else:
+            tau = 0.0
+            k = 0
+
+        muN1 = mu * N1
+        # recombine; Coulomb cap on the total force by radial return (wipes the memory)
+        for c in range(dim):
+            T1[i, c] = tau * e1[i, c] + tp[i, c]
+        t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+        if closed1 and (t1n > muN1 * (1.0 + 1e-12)):
+            scale = muN1 / t1n if t1n > 0.0 else muN1
+            slip = (t1n - muN1) / kt01 if kt01 > 0.0 else 0.0
+            diss += muN1 * slip
+            for c in range(dim):
+                T1[i, c] = T1[i, c] * scale
+            t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+            for c in range(dim):
+                e1[i, c] = T1[i, c] / t1n if t1n > 0.0 else T1[i, c]
+                tp[i, c] = 0.0
+            tau = t1n
+            s = 1
+            k = 0
+
+        # a force below the resolution of the Q formulation, without memory: virgin contact
+        if closed1 and (k == 0) and (t1n <= 1e-14 * muN1):
+            for c in range(dim):
+                T1[i, c] = 0.0
+                tp[i, c] = 0.0
+                e1[i, c] = 0.0
+            tau = 0.0
+            s = 1
+
+        # no reversal remembered: the memory axis follows the force
+        if closed1 and (k == 0) and (_dot_rows(tp, i, tp, i) > 0.0):
+            t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+            sg = -1.0 if _dot_rows(T1, i, e1, i) < 0.0 else 1.0
+            for c in range(dim):
+                e1[i, c] = sg * T1[i, c] / (t1n if t1n > 0.0 else 1.0)
+                tp[i, c] = 0.0
+            tau = sg * t1n
+        # (the reference recombines T = tau e + T_perp here)
+        for c in range(dim):
+            T1[i, c] = tau * e1[i, c] + tp[i, c]
+        # the virgin branch is symmetric: s points away from zero force
+        if (k == 0) and (s * tau < 0.0):
+            s = -s
+
+        # opened contacts lose force and memory
+        if not closed1:
+            for c in range(dim):
+                T1[i, c] = 0.0
+                e1[i, c] = 0.0
+            s = 1
+            k = 0
+
+        # tangents at the end of the step: theta = 1 after a no-slip step of rising N
+        # (Eq. 3.10), else Eq. 3.11 with theta of the current branch (Eq. 3.13-3.15)
+        Ptop = _top(P, k, 1)
+        c2 = 2.0 if k > 0 else 1.0
+        Q = muN1 - s * tau
+        y = (Q + Ptop) / (c2 * muN1) if muN1 > 0.0 else 0.0
+        y = _clip01(y)
+        slide = closed1 and (((k == 0) and (Q <= _EPS * muN1)) or (mu == 0.0))
+        if slide:
+            theta = 0.0
+        elif elastic:
+            theta = 1.0
+        else:
+            theta = y ** p
+        s1o[i] = s
+        k1o[i] = k
+        slide_o[i] = slide
+        diss_o[i] = diss
+        ks_o[i] = kt01 * theta if closed1 else 0.0
+        ksp_o[i] = kt01 if closed1 else 0.0
+        ktn_o[i] = (s * mu * (1.0 - theta) if closed1 else 0.0) * kn
+
+
+@njit(**_JIT)
+def _finite(a):
+    """All entries finite."""
+    for v in a.ravel():
+        if not math.isfinite(v):
+            return False
+    return True
+
+
+def _make_kernel(parallel):
+    """The kernel, serial or parallel (``prange`` over chunks of ``_CHUNK`` contacts).
+
+    Each contact's result depends only on its own inputs, so both give identical bits.
+    """
+    rng = prange if parallel else range
+
+    def kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
+               hcoef, gcoef, glx, glw, sph, k8,
+               alpha0, N0s, T0s, e0s, dir0, depth0, P0, diss0, dn, dt, N1s, rad0, rad1):
+        n, dim = T0s.shape
+        m = P0.shape[1]
+        alpha1 = np.empty(n)
+        N1 = np.empty(n)
+        T1 = np.empty((n, dim))
+        e1 = np.empty((n, dim))
+        s1 = np.empty(n, dtype=np.int8)
+        k1 = np.empty(n, dtype=np.int32)
+        P1 = np.empty((n, m))
+        slide = np.empty(n, dtype=np.bool_)
+        diss = np.empty(n)
+        ks = np.empty(n)
+        ksp = np.empty(n)
+        ktn = np.empty(n)
+        kn = np.empty(n)
+        opn = np.empty(n, dtype=np.bool_)
+        energy = np.empty(n)
+        flags = np.zeros(n, dtype=np.int8)
+        if not _finite(dn):
+            status = BAD_DNORMAL
+        elif not _finite(dt):
+            status = BAD_DTANGENTIAL
+        else:
+            status = OK
+        if status == OK:
+            tp = np.empty((n, dim))
+            dp = np.empty((n, dim))
+            nch = (n + _CHUNK - 1) // _CHUNK
+            for ch in rng(nch):
+                lo = ch * _CHUNK
+                hi = min(n, lo + _CHUNK)
+                _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
+                     maxrev, hcoef, gcoef, glx, glw, sph, k8,
+                     alpha0, N0s, T0s, e0s, dir0, depth0, P0, diss0, dn, dt, N1s, rad0, rad1,
+                     alpha1, N1, T1, e1, s1, k1, P1, slide, diss, ks, ksp, ktn, kn, opn,
+                     tp, dp, flags)
+                for i in range(lo, hi):
+                    energy[i] = diss0[i] + diss[i]
+        return (status, flags, alpha1, N1, T1, e1, s1, k1, P1, slide, diss, ks, ksp, ktn, kn,
+                opn, energy)
+
+    kernel.__doc__ = """Advance ``n`` contacts by one increment (see :func:`update_kernel`)."""
+    return njit(parallel=parallel, **_JIT)(kernel)
+
+
+_kernel_serial = _make_kernel(False)
+_kernel_parallel = _make_kernel(True)
+
+#: number of contacts from which the parallel kernel is used (when numba has more than
+#: one thread; ``numba.set_num_threads`` / ``NUMBA_NUM_THREADS`` control it). Set it to a
+#: huge value to always run serially, e.g. on a machine shared with other jobs, where
+#: threads waiting for a busy core make the parallel kernel slower than the serial one.
+PARALLEL_THRESHOLD = 2048
+
+
+def update_kernel(consts, alpha0, N0, T0, e0, direction, depth, reversals, energy0, dn, dt,
+                  N1, rad0, rad1):
+    """Run the compiled update on contiguous arrays (the caller validates shapes).
+
+    Parameters
+    ----------
+    consts : tuple
+        ``(law, linear, E, R, G*, kn, ks, mu, mu_finite, r, p, m, max_reversals,
+        h_series, g_series, gl_nodes, gl_weights, sph, k8)`` built by
+        :func:`grainmech.contact.law._kernel_constants`.
+    alpha0, N0, T0, e0, direction, depth, reversals, energy0 : ndarray
+        The fields of the :class:`~grainmech.contact.ContactState` (``T0``, ``e0`` already
+        re-projected if the normals turned).
+    dn, dt : ndarray
+        Increments ``d alpha`` (n,) and ``d delta`` (n, dim).
+    N1, rad0, rad1 : ndarray, shape (n,)
+        Normal force at the end of the step (seed Eq. 3.6, or ``kn alpha``) and, for
+        Hertz contacts, the contact radii (seed Eq. 3.2) at the start (normal force of
+        the contacts closed at the start, else 0) and at the end of the step. They are
+        evaluated by the caller with the vectorised closed forms of
+        :mod:`grainmech.contact.geometry`, i.e. exactly as the reference does.
+
+    Returns
+    -------
+    tuple
+        ``(status, flags, alpha1, N1, T1, e1, s1, k1, P1, sliding, dissipation, ks,
+        ks_perp, ktn, kn, open, dissipated_energy)``; ``status`` 1/2 for non-finite
+        ``d_normal``/``d_tangential``; ``flags`` per contact: 1 reversal memory full on a
+        rising-N reversal, 2 on a constant/falling-N one, 3 no termination.
+    """
+    parallel = alpha0.shape[0] >= PARALLEL_THRESHOLD and get_num_threads() > 1
+    fn = _kernel_parallel if parallel else _kernel_serial
+    return fn(*consts, alpha0, N0, T0, e0, direction, depth, reversals, energy0, dn, dt, N1, rad0,
+              rad1)
