@@ -227,13 +227,29 @@ def _moments_numpy(n, l_, w, kn, ks):
     return A, M
 
 
+def _b_operator(d: int) -> np.ndarray:
+    """Linear map M (d, d) -> Mandel matrix of B(M), as an array (m, m, d, d)."""
+    eye = np.eye(d)
+    ops = []
+    for a in range(d):
+        for b in range(d):
+            E = np.zeros((d, d))
+            E[a, b] = 1.0
+            B = 0.25 * (np.einsum("ik,jl->ijkl", eye, E) + np.einsum("jk,il->ijkl", eye, E)
+                        + np.einsum("il,jk->ijkl", eye, E) + np.einsum("jl,ik->ijkl", eye, E))
+            ops.append(tensor4_to_matrix(B, mandel=True))
+    return np.moveaxis(np.array(ops).reshape(d, d, *ops[0].shape), (0, 1), (2, 3))
+
+
+_B_OP = {2: _b_operator(2), 3: _b_operator(3)}
+#: Mandel -> Voigt scaling of each entry (1 / (s_i s_j), s = 1 or sqrt 2)
+_M2V = {d: 1.0 / np.outer(s_, s_) for d, s_ in
+        ((3, np.array([1, 1, 1, np.sqrt(2), np.sqrt(2), np.sqrt(2)])), (2, np.array([1, 1, np.sqrt(2)])))}
+
+
 def _b_mandel(M: np.ndarray) -> np.ndarray:
     """Mandel matrix of B(M)_ijkl = (d_ik M_jl + d_jk M_il + d_il M_jk + d_jl M_ik)/4."""
-    d = M.shape[0]
-    eye = np.eye(d)
-    B = 0.25 * (np.einsum("ik,jl->ijkl", eye, M) + np.einsum("jk,il->ijkl", eye, M)
-                + np.einsum("il,jk->ijkl", eye, M) + np.einsum("jl,ik->ijkl", eye, M))
-    return tensor4_to_matrix(B, mandel=True)
+    return np.einsum("abkl,kl->ab", _B_OP[M.shape[0]], M)
 
 
 try:  # optional compiled kernel (extra "fast")
@@ -392,14 +408,20 @@ def stiffness(contacts: ContactSet, *, mandel: bool = False, backend: str = "aut
     if backend == "numba" and not _HAVE_NUMBA:
         raise GrainmechError("backend 'numba' requested but numba is not installed "
                              "(pip install 'grainmech[fast]')")
-    args = (contacts.normals, contacts.branch, contacts.weights, contacts.kn, contacts.ks)
-    use_numba = backend == "numba" or (backend == "auto" and _HAVE_NUMBA and len(contacts) >= 20000)
-    A, M = _moments_compiled(*args) if use_numba else _moments_numpy(*args)
+    return _stiffness_arrays(contacts.normals, contacts.branch, contacts.weights, contacts.kn, contacts.ks,
+                             mandel=mandel, backend=backend)
+
+
+def _stiffness_arrays(n: np.ndarray, l_: np.ndarray, w: np.ndarray, kn: np.ndarray, ks: np.ndarray, *,
+                      mandel: bool = False, backend: str = "auto") -> np.ndarray:
+    """:func:`stiffness` on validated contiguous float arrays (no checks; for inner loops)."""
+    use_numba = backend == "numba" or (backend == "auto" and _HAVE_NUMBA and n.shape[0] >= 2000)
+    A, M = _moments_compiled(n, l_, w, kn, ks) if use_numba else _moments_numpy(n, l_, w, kn, ks)
     Cm = A + _b_mandel(M)
     Cm = 0.5 * (Cm + Cm.T)
     if mandel:
         return Cm
-    return tensor4_to_matrix(matrix_to_tensor4(Cm, mandel=True))
+    return Cm * _M2V[n.shape[1]]
 
 
 def stiffness_tensor(contacts: ContactSet, backend: str = "auto") -> np.ndarray:
@@ -431,6 +453,15 @@ class StressResult:
         return float(np.trace(self.stress) / self.stress.shape[0])
 
 
+def _love_weber_full(f: np.ndarray, l_: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``sum_c w_c f_c (x) l_c`` (full, unsymmetrised) on validated arrays."""
+    full = np.zeros((f.shape[1], f.shape[1]))
+    for start in range(0, f.shape[0], _CHUNK):
+        sl = slice(start, start + _CHUNK)
+        full += (f[sl] * w[sl, None]).T @ l_[sl]
+    return full
+
+
 def love_weber_stress(forces: np.ndarray, branch: np.ndarray, weights: np.ndarray | float) -> StressResult:
     """Love-Weber stress ``sigma_ij = sum_c w_c f_i l_j`` (seed Eq. 2.6, 2.7, 2.27).
 
@@ -456,10 +487,7 @@ def love_weber_stress(forces: np.ndarray, branch: np.ndarray, weights: np.ndarra
     w = np.broadcast_to(_as_array("weights", weights, "(n,)"), (f.shape[0],))
     _check_finite("forces", f)
     _check_finite("branch", l_)
-    full = np.zeros((f.shape[1], f.shape[1]))
-    for start in range(0, f.shape[0], _CHUNK):
-        sl = slice(start, start + _CHUNK)
-        full += (f[sl] * w[sl, None]).T @ l_[sl]
+    full = _love_weber_full(f, l_, w)
     sym = 0.5 * (full + full.T)
     skew = 0.5 * (full - full.T)
     ns = np.linalg.norm(sym)

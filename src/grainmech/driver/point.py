@@ -15,12 +15,14 @@ first-order finite-deformation correction of seed Eq. 2.36-2.38 (corrected form 
 
 from __future__ import annotations
 
+from functools import cached_property
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from grainmech.assembly import ContactSet, love_weber_stress, static_contact_forces, stiffness
+from grainmech.assembly import (ContactSet, _love_weber_full, _stiffness_arrays, love_weber_stress,
+                                static_contact_forces, stiffness)
 from grainmech.conventions import stress_to_vector, vector_to_stress, vector_to_strain
 from grainmech.driver._laws import LawResponse, coulomb_limit, make_law
 from grainmech.errors import ConfigError, GrainmechError
@@ -87,7 +89,7 @@ class MaterialPoint:
     correction: np.ndarray = field(default_factory=lambda: np.zeros(6))
 
     # --------------------------------------------------------------- derived
-    @property
+    @cached_property
     def tangent(self) -> np.ndarray:
         """Consistent tangent (6, 6) Voigt, from the laws' ``kn``, ``ks`` (seed Eq. 2.26)."""
         return tangent(self.contacts, self.response)
@@ -188,12 +190,20 @@ class MaterialPoint:
 
 def _stress(cs: ContactSet, resp: LawResponse) -> np.ndarray:
     f = resp.normal_force[:, None] * cs.normals + resp.tangential_force
-    return stress_to_vector(love_weber_stress(f, cs.branch, cs.weights).stress)
+    if not np.all(np.isfinite(f)):
+        return stress_to_vector(love_weber_stress(f, cs.branch, cs.weights).stress)  # raises, naming the contact
+    full = _love_weber_full(f, cs.branch, cs.weights)
+    return stress_to_vector(0.5 * (full + full.T))
 
 
 def tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
     """Voigt tangent (6, 6) from per-contact tangent stiffnesses (seed Eq. 2.26)."""
-    return stiffness(cs.with_stiffness(np.maximum(resp.kn, 0.0), np.maximum(resp.ks, 0.0)))
+    kn = np.maximum(resp.kn, 0.0)
+    ks = np.maximum(resp.ks, 0.0)
+    if not (np.all(np.isfinite(kn)) and np.all(np.isfinite(ks))):
+        return stiffness(cs.with_stiffness(kn, ks))  # raises, naming the contact
+    return _stiffness_arrays(cs.normals, cs.branch, cs.weights, np.ascontiguousarray(kn, dtype=float),
+                             np.ascontiguousarray(ks, dtype=float))
 
 
 def _fractions(cs: ContactSet, resp: LawResponse) -> tuple[float, float]:
