@@ -281,6 +281,16 @@ def isotropic_hertz_mindlin(shear_modulus: float, poisson: float, pressure: floa
     return HertzMindlinIsotropic(E, nu_p, mu, K, lam, force, a, kn, ks, scale, convention)
 
 
+def _random_pack_inputs(shear_modulus: float, poisson: float, pressure: float, porosity: float,
+                        coordination: float) -> tuple[float, float, float, float, float]:
+    """Validated (mu, nu, P, phi, n) of the effective-medium models."""
+    phi = float(porosity)
+    if not 0.0 < phi < 1.0:
+        raise GrainmechError(f"porosity must lie in (0, 1), got {porosity!r}")
+    return (_positive("shear_modulus", shear_modulus), _poisson(poisson), _positive("pressure", pressure),
+            phi, _positive("coordination", coordination))
+
+
 def walton(shear_modulus: float, poisson: float, pressure: float, *, porosity: float,
            coordination: float, rough: bool = True) -> tuple[float, float]:
     """Walton (1987) effective bulk and shear moduli of a random pack of identical spheres.
@@ -310,13 +320,7 @@ def walton(shear_modulus: float, poisson: float, pressure: float, *, porosity: f
     -------
     (K, G) : (float, float)
     """
-    mu = _positive("shear_modulus", shear_modulus)
-    nu = _poisson(poisson)
-    P = _positive("pressure", pressure)
-    phi = float(porosity)
-    if not 0.0 < phi < 1.0:
-        raise GrainmechError(f"porosity must lie in (0, 1), got {porosity!r}")
-    n = _positive("coordination", coordination)
+    mu, nu, P, phi, n = _random_pack_inputs(shear_modulus, poisson, pressure, porosity, coordination)
     lam = 2.0 * mu * nu / (1.0 - 2.0 * nu)
     A = (1.0 / mu - 1.0 / (mu + lam)) / (4.0 * np.pi)
     B = (1.0 / mu + 1.0 / (mu + lam)) / (4.0 * np.pi)
@@ -340,13 +344,7 @@ def digby(shear_modulus: float, poisson: float, pressure: float, *, porosity: fl
     the result does not depend on R. With ``bonded_fraction = 1`` it equals Walton's
     rough result; with 0 the smooth one.
     """
-    mu = _positive("shear_modulus", shear_modulus)
-    nu = _poisson(poisson)
-    P = _positive("pressure", pressure)
-    phi = float(porosity)
-    if not 0.0 < phi < 1.0:
-        raise GrainmechError(f"porosity must lie in (0, 1), got {porosity!r}")
-    n = _positive("coordination", coordination)
+    mu, nu, P, phi, n = _random_pack_inputs(shear_modulus, poisson, pressure, porosity, coordination)
     f = float(bonded_fraction)
     if not 0.0 <= f <= 1.0:
         raise GrainmechError(f"bonded_fraction must lie in [0, 1], got {bonded_fraction!r}")
