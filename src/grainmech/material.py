@@ -119,32 +119,15 @@ class ConstantStiffness:
         return np.full(shape, float(self.kn)), np.full(shape, float(self.ks))
 
 
-@dataclass(frozen=True)
-class HertzMindlinStiffness:
-    """Hertz normal and Mindlin no-slip tangential stiffness from the normal force.
+def __getattr__(name: str) -> Any:
+    # ``HertzMindlinStiffness`` is :class:`grainmech.contact.HertzMindlin` (whose
+    # ``stiffness(N)`` gives Hertz kn, seed Eq. 3.7, and Mindlin's no-slip ks, Eq. 3.11-3.12),
+    # resolved lazily so that importing this module does not import the contact laws.
+    if name == "HertzMindlinStiffness":
+        from grainmech.contact import HertzMindlin
 
-    ``kn = 2 E* a`` (seed Eq. 3.7) and ``ks = 8 G* a`` (Eq. 3.11-3.12 with theta = 1),
-    ``a = (3 N R* / (4 E*))^(1/3)`` (Eq. 3.2), via :mod:`grainmech.contact.geometry`.
-
-    Parameters
-    ----------
-    params : grainmech.contact.Hertz (or a subclass)
-        Grain materials and radii.
-    """
-
-    params: Any
-
-    @classmethod
-    def for_equal_spheres(cls, shear_modulus: float, poisson: float, radius: float) -> "HertzMindlinStiffness":
-        from grainmech.contact import Hertz
-
-        return cls(Hertz(shear_modulus, poisson, radius))
-
-    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        from grainmech.contact import hertz_normal_stiffness, mindlin_tangential_stiffness_from_force
-
-        N = np.asarray(normal_force, dtype=float)
-        return hertz_normal_stiffness(N, self.params), mindlin_tangential_stiffness_from_force(N, self.params)
+        return HertzMindlin
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def normal_forces_for_stress(contacts: ContactSet, sigma: np.ndarray) -> np.ndarray:
@@ -224,8 +207,8 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
     ----------
     packing : Packing
     contact : ContactStiffness
-        :class:`ConstantStiffness` or a Hertz-Mindlin adapter
-        (:class:`grainmech.contact.HertzMindlin` provides ``stiffness(N)``).
+        :class:`ConstantStiffness` or contact parameters with ``stiffness(N)``
+        (e.g. :class:`grainmech.contact.HertzMindlin`).
     stress : float or array (d, d), optional
         Isotropic pressure P (float) or a stress tensor, compression positive. Required
         when the contact stiffness depends on the force.

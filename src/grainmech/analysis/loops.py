@@ -13,7 +13,7 @@ For one closed stress-strain loop ``(gamma, tau)`` (engineering shear strain):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -96,6 +96,8 @@ class ModulusReduction:
     damping: np.ndarray
     G_max: float
     results: list
+    success: bool = True
+    message: str = "done"
 
     @property
     def G_ratio(self) -> np.ndarray:
@@ -104,15 +106,24 @@ class ModulusReduction:
 
 def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
                       steps_per_cycle: int = 80, waveform: str = "triangle",
-                      **run_options: Any) -> ModulusReduction:
+                      progress: Callable[[int, float, Any], None] | None = None,
+                      raise_on_failure: bool = True, **run_options: Any) -> ModulusReduction:
     """Strain-controlled cyclic simple shear (``gamma_xz``, constant ``sigma_zz``) per amplitude.
 
     Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
 
+    Parameters
+    ----------
+    progress : callable ``(index, amplitude, path)``, optional
+        Called before each amplitude is run.
+    raise_on_failure : bool
+        If False, a failed run stops the series and the result (``success`` False,
+        ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+
     Raises
     ------
     GrainmechError
-        If a run fails (its message is passed on).
+        If a run fails and ``raise_on_failure`` (its message is passed on).
     """
     from grainmech.driver import cyclic_simple_shear, run
     from grainmech.errors import GrainmechError
@@ -121,15 +132,22 @@ def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int 
     if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
         raise ConfigError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
     G, D, res = [], [], []
-    for a in amps:
+    success, message = True, "done"
+    for i, a in enumerate(amps):
         path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform)
+        if progress is not None:
+            progress(i, float(a), path)
         r = run(point, path, **run_options)
         if not r.success:
-            raise GrainmechError(f"amplitude {a:g}: {r.message}")
+            if raise_on_failure:
+                raise GrainmechError(f"amplitude {a:g}: {r.message}")
+            res.append(r)
+            success, message = False, f"amplitude {a:g}: {r.message}"
+            break
         last = slice(len(path) - steps_per_cycle, len(path) + 1)
         lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
         G.append(lp.secant_modulus)
         D.append(lp.damping)
         res.append(r)
     Gmax = condensed_modulus(point.tangent, 4, path.stress_control[0])
-    return ModulusReduction(amps, np.array(G), np.array(D), Gmax, res)
+    return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), Gmax, res, success, message)

@@ -116,32 +116,18 @@ def compute(cfg: dict, quiet: bool = True) -> dict:
                     phi=ref.number("friction_angle", "rad", float(np.radians(33.0)), min=0, max=np.pi / 2))
         root.finish()
         point = MaterialPoint.isotropic(packing, law, pressure, extra_degree=degree)
-        from grainmech.analysis import condensed_modulus, loop_properties
-        from grainmech.driver import cyclic_simple_shear
+        from grainmech.analysis import modulus_reduction
 
-        G, D, results = [], [], []
-        t0 = time.perf_counter()
-        for i, a in enumerate(amps):
-            a = float(a)
-            path = cyclic_simple_shear(a, n_cycles, spc, waveform)
+        def progress(i: int, a: float, path: Any) -> None:
             _progress(quiet, f"[{i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
                              f"({len(path)} steps, {len(point.contacts)} directions)")
-            r = run(point, path)
-            results.append(r)
-            if not r.success:
-                out.update(results=results, amplitudes=amps[:i + 1], G=G, damping=D, success=False,
-                           message=f"amplitude {a:g}: {r.message}")
-                break
-            last = slice(len(path) - spc, len(path) + 1)
-            lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
-            G.append(lp.secant_modulus)
-            D.append(lp.damping)
-        else:
-            out.update(success=True, message="done")
-        out["seconds"] = time.perf_counter() - t0
-        Gmax = condensed_modulus(point.tangent, 4, cyclic_simple_shear(1e-6, 1, 8).stress_control[0])
-        out.update(results=results, amplitudes=[float(a) for a in amps[:len(G)]], G=G, damping=D, G_max=Gmax,
-                   reference=refs, point=point)
+
+        t0 = time.perf_counter()
+        mr = modulus_reduction(point, [float(a) for a in amps], n_cycles=n_cycles, steps_per_cycle=spc,
+                               waveform=waveform, progress=progress, raise_on_failure=False)
+        out.update(results=mr.results, amplitudes=[float(a) for a in mr.amplitude], G=list(mr.G),
+                   damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
+                   seconds=time.perf_counter() - t0, reference=refs, point=point)
         return out
     path = _segments(test)
     root.finish()

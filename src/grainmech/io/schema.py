@@ -99,11 +99,11 @@ def build_contacts(sec: Section, packing: Any) -> Any:
     law = sec.choice("law", ("linear", "hertz-mindlin"))
     if law == "linear":
         return ConstantStiffness(sec.number("kn", "N/m", min=0), sec.number("ks", "N/m", min=0))
-    from grainmech.material import HertzMindlinStiffness
+    from grainmech.contact import HertzMindlin
 
     G = sec.number("shear_modulus", "Pa", min=0, min_inclusive=False)
     nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
-    return HertzMindlinStiffness.for_equal_spheres(G, nu, packing.radius)
+    return HertzMindlin.for_equal_spheres(G, nu, packing.radius)
 
 
 def build_stress(sec: Section, dim: int) -> Any:
