@@ -18,7 +18,7 @@ from grainmech import __version__
 from grainmech.errors import GrainmechError
 
 #: sub-command modules, each with ``register(subparsers)``
-_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce")
+_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate")
 
 
 def build_parser() -> argparse.ArgumentParser:
