@@ -255,6 +255,53 @@ def _b_mandel(M: np.ndarray) -> np.ndarray:
 try:  # optional compiled kernel (extra "fast")
     import numba as _nb
 
+    @_nb.njit(inline="always", fastmath=True, cache=True)
+    def _add_moments3(a, nx, ny, nz, lx, ly, lz, cn, cs, r2):  # pragma: no cover - numba
+        """Add one contact's terms to the 27 moments of :func:`_moments_to_matrices` (3D).
+
+        ``cn = w (kn - ks)``, ``cs = w ks``: ``a[:21]`` the upper triangle of
+        ``sum cn s s`` with ``s`` the Mandel vector of ``sym(n (x) l)``; ``a[21:27]``
+        ``sum cs l (x) l`` as (xx, yy, zz, yz, xz, xy) (seed Eq. 2.26, full projector).
+        """
+        s0 = nx * lx
+        s1 = ny * ly
+        s2 = nz * lz
+        s3 = r2 * (ny * lz + nz * ly)
+        s4 = r2 * (nx * lz + nz * lx)
+        s5 = r2 * (nx * ly + ny * lx)
+        t0 = cn * s0
+        t1 = cn * s1
+        t2 = cn * s2
+        t3 = cn * s3
+        t4 = cn * s4
+        a[0] += t0 * s0
+        a[1] += t0 * s1
+        a[2] += t0 * s2
+        a[3] += t0 * s3
+        a[4] += t0 * s4
+        a[5] += t0 * s5
+        a[6] += t1 * s1
+        a[7] += t1 * s2
+        a[8] += t1 * s3
+        a[9] += t1 * s4
+        a[10] += t1 * s5
+        a[11] += t2 * s2
+        a[12] += t2 * s3
+        a[13] += t2 * s4
+        a[14] += t2 * s5
+        a[15] += t3 * s3
+        a[16] += t3 * s4
+        a[17] += t3 * s5
+        a[18] += t4 * s4
+        a[19] += t4 * s5
+        a[20] += cn * s5 * s5
+        a[21] += cs * lx * lx
+        a[22] += cs * ly * ly
+        a[23] += cs * lz * lz
+        a[24] += cs * ly * lz
+        a[25] += cs * lx * lz
+        a[26] += cs * lx * ly
+
     @_nb.njit(parallel=True, fastmath=True, cache=True)
     def _moments_numba3(n, l_, w, kn, ks, nchunks):  # pragma: no cover - exercised when numba present
         N = n.shape[0]
@@ -266,53 +313,10 @@ try:  # optional compiled kernel (extra "fast")
             lo = c * step
             hi = min(N, lo + step)
             for i in range(lo, hi):
-                nx = n[i, 0]
-                ny = n[i, 1]
-                nz = n[i, 2]
-                lx = l_[i, 0]
-                ly = l_[i, 1]
-                lz = l_[i, 2]
                 wi = w[i]
                 cs = wi * ks[i]
-                cn = wi * kn[i] - cs
-                s0 = nx * lx
-                s1 = ny * ly
-                s2 = nz * lz
-                s3 = r2 * (ny * lz + nz * ly)
-                s4 = r2 * (nx * lz + nz * lx)
-                s5 = r2 * (nx * ly + ny * lx)
-                t0 = cn * s0
-                t1 = cn * s1
-                t2 = cn * s2
-                t3 = cn * s3
-                t4 = cn * s4
-                a[0] += t0 * s0
-                a[1] += t0 * s1
-                a[2] += t0 * s2
-                a[3] += t0 * s3
-                a[4] += t0 * s4
-                a[5] += t0 * s5
-                a[6] += t1 * s1
-                a[7] += t1 * s2
-                a[8] += t1 * s3
-                a[9] += t1 * s4
-                a[10] += t1 * s5
-                a[11] += t2 * s2
-                a[12] += t2 * s3
-                a[13] += t2 * s4
-                a[14] += t2 * s5
-                a[15] += t3 * s3
-                a[16] += t3 * s4
-                a[17] += t3 * s5
-                a[18] += t4 * s4
-                a[19] += t4 * s5
-                a[20] += cn * s5 * s5
-                a[21] += cs * lx * lx
-                a[22] += cs * ly * ly
-                a[23] += cs * lz * lz
-                a[24] += cs * ly * lz
-                a[25] += cs * lx * lz
-                a[26] += cs * lx * ly
+                _add_moments3(a, n[i, 0], n[i, 1], n[i, 2], l_[i, 0], l_[i, 1], l_[i, 2],
+                              wi * kn[i] - cs, cs, r2)
             for k in range(27):
                 out[c, k] = a[k]
         return out.sum(axis=0)
@@ -361,15 +365,29 @@ def numba_available() -> bool:
     return _HAVE_NUMBA
 
 
+def _moments_to_matrices(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 27 moments of the compiled 3D kernel as ``(A (6, 6) Mandel, M (3, 3))``."""
+    A = np.zeros((6, 6))
+    A[_TRIU6] = a[:21]
+    A = A + np.triu(A, 1).T
+    M = np.array([[a[21], a[26], a[25]], [a[26], a[22], a[24]], [a[25], a[24], a[23]]])
+    return A, M
+
+
+def moments_to_voigt(a: np.ndarray) -> np.ndarray:
+    """Voigt stiffness (6, 6) from the 27 moments accumulated by ``_add_moments3``."""
+    A, M = _moments_to_matrices(a)
+    Cm = A + _b_mandel(M)
+    return 0.5 * (Cm + Cm.T) * _M2V[3]
+
+
+_TRIU6 = np.triu_indices(6)
+
+
 def _moments_compiled(n, l_, w, kn, ks):
     nchunks = max(1, min(64, n.shape[0] // 4096))
     if n.shape[1] == 3:
-        a = _moments_numba3(n, l_, w, kn, ks, nchunks)
-        A = np.zeros((6, 6))
-        iu = np.triu_indices(6)
-        A[iu] = a[:21]
-        A = A + np.triu(A, 1).T
-        M = np.array([[a[21], a[26], a[25]], [a[26], a[22], a[24]], [a[25], a[24], a[23]]])
+        return _moments_to_matrices(_moments_numba3(n, l_, w, kn, ks, nchunks))
     else:
         a = _moments_numba2(n, l_, w, kn, ks, nchunks)
         A = np.zeros((3, 3))

@@ -130,6 +130,36 @@ def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
     return kt1
 
 
+
+# ---------------------------------------------------------------------------------------
+# Powers of the stick exponent. Spheres (p = 1/3): y**(2/3) = cbrt(y)**2, z**(3/2) =
+# z sqrt(z), y**(1/3) = cbrt(y) -- the same values to a few ulp, several times cheaper
+# than the general power (which dominated the kernel's time).
+# ---------------------------------------------------------------------------------------
+@njit(inline="always", **_JIT)
+def _pow_q(y, q, sph):
+    """``y**q`` with ``q = 1 - p``."""
+    if sph:
+        c = np.cbrt(y)
+        return c * c
+    return y ** q
+
+
+@njit(inline="always", **_JIT)
+def _pow_m(z, m, sph):
+    """``z**m`` with ``m = 1/(1 - p)``."""
+    if sph:
+        return z * math.sqrt(z)
+    return z ** m
+
+
+@njit(inline="always", **_JIT)
+def _pow_p(y, p, sph):
+    """``y**p`` (theta, seed Eq. 3.13-3.15)."""
+    if sph:
+        return np.cbrt(y)
+    return y ** p
+
 # ---------------------------------------------------------------------------------------
 # Energy functions of the Iwan representation (module notes of grainmech.contact.law)
 # ---------------------------------------------------------------------------------------
@@ -159,7 +189,7 @@ def _H(z, m, hcoef, sph):
 
 
 @njit(inline="always", **_JIT)
-def _g_of_y(y, p, gcoef, theta=-1.0):
+def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
     ``theta``: ``y**p`` if already known (``< 0``: compute it).
@@ -172,7 +202,7 @@ def _g_of_y(y, p, gcoef, theta=-1.0):
             ser = ser * eps + gcoef[j]
         v = ser * eps ** 2
     else:
-        th = theta if theta >= 0.0 else y ** p
+        th = theta if theta >= 0.0 else _pow_p(y, p, sph)
         v = 1.0 - y - (th - y) / (1.0 - p)
     return max(v, 0.0)
 
@@ -181,29 +211,29 @@ def _g_of_y(y, p, gcoef, theta=-1.0):
 # Mindlin–Deresiewicz law along the memory axis (one contact)
 # ---------------------------------------------------------------------------------------
 @njit(inline="always", **_JIT)
-def _top(P, k, back):
-    """``P[k - back]`` if ``k - back >= 0`` else 0."""
+def _top(P, row, k, back):
+    """``P[row, k - back]`` if ``k - back >= 0`` else 0."""
     col = k - back
     if col >= 0:
-        return P[col]
+        return P[row, col]
     return 0.0
 
 
 @njit(inline="always", **_JIT)
-def _reverse(Q, k, muN, P, maxrev):
+def _reverse(Q, k, muN, P, row, maxrev):
     """Start a branch in the opposite direction at force level ``muN``.
 
     A virgin contact at ``T ~ 0`` only turns; a reversal at the point where the current
     branch started erases it (pop); otherwise the reversal is remembered (push ``P = Q``).
     On the new branch ``Q' = 2 mu N - Q``. Returns ``(Q, k, overflow)``.
     """
-    Pt = _top(P, k, 1)
+    Pt = _top(P, row, k, 1)
     skeleton_zero = (k == 0) and (Q >= muN * (1.0 - _EPS))
     fresh = (k > 0) and (Q + Pt >= 2.0 * muN * (1.0 - _EPS))
     if not skeleton_zero and not fresh:
         if k >= maxrev:
             return Q, k, True
-        P[k] = Q
+        P[row, k] = Q
         k += 1
     elif fresh:
         k -= 1
@@ -211,14 +241,14 @@ def _reverse(Q, k, muN, P, maxrev):
 
 
 @njit(**_JIT)
-def _z_of_n(Nv, na, z0, c, q):
+def _z_of_n(Nv, na, z0, c, q, sph=False):
     """Falling N at fixed displacement: ``z - 1/c = (z0 - 1/c) (na/N)**(1-p)`` (exact)."""
-    ratio = (na / max(Nv, 1e-300)) ** q
+    ratio = _pow_q(na / max(Nv, 1e-300), q, sph)
     return _clip01(1.0 / c + (z0 - 1.0 / c) * ratio)
 
 
-@njit(inline="always", **_JIT)
-def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_lin,
+@njit(**_JIT)
+def _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_lin,
                gcoef, glx, glw, sph, k8):
     """Exact integration of a fall of ``N`` (``N0 -> N1``) at fixed tangential displacement.
 
@@ -238,9 +268,9 @@ def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_li
         if it > 2 * max(maxrev, 1) + 6:
             return Q, s, k, diss, False
         c = 2.0 if k > 0 else 1.0
-        Pt = _top(P, k, 1)
+        Pt = _top(P, row, k, 1)
         if k >= 2:
-            Qt = _top(P, k, 2)
+            Qt = _top(P, row, k, 2)
         elif k == 1:
             Qt = Pt
         else:
@@ -249,28 +279,28 @@ def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_li
         nb = Nb
         muNa = mu * na
         y0 = _clip01((Q + Pt) / (c * muNa))
-        z0 = y0 ** q
+        z0 = _pow_q(y0, q, sph)
 
         sliding_now = (k == 0) and (z0 <= 0.0)
         n_slide = 0.0
         if k == 0 and z0 < 1.0:
-            n_slide = na * _clip01(1.0 - z0) ** m_exp
+            n_slide = na * _pow_m(_clip01(1.0 - z0), m_exp, sph)
         if sliding_now:
             n_slide = na
         n_erase = 0.0
         if k > 0 and z0 > 0.5:
-            n_erase = na * _clip01(2.0 * z0 - 1.0) ** m_exp
+            n_erase = na * _pow_m(_clip01(2.0 * z0 - 1.0), m_exp, sph)
 
         # Masing target reached while N falls (Q decreases monotonically with N)
         n_target = 0.0
         if k > 0:
-            Qb = c * mu * nb * _z_of_n(nb, na, z0, c, q) ** m_exp - Pt
+            Qb = c * mu * nb * _pow_m(_z_of_n(nb, na, z0, c, q, sph), m_exp, sph) - Pt
             if Qb <= Qt:
                 lo = nb
                 hi = na
                 for _ in range(64):
                     mid = 0.5 * (lo + hi)
-                    if c * mu * mid * _z_of_n(mid, na, z0, c, q) ** m_exp - Pt <= Qt:
+                    if c * mu * mid * _pow_m(_z_of_n(mid, na, z0, c, q, sph), m_exp, sph) - Pt <= Qt:
                         lo = mid
                     else:
                         hi = mid
@@ -306,8 +336,8 @@ def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_li
                 if sliding_now:
                     yg = 0.0
                 else:
-                    yg = _z_of_n(Ng, na, z0, c, q) ** m_exp
-                gg = _g_of_y(yg, p, gcoef)
+                    yg = _pow_m(_z_of_n(Ng, na, z0, c, q, sph), m_exp, sph)
+                gg = _g_of_y(yg, p, gcoef, -1.0, sph)
                 kt = _kt0(Ng, linear, E, R, Gs, ks_lin)
             f = mu * mu * Ng * gg / kt if kt > 0.0 else 0.0
             acc += glw[g] * f * 3.0 * tg * tg
@@ -317,8 +347,8 @@ def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_li
         if sliding_now:
             Qi = 0.0
         else:
-            z_stop = _z_of_n(n_stop, na, z0, c, q)
-            Qi = c * mu * n_stop * z_stop ** m_exp - Pt
+            z_stop = _z_of_n(n_stop, na, z0, c, q, sph)
+            Qi = c * mu * n_stop * _pow_m(z_stop, m_exp, sph) - Pt
         ev = (n_event >= nb) and (n_event > 0.0) and not sliding_now
         is_slide = ev and (k == 0) and (n_slide >= n_event)
         is_target = ev and (k > 0) and (n_target >= n_event) and (n_target > 0.0)
@@ -339,7 +369,7 @@ def _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_li
 
 
 @njit(inline="always", **_JIT)
-def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p, m_exp, r,
+def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p, m_exp, r,
              maxrev, linear, E, R, Gs, ks_lin, hcoef, gcoef, glx, glw, sph, k8):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
 
@@ -372,7 +402,7 @@ def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p,
         Q = muN1 - s * tau_e
     if rising and not elastic:
         if dsign != s:
-            Q, k, full = _reverse(Q, k, muN0, P, maxrev)
+            Q, k, full = _reverse(Q, k, muN0, P, row, maxrev)
             if full:
                 return tau, s, k, diss, False, FLAG_MEMORY_RISING
             s = dsign
@@ -380,14 +410,14 @@ def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p,
 
     # falling N at fixed displacement (exact), then the displacement
     if falling:
-        Q, s, k, dd, ok = _falling_n(Q, s, k, P, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs,
+        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs,
                                      ks_lin, gcoef, glx, glw, sph, k8)
         if not ok:
             return tau, s, k, diss, False, FLAG_NO_TERMINATION
         diss += dd
     if (not rising) and (d != 0.0) and (N1 > 0.0):
         if dsign != s:
-            Q, k, full = _reverse(Q, k, muN1, P, maxrev)
+            Q, k, full = _reverse(Q, k, muN1, P, row, maxrev)
             if full:
                 return tau, s, k, diss, False, FLAG_MEMORY_FLAT
             s = dsign
@@ -401,9 +431,9 @@ def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p,
         if it > 2 * maxrev + 4:
             return tau, s, k, diss, False, FLAG_NO_TERMINATION
         c = 2.0 if k > 0 else 1.0
-        Pt = _top(P, k, 1)
+        Pt = _top(P, row, k, 1)
         if k >= 2:
-            Qt = _top(P, k, 2)
+            Qt = _top(P, row, k, 2)
         elif k == 1:
             Qt = Pt
         else:
@@ -411,8 +441,8 @@ def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p,
         muN = muN1
         y = _clip01((Q + Pt) / (c * muN))
         yt = _clip01((Qt + Pt) / (c * muN))
-        z = y ** q
-        zt = yt ** q
+        z = _pow_q(y, q, sph)
+        zt = _pow_q(yt, q, sph)
         lam = q * kt1 / (c * muN)
         zend = z - lam * u
         hit = not (zend > zt)
@@ -427,7 +457,7 @@ def _md_axis(tau, s, k, P, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p,
         if hit:
             Qnew = Qt
         else:
-            Qnew = c * muN * zstop ** m_exp - Pt
+            Qnew = c * muN * _pow_m(zstop, m_exp, sph) - Pt
         if hit and k == 0:
             # gross sliding on the virgin branch
             diss += muN * rem
@@ -560,7 +590,6 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
         # ---- hysteretic law (seed Eq. 3.9-3.16): memory axis, split along/across it
         s = 1 if virgin else int(dir0[i])
         k = 0 if virgin else int(depth0[i])
-        P = P1[i]
         diss = 0.0
         tn0 = math.sqrt(_dot_rows(T1, i, T1, i))
         dtn = math.sqrt(_dot_rows(dp, i, dp, i))
@@ -592,7 +621,7 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
         elastic = False
         if mu > 0.0:
             tau, s, k, d_diss, elastic, flag = _md_axis(
-                tau, s, k, P, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, mu, p, m_exp,
+                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, mu, p, m_exp,
                 r, maxrev, linear, E, R, Gs, ks_lin, hcoef, gcoef, glx, glw, sph, k8)
             if flag != 0:
                 flags[i] = flag
@@ -655,7 +684,7 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
 
         # tangents at the end of the step: theta = 1 after a no-slip step of rising N
         # (Eq. 3.10), else Eq. 3.11 with theta of the current branch (Eq. 3.13-3.15)
-        Ptop = _top(P, k, 1)
+        Ptop = _top(P1, i, k, 1)
         c2 = 2.0 if k > 0 else 1.0
         Q = muN1 - s * tau
         y = (Q + Ptop) / (c2 * muN1) if muN1 > 0.0 else 0.0
@@ -666,7 +695,7 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
         elif elastic:
             theta = 1.0
         else:
-            theta = y ** p
+            theta = _pow_p(y, p, sph)
         s1o[i] = s
         k1o[i] = k
         slide_o[i] = slide

@@ -243,9 +243,22 @@ def simple_shear(gamma: float, n_steps: int) -> LoadPath:
 
 
 def cyclic_simple_shear(amplitude: float, n_cycles: int, steps_per_cycle: int,
-                        waveform: str = "triangle") -> LoadPath:
-    """Strain-controlled cyclic simple shear ``gamma_xz`` at constant ``sigma_zz``."""
-    return cycles(parse_mask("EESEEE"), _E[4], amplitude, n_cycles, steps_per_cycle, waveform)
+                        waveform: str = "triangle", *, constant: str = "stress") -> LoadPath:
+    """Strain-controlled cyclic simple shear ``gamma_xz``.
+
+    constant : {"stress", "volume"}
+        ``"stress"``: constant normal stress ``sigma_zz`` (drained simple shear, mask
+        ``EESEEE``); ``"volume"``: every other strain component held, i.e. constant-volume
+        simple shear (the usual laboratory stand-in for undrained cyclic simple shear;
+        mask ``EEEEEE``, integrated in one compiled pass by the driver).
+    """
+    if constant == "stress":
+        mask = parse_mask("EESEEE")
+    elif constant == "volume":
+        mask = parse_mask("EEEEEE")
+    else:
+        raise ConfigError("constant", constant, "must be 'stress' or 'volume'")
+    return cycles(mask, _E[4], amplitude, n_cycles, steps_per_cycle, waveform)
 
 
 def cyclic_triaxial(amplitude: float, n_cycles: int, steps_per_cycle: int, *,

@@ -47,6 +47,11 @@ class SolverOptions:
         ``C + G(sigma_start)``; the reported ``tangent`` stays the contact tangent ``C``.
         The contact sums keep the reference geometry (``l``, ``V`` not updated), so the
         option is first order in the total strain.
+    compiled : bool
+        Integrate a path whose every component is strain controlled in one compiled pass
+        (:mod:`grainmech.driver._fused`; no Newton iterations are needed there) when the
+        point's law has a compiled kernel. Same results to rounding; ``False`` forces the
+        step-by-step loop.
     """
 
     rtol: float = 1e-9
@@ -54,6 +59,7 @@ class SolverOptions:
     max_depth: int = 8
     engineering: bool = False
     finite_deformation: bool = False
+    compiled: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1e-2):
@@ -208,6 +214,10 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
     if not isinstance(path, LoadPath):
         raise ConfigError("path", type(path).__name__, "must be a LoadPath")
     m = len(path)
+    if options.compiled and _fused_eligible(point, path, options):
+        res = _run_fused(point, path, options)
+        if res is not None:
+            return res
     rows = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored", "sub", "it")}
 
     def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
@@ -255,6 +265,11 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
         record(point, diss, work, counters[0], counters[1])
 
     arr = {k: np.array(v) for k, v in rows.items()}
+    return _result(success, status, message, arr, point, m, options)
+
+
+def _result(success: bool, status: int, message: str, arr: dict, point: MaterialPoint, m: int,
+            options: SolverOptions) -> DriverResult:
     eng: dict = {}
     if options.engineering:
         from grainmech.tensors import engineering_constants
@@ -273,3 +288,53 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
     return DriverResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"],
                         arr["sl"], arr["op"], arr["diss"], arr["work"], arr["stored"],
                         arr["sub"].astype(int), arr["it"].astype(int), point, m, eng)
+
+
+def _fused_eligible(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> bool:
+    """A fully strain-controlled path on a law with a compiled kernel (see ``compiled``)."""
+    if options.finite_deformation or path.stress_control.any() or len(path) == 0:
+        return False
+    from grainmech.driver._laws import ContactLaw
+
+    if not isinstance(point.law, ContactLaw):
+        return False
+    from grainmech.contact import law as L
+
+    try:
+        return L._select_kernel(point.law.params, "auto") is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:
+    """:func:`run` for a fully strain-controlled path through :mod:`grainmech.driver._fused`."""
+    from grainmech.driver._fused import strain_path
+
+    m = len(path)
+    # the increments exactly as the step loop forms them (targets, no drift)
+    de = np.empty((m, 6))
+    strain = np.empty((m + 1, 6))
+    strain[0] = point.strain
+    target = point.strain.copy()
+    for k in range(m):
+        target = target + path.increment[k]
+        de[k] = target - strain[k]
+        strain[k + 1] = strain[k] + de[k]
+    out = strain_path(point, de)
+    if out is None:
+        return None
+    stress = np.vstack([point.stress, out["stress"] + point.correction])
+    sl0, op0 = point.fractions()
+    work = np.zeros(m + 1)
+    work[1:] = np.cumsum(np.einsum("ki,ki->k", 0.5 * (stress[:-1] + stress[1:]), de))
+    final = replace(point, state=out["state"], response=out["response"], strain=strain[-1].copy(),
+                    stress=stress[-1].copy())
+    arr = {
+        "strain": strain, "stress": stress,
+        "tangent": np.concatenate([point.tangent[None], out["tangent"]]),
+        "sl": np.concatenate([[sl0], out["sliding"]]), "op": np.concatenate([[op0], out["open"]]),
+        "diss": np.concatenate([[0.0], np.cumsum(out["dissipation"])]), "work": work,
+        "stored": np.concatenate([[point.stored_energy()], out["stored"]]),
+        "sub": np.r_[0, np.ones(m, dtype=int)], "it": np.r_[0, np.ones(m, dtype=int)],
+    }
+    return _result(True, 0, f"completed {m} steps", arr, final, m, options)
