@@ -84,12 +84,28 @@ def test_energy_balance_jenkins_law_exact():
 
 
 def test_failure_is_reported_with_step_and_cause():
-    """A mechanism (contacts open/slide) ends the run with success False, step named, data kept."""
+    """A shear stress beyond the frictional strength (stress control) ends the run with
+    success False, the step named and the data kept."""
     pt = _point(friction=0.3)
-    r = run(pt, cyclic_simple_shear(2e-2, 1, 200), max_depth=3)
+    r = run(pt, segment("SSSSSS", [0, 0, 0, 0, 2 * P0, 0], 200), max_depth=3)
     assert not r.success and r.status == 1
     assert r.message.startswith("step ")
     assert "stress target not reachable" in r.message and "sliding" in r.message
     k = int(r.message.split()[1].rstrip(":"))
     assert r.stress.shape == (k, 6)  # initial row + k-1 converged steps
     assert np.all(np.isfinite(r.stress)) and np.all(np.isfinite(r.tangent))
+    assert 0.1 * P0 < r.stress[-1, 4] < 2 * P0  # stopped at the strength, not before
+
+
+def test_strain_controlled_shear_with_sliding_contacts_converges():
+    """Strain-controlled shear at constant sigma_zz is reachable however many contacts
+    slide: the consistent Jacobian (normal-tangential coupling ktn = mu kn of sliding
+    contacts) keeps Newton converging; the shear stress saturates at the strength."""
+    pt = _point(friction=0.3)
+    r = run(pt, cyclic_simple_shear(2e-2, 1, 200))
+    assert r.success, r.message
+    assert np.allclose(r.stress[:, 2], P0, rtol=1e-8)
+    assert r.sliding_fraction.max() > 0.5
+    tau = r.stress[:, 4]
+    # saturated: the last 20 steps of the first quarter change tau by < 1 %
+    assert abs(tau[50] - tau[30]) < 0.01 * abs(tau[50])

@@ -46,9 +46,9 @@ _CH = 128  # contacts per chunk (work item of the prange)
 @njit(parallel=True, cache=True, error_model="numpy")
 def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
                         hcoef, gcoef, glx, glw, sph, k8,
-                        normals, branch, weights, dstrain,
+                        normals, branch, weights, dstrain, jrows,
                         alpha0, N0, T0, e0, dir0, depth0, P0, en0,
-                        stress_c, mom_c, scal_c,
+                        stress_c, mom_c, scal_c, jac_c,
                         f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_en,
                         f_slide, f_diss, f_ks, f_kn, f_open, fail):
     n = alpha0.shape[0]
@@ -92,6 +92,14 @@ def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r,
         dp = np.empty((c, 3))
         flags = np.zeros(c, dtype=np.int8)
         a = np.zeros(27)
+        B = np.zeros((3, 6))
+        u = np.empty(6)
+        v = np.empty(6)
+        jac = np.zeros((6, 6))
+        any_rows = False
+        for q in range(6):
+            if jrows[q]:
+                any_rows = True
         for s in range(m):
             exx = dstrain[s, 0]
             eyy = dstrain[s, 1]
@@ -141,6 +149,9 @@ def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r,
                 break
             for q in range(27):
                 a[q] = 0.0
+            for q in range(6):
+                for q2 in range(6):
+                    jac[q, q2] = 0.0
             sxx = 0.0
             syy = 0.0
             szz = 0.0
@@ -190,6 +201,36 @@ def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r,
                     en_n = 0.4 * Nj * ap
                     kt0 = 8.0 * Gs * math.sqrt(R * ap)
                 wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
+                if any_rows:
+                    # consistent contact tangent (Newton only): K = ksp I + (kn - ksp) n n
+                    # + (ks - ksp) e e + ktn e n (law.py: ks along the memory axis e, ks_perp
+                    # across, ktn = d tau / d alpha); C = sum w B^T K B, delta = B d eps
+                    B[0, 0] = lx
+                    B[1, 1] = ly
+                    B[2, 2] = lz
+                    B[1, 3] = 0.5 * lz
+                    B[2, 3] = 0.5 * ly
+                    B[0, 4] = 0.5 * lz
+                    B[2, 4] = 0.5 * lx
+                    B[0, 5] = 0.5 * ly
+                    B[1, 5] = 0.5 * lx
+                    ex = e_out[j, 0]
+                    ey = e_out[j, 1]
+                    ez = e_out[j, 2]
+                    for q in range(6):
+                        u[q] = B[0, q] * nx + B[1, q] * ny + B[2, q] * nz
+                        v[q] = B[0, q] * ex + B[1, q] * ey + B[2, q] * ez
+                    ksp = ksp_out[j] if ksp_out[j] > 0.0 else 0.0
+                    c_n = w * (knj - ksp)
+                    c_e = w * (ksj - ksp)
+                    c_p = w * ksp
+                    c_c = w * ktn_out[j]
+                    for q in range(6):
+                        if jrows[q]:
+                            for q2 in range(6):
+                                btb = B[0, q] * B[0, q2] + B[1, q] * B[1, q2] + B[2, q] * B[2, q2]
+                                jac[q, q2] += (c_p * btb + c_n * u[q] * u[q2] + c_e * v[q] * v[q2]
+                                               + c_c * v[q] * u[q2])
             stress_c[ch, s, 0] = sxx
             stress_c[ch, s, 1] = syy
             stress_c[ch, s, 2] = szz
@@ -202,6 +243,10 @@ def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r,
             scal_c[ch, s, 1] = wop
             scal_c[ch, s, 2] = wdi
             scal_c[ch, s, 3] = wst
+            if any_rows:
+                for q in range(6):
+                    for q2 in range(6):
+                        jac_c[ch, s, q, q2] = jac[q, q2]
             # accept the step: out -> in
             for j in range(c):
                 a_in[j] = a_out[j]
@@ -233,7 +278,7 @@ def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r,
             f_open[i] = op_out[j]
 
 
-def strain_path(point, d_strain: np.ndarray):
+def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = None):
     """Integrate strain increments ``d_strain`` (m, 6) from ``point`` in one compiled pass.
 
     Parameters
@@ -242,6 +287,10 @@ def strain_path(point, d_strain: np.ndarray):
         With a :class:`~grainmech.driver._laws.ContactLaw` whose parameters the compiled
         kernel supports (the caller checks).
     d_strain : (m, 6) strain increments (engineering shear, library order)
+    jacobian_rows : (6,) bool, optional
+        Rows of the consistent (non-symmetric) tangent ``sum w B^T K B`` to assemble at
+        each step, ``K`` the full contact tangent with the slip-axis stiffness, the
+        cross-axis stiffness and the normal-tangential coupling of the law (for Newton).
 
     Returns
     -------
@@ -280,11 +329,13 @@ def strain_path(point, d_strain: np.ndarray):
     f_slide = np.empty(n, dtype=np.bool_)
     f_open = np.empty(n, dtype=np.bool_)
     fail = np.full(nch, -1, dtype=np.int64)
-    _strain_path_kernel(*consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain),
+    jrows = np.zeros(6, dtype=np.bool_) if jacobian_rows is None else np.ascontiguousarray(jacobian_rows, dtype=np.bool_)
+    jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
+    _strain_path_kernel(*consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain), jrows,
                         c(st.approach), c(st.normal_force), c(st.tangential_force), c(st.axis),
                         c(st.direction, np.int8), c(st.depth, np.int32), c(st.reversals),
                         c(st.dissipated_energy),
-                        stress_c, mom_c, scal_c,
+                        stress_c, mom_c, scal_c, jac_c,
                         f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_en,
                         f_slide, f_diss, f_ks, f_kn, f_open, fail)
     if np.any(fail >= 0):
@@ -298,5 +349,6 @@ def strain_path(point, d_strain: np.ndarray):
     state = ContactState(f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_slide, f_en)
     T = f_T
     response = LawResponse(f_N, T, f_kn, f_ks, f_slide, f_open, f_diss)
-    return {"stress": stress, "tangent": tangent, "sliding": frac[:, 0], "open": frac[:, 1],
+    jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
+    return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}

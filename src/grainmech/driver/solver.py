@@ -137,8 +137,12 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
             de[sc] = 0.0
         if not np.all(np.isfinite(de)):
             de[sc] = 0.0
+    fused = opts.compiled and not opts.finite_deformation and _compiled_law(point)
     for it in range(1, opts.max_iter + 1):
-        ev = evaluate(point, de)
+        if fused:
+            ev = _fused_evaluate(point, de, sc)
+        else:
+            ev = evaluate(point, de)
         if opts.finite_deformation:
             # G at the mid-step stress (contact part of the trial): second-order accurate
             mid = point.stress + 0.5 * (ev.stress - (point.stress - point.correction))
@@ -150,9 +154,14 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
         if not sc.any() or np.abs(r).max() <= tol:
             new = replace(point, state=ev.state, response=ev.response,
                           strain=point.strain + de, stress=sig, correction=corr)
+            if fused:  # the compiled pass assembled it already (cached_property slot)
+                object.__setattr__(new, "tangent", ev.tangent)
             return new, it, ev.response
-        C = tangent(point.contacts, ev.response) + Gm
-        J = C[np.ix_(sc, sc)]
+        if fused:
+            J = ev.jacobian[np.ix_(sc, sc)]
+        else:
+            C = tangent(point.contacts, ev.response) + Gm
+            J = C[np.ix_(sc, sc)]
         cond = np.linalg.cond(J)
         if not np.isfinite(cond) or cond > 1e13:
             sl, op = _fractions(point.contacts, ev.response)
@@ -290,10 +299,31 @@ def _result(success: bool, status: int, message: str, arr: dict, point: Material
                         arr["sub"].astype(int), arr["it"].astype(int), point, m, eng)
 
 
-def _fused_eligible(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> bool:
-    """A fully strain-controlled path on a law with a compiled kernel (see ``compiled``)."""
-    if options.finite_deformation or path.stress_control.any() or len(path) == 0:
-        return False
+@dataclass(frozen=True)
+class _FusedEvaluation:
+    state: Any
+    response: Any
+    stress: np.ndarray
+    tangent: np.ndarray
+    jacobian: np.ndarray
+
+
+def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _FusedEvaluation:
+    """One trial increment through the compiled pass (kinematics, law, stress, tangent and
+    the consistent Jacobian rows of the stress-controlled components)."""
+    from grainmech.driver._fused import strain_path
+
+    out = strain_path(point, de[None, :], sc)
+    if out is None:  # reversal memory exhausted somewhere: let the NumPy path say where
+        ev = evaluate(point, de)
+        C = tangent(point.contacts, ev.response)
+        return _FusedEvaluation(ev.state, ev.response, ev.stress, C, C)
+    return _FusedEvaluation(out["state"], out["response"], out["stress"][0], out["tangent"][0],
+                            out["jacobian"][0])
+
+
+def _compiled_law(point: MaterialPoint) -> bool:
+    """The point's law is a :class:`ContactLaw` with a compiled kernel (numba present)."""
     from grainmech.driver._laws import ContactLaw
 
     if not isinstance(point.law, ContactLaw):
@@ -304,6 +334,13 @@ def _fused_eligible(point: MaterialPoint, path: LoadPath, options: SolverOptions
         return L._select_kernel(point.law.params, "auto") is not None
     except (ImportError, ValueError):
         return False
+
+
+def _fused_eligible(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> bool:
+    """A fully strain-controlled path on a law with a compiled kernel (see ``compiled``)."""
+    if options.finite_deformation or path.stress_control.any() or len(path) == 0:
+        return False
+    return _compiled_law(point)
 
 
 def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:
