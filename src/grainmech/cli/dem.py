@@ -60,34 +60,12 @@ def register(sub: Any) -> None:
 
 def _options(path: str | None) -> dict:
     from grainmech.io.config import Section, load_toml
+    from grainmech.jobs import dem_options
 
-    opts: dict[str, Any] = {}
     if path is None:
-        return opts
+        return {}
     root = Section(load_toml(path), "")
-    if root.has("material"):
-        m = root.section("material")
-        opts["shear_modulus"] = m.number("shear_modulus", "Pa", min=0, min_inclusive=False)
-        opts["poisson"] = m.number("poisson", None, min=-1, max=0.5, min_inclusive=False,
-                                   max_inclusive=False)
-    if root.has("stiffness"):
-        s = root.section("stiffness")
-        opts["stiffness_source"] = s.choice("source", ("auto", "overlap", "force", "columns", "constant"), "auto")
-        if s.has("kn"):
-            opts["kn"] = s.number("kn", "N/m", min=0)
-        if s.has("ks"):
-            opts["ks"] = s.number("ks", "N/m", min=0)
-        opts["geometric"] = s.boolean("geometric", False)
-    if root.has("relaxed"):
-        r = root.section("relaxed")
-        opts["relaxed"] = r.boolean("enabled", True)
-        opts["solver"] = r.choice("solver", ("auto", "direct", "cg"), "auto")
-        opts["remove_rattlers"] = r.boolean("remove_rattlers", True)
-        if r.has("min_contacts"):
-            opts["min_contacts"] = r.integer("min_contacts", min=0)
-    if root.has("fabric"):
-        f = root.section("fabric")
-        opts["fit_order"] = f.integer("fit_order", 2, min=2)
+    opts = dem_options(root)
     root.finish()
     return opts
 

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -18,9 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError, GrainmechError
-
-TEST_KINDS = ("cyclic-simple-shear", "path")
+from grainmech.jobs import compute_run
 
 
 def register(sub: Any) -> None:
@@ -35,108 +32,6 @@ def register(sub: Any) -> None:
 def _progress(quiet: bool, msg: str) -> None:
     if not quiet:
         print(msg, file=sys.stderr, flush=True)
-
-
-def _segments(sec: Any) -> Any:
-    """``[[test.segments]]`` -> LoadPath (each: control, change | direction+amplitude+cycles)."""
-    from grainmech.driver import concatenate, cycles, parse_mask, segment
-    from grainmech.io.config import Section
-    from grainmech.io.units import to_float
-
-    raw = sec.raw("segments")
-    if not isinstance(raw, list) or not raw:
-        raise ConfigError(sec.key("segments"), raw, "must be a non-empty array of tables [[test.segments]]")
-    parts = []
-    for i, item in enumerate(raw):
-        s = Section(item, f"{sec.key('segments')}[{i}]")
-        ctrl_text = s.raw("control")
-        try:
-            ctrl = parse_mask(str(ctrl_text))
-        except GrainmechError as exc:
-            raise ConfigError(s.key("control"), ctrl_text, str(exc)) from None
-        mask = [c == "S" for c in str(ctrl_text).upper()]
-        units = ["Pa" if m else None for m in mask]
-        if s.has("change"):
-            ch = s.raw("change")
-            if not isinstance(ch, list) or len(ch) != 6:
-                raise ConfigError(s.key("change"), ch, "must list 6 values (xx, yy, zz, yz, xz, xy)")
-            change = [to_float(v, u, s.key("change")) for v, u in zip(ch, units)]
-            parts.append(segment(ctrl, change, s.integer("steps", min=1)))
-        else:
-            d = s.raw("direction")
-            if not isinstance(d, list) or len(d) != 6:
-                raise ConfigError(s.key("direction"), d, "must list 6 values")
-            direction = [float(to_float(v, None, s.key("direction"))) for v in d]
-            k = int(np.argmax(np.abs(direction)))
-            amp = s.number("amplitude", units[k], min=0, min_inclusive=False)
-            parts.append(cycles(ctrl, direction, amp, s.integer("n_cycles", min=1),
-                                s.integer("steps_per_cycle", min=4),
-                                s.choice("waveform", ("triangle", "sine"), "triangle")))
-        s.finish()
-    return concatenate(parts)
-
-
-def compute(cfg: dict, quiet: bool = True) -> dict:
-    """Config -> results (no file writing)."""
-    from grainmech.driver import MaterialPoint, run
-    from grainmech.io.config import Section
-    from grainmech.io.schema import build_fabric, build_law, build_packing
-
-    root = Section(cfg, "")
-    density = build_fabric(root.section("fabric", {}))
-    if density.dim != 3:
-        raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
-    packing = build_packing(root.section("packing"), density)
-    law = build_law(root.section("contacts"), packing)
-    ini = root.section("initial")
-    pressure = ini.number("pressure", "Pa", min=0, min_inclusive=False)
-    quad = root.section("quadrature", {})
-    degree = quad.integer("degree", 23, min=4)
-    test = root.section("test")
-    kind = test.choice("kind", TEST_KINDS)
-    ref = root.section("reference", {})
-    out: dict[str, Any] = {"kind": kind, "pressure": pressure}
-    if kind == "cyclic-simple-shear":
-        amps = test.raw("amplitudes")
-        if not isinstance(amps, list) or not amps:
-            raise ConfigError(test.key("amplitudes"), amps, "must be a non-empty list of strains")
-        try:
-            bad = [a for a in amps if isinstance(a, bool) or not np.isfinite(float(a)) or float(a) <= 0]
-        except (TypeError, ValueError):
-            bad = [amps]
-        if bad:
-            raise ConfigError(test.key("amplitudes"), amps, "every amplitude must be a positive strain")
-        n_cycles = test.integer("n_cycles", 2, min=2)
-        spc = test.integer("steps_per_cycle", 40, min=8)
-        waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
-        refs = dict(pi=ref.number("plasticity_index", None, 0.0, min=0),
-                    ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
-                    n_cycles=ref.number("n_cycles", None, 10.0, min=0, min_inclusive=False),
-                    frequency=ref.number("frequency", "Hz", 1.0, min=0, min_inclusive=False),
-                    phi=ref.number("friction_angle", "rad", float(np.radians(33.0)), min=0, max=np.pi / 2))
-        root.finish()
-        point = MaterialPoint.isotropic(packing, law, pressure, extra_degree=degree)
-        from grainmech.analysis import modulus_reduction
-
-        def progress(i: int, a: float, path: Any) -> None:
-            _progress(quiet, f"[{i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
-                             f"({len(path)} steps, {len(point.contacts)} directions)")
-
-        t0 = time.perf_counter()
-        mr = modulus_reduction(point, [float(a) for a in amps], n_cycles=n_cycles, steps_per_cycle=spc,
-                               waveform=waveform, progress=progress, raise_on_failure=False)
-        out.update(results=mr.results, amplitudes=[float(a) for a in mr.amplitude], G=list(mr.G),
-                   damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
-                   seconds=time.perf_counter() - t0, reference=refs, point=point)
-        return out
-    path = _segments(test)
-    root.finish()
-    point = MaterialPoint.isotropic(packing, law, pressure, extra_degree=degree)
-    _progress(quiet, f"path: {len(path)} steps, {len(point.contacts)} directions")
-    t0 = time.perf_counter()
-    r = run(point, path, engineering=True)
-    out.update(results=[r], success=r.success, message=r.message, seconds=time.perf_counter() - t0, point=point)
-    return out
 
 
 def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
@@ -244,7 +139,7 @@ def main(args: argparse.Namespace) -> int:
         cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
         source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
     _progress(args.quiet, f"grainmech run: {source}")
-    out = compute(cfg, quiet=args.quiet)
+    out = compute_run(cfg, progress=lambda msg: _progress(args.quiet, msg))
     summary = write_outputs(out, Path(args.outdir), cfg, source)
     if out["kind"] == "cyclic-simple-shear" and out["G"]:
         _progress(args.quiet, f"Gmax = {out['G_max']:.4g} Pa")

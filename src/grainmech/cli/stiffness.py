@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.conventions import order_for, reorder, voigt_to_mandel
+from grainmech.jobs import compute_stiffness
 
 
 def register(sub: Any) -> None:
@@ -23,25 +24,6 @@ def register(sub: Any) -> None:
     p.add_argument("--order", choices=("voigt", "mandel", "seed"), default="voigt",
                    help="component order/shear factor of the printed matrix (default voigt)")
     p.set_defaults(func=run)
-
-
-def compute(cfg: dict) -> dict:
-    """Config dict -> result dict (library objects and numbers); no printing."""
-    from grainmech.io.config import Section
-    from grainmech.io.schema import build_contacts, build_fabric, build_packing, build_stress
-    from grainmech.material import packing_stiffness
-    from grainmech.tensors import engineering_constants, symmetry_class
-
-    root = Section(cfg, "")
-    density = build_fabric(root.section("fabric", {}))
-    packing = build_packing(root.section("packing"), density)
-    contacts = build_contacts(root.section("contacts"), packing)
-    stress_sec = root.section("stress", {})
-    stress = build_stress(stress_sec, density.dim)
-    root.finish()
-    res = packing_stiffness(packing, contacts, stress)
-    return dict(result=res, engineering=engineering_constants(res.C), symmetry=symmetry_class(res.C),
-                packing=packing, dim=density.dim)
 
 
 def _matrix(C: np.ndarray, order: str, dim: int) -> tuple[np.ndarray, tuple[str, ...]]:
@@ -64,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
         import tomllib
         cfg = tomllib.loads(text)
         source = "built-in default (isotropic quartz sand, Hertz-Mindlin, 100 kPa)"
-    out = compute(cfg)
+    out = compute_stiffness(cfg)
     res, eng, sym, dim = out["result"], out["engineering"], out["symmetry"], out["dim"]
     M, labels = _matrix(res.C, args.order, dim)
     # quadrature round-off (~1e-16 relative) is shown as an exact zero

@@ -1004,7 +1004,6 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
     ``tau, s, k`` (the stack is updated in place on its copy) and the dissipation.
     """
     n = tau.shape[0]
-    rows = np.arange(n)
     diss = np.zeros(n)
     muN0 = mu * N0
     muN1 = mu * N1
@@ -1013,8 +1012,8 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
     k = k.copy()
 
     def reverse(mask: np.ndarray, new_dir: np.ndarray, muN: np.ndarray) -> None:
-        """Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN."""
-        nonlocal Q, s, k
+        """Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN
+        (``Q``, ``s``, ``k`` are modified in place)."""
         idx = np.nonzero(mask)[0]
         if idx.size == 0:
             return
