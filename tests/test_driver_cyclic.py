@@ -63,18 +63,35 @@ def test_small_amplitude_modulus_equals_stiffness_tensor(point, sweep):
     assert sweep.G_max == pytest.approx(G0, rel=1e-12)
 
 
-def test_energy_balance_per_closed_cycle(point):
-    """Over a closed (steady) cycle the work equals the dissipation (stored energy returns).
+def test_energy_balance_over_cycles(point):
+    """Work done on the point = change of stored energy + dissipation (contact backend).
 
-    Tolerance 3 %: the contact law's dissipation rate under varying N (Thornton-Randall)
-    exceeds the loop work by ~2 % here (reported to the contact-law owner).
+    At constant sigma_zz the packing compacts a little every cycle (Thornton-Randall
+    ratcheting), so a cycle is not closed: the stored energy drops by ~2 % of the loop
+    work per cycle, and work = dissipation alone fails by that amount (the "2 %"
+    discrepancy once reported here). With the stored-energy change the balance holds to
+    the step discretisation: 4.5e-3 of the cycle's dissipation at 40 steps per cycle,
+    < 1e-4 at 160 (measured). Only cycle-to-cycle differences are compared: the law's
+    stored-energy estimate |T|^2/(2 kt0) is a lower bound inside a loop (it ignores the
+    slipped annulus), with the same error at the same point of every steady cycle.
+    Constant volume (every strain held, loops closed): work per steady cycle = dissipation
+    to 7e-4 at 160 steps per cycle, converging with the step (5.8e-3 at 40, 1.4e-4 at 640).
     """
-    spc = 80
+    spc = 160
     r = run(point, cyclic_simple_shear(1e-4, 3, spc))
+    assert r.success, r.message
+    d_cycle = r.dissipation[3 * spc] - r.dissipation[2 * spc]
+    # the cycle is not closed: stored energy falls (compaction) by 1-4 % of the loop work
     w = r.work[3 * spc] - r.work[2 * spc]
-    d = r.dissipation[3 * spc] - r.dissipation[2 * spc]
-    assert d > 0 and w > 0
-    assert w == pytest.approx(d, rel=3e-2)
+    ds = r.stored[3 * spc] - r.stored[2 * spc]
+    assert -0.04 * w < ds < -0.005 * w
+    assert abs((w - ds) / d_cycle - 1) < 5e-4
+    # constant volume: closed loops, work per cycle = dissipation
+    rv = run(point, cyclic_simple_shear(1e-4, 3, spc, constant="volume"))
+    wv = rv.work[3 * spc] - rv.work[2 * spc]
+    dv = rv.dissipation[3 * spc] - rv.dissipation[2 * spc]
+    assert abs(rv.stored[3 * spc] - rv.stored[2 * spc]) < 1e-9 * wv
+    assert wv == pytest.approx(dv, rel=2e-3)
 
 
 def test_energy_balance_iwan_backend():
