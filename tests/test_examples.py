@@ -31,3 +31,12 @@ def test_dem_example(tmp_path):
     assert main(["dem", str(EX / "dem_liggghts_contacts.dump"), "--particles", str(EX / "dem_liggghts_particles.dump"),
                  "--material", str(EX / "dem_material.toml"), "-o", str(tmp_path)]) == 0
     assert (tmp_path / "summary.json").stat().st_size > 0
+
+
+@pytest.mark.parametrize("path", sorted(EX.glob("sweep_*.toml")), ids=lambda p: p.name)
+def test_sweep_examples(path, tmp_path, capsys):
+    pytest.importorskip("distributed")
+    assert main(["sweep", str(path), "-o", str(tmp_path), "--quiet", "--no-plots"]) == 0
+    assert " 0 failed" in capsys.readouterr().out
+    lines = (tmp_path / "sweep.csv").read_text().splitlines()
+    assert len(lines) > 2 and "status" in lines[0]

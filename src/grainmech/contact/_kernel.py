@@ -175,7 +175,7 @@ def _H(z, m, hcoef, sph):
     eps = 1.0 - z
     if eps < 0.05:
         ser = 0.0
-        for j in range(hcoef.shape[0] - 1, 1, -1):
+        for j in range(len(hcoef) - 1, 1, -1):
             ser = ser * eps + hcoef[j]
         return ser * eps ** 3
     G1 = 1.0 + (m - 1.0) / (m + 1.0) - 1.0
@@ -198,7 +198,7 @@ def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
     eps = 1.0 - y
     if eps < 0.02:
         ser = 0.0
-        for j in range(gcoef.shape[0] - 1, 1, -1):
+        for j in range(len(gcoef) - 1, 1, -1):
             ser = ser * eps + gcoef[j]
         v = ser * eps ** 2
     else:
@@ -316,7 +316,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, 
         half = 0.5 * (ta - tb)
         mid = 0.5 * (ta + tb)
         acc = 0.0
-        for g in range(glx.shape[0]):
+        for g in range(len(glx)):
             tg = mid + half * glx[g]
             Ng = tg * tg * tg
             if sph and tg > 1e-100:

@@ -670,8 +670,10 @@ def _kernel_constants(params: object) -> tuple:
         p = 1.0 / 3.0
     m_exp = 1.0 / (1.0 - p)
     consts = (code, linear, E, R, Gs, kn_lin, ks_lin, mu, math.isfinite(mu), float(_ratio(params)),
-              p, m_exp, int(_max_rev(params)), _h_series(m_exp), _g_series(p),
-              np.ascontiguousarray(_GL_X), np.ascontiguousarray(_GL_W),
+              # series and quadrature tables as tuples: values, not arrays (no reference
+              # counting in the compiled per-contact loop)
+              p, m_exp, int(_max_rev(params)), tuple(map(float, _h_series(m_exp))),
+              tuple(map(float, _g_series(p))), tuple(map(float, _GL_X)), tuple(map(float, _GL_W)),
               # spheres (p = 1/3): shortcuts in the dissipation integrals (see _kernel);
               # kt0(N) = k8 N**(1/3) (seed Eq. 3.2, 3.11)
               (not linear) and p == 1.0 / 3.0,
