@@ -43,8 +43,7 @@ __all__ = ["strain_path"]
 _CH = 128  # contacts per chunk (work item of the prange)
 
 
-@njit(parallel=True, cache=True, error_model="numpy")
-def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
+def _strain_path_body(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
                         hcoef, gcoef, glx, glw, sph, k8,
                         normals, branch, weights, dstrain, jrows,
                         alpha0, N0, T0, e0, dir0, depth0, P0, en0,
@@ -276,6 +275,28 @@ def _strain_path_kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r,
             f_ks[i] = ks_out[j]
             f_kn[i] = kn_out[j]
             f_open[i] = op_out[j]
+
+
+def _make(parallel: bool):
+    """The pass compiled serial or parallel (``prange`` over chunks); same bits either way."""
+    return njit(parallel=parallel, cache=True, error_model="numpy")(_strain_path_body)
+
+
+_kernel_serial = _make(False)
+_kernel_parallel = _make(True)
+
+
+def _strain_path_kernel(*args):
+    """Parallel from :data:`grainmech.contact._kernel.PARALLEL_THRESHOLD` contacts (and more
+    than one numba thread), serial below: for small sets the threads' start-up (and, on a
+    busy machine, waiting for a free core) costs more than the work."""
+    from numba import get_num_threads
+
+    from grainmech.contact import _kernel
+
+    n = args[19].shape[0]  # normals (after the 19 law constants)
+    parallel = n >= _kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
+    return (_kernel_parallel if parallel else _kernel_serial)(*args)
 
 
 def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = None):

@@ -5,7 +5,8 @@ plots are in :mod:`grainmech.reproduce.plotting`; :func:`reproduce` writes a PNG
 CSV per figure and a self-contained ``index.html``. See ``docs/reproduce.md``.
 
 Figures (seed numbering): 4.2 (:mod:`.fabric_sections`), 4.3-4.7 (:mod:`.linear_moduli`),
-6.1-6.2 (:mod:`.rods`, packings A and B),
+5.2 and 6.1-6.2 (:mod:`.rods`, regular packings A-F; C-F reconstructed),
+6.3-6.6 (:mod:`.random_rods`, generated random rod packings),
 6.7-6.9 (:mod:`.isotropic_moduli`), 6.10-6.12 (:mod:`.stress_paths`).
 """
 
@@ -30,8 +31,13 @@ FIGURES: dict[str, tuple[str, str]] = {
     "4.5": ("linear_moduli", "fig4_5"),
     "4.6": ("linear_moduli", "fig4_6"),
     "4.7": ("linear_moduli", "fig4_7"),
+    "5.2": ("rods", "fig5_2"),
     "6.1": ("rods", "fig6_1"),
     "6.2": ("rods", "fig6_2"),
+    "6.3": ("random_rods", "fig6_3"),
+    "6.4": ("random_rods", "fig6_4"),
+    "6.5": ("random_rods", "fig6_5"),
+    "6.6": ("random_rods", "fig6_6"),
     "6.7": ("isotropic_moduli", "fig6_7"),
     "6.8": ("isotropic_moduli", "fig6_8"),
     "6.9": ("isotropic_moduli", "fig6_9"),

@@ -216,14 +216,88 @@ def _ratio_panels(d: FigureData, path: Path, keys: tuple[str, ...], labels: tupl
 
 def _polar(d: FigureData, path: Path, key: str, title: str) -> Path:
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(5.6, 5.6), subplot_kw={"projection": "polar"})
-    for pk, ls in (("A (square)", "-"), ("B (hexagonal)", "--")):
-        ax.plot(np.radians(d.column("alpha_deg", packing=pk)), d.column(key, packing=pk), ls,
-                label=pk)
+    fig, ax = plt.subplots(figsize=(6.4, 6.0), subplot_kw={"projection": "polar"})
+    styles = ["-", "--", "-.", ":", "-", "--"]
+    for i, pk in enumerate(dict.fromkeys(d.table["packing"])):
+        ax.plot(np.radians(d.column("alpha_deg", packing=pk)), d.column(key, packing=pk),
+                styles[i % len(styles)], color=f"C{i}", lw=1.8 if i < 2 else 1.3, label=pk)
     ax.set_theta_zero_location("N")
     ax.set_theta_direction(-1)
-    ax.set_title(title + "\n(alpha from y towards x)", fontsize=10)
-    ax.legend(loc="lower left", bbox_to_anchor=(-0.1, -0.12), fontsize=8)
+    ax.set_title(title + "\n(alpha from y towards x; C-F reconstructed)", fontsize=10)
+    ax.legend(loc="lower left", bbox_to_anchor=(-0.12, -0.2), fontsize=7, ncol=2)
+    return _save(fig, path)
+
+
+def _fig5_2(d: FigureData, path: Path) -> Path:
+    plt = _plt()
+    from matplotlib.patches import Circle
+    packs = list(dict.fromkeys(d.table["packing"]))
+    fig, axes = plt.subplots(2, 3, figsize=(11, 7.6))
+    for ax, pk in zip(axes.ravel(), packs):
+        for x, y, dia in zip(d.column("x", packing=pk, item="rod"), d.column("y", packing=pk, item="rod"),
+                             d.column("diameter", packing=pk, item="rod")):
+            ax.add_patch(Circle((x, y), dia / 2, fc="0.85", ec="0.2", lw=0.8))
+        xs, ys = d.column("x", packing=pk, item="contact"), d.column("y", packing=pk, item="contact")
+        x2, y2 = d.column("x2", packing=pk, item="contact"), d.column("y2", packing=pk, item="contact")
+        for a, b, c, e in zip(xs, ys, x2, y2):
+            ax.plot([a, c], [b, e], "C3-", lw=0.8)
+        ax.plot(d.column("x", packing=pk, item="cell"), d.column("y", packing=pk, item="cell"),
+                "C0--", lw=1.2)
+        ax.set_xlim(0, 2)
+        ax.set_ylim(0, 2)
+        ax.set_aspect("equal")
+        ax.set_title(pk + ("" if pk[0] in "AB" else "  [reconstruction]"), fontsize=9)
+        ax.set_xlabel("x [in]", fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.suptitle("Seed Fig. 5.2: six regular rod packings (C-F reconstructed; lines: contacts, "
+                 "dashed: unit cell)", fontsize=10)
+    return _save(fig, path)
+
+
+def _rose(d: FigureData, path: Path, title: str) -> Path:
+    plt = _plt()
+    from matplotlib.patches import Circle
+    fig = plt.figure(figsize=(11, 5.2))
+    ax = fig.add_subplot(1, 2, 1, projection="polar")
+    ang = np.radians(d.column("angle_deg", item="rose"))
+    frac = d.column("fraction", item="rose")
+    width = 2 * np.pi / len(ang)
+    ax.bar(ang, frac, width=width, bottom=0, color="C0", alpha=0.6, edgecolor="C0")
+    ax.plot(np.linspace(0, 2 * np.pi, 200), np.full(200, 1 / len(ang)), "k:", lw=1,
+            label="isotropic")
+    ax.set_theta_zero_location("N")
+    ax.set_theta_direction(-1)
+    ax.set_title("fraction of branch vectors per 10 deg (from y)", fontsize=9)
+    ax.legend(loc="lower left", fontsize=8)
+    ax2 = fig.add_subplot(1, 2, 2)
+    for x, y, dia in zip(d.column("x", item="rod"), d.column("y", item="rod"),
+                         d.column("diameter", item="rod")):
+        ax2.add_patch(Circle((x, y), dia / 2, fc="0.8", ec="0.2", lw=0.5))
+    box = d.meta["box_in"]
+    ax2.plot([0, box, box, 0, 0], [0, 0, box, box, 0], "C0--", lw=1)
+    ax2.set_xlim(-0.3, box + 0.3)
+    ax2.set_ylim(-0.3, box + 0.3)
+    ax2.set_aspect("equal")
+    ax2.set_title(f"generated packing (periodic cell {box:.2f} in); "
+                  f"m = {d.meta['coordination']:.2f}, e = {d.meta['void_ratio']:.3f}", fontsize=9)
+    fig.suptitle(title, fontsize=10)
+    return _save(fig, path)
+
+
+def _strains(d: FigureData, path: Path, title: str) -> Path:
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.4), sharex=True)
+    sets = list(dict.fromkeys(d.table["constants"]))
+    for ax, key in zip(axes, ("eps_xx", "eps_yy", "eps_xy")):
+        for i, name in enumerate(sets):
+            ax.plot(d.column("alpha_deg", constants=name), 1e4 * d.column(key, constants=name),
+                    ["-", "--", ":"][i % 3], color=f"C{i}", label=name)
+        ax.set_xlabel("alpha [deg] (major principal stress from y)")
+        ax.set_ylabel(f"{key} [1e-4] (compression +)")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
     return _save(fig, path)
 
 
@@ -237,8 +311,15 @@ _PLOTTERS: dict[str, Callable[[FigureData, Path], Path]] = {
     "4.6": lambda d, p: _ks_kn_panels(d, p, ("G_xz", "G_yz", "G_xy"),
                                       "shear modulus [psi] (seed convention)", "Seed Fig. 4.6"),
     "4.7": _fig4_7,
+    "5.2": _fig5_2,
     "6.1": lambda d, p: _polar(d, p, "E", "Seed Fig. 6.1: apparent modulus [psi]"),
     "6.2": lambda d, p: _polar(d, p, "nu", "Seed Fig. 6.2: apparent Poisson's ratio"),
+    "6.3": lambda d, p: _rose(d, p, "Seed Fig. 6.3: branch vectors, one-size random packing (generated)"),
+    "6.4": lambda d, p: _rose(d, p, "Seed Fig. 6.4: branch vectors, two-size random packing (generated)"),
+    "6.5": lambda d, p: _strains(d, p, "Seed Fig. 6.5: strains vs alpha, one-size random packing "
+                                 "(2.5 psi + 0.5 psi along alpha)"),
+    "6.6": lambda d, p: _strains(d, p, "Seed Fig. 6.6: strains vs alpha, two-size random packing "
+                                 "(2.5 psi + 0.5 psi along alpha)"),
     "6.7": _fig6_7,
     "6.8": _fig6_8,
     "6.9": _fig6_9,

@@ -1,0 +1,168 @@
+"""Calibration result files (through :mod:`grainmech.io.results`, atomically).
+
+``write_report(result, outdir)`` writes
+
+* ``fit.json`` - everything: parameters (SI and display unit), standard errors,
+  correlation, identifiability notes, R^2, iterations, the starts;
+* ``parameters.csv`` - one row per parameter;
+* ``residuals.csv`` - one row per data point and fitted column;
+* ``correlation.csv`` - the correlation matrix (empty cells: not identifiable);
+* ``starts.csv`` - every start (with ``--starts N``);
+* ``fit.png`` - data and fitted model against the data's abscissa (matplotlib, lazily).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from grainmech.errors import GrainmechError
+
+__all__ = ["summary", "write_report", "plot_fit"]
+
+
+def _fmt_unit(p: Any) -> str:
+    return p.unit or p.si_unit or "1"
+
+
+def summary(result: Any) -> dict:
+    """A JSON-able summary of a :class:`grainmech.calibrate.fit.FitResult`."""
+    pr = result.problem
+    st = result.stats
+    params = []
+    for j, p in enumerate(pr.parameters):
+        se = st["std_error"][j]
+        f = p.unit_factor
+        params.append({
+            "path": p.path, "unit": _fmt_unit(p), "si_unit": p.si_unit or "1", "log": p.log,
+            "start": result.start[j] / f, "given_start": p.start / f, "lower": p.lower / f, "upper": p.upper / f,
+            "value": result.x[j] / f, "value_si": result.x[j],
+            "std_error": None if se is None else se / f, "std_error_si": se,
+            "relative_std_error": st["relative_std_error"][j],
+            "std_error_known_sd": (None if st["std_error_unscaled"][j] is None or not pr.known_sd
+                                   else st["std_error_unscaled"][j] / f),
+            "identifiable": st["identifiable"][j], "at_bound": st["at_bound"][j],
+        })
+    return {
+        "config": pr.source, "data": pr.data_source, "kind": pr.kind, "fitted_columns": pr.targets,
+        "error_scale": pr.error, "n_points": len(pr.data), "n_residuals": int(result.residuals.size),
+        "success": result.success, "status": result.status, "message": result.message,
+        "function_evaluations": result.nfev, "jacobian_evaluations": result.njev,
+        "cost": result.cost, "rss": st["rss"], "dof": st["dof"], "s2": st["s2"],
+        "rms_weighted_residual": st["rms_weighted_residual"],
+        "r2": st["r2"], "r2_weighted": st["r2_weighted"],
+        "parameters": params,
+        "correlation": [[None if not np.isfinite(v) else float(v) for v in row] for row in st["correlation"]],
+        "singular_values": st["singular_values"], "unidentified": st["unidentified"], "notes": st["notes"],
+        "starts": [{"index": s.index, "start": [v / p.unit_factor for v, p in zip(s.start, pr.parameters)],
+                    "value": [v / p.unit_factor for v, p in zip(s.x, pr.parameters)],
+                    "cost": s.cost if math.isfinite(s.cost) else None, "nfev": s.nfev, "status": s.status,
+                    "message": s.message} for s in result.starts],
+        "seconds": result.seconds,
+    }
+
+
+def write_report(result: Any, outdir: str | Path, *, plot: bool = True) -> list[str]:
+    """Write the result files; returns their names."""
+    from grainmech.io.results import ensure_dir, write_csv, write_json
+
+    d = ensure_dir(outdir)
+    pr = result.problem
+    s = summary(result)
+    files = []
+    write_json(d / "fit.json", s)
+    files.append("fit.json")
+    write_csv(d / "parameters.csv", ["path", "unit", "start", "lower", "upper", "value", "std_error",
+                                     "relative_std_error", "identifiable", "at_bound"],
+              ([q["path"], q["unit"], q["start"], q["lower"], q["upper"], q["value"],
+                "" if q["std_error"] is None else q["std_error"],
+                "" if q["relative_std_error"] is None else q["relative_std_error"],
+                q["identifiable"], q["at_bound"]] for q in s["parameters"]))
+    files.append("parameters.csv")
+    inputs = [c for c in pr.data.order if c not in pr.targets and not c.startswith("sd_")]
+    rows = []
+    k = 0
+    for t in pr.targets:
+        for i in range(len(pr.data)):
+            rows.append([int(pr.data.lines[i]), *[float(pr.data[c][i]) for c in inputs], t,
+                         float(pr.data[t][i]), float(result.predictions[t][i]),
+                         float(result.predictions[t][i] - pr.data[t][i]), float(result.residuals[k])])
+            k += 1
+    write_csv(d / "residuals.csv", ["line", *[f"{c}_SI" for c in inputs], "column", "observed_SI", "predicted_SI",
+                                    "residual_SI", "weighted_residual"], rows)
+    files.append("residuals.csv")
+    names = [p.path for p in pr.parameters]
+    write_csv(d / "correlation.csv", ["parameter", *names],
+              ([n, *["" if v is None else v for v in row]] for n, row in zip(names, s["correlation"])))
+    files.append("correlation.csv")
+    if len(result.starts) > 1:
+        write_csv(d / "starts.csv", ["index", *[f"start_{n}" for n in names], *[f"value_{n}" for n in names],
+                                     "cost", "nfev", "status"],
+                  ([st["index"], *st["start"], *st["value"], "" if st["cost"] is None else st["cost"], st["nfev"],
+                    st["status"]] for st in s["starts"]))
+        files.append("starts.csv")
+    if plot:
+        plot_fit(result, d / "fit.png")
+        files.append("fit.png")
+    return files
+
+
+def plot_fit(result: Any, path: str | Path) -> Path:
+    """Data (markers) and model (line) for each fitted column against the abscissa."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError as exc:  # pragma: no cover - depends on environment
+        raise GrainmechError("the fit plot needs matplotlib (pip install 'grainmech[plot]')") from exc
+    from grainmech.calibrate.model import KINDS
+    from grainmech.io.results import atomic_write
+
+    pr = result.problem
+    xname = KINDS[pr.kind].x
+    data = pr.data
+    if xname and data.has(xname):
+        x = data[xname]
+        unit = data.units.get(xname, "")
+        xlabel = f"{xname} [{unit}]" if unit else xname
+        if unit:
+            from grainmech.io.units import to_float
+
+            x = x / to_float(f"1 {unit}", "rad" if xname == "alpha" else ("Pa" if xname == "pressure" else None), xname)
+    else:
+        x = np.arange(len(data), dtype=float)
+        xlabel = "row"
+    n = len(pr.targets)
+    head = 0.12 * (len(pr.parameters) + 1)  # inches for the title lines
+    height = 3.8 + head
+    fig, axes = plt.subplots(1, n, figsize=(4.8 * n, height), squeeze=False)
+    group = data["void_ratio"] if data.has("void_ratio") else np.zeros(len(data))
+    from grainmech.calibrate.data import column_unit
+    from grainmech.io.units import to_float
+
+    for ax, t in zip(axes[0], pr.targets):
+        yu = data.units.get(t, "")
+        fy = to_float(f"1 {yu}", column_unit(t), t) if yu else 1.0
+        for gi, g in enumerate(np.unique(group)):
+            sel = group == g
+            o = np.argsort(x[sel])
+            lab = f" e = {g:g}" if data.has("void_ratio") else ""
+            ax.plot(x[sel][o], data[t][sel][o] / fy, "o", color=f"C{gi}", ms=4, label=f"data{lab}")
+            ax.plot(x[sel][o], result.predictions[t][sel][o] / fy, "-", color=f"C{gi}", lw=1.2, label=f"fit{lab}")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(f"{t} [{yu}]" if yu else (f"{t} [SI]" if column_unit(t) else t))
+        if xname in ("pressure", "strain") and np.all(x > 0):
+            ax.set_xscale("log")
+            if np.all(data[t] > 0):
+                ax.set_yscale("log")
+        ax.set_title(f"{t}: R^2 = {result.stats['r2'][t]:.4f}", fontsize=9)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"grainmech calibrate ({pr.kind}):\n" + pr.describe(result.x).replace(", ", "\n"), fontsize=7)
+    fig.tight_layout(rect=(0, 0, 1, 1 - head / height))
+    p = Path(path)
+    atomic_write(p, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
+    plt.close(fig)
+    return p

@@ -1,0 +1,64 @@
+"""``grainmech calibrate CALIB.toml DATA.csv -o OUTDIR [--starts N] [--seed S] [--workers W]``.
+
+Fits parameters of a model config (dotted key paths, bounds, start values with units) to
+measured data with bounded least squares and writes the best fit, standard errors,
+correlation, identifiability notes, residuals and a plot to OUTDIR (``docs/calibrate.md``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser("calibrate", help="fit model parameters to measured data (least squares)",
+                       description=__doc__.splitlines()[0])
+    p.add_argument("config", help="calibration TOML (see examples/calibrate_*.toml)")
+    p.add_argument("data", help="data CSV (header with units, e.g. 'pressure [psi],G [psi]')")
+    p.add_argument("-o", "--outdir", default="calibration", help="output folder (default ./calibration)")
+    p.add_argument("--starts", type=int, default=None,
+                   help="number of starts: the given one plus seeded Latin-hypercube starts within the "
+                        "bounds, run through Dask (default: [fit] starts, 1 = serial)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the Latin-hypercube starts (default [fit] seed)")
+    p.add_argument("--scheduler", default=None, help="Dask scheduler address (default: a local cluster)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes of the local Dask cluster")
+    p.add_argument("--no-plot", action="store_true", help="do not write fit.png")
+    p.add_argument("--quiet", action="store_true", help="no summary on stderr")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from grainmech.calibrate import fit, load_problem
+    from grainmech.calibrate.report import write_report
+    from grainmech.errors import ConfigError
+
+    if args.starts is not None and args.starts < 1:
+        raise ConfigError("--starts", args.starts, "must be >= 1")
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError("--workers", args.workers, "must be >= 1")
+    problem = load_problem(args.config, args.data, starts=args.starts, seed=args.seed)
+    result = fit(problem, scheduler=args.scheduler, workers=args.workers)
+    files = write_report(result, Path(args.outdir), plot=not args.no_plot)
+    if not args.quiet:
+        w = sys.stderr.write
+        st = result.stats
+        w(f"grainmech calibrate: {problem.kind}, {len(problem.data)} rows, columns {', '.join(problem.targets)}; "
+          f"{len(result.starts)} start(s), {result.nfev} evaluations; {result.message}\n")
+        for j, p in enumerate(problem.parameters):
+            se = st["std_error"][j]
+            unit = p.unit or p.si_unit
+            err = "not identifiable" if not st["identifiable"][j] else (
+                "n/a" if se is None else f"+- {se / p.unit_factor:.4g}")
+            su = st["std_error_unscaled"][j]
+            if problem.known_sd and su is not None:
+                err += f"; +- {su / p.unit_factor:.4g} with the sd_ columns as true standard deviations"
+            w(f"  {p.path:<32} {result.x[j] / p.unit_factor:.6g} {unit} ({err})"
+              + ("  [at bound]" if st["at_bound"][j] else "") + "\n")
+        w("  R^2: " + ", ".join(f"{k} {v:.5f}" for k, v in st["r2"].items()) + "\n")
+        for note in st["notes"]:
+            w(f"  note: {note}\n")
+        w(f"wrote {len(files)} files to {args.outdir}\n")
+    return 0 if result.success else 1
