@@ -1,0 +1,453 @@
+"""Config dict -> results, for every run kind (one implementation for the CLI and sweeps).
+
+Each run kind is split in two steps so that a config can be checked cheaply before any
+expensive work (used by :mod:`grainmech.sweep` to reject misspelt keys up front):
+
+* ``prepare_<kind>(cfg, base_dir=None)`` reads and validates the config (strict keys,
+  units at the edge) and returns a small spec object; it raises
+  :class:`~grainmech.errors.ConfigError` naming the key and value.
+* ``execute_<kind>(spec, ...)`` does the computation and returns a result dict.
+
+``compute_<kind>(cfg)`` is both in one call, and ``<kind>_scalars(result)`` flattens a
+result into a dict of scalar outputs (column name with unit -> number, bool or str), the
+row of a sweep table.
+
+Kinds: ``stiffness`` (``grainmech stiffness``), ``run`` (``grainmech run``: cyclic
+simple shear or a mixed-control path), ``dem`` (``grainmech dem`` measures of a contact
+network; the config names the files in a ``[network]`` table).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from grainmech.errors import ConfigError, GrainmechError
+
+__all__ = ["prepare_stiffness", "execute_stiffness", "compute_stiffness", "stiffness_scalars",
+           "prepare_run", "execute_run", "compute_run", "run_scalars", "reference_strain",
+           "dem_options", "prepare_dem", "execute_dem", "compute_dem", "dem_scalars",
+           "RUN_TEST_KINDS"]
+
+RUN_TEST_KINDS = ("cyclic-simple-shear", "path")
+
+
+# ----------------------------------------------------------------------------- stiffness
+@dataclass
+class StiffnessSpec:
+    """Objects read from a ``grainmech stiffness`` config."""
+
+    density: Any
+    packing: Any
+    contacts: Any
+    stress: Any
+
+
+def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> StiffnessSpec:
+    """Read ``[packing]``, ``[fabric]``, ``[contacts]``, ``[stress]`` (strict keys)."""
+    from grainmech.io.config import Section
+    from grainmech.io.schema import build_contacts, build_fabric, build_packing, build_stress
+
+    root = Section(cfg, "")
+    density = build_fabric(root.section("fabric", {}))
+    packing = build_packing(root.section("packing"), density)
+    contacts = build_contacts(root.section("contacts"), packing)
+    stress = build_stress(root.section("stress", {}), density.dim)
+    root.finish()
+    return StiffnessSpec(density, packing, contacts, stress)
+
+
+def execute_stiffness(spec: StiffnessSpec) -> dict:
+    """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class.
+
+    Returns a dict with ``result`` (:class:`grainmech.material.StiffnessResult`),
+    ``engineering``, ``symmetry``, ``packing`` and ``dim``.
+    """
+    from grainmech.material import packing_stiffness
+    from grainmech.tensors import engineering_constants, symmetry_class
+
+    res = packing_stiffness(spec.packing, spec.contacts, spec.stress)
+    return dict(result=res, engineering=engineering_constants(res.C), symmetry=symmetry_class(res.C),
+                packing=spec.packing, dim=spec.density.dim)
+
+
+def compute_stiffness(cfg: dict) -> dict:
+    """Config dict -> stiffness result dict (see :func:`execute_stiffness`); no printing."""
+    return execute_stiffness(prepare_stiffness(cfg))
+
+
+_ENGINEERING_3D = ("E_xx", "E_yy", "E_zz", "nu_xy", "nu_yx", "nu_xz", "nu_zx", "nu_yz", "nu_zy",
+                   "G_yz", "G_xz", "G_xy")
+_ENGINEERING_2D = ("E_xx", "E_yy", "nu_xy", "nu_yx", "G_xy")
+
+
+def stiffness_scalars(out: dict) -> dict[str, Any]:
+    """Scalar outputs of a stiffness result: moduli [Pa], Poisson's ratios, symmetry.
+
+    Columns: ``K_hill [Pa]``, ``G_hill [Pa]`` (Voigt-Reuss-Hill bulk and shear moduli),
+    the engineering constants ``E_xx [Pa]`` ... ``nu_xy`` ... ``G_xy [Pa]`` (stable set,
+    coupling coefficients omitted), ``symmetry`` (class name), ``mean_stress [Pa]`` and the
+    Voigt components ``C11 [Pa]`` ... (upper triangle, library order).
+    """
+    from grainmech.tensors import bulk_modulus, shear_modulus
+
+    C = np.asarray(out["result"].C, dtype=float)
+    dim = out["dim"]
+    eng = out["engineering"].as_dict()
+    row: dict[str, Any] = {
+        "K_hill [Pa]": float(bulk_modulus(C, "hill")),
+        "G_hill [Pa]": float(shear_modulus(C, "hill")),
+    }
+    for k in (_ENGINEERING_3D if dim == 3 else _ENGINEERING_2D):
+        row[f"{k} [Pa]" if k[0] in "EG" else k] = float(eng[k])
+    row["symmetry"] = out["symmetry"].name
+    row["mean_stress [Pa]"] = float(np.trace(out["result"].stress) / dim)
+    n = C.shape[0]
+    for i in range(n):
+        for j in range(i, n):
+            row[f"C{i + 1}{j + 1} [Pa]"] = float(C[i, j])
+    return row
+
+
+# ----------------------------------------------------------------------------------- run
+@dataclass
+class RunSpec:
+    """Objects read from a ``grainmech run`` config."""
+
+    kind: str
+    packing: Any
+    law: Any
+    pressure: float
+    degree: int
+    amplitudes: list[float] = field(default_factory=list)
+    n_cycles: int = 2
+    steps_per_cycle: int = 40
+    waveform: str = "triangle"
+    reference: dict | None = None
+    path: Any = None
+
+
+def _segments(sec: Any) -> Any:
+    """``[[test.segments]]`` -> LoadPath (each: control, change | direction+amplitude+cycles)."""
+    from grainmech.driver import concatenate, cycles, parse_mask, segment
+    from grainmech.io.config import Section
+    from grainmech.io.units import to_float
+
+    raw = sec.raw("segments")
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(sec.key("segments"), raw, "must be a non-empty array of tables [[test.segments]]")
+    parts = []
+    for i, item in enumerate(raw):
+        s = Section(item, f"{sec.key('segments')}[{i}]")
+        ctrl_text = s.raw("control")
+        try:
+            ctrl = parse_mask(str(ctrl_text))
+        except GrainmechError as exc:
+            raise ConfigError(s.key("control"), ctrl_text, str(exc)) from None
+        mask = [c == "S" for c in str(ctrl_text).upper()]
+        units = ["Pa" if m else None for m in mask]
+        if s.has("change"):
+            ch = s.raw("change")
+            if not isinstance(ch, list) or len(ch) != 6:
+                raise ConfigError(s.key("change"), ch, "must list 6 values (xx, yy, zz, yz, xz, xy)")
+            change = [to_float(v, u, s.key("change")) for v, u in zip(ch, units)]
+            parts.append(segment(ctrl, change, s.integer("steps", min=1)))
+        else:
+            d = s.raw("direction")
+            if not isinstance(d, list) or len(d) != 6:
+                raise ConfigError(s.key("direction"), d, "must list 6 values")
+            direction = [float(to_float(v, None, s.key("direction"))) for v in d]
+            k = int(np.argmax(np.abs(direction)))
+            amp = s.number("amplitude", units[k], min=0, min_inclusive=False)
+            parts.append(cycles(ctrl, direction, amp, s.integer("n_cycles", min=1),
+                                s.integer("steps_per_cycle", min=4),
+                                s.choice("waveform", ("triangle", "sine"), "triangle")))
+        s.finish()
+    return concatenate(parts)
+
+
+def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
+    """Read a driver config (``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
+    ``[quadrature]``, ``[test]``, ``[reference]``; strict keys)."""
+    from grainmech.io.config import Section
+    from grainmech.io.schema import build_fabric, build_law, build_packing
+
+    root = Section(cfg, "")
+    density = build_fabric(root.section("fabric", {}))
+    if density.dim != 3:
+        raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
+    packing = build_packing(root.section("packing"), density)
+    law = build_law(root.section("contacts"), packing)
+    ini = root.section("initial")
+    pressure = ini.number("pressure", "Pa", min=0, min_inclusive=False)
+    quad = root.section("quadrature", {})
+    degree = quad.integer("degree", 23, min=4)
+    test = root.section("test")
+    kind = test.choice("kind", RUN_TEST_KINDS)
+    ref = root.section("reference", {})
+    spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree)
+    if kind == "cyclic-simple-shear":
+        amps = test.raw("amplitudes")
+        if not isinstance(amps, list) or not amps:
+            raise ConfigError(test.key("amplitudes"), amps, "must be a non-empty list of strains")
+        try:
+            bad = [a for a in amps if isinstance(a, bool) or not np.isfinite(float(a)) or float(a) <= 0]
+        except (TypeError, ValueError):
+            bad = [amps]
+        if bad:
+            raise ConfigError(test.key("amplitudes"), amps, "every amplitude must be a positive strain")
+        spec.amplitudes = [float(a) for a in amps]
+        spec.n_cycles = test.integer("n_cycles", 2, min=2)
+        spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
+        spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
+        spec.reference = dict(
+            pi=ref.number("plasticity_index", None, 0.0, min=0),
+            ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
+            n_cycles=ref.number("n_cycles", None, 10.0, min=0, min_inclusive=False),
+            frequency=ref.number("frequency", "Hz", 1.0, min=0, min_inclusive=False),
+            phi=ref.number("friction_angle", "rad", float(np.radians(33.0)), min=0, max=np.pi / 2))
+        root.finish()
+        return spec
+    spec.path = _segments(test)
+    root.finish()
+    return spec
+
+
+def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> dict:
+    """Drive the material point; ``progress(message)`` is called before each run.
+
+    Returns a dict with ``kind``, ``pressure``, ``results`` (list of DriverResult),
+    ``success``, ``message``, ``seconds``, ``point`` and, for cyclic simple shear,
+    ``amplitudes``, ``G``, ``damping``, ``G_max`` and ``reference``.
+    """
+    from grainmech.driver import MaterialPoint, run
+
+    say = progress or (lambda msg: None)
+    out: dict[str, Any] = {"kind": spec.kind, "pressure": spec.pressure}
+    point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+    if spec.kind == "cyclic-simple-shear":
+        from grainmech.analysis import modulus_reduction
+
+        amps = spec.amplitudes
+
+        def each(i: int, a: float, path: Any) -> None:
+            say(f"[{i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
+                f"({len(path)} steps, {len(point.contacts)} directions)")
+
+        t0 = time.perf_counter()
+        mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
+                               waveform=spec.waveform, progress=each, raise_on_failure=False)
+        out.update(results=mr.results, amplitudes=[float(a) for a in mr.amplitude], G=list(mr.G),
+                   damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
+                   seconds=time.perf_counter() - t0, reference=spec.reference, point=point)
+        return out
+    say(f"path: {len(spec.path)} steps, {len(point.contacts)} directions")
+    t0 = time.perf_counter()
+    r = run(point, spec.path, engineering=True)
+    out.update(results=[r], success=r.success, message=r.message, seconds=time.perf_counter() - t0,
+               point=point)
+    return out
+
+
+def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> dict:
+    """Config dict -> driver result dict (see :func:`execute_run`); no file writing."""
+    return execute_run(prepare_run(cfg), progress)
+
+
+def reference_strain(amplitudes: Any, g_ratio: Any, level: float = 0.5) -> float:
+    """Strain where G/Gmax falls to ``level`` (0.5: the reference strain gamma_r).
+
+    Linear interpolation of G/Gmax in log(gamma) between the first pair of measured
+    amplitudes (sorted) that brackets ``level``; NaN if the curve does not cross it.
+    """
+    a = np.asarray(amplitudes, dtype=float)
+    r = np.asarray(g_ratio, dtype=float)
+    order = np.argsort(a)
+    a, r = a[order], r[order]
+    for k in range(len(a) - 1):
+        r0, r1 = r[k], r[k + 1]
+        if np.isfinite(r0) and np.isfinite(r1) and (r0 - level) * (r1 - level) <= 0 and r0 != r1:
+            t = (r0 - level) / (r0 - r1)
+            return float(np.exp(np.log(a[k]) + t * (np.log(a[k + 1]) - np.log(a[k]))))
+    return float("nan")
+
+
+def _invariants(s: np.ndarray) -> tuple[float, float]:
+    """Mean stress p and von Mises q = sqrt(3 J2) of a Voigt 6-vector (xx yy zz yz xz xy)."""
+    p = float(np.mean(s[:3]))
+    dev = s[:3] - p
+    j2 = 0.5 * float(dev @ dev) + float(s[3:] @ s[3:])
+    return p, float(np.sqrt(3.0 * j2))
+
+
+def run_scalars(out: dict) -> dict[str, Any]:
+    """Scalar outputs of a driver result.
+
+    Cyclic simple shear: ``G_max [Pa]``, ``gamma_r`` (strain where G/Gmax = 0.5,
+    interpolated in log strain; NaN if not reached), ``G/Gmax@<amplitude>`` and
+    ``damping@<amplitude>`` for every amplitude, ``success``, ``message``.
+    Path: final ``p [Pa]`` and ``q [Pa]``, the final stress and strain components,
+    ``dissipation [J/m^3]``, ``n_steps``, ``success``, ``message``.
+    """
+    row: dict[str, Any] = {}
+    if out["kind"] == "cyclic-simple-shear":
+        gmax = float(out["G_max"])
+        amps = np.asarray(out["amplitudes"], dtype=float)
+        ratio = np.asarray(out["G"], dtype=float) / gmax
+        damp = np.asarray(out["damping"], dtype=float)
+        row["G_max [Pa]"] = gmax
+        row["gamma_r"] = reference_strain(amps, ratio) if len(amps) else float("nan")
+        for a, g, d in zip(amps, ratio, damp):
+            row[f"G/Gmax@{a:g}"] = float(g)
+            row[f"damping@{a:g}"] = float(d)
+    else:
+        from grainmech.conventions import ORDER_3D
+
+        r = out["results"][0]
+        s, e = np.asarray(r.stress[-1], dtype=float), np.asarray(r.strain[-1], dtype=float)
+        p, q = _invariants(s)
+        row["p [Pa]"] = p
+        row["q [Pa]"] = q
+        for lab, v in zip(ORDER_3D, s):
+            row[f"stress_{lab} [Pa]"] = float(v)
+        for lab, v in zip(ORDER_3D, e):
+            row[f"strain_{lab}"] = float(v)
+        row["dissipation [J/m^3]"] = float(r.dissipation[-1])
+        row["n_steps"] = int(r.n_steps)
+    row["success"] = bool(out["success"])
+    row["message"] = str(out["message"])
+    return row
+
+
+# ----------------------------------------------------------------------------------- dem
+def dem_options(root: Any) -> dict:
+    """Keyword arguments of :func:`grainmech.network.network_report` from the tables
+    ``[material]``, ``[stiffness]``, ``[relaxed]``, ``[fabric]`` of a config
+    :class:`~grainmech.io.config.Section` (the caller calls ``finish``)."""
+    opts: dict[str, Any] = {}
+    if root.has("material"):
+        m = root.section("material")
+        opts["shear_modulus"] = m.number("shear_modulus", "Pa", min=0, min_inclusive=False)
+        opts["poisson"] = m.number("poisson", None, min=-1, max=0.5, min_inclusive=False,
+                                   max_inclusive=False)
+    if root.has("stiffness"):
+        s = root.section("stiffness")
+        opts["stiffness_source"] = s.choice("source", ("auto", "overlap", "force", "columns", "constant"), "auto")
+        if s.has("kn"):
+            opts["kn"] = s.number("kn", "N/m", min=0)
+        if s.has("ks"):
+            opts["ks"] = s.number("ks", "N/m", min=0)
+        opts["geometric"] = s.boolean("geometric", False)
+    if root.has("relaxed"):
+        r = root.section("relaxed")
+        opts["relaxed"] = r.boolean("enabled", True)
+        opts["solver"] = r.choice("solver", ("auto", "direct", "cg"), "auto")
+        opts["remove_rattlers"] = r.boolean("remove_rattlers", True)
+        if r.has("min_contacts"):
+            opts["min_contacts"] = r.integer("min_contacts", min=0)
+    if root.has("fabric"):
+        f = root.section("fabric")
+        opts["fit_order"] = f.integer("fit_order", 2, min=2)
+    return opts
+
+
+@dataclass
+class DemSpec:
+    """Files and options read from a dem config."""
+
+    contacts: Path
+    particles: Path | None
+    read: dict
+    options: dict
+
+
+def _names(sec: Any, k: str) -> list[str] | None:
+    if not sec.has(k):
+        return None
+    v = sec.raw(k)
+    if isinstance(v, str):
+        v = [x.strip() for x in v.split(",") if x.strip()]
+    if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v):
+        raise ConfigError(sec.key(k), v, "must be a list of names (or a comma-separated string)")
+    return v
+
+
+def prepare_dem(cfg: dict, base_dir: str | Path | None = None) -> DemSpec:
+    """Read a dem config: ``[network]`` (``contacts``, ``particles``, ``format``,
+    ``keywords``, ``columns``, ``force_on``; file paths relative to ``base_dir``) and the
+    ``grainmech dem --material`` tables (see :func:`dem_options`)."""
+    from grainmech.io.config import Section
+
+    root = Section(cfg, "")
+    net = root.section("network")
+    base = Path(base_dir) if base_dir is not None else Path(".")
+
+    def path(k: str, required: bool) -> Path | None:
+        v = net.raw(k) if required else net.raw(k, None)
+        if v is None:
+            return None
+        if not isinstance(v, str) or not v.strip():
+            raise ConfigError(net.key(k), v, "must be a file path")
+        return base / v
+
+    contacts = path("contacts", True)
+    particles = path("particles", False)
+    read = dict(format=net.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto"),
+                keywords=_names(net, "keywords"), columns=_names(net, "columns"),
+                force_on=net.choice("force_on", ("id1", "id2", None), None))
+    opts = dem_options(root)
+    root.finish()
+    return DemSpec(contacts, particles, read, opts)
+
+
+def execute_dem(spec: DemSpec) -> dict:
+    """Read the network and return :func:`grainmech.network.network_report`."""
+    from grainmech.io.dem import read_network
+    from grainmech.network import network_report
+
+    net = read_network(spec.contacts, spec.particles, **spec.read)
+    return network_report(net, **spec.options)
+
+
+def compute_dem(cfg: dict, base_dir: str | Path | None = None) -> dict:
+    """Config dict -> network report (see :func:`prepare_dem`)."""
+    return execute_dem(prepare_dem(cfg, base_dir))
+
+
+def dem_scalars(rep: dict) -> dict[str, Any]:
+    """Scalar outputs of a network report: counts, stress invariants, coordination,
+    fabric anisotropy, Hill moduli and engineering constants of the affine and relaxed
+    stiffness (empty when not computed)."""
+    from grainmech.tensors import bulk_modulus, shear_modulus
+
+    row: dict[str, Any] = {"n_particles": int(rep["n_particles"]), "n_contacts": int(rep["n_contacts"]),
+                           "volume [m^3]": float(rep["volume"])}
+    S = np.asarray(rep["stress"]["tensor"], dtype=float)
+    d = S.shape[0]
+    p = float(np.trace(S) / d)
+    dev = (S + S.T) / 2 - p * np.eye(d)
+    row["p [Pa]"] = p
+    row["q [Pa]"] = float(np.sqrt(1.5 * np.sum(dev * dev)))
+    row["skew_ratio"] = float(rep["stress"]["skew_ratio"])
+    for k in ("z", "z_force", "z_mechanical", "n_rattlers"):
+        if k in rep["coordination"]:
+            v = rep["coordination"][k]
+            row[k] = int(v) if k.startswith("n_") else float(v)
+    row["normal_anisotropy"] = float(rep["fabric"]["normal_anisotropy"]["deviator_norm"])
+    for which in ("affine", "relaxed"):
+        C = rep.get(f"stiffness_{which}")
+        ok = C is not None and np.any(np.asarray(C, dtype=float))
+        for name, fn in (("K", bulk_modulus), ("G", shear_modulus)):
+            try:
+                row[f"{name}_hill_{which} [Pa]"] = float(fn(np.asarray(C, dtype=float), "hill")) if ok else None
+            except (ValueError, np.linalg.LinAlgError):
+                row[f"{name}_hill_{which} [Pa]"] = None
+        eng = rep.get(f"engineering_{which}") or {}
+        for k in (_ENGINEERING_3D if d == 3 else _ENGINEERING_2D):
+            v = eng.get(k)
+            row[f"{k}_{which}" + (" [Pa]" if k[0] in "EG" else "")] = None if v is None else float(v)
+    return row
