@@ -43,242 +43,247 @@ __all__ = ["strain_path"]
 _CH = 128  # contacts per chunk (work item of the prange)
 
 
-def _strain_path_body(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
-                        hcoef, gcoef, glx, glw, sph, k8,
-                        normals, branch, weights, dstrain, jrows,
-                        alpha0, N0, T0, e0, dir0, depth0, P0, en0,
-                        stress_c, mom_c, scal_c, jac_c,
-                        f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_en,
-                        f_slide, f_diss, f_ks, f_kn, f_open, fail):
-    n = alpha0.shape[0]
-    m = dstrain.shape[0]
-    nrev = P0.shape[1]
-    nch = (n + _CH - 1) // _CH
-    hc = (4.0 / 3.0) * E * math.sqrt(R)
-    r2 = math.sqrt(2.0) / 2.0
-    for ch in prange(nch):
-        lo = ch * _CH
-        hi = min(n, lo + _CH)
-        c = hi - lo
-        a_in = alpha0[lo:hi].copy()
-        N_in = N0[lo:hi].copy()
-        T_in = T0[lo:hi].copy()
-        e_in = e0[lo:hi].copy()
-        d_in = dir0[lo:hi].copy()
-        k_in = depth0[lo:hi].copy()
-        P_in = P0[lo:hi].copy()
-        en_in = en0[lo:hi].copy()
-        a_out = np.empty(c)
-        N_out = np.empty(c)
-        T_out = np.empty((c, 3))
-        e_out = np.empty((c, 3))
-        s_out = np.empty(c, dtype=np.int8)
-        k_out = np.empty(c, dtype=np.int32)
-        P_out = np.empty((c, nrev))
-        sl_out = np.empty(c, dtype=np.bool_)
-        diss_out = np.empty(c)
-        ks_out = np.empty(c)
-        ksp_out = np.empty(c)
-        ktn_out = np.empty(c)
-        kn_out = np.empty(c)
-        op_out = np.empty(c, dtype=np.bool_)
-        dn = np.empty(c)
-        dt = np.empty((c, 3))
-        N1 = np.empty(c)
-        rad0 = np.empty(c)
-        rad1 = np.empty(c)
-        tp = np.empty((c, 3))
-        dp = np.empty((c, 3))
-        flags = np.zeros(c, dtype=np.int8)
-        a = np.zeros(27)
-        B = np.zeros((3, 6))
-        u = np.empty(6)
-        v = np.empty(6)
-        jac = np.zeros((6, 6))
-        any_rows = False
-        for q in range(6):
-            if jrows[q]:
-                any_rows = True
-        for s in range(m):
-            exx = dstrain[s, 0]
-            eyy = dstrain[s, 1]
-            ezz = dstrain[s, 2]
-            eyz = 0.5 * dstrain[s, 3]
-            exz = 0.5 * dstrain[s, 4]
-            exy = 0.5 * dstrain[s, 5]
-            for j in range(c):
-                i = lo + j
-                lx = branch[i, 0]
-                ly = branch[i, 1]
-                lz = branch[i, 2]
-                nx = normals[i, 0]
-                ny = normals[i, 1]
-                nz = normals[i, 2]
-                # seed Eq. 2.13: delta = d eps . l, split along and across n
-                dx = exx * lx + exy * ly + exz * lz
-                dy = exy * lx + eyy * ly + eyz * lz
-                dz = exz * lx + eyz * ly + ezz * lz
-                d_n = dx * nx + dy * ny + dz * nz
-                dn[j] = d_n
-                dt[j, 0] = dx - d_n * nx
-                dt[j, 1] = dy - d_n * ny
-                dt[j, 2] = dz - d_n * nz
-                a1 = a_in[j] + d_n
-                ap = a1 if a1 > 0.0 else 0.0
-                if linear:
-                    N1[j] = kn_lin * ap
-                    rad0[j] = N1[j]
-                    rad1[j] = N1[j]
-                else:
-                    N1[j] = hc * ap * math.sqrt(ap)                  # seed Eq. 3.6
-                    Nc = N_in[j] if (a_in[j] > 0.0 and N_in[j] > 0.0) else 0.0
-                    rad0[j] = np.cbrt(0.75 * Nc * R / E)             # seed Eq. 3.2
-                    rad1[j] = np.cbrt(0.75 * N1[j] * R / E)
-            _rows(0, c, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
-                  hcoef, gcoef, glx, glw, sph, k8,
-                  a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in, dn, dt, N1, rad0, rad1,
-                  a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
-                  ksp_out, ktn_out, kn_out, op_out, tp, dp, flags)
-            bad = False
-            for j in range(c):
-                if flags[j] != 0:
-                    bad = True
-            if bad:
-                fail[ch] = s
-                break
-            for q in range(27):
-                a[q] = 0.0
+def _make(parallel: bool):
+    """The pass compiled serial or parallel (``prange`` over chunks); same bits either way.
+
+    A closure over ``rng`` (as in :mod:`grainmech.contact._kernel`): two dispatchers of one
+    plain function would share numba's on-disk cache entry and the "parallel" one would
+    load the serial code.
+    """
+    rng = prange if parallel else range
+
+    def _strain_path_body(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
+                            hcoef, gcoef, glx, glw, sph, k8,
+                            normals, branch, weights, dstrain, jrows,
+                            alpha0, N0, T0, e0, dir0, depth0, P0, en0,
+                            stress_c, mom_c, scal_c, jac_c,
+                            f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_en,
+                            f_slide, f_diss, f_ks, f_kn, f_open, fail):
+        n = alpha0.shape[0]
+        m = dstrain.shape[0]
+        nrev = P0.shape[1]
+        nch = (n + _CH - 1) // _CH
+        hc = (4.0 / 3.0) * E * math.sqrt(R)
+        r2 = math.sqrt(2.0) / 2.0
+        for ch in rng(nch):
+            lo = ch * _CH
+            hi = min(n, lo + _CH)
+            c = hi - lo
+            a_in = alpha0[lo:hi].copy()
+            N_in = N0[lo:hi].copy()
+            T_in = T0[lo:hi].copy()
+            e_in = e0[lo:hi].copy()
+            d_in = dir0[lo:hi].copy()
+            k_in = depth0[lo:hi].copy()
+            P_in = P0[lo:hi].copy()
+            en_in = en0[lo:hi].copy()
+            a_out = np.empty(c)
+            N_out = np.empty(c)
+            T_out = np.empty((c, 3))
+            e_out = np.empty((c, 3))
+            s_out = np.empty(c, dtype=np.int8)
+            k_out = np.empty(c, dtype=np.int32)
+            P_out = np.empty((c, nrev))
+            sl_out = np.empty(c, dtype=np.bool_)
+            diss_out = np.empty(c)
+            ks_out = np.empty(c)
+            ksp_out = np.empty(c)
+            ktn_out = np.empty(c)
+            kn_out = np.empty(c)
+            op_out = np.empty(c, dtype=np.bool_)
+            dn = np.empty(c)
+            dt = np.empty((c, 3))
+            N1 = np.empty(c)
+            rad0 = np.empty(c)
+            rad1 = np.empty(c)
+            tp = np.empty((c, 3))
+            dp = np.empty((c, 3))
+            flags = np.zeros(c, dtype=np.int8)
+            a = np.zeros(27)
+            B = np.zeros((3, 6))
+            u = np.empty(6)
+            v = np.empty(6)
+            jac = np.zeros((6, 6))
+            any_rows = False
             for q in range(6):
-                for q2 in range(6):
-                    jac[q, q2] = 0.0
-            sxx = 0.0
-            syy = 0.0
-            szz = 0.0
-            syz = 0.0
-            sxz = 0.0
-            sxy = 0.0
-            wsl = 0.0
-            wop = 0.0
-            wdi = 0.0
-            wst = 0.0
-            for j in range(c):
-                i = lo + j
-                w = weights[i]
-                nx = normals[i, 0]
-                ny = normals[i, 1]
-                nz = normals[i, 2]
-                lx = branch[i, 0]
-                ly = branch[i, 1]
-                lz = branch[i, 2]
-                Nj = N_out[j]
-                fx = (Nj * nx + T_out[j, 0]) * w
-                fy = (Nj * ny + T_out[j, 1]) * w
-                fz = (Nj * nz + T_out[j, 2]) * w
-                # Love-Weber, symmetric part (seed Eq. 2.6)
-                sxx += fx * lx
-                syy += fy * ly
-                szz += fz * lz
-                syz += 0.5 * (fy * lz + fz * ly)
-                sxz += 0.5 * (fx * lz + fz * lx)
-                sxy += 0.5 * (fx * ly + fy * lx)
-                knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
-                ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
-                cs = w * ksj
-                _add_moments3(a, nx, ny, nz, lx, ly, lz, w * knj - cs, cs, r2)
-                if sl_out[j]:
-                    wsl += w
-                if op_out[j]:
-                    wop += w
-                wdi += w * diss_out[j]
-                # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
-                ap = a_out[j] if a_out[j] > 0.0 else 0.0
-                T2 = T_out[j, 0] ** 2 + T_out[j, 1] ** 2 + T_out[j, 2] ** 2
-                if linear:
-                    en_n = 0.5 * Nj * ap
-                    kt0 = ks_lin if Nj > 0.0 else 0.0
-                else:
-                    en_n = 0.4 * Nj * ap
-                    kt0 = 8.0 * Gs * math.sqrt(R * ap)
-                wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
-                if any_rows:
-                    # consistent contact tangent (Newton only): K = ksp I + (kn - ksp) n n
-                    # + (ks - ksp) e e + ktn e n (law.py: ks along the memory axis e, ks_perp
-                    # across, ktn = d tau / d alpha); C = sum w B^T K B, delta = B d eps
-                    B[0, 0] = lx
-                    B[1, 1] = ly
-                    B[2, 2] = lz
-                    B[1, 3] = 0.5 * lz
-                    B[2, 3] = 0.5 * ly
-                    B[0, 4] = 0.5 * lz
-                    B[2, 4] = 0.5 * lx
-                    B[0, 5] = 0.5 * ly
-                    B[1, 5] = 0.5 * lx
-                    ex = e_out[j, 0]
-                    ey = e_out[j, 1]
-                    ez = e_out[j, 2]
-                    for q in range(6):
-                        u[q] = B[0, q] * nx + B[1, q] * ny + B[2, q] * nz
-                        v[q] = B[0, q] * ex + B[1, q] * ey + B[2, q] * ez
-                    ksp = ksp_out[j] if ksp_out[j] > 0.0 else 0.0
-                    c_n = w * (knj - ksp)
-                    c_e = w * (ksj - ksp)
-                    c_p = w * ksp
-                    c_c = w * ktn_out[j]
-                    for q in range(6):
-                        if jrows[q]:
-                            for q2 in range(6):
-                                btb = B[0, q] * B[0, q2] + B[1, q] * B[1, q2] + B[2, q] * B[2, q2]
-                                jac[q, q2] += (c_p * btb + c_n * u[q] * u[q2] + c_e * v[q] * v[q2]
-                                               + c_c * v[q] * u[q2])
-            stress_c[ch, s, 0] = sxx
-            stress_c[ch, s, 1] = syy
-            stress_c[ch, s, 2] = szz
-            stress_c[ch, s, 3] = syz
-            stress_c[ch, s, 4] = sxz
-            stress_c[ch, s, 5] = sxy
-            for q in range(27):
-                mom_c[ch, s, q] = a[q]
-            scal_c[ch, s, 0] = wsl
-            scal_c[ch, s, 1] = wop
-            scal_c[ch, s, 2] = wdi
-            scal_c[ch, s, 3] = wst
-            if any_rows:
+                if jrows[q]:
+                    any_rows = True
+            for s in range(m):
+                exx = dstrain[s, 0]
+                eyy = dstrain[s, 1]
+                ezz = dstrain[s, 2]
+                eyz = 0.5 * dstrain[s, 3]
+                exz = 0.5 * dstrain[s, 4]
+                exy = 0.5 * dstrain[s, 5]
+                for j in range(c):
+                    i = lo + j
+                    lx = branch[i, 0]
+                    ly = branch[i, 1]
+                    lz = branch[i, 2]
+                    nx = normals[i, 0]
+                    ny = normals[i, 1]
+                    nz = normals[i, 2]
+                    # seed Eq. 2.13: delta = d eps . l, split along and across n
+                    dx = exx * lx + exy * ly + exz * lz
+                    dy = exy * lx + eyy * ly + eyz * lz
+                    dz = exz * lx + eyz * ly + ezz * lz
+                    d_n = dx * nx + dy * ny + dz * nz
+                    dn[j] = d_n
+                    dt[j, 0] = dx - d_n * nx
+                    dt[j, 1] = dy - d_n * ny
+                    dt[j, 2] = dz - d_n * nz
+                    a1 = a_in[j] + d_n
+                    ap = a1 if a1 > 0.0 else 0.0
+                    if linear:
+                        N1[j] = kn_lin * ap
+                        rad0[j] = N1[j]
+                        rad1[j] = N1[j]
+                    else:
+                        N1[j] = hc * ap * math.sqrt(ap)                  # seed Eq. 3.6
+                        Nc = N_in[j] if (a_in[j] > 0.0 and N_in[j] > 0.0) else 0.0
+                        rad0[j] = np.cbrt(0.75 * Nc * R / E)             # seed Eq. 3.2
+                        rad1[j] = np.cbrt(0.75 * N1[j] * R / E)
+                _rows(0, c, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
+                      hcoef, gcoef, glx, glw, sph, k8,
+                      a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in, dn, dt, N1, rad0, rad1,
+                      a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
+                      ksp_out, ktn_out, kn_out, op_out, tp, dp, flags)
+                bad = False
+                for j in range(c):
+                    if flags[j] != 0:
+                        bad = True
+                if bad:
+                    fail[ch] = s
+                    break
+                for q in range(27):
+                    a[q] = 0.0
                 for q in range(6):
                     for q2 in range(6):
-                        jac_c[ch, s, q, q2] = jac[q, q2]
-            # accept the step: out -> in
+                        jac[q, q2] = 0.0
+                sxx = 0.0
+                syy = 0.0
+                szz = 0.0
+                syz = 0.0
+                sxz = 0.0
+                sxy = 0.0
+                wsl = 0.0
+                wop = 0.0
+                wdi = 0.0
+                wst = 0.0
+                for j in range(c):
+                    i = lo + j
+                    w = weights[i]
+                    nx = normals[i, 0]
+                    ny = normals[i, 1]
+                    nz = normals[i, 2]
+                    lx = branch[i, 0]
+                    ly = branch[i, 1]
+                    lz = branch[i, 2]
+                    Nj = N_out[j]
+                    fx = (Nj * nx + T_out[j, 0]) * w
+                    fy = (Nj * ny + T_out[j, 1]) * w
+                    fz = (Nj * nz + T_out[j, 2]) * w
+                    # Love-Weber, symmetric part (seed Eq. 2.6)
+                    sxx += fx * lx
+                    syy += fy * ly
+                    szz += fz * lz
+                    syz += 0.5 * (fy * lz + fz * ly)
+                    sxz += 0.5 * (fx * lz + fz * lx)
+                    sxy += 0.5 * (fx * ly + fy * lx)
+                    knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
+                    ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
+                    cs = w * ksj
+                    _add_moments3(a, nx, ny, nz, lx, ly, lz, w * knj - cs, cs, r2)
+                    if sl_out[j]:
+                        wsl += w
+                    if op_out[j]:
+                        wop += w
+                    wdi += w * diss_out[j]
+                    # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
+                    ap = a_out[j] if a_out[j] > 0.0 else 0.0
+                    T2 = T_out[j, 0] ** 2 + T_out[j, 1] ** 2 + T_out[j, 2] ** 2
+                    if linear:
+                        en_n = 0.5 * Nj * ap
+                        kt0 = ks_lin if Nj > 0.0 else 0.0
+                    else:
+                        en_n = 0.4 * Nj * ap
+                        kt0 = 8.0 * Gs * math.sqrt(R * ap)
+                    wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
+                    if any_rows:
+                        # consistent contact tangent (Newton only): K = ksp I + (kn - ksp) n n
+                        # + (ks - ksp) e e + ktn e n (law.py: ks along the memory axis e, ks_perp
+                        # across, ktn = d tau / d alpha); C = sum w B^T K B, delta = B d eps
+                        B[0, 0] = lx
+                        B[1, 1] = ly
+                        B[2, 2] = lz
+                        B[1, 3] = 0.5 * lz
+                        B[2, 3] = 0.5 * ly
+                        B[0, 4] = 0.5 * lz
+                        B[2, 4] = 0.5 * lx
+                        B[0, 5] = 0.5 * ly
+                        B[1, 5] = 0.5 * lx
+                        ex = e_out[j, 0]
+                        ey = e_out[j, 1]
+                        ez = e_out[j, 2]
+                        for q in range(6):
+                            u[q] = B[0, q] * nx + B[1, q] * ny + B[2, q] * nz
+                            v[q] = B[0, q] * ex + B[1, q] * ey + B[2, q] * ez
+                        ksp = ksp_out[j] if ksp_out[j] > 0.0 else 0.0
+                        c_n = w * (knj - ksp)
+                        c_e = w * (ksj - ksp)
+                        c_p = w * ksp
+                        c_c = w * ktn_out[j]
+                        for q in range(6):
+                            if jrows[q]:
+                                for q2 in range(6):
+                                    btb = B[0, q] * B[0, q2] + B[1, q] * B[1, q2] + B[2, q] * B[2, q2]
+                                    jac[q, q2] += (c_p * btb + c_n * u[q] * u[q2] + c_e * v[q] * v[q2]
+                                                   + c_c * v[q] * u[q2])
+                stress_c[ch, s, 0] = sxx
+                stress_c[ch, s, 1] = syy
+                stress_c[ch, s, 2] = szz
+                stress_c[ch, s, 3] = syz
+                stress_c[ch, s, 4] = sxz
+                stress_c[ch, s, 5] = sxy
+                for q in range(27):
+                    mom_c[ch, s, q] = a[q]
+                scal_c[ch, s, 0] = wsl
+                scal_c[ch, s, 1] = wop
+                scal_c[ch, s, 2] = wdi
+                scal_c[ch, s, 3] = wst
+                if any_rows:
+                    for q in range(6):
+                        for q2 in range(6):
+                            jac_c[ch, s, q, q2] = jac[q, q2]
+                # accept the step: out -> in
+                for j in range(c):
+                    a_in[j] = a_out[j]
+                    N_in[j] = N_out[j]
+                    for q in range(3):
+                        T_in[j, q] = T_out[j, q]
+                        e_in[j, q] = e_out[j, q]
+                    d_in[j] = s_out[j]
+                    k_in[j] = k_out[j]
+                    for q in range(nrev):
+                        P_in[j, q] = P_out[j, q]
+                    en_in[j] = en_in[j] + diss_out[j]
             for j in range(c):
-                a_in[j] = a_out[j]
-                N_in[j] = N_out[j]
+                i = lo + j
+                f_alpha[i] = a_in[j]
+                f_N[i] = N_in[j]
                 for q in range(3):
-                    T_in[j, q] = T_out[j, q]
-                    e_in[j, q] = e_out[j, q]
-                d_in[j] = s_out[j]
-                k_in[j] = k_out[j]
+                    f_T[i, q] = T_in[j, q]
+                    f_e[i, q] = e_in[j, q]
+                f_dir[i] = d_in[j]
+                f_depth[i] = k_in[j]
                 for q in range(nrev):
-                    P_in[j, q] = P_out[j, q]
-                en_in[j] = en_in[j] + diss_out[j]
-        for j in range(c):
-            i = lo + j
-            f_alpha[i] = a_in[j]
-            f_N[i] = N_in[j]
-            for q in range(3):
-                f_T[i, q] = T_in[j, q]
-                f_e[i, q] = e_in[j, q]
-            f_dir[i] = d_in[j]
-            f_depth[i] = k_in[j]
-            for q in range(nrev):
-                f_P[i, q] = P_in[j, q]
-            f_en[i] = en_in[j]
-            f_slide[i] = sl_out[j]
-            f_diss[i] = diss_out[j]
-            f_ks[i] = ks_out[j]
-            f_kn[i] = kn_out[j]
-            f_open[i] = op_out[j]
-
-
-def _make(parallel: bool):
-    """The pass compiled serial or parallel (``prange`` over chunks); same bits either way."""
+                    f_P[i, q] = P_in[j, q]
+                f_en[i] = en_in[j]
+                f_slide[i] = sl_out[j]
+                f_diss[i] = diss_out[j]
+                f_ks[i] = ks_out[j]
+                f_kn[i] = kn_out[j]
+                f_open[i] = op_out[j]
     return njit(parallel=parallel, cache=True, error_model="numpy")(_strain_path_body)
 
 
