@@ -75,6 +75,25 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
     _, G_w = walton(44e9, 0.08, 1e5, porosity=0.65 / 1.65, coordination=6.75)
     assert s["G_max_Pa"] == pytest.approx(G_w, rel=1e-6)
     assert capsys.readouterr().err == ""
+    # site-response export: the same curves, strain and damping as decimals
+    from grainmech.io.site_response import read_curves
+    curves = read_curves(out / "site_response_curves.csv")
+    assert np.allclose(curves.strain, s["amplitudes"]) and np.allclose(curves.g_ratio, ratio)
+    assert np.allclose(curves.damping, s["damping"])
+
+
+def test_constant_volume_cyclic_simple_shear(tmp_path):
+    """test.constant = "volume": every strain but gamma_xz held; Gmax is plain C_55 and the
+    smallest amplitude's secant modulus equals it within 1 % (issue 4)."""
+    cfg = tmp_path / "v.toml"
+    cfg.write_text(CYCLIC.replace('kind = "cyclic-simple-shear"', 'kind = "cyclic-simple-shear"\nconstant = "volume"'))
+    out = tmp_path / "v"
+    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["G_over_Gmax"][0] == pytest.approx(1.0, abs=0.01)
+    import csv
+    rows = list(csv.DictReader((out / "run_00.csv").open()))
+    assert max(abs(float(r["strain_zz"])) for r in rows) == 0.0
 
 
 def test_path_config_and_linear_law(tmp_path):

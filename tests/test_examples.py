@@ -40,3 +40,10 @@ def test_sweep_examples(path, tmp_path, capsys):
     assert " 0 failed" in capsys.readouterr().out
     lines = (tmp_path / "sweep.csv").read_text().splitlines()
     assert len(lines) > 2 and "status" in lines[0]
+
+
+@pytest.mark.parametrize("path", sorted(EX.glob("calibrate_*.toml")), ids=lambda p: p.name)
+def test_calibrate_examples(path, tmp_path):
+    """Each examples/calibrate_X.toml fits its data in calibrate_X.csv and converges."""
+    assert main(["calibrate", str(path), str(path.with_suffix(".csv")), "-o", str(tmp_path), "--quiet"]) == 0
+    assert (tmp_path / "fit.json").stat().st_size > 0

@@ -127,6 +127,7 @@ class RunSpec:
     n_cycles: int = 2
     steps_per_cycle: int = 40
     waveform: str = "triangle"
+    constant: str = "stress"
     reference: dict | None = None
     path: Any = None
 
@@ -204,6 +205,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         spec.n_cycles = test.integer("n_cycles", 2, min=2)
         spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
+        spec.constant = test.choice("constant", ("stress", "volume"), "stress")
         spec.reference = dict(
             pi=ref.number("plasticity_index", None, 0.0, min=0),
             ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
@@ -240,7 +242,8 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
 
         t0 = time.perf_counter()
         mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
-                               waveform=spec.waveform, progress=each, raise_on_failure=False)
+                               waveform=spec.waveform, constant=spec.constant, progress=each,
+                               raise_on_failure=False)
         out.update(results=mr.results, amplitudes=[float(a) for a in mr.amplitude], G=list(mr.G),
                    damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
                    seconds=time.perf_counter() - t0, reference=spec.reference, point=point)

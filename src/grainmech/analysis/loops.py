@@ -105,15 +105,20 @@ class ModulusReduction:
 
 
 def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
-                      steps_per_cycle: int = 80, waveform: str = "triangle",
+                      steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
                       progress: Callable[[int, float, Any], None] | None = None,
                       raise_on_failure: bool = True, **run_options: Any) -> ModulusReduction:
-    """Strain-controlled cyclic simple shear (``gamma_xz``, constant ``sigma_zz``) per amplitude.
+    """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
 
     Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
+    ``G_max`` is the tangent shear modulus of ``point`` condensed with the path's control
+    (``sigma_zz`` free at constant normal stress; plain ``C_55`` at constant volume).
 
     Parameters
     ----------
+    constant : {"stress", "volume"}
+        Constant normal stress ``sigma_zz`` (default) or constant volume (every other
+        strain component held; see :func:`grainmech.driver.cyclic_simple_shear`).
     progress : callable ``(index, amplitude, path)``, optional
         Called before each amplitude is run.
     raise_on_failure : bool
@@ -134,7 +139,7 @@ def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int 
     G, D, res = [], [], []
     success, message = True, "done"
     for i, a in enumerate(amps):
-        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform)
+        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
         if progress is not None:
             progress(i, float(a), path)
         r = run(point, path, **run_options)

@@ -66,6 +66,15 @@ def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
         write_csv(d / "modulus_reduction.csv", ["amplitude", "G_Pa", "G_over_Gmax", "damping"],
                   zip(amps, G, G / out["G_max"], Dm))
         summary["files"].append("modulus_reduction.csv")
+        # the same curves for site-response tools (strain and damping as decimals)
+        from grainmech.io.site_response import write_curves
+
+        o = np.argsort(amps)
+        if np.all(np.diff(amps[o]) > 0):
+            write_curves(d / "site_response_curves.csv", amps[o], (G / out["G_max"])[o], Dm[o],
+                         g_max=out["G_max"],
+                         source=f"grainmech run: {source}, mean stress {out['pressure']:.6g} Pa")
+            summary["files"].append("site_response_curves.csv")
         plots.loops(out["results"][:len(G)], amps, d / "loops.png")
         plots.modulus_reduction(amps, G / out["G_max"], Dm, d / "modulus_reduction.png",
                                 {"Darendeli (2001)": (gam, dar.G_ratio, dar.damping),
@@ -115,7 +124,9 @@ def _write_index(d: Path, summary: dict, cfg_text: str) -> None:
                                 f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
                                 f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
                                 f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
-                                ("modulus_reduction.png", "modulus_reduction.csv")))
+                                ("modulus_reduction.png", "modulus_reduction.csv")
+                                + (("site_response_curves.csv",)
+                                   if "site_response_curves.csv" in summary["files"] else ())))
         sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
                                 "Shear stress against normalised shear strain for every amplitude.",
                                 ("loops.png",)))
