@@ -102,3 +102,14 @@ def test_errors_and_warnings():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         coordination_yanagisawa(0.6)
+
+
+def test_particles_per_volume_out_of_float_range_is_a_clear_error():
+    """A radius so small that 1/r^3 overflows (wrong length unit) names the radius."""
+    from grainmech.errors import ConfigError
+    from grainmech.fabric.packing import particles_per_volume
+
+    with pytest.raises(ConfigError, match="radius = 1e-120"):
+        particles_per_volume(0.6, 1e-120)
+    # 3 / (4 pi r^3 (1 + e)) for r = 1 mm, e = 0.6
+    assert particles_per_volume(0.6, 1e-3) == pytest.approx(3 / (4 * np.pi * 1e-9 * 1.6), rel=1e-14)

@@ -106,9 +106,17 @@ def particles_per_volume(void_ratio: object, radius: object, dim: int = 3) -> np
     e = _as_positive(void_ratio, "void_ratio")
     r = _as_positive(radius, "radius")
     dim = _checks.as_dim(dim)
-    if dim == 3:
-        return _out(3.0 / (4.0 * np.pi * r ** 3 * (1.0 + e)))
-    return _out(1.0 / (np.pi * r ** 2 * (1.0 + e)))
+    with np.errstate(over="ignore", divide="ignore", under="ignore"):
+        if dim == 3:
+            nv = 3.0 / (4.0 * np.pi * r ** 3 * (1.0 + e))
+        else:
+            nv = 1.0 / (np.pi * r ** 2 * (1.0 + e))
+    bad = ~np.isfinite(nv) | (nv <= 0)
+    if np.any(bad):
+        v = r[bad].flat[0] if r.ndim else r.item()
+        raise ConfigError("radius", float(v), "gives a particle count per volume outside the "
+                          "floating-point range (check the length unit)")
+    return _out(nv)
 
 
 def contact_ends_per_volume(void_ratio: object, coordination: object, radius: object,
