@@ -14,30 +14,10 @@ import numpy as np
 import pytest
 
 from grainmech.cli import main
+from test_cli_run import CYCLIC as CFG  # the small cyclic run of the CLI tests
 
 ROOT = Path(__file__).resolve().parents[1]
 BROWSER = shutil.which("chromium") or shutil.which("chromium-browser")
-
-CFG = """
-[packing]
-void_ratio = 0.65
-coordination = 6.75
-radius = "0.25 mm"
-[contacts]
-law = "mindlin-deresiewicz"
-shear_modulus = "44 GPa"
-poisson = 0.08
-friction = 0.5
-[initial]
-pressure = "100 kPa"
-[test]
-kind = "cyclic-simple-shear"
-amplitudes = [1e-5, 1e-4, 1e-3]
-n_cycles = 2
-steps_per_cycle = 16
-[quadrature]
-degree = 9
-"""
 
 
 @pytest.mark.skipif(BROWSER is None, reason="chromium not installed")

@@ -146,16 +146,10 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
         columns, a cell that is not a finite number, a wrong number of cells, or an
         ``sd_`` value that is not positive. The message names file, line, column, value.
     """
-    p = Path(path)
+    from grainmech.io.config import read_text_file
+
     name = str(path)
-    if not p.exists():
-        raise GrainmechError(f"data file not found: {name}")
-    if p.is_dir():
-        raise GrainmechError(f"data path is a directory, not a file: {name}")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise GrainmechError(f"{name}: not a UTF-8 text file ({exc.reason})") from None
+    text = read_text_file(path, "data")
     header: list[str] | None = None
     units: list[str] = []
     factors: list[float] = []

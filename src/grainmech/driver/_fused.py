@@ -55,13 +55,14 @@ def _make(parallel: bool):
     def _strain_path_body(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
                             hcoef, gcoef, glx, glw, sph, k8,
                             normals, branch, weights, dstrain, jrows,
-                            alpha0, N0, T0, e0, dir0, depth0, P0, en0,
+                            alpha, N, T, e, direction, depth, P, energy,
                             stress_c, mom_c, scal_c, jac_c,
-                            f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_en,
                             f_slide, f_diss, f_ks, f_kn, f_open, fail):
-        n = alpha0.shape[0]
+        # the state arrays (alpha ... energy) are advanced in place; f_* receive the
+        # response of the last step
+        n = alpha.shape[0]
         m = dstrain.shape[0]
-        nrev = P0.shape[1]
+        nrev = P.shape[1]
         nch = (n + _CH - 1) // _CH
         hc = (4.0 / 3.0) * E * math.sqrt(R)
         r2 = math.sqrt(2.0) / 2.0
@@ -69,14 +70,14 @@ def _make(parallel: bool):
             lo = ch * _CH
             hi = min(n, lo + _CH)
             c = hi - lo
-            a_in = alpha0[lo:hi].copy()
-            N_in = N0[lo:hi].copy()
-            T_in = T0[lo:hi].copy()
-            e_in = e0[lo:hi].copy()
-            d_in = dir0[lo:hi].copy()
-            k_in = depth0[lo:hi].copy()
-            P_in = P0[lo:hi].copy()
-            en_in = en0[lo:hi].copy()
+            a_in = alpha[lo:hi]
+            N_in = N[lo:hi]
+            T_in = T[lo:hi]
+            e_in = e[lo:hi]
+            d_in = direction[lo:hi]
+            k_in = depth[lo:hi]
+            P_in = P[lo:hi]
+            en_in = energy[lo:hi]
             a_out = np.empty(c)
             N_out = np.empty(c)
             T_out = np.empty((c, 3))
@@ -84,13 +85,13 @@ def _make(parallel: bool):
             s_out = np.empty(c, dtype=np.int8)
             k_out = np.empty(c, dtype=np.int32)
             P_out = np.empty((c, nrev))
-            sl_out = np.empty(c, dtype=np.bool_)
-            diss_out = np.empty(c)
-            ks_out = np.empty(c)
+            sl_out = f_slide[lo:hi]
+            diss_out = f_diss[lo:hi]
+            ks_out = f_ks[lo:hi]
             ksp_out = np.empty(c)
             ktn_out = np.empty(c)
-            kn_out = np.empty(c)
-            op_out = np.empty(c, dtype=np.bool_)
+            kn_out = f_kn[lo:hi]
+            op_out = f_open[lo:hi]
             dn = np.empty(c)
             dt = np.empty((c, 3))
             N1 = np.empty(c)
@@ -267,23 +268,6 @@ def _make(parallel: bool):
                     for q in range(nrev):
                         P_in[j, q] = P_out[j, q]
                     en_in[j] = en_in[j] + diss_out[j]
-            for j in range(c):
-                i = lo + j
-                f_alpha[i] = a_in[j]
-                f_N[i] = N_in[j]
-                for q in range(3):
-                    f_T[i, q] = T_in[j, q]
-                    f_e[i, q] = e_in[j, q]
-                f_dir[i] = d_in[j]
-                f_depth[i] = k_in[j]
-                for q in range(nrev):
-                    f_P[i, q] = P_in[j, q]
-                f_en[i] = en_in[j]
-                f_slide[i] = sl_out[j]
-                f_diss[i] = diss_out[j]
-                f_ks[i] = ks_out[j]
-                f_kn[i] = kn_out[j]
-                f_open[i] = op_out[j]
     return njit(parallel=parallel, cache=True, error_model="numpy")(_strain_path_body)
 
 
@@ -338,7 +322,6 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     n = cs.normals.shape[0]
     m = d_strain.shape[0]
     nch = (n + _CH - 1) // _CH
-    nrev = st.reversals.shape[1]
 
     def c(x, dtype=float):
         x = np.ascontiguousarray(x, dtype=dtype)
@@ -347,22 +330,19 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     stress_c = np.zeros((nch, m, 6))
     mom_c = np.zeros((nch, m, 27))
     scal_c = np.zeros((nch, m, 4))
-    f_alpha, f_N, f_en, f_diss, f_ks, f_kn = (np.empty(n) for _ in range(6))
-    f_T, f_e = np.empty((n, 3)), np.empty((n, 3))
-    f_dir = np.empty(n, dtype=np.int8)
-    f_depth = np.empty(n, dtype=np.int32)
-    f_P = np.empty((n, nrev))
+    # the state, copied: the kernel advances it in place
+    state = ContactState(*(np.array(x, dtype=dt, order="C") for x, dt in zip(
+        st, (float, float, float, float, np.int8, np.int32, float, np.bool_, float))))
+    f_diss, f_ks, f_kn = np.empty(n), np.empty(n), np.empty(n)
     f_slide = np.empty(n, dtype=np.bool_)
     f_open = np.empty(n, dtype=np.bool_)
     fail = np.full(nch, -1, dtype=np.int64)
     jrows = np.zeros(6, dtype=np.bool_) if jacobian_rows is None else np.ascontiguousarray(jacobian_rows, dtype=np.bool_)
     jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
     _strain_path_kernel(*consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain), jrows,
-                        c(st.approach), c(st.normal_force), c(st.tangential_force), c(st.axis),
-                        c(st.direction, np.int8), c(st.depth, np.int32), c(st.reversals),
-                        c(st.dissipated_energy),
+                        state.approach, state.normal_force, state.tangential_force, state.axis,
+                        state.direction, state.depth, state.reversals, state.dissipated_energy,
                         stress_c, mom_c, scal_c, jac_c,
-                        f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_en,
                         f_slide, f_diss, f_ks, f_kn, f_open, fail)
     if np.any(fail >= 0):
         return None
@@ -372,9 +352,9 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     wtot = float(cs.weights.sum())
     frac = scal[:, :2] / wtot if wtot > 0 else np.zeros((m, 2))
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
-    state = ContactState(f_alpha, f_N, f_T, f_e, f_dir, f_depth, f_P, f_slide, f_en)
-    T = f_T
-    response = LawResponse(f_N, T, f_kn, f_ks, f_slide, f_open, f_diss)
+    state = state._replace(sliding=f_slide)
+    response = LawResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_slide, f_open,
+                           f_diss)
     jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
     return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}

@@ -120,8 +120,12 @@ class _StepFailure(Exception):
 
 
 def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: np.ndarray,
-           opts: SolverOptions) -> tuple[MaterialPoint, int, Any]:
-    """Newton iterations for one (sub)step; returns (point, iterations, response)."""
+           opts: SolverOptions, fused: bool = False) -> tuple[MaterialPoint, int, Any]:
+    """Newton iterations for one (sub)step; returns (point, iterations, response).
+
+    ``fused``: evaluate through the compiled pass of :mod:`grainmech.driver._fused`
+    (with the consistent Jacobian rows) instead of :func:`evaluate` + :func:`tangent`.
+    """
     de = np.where(sc, 0.0, d_strain)
     scale = max(float(np.abs(point.stress).max()), float(np.abs(target[sc]).max()) if sc.any() else 0.0)
     Gm = geometric_stiffness(point.stress) if opts.finite_deformation else np.zeros((6, 6))
@@ -137,7 +141,6 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
             de[sc] = 0.0
         if not np.all(np.isfinite(de)):
             de[sc] = 0.0
-    fused = opts.compiled and not opts.finite_deformation and _compiled_law(point)
     for it in range(1, opts.max_iter + 1):
         if fused:
             ev = _fused_evaluate(point, de, sc)
@@ -176,10 +179,10 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
                        f"{100 * op:.0f}% open")
 
 
-def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters):
+def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters, fused=False):
     """Advance from ``point`` by strain ``d_strain`` and to stress target ``t1`` (from ``t0``)."""
     try:
-        new, it, resp = _solve(point, sc, d_strain, t1, opts)
+        new, it, resp = _solve(point, sc, d_strain, t1, opts, fused)
         counters[0] += 1
         counters[1] += it
         counters[2] += float(np.dot(point.contacts.weights, resp.dissipation))
@@ -192,8 +195,8 @@ def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters):
     if depth >= opts.max_depth:
         raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")  # type: ignore[attr-defined]
     tm = 0.5 * (t0 + t1)
-    mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters)
-    return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters)
+    mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters, fused)
+    return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters, fused)
 
 
 def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None = None,
@@ -223,7 +226,9 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
     if not isinstance(path, LoadPath):
         raise ConfigError("path", type(path).__name__, "must be a LoadPath")
     m = len(path)
-    if options.compiled and _fused_eligible(point, path, options):
+    # compiled law evaluations (driver/_fused.py): decided once per run
+    fused = options.compiled and not options.finite_deformation and _compiled_law(point)
+    if fused and not path.stress_control.any() and m > 0:
         res = _run_fused(point, path, options)
         if res is not None:
             return res
@@ -262,7 +267,8 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
         t0 = np.where(sc, point.stress, 0.0)
         counters = [0, 0, 0.0, 0.0]
         try:
-            point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters)
+            point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters,
+                                fused)
         except _StepFailure as exc:
             success, status = False, 1
             message = f"step {k + 1}: stress target not reachable: {exc.cause}"
@@ -334,13 +340,6 @@ def _compiled_law(point: MaterialPoint) -> bool:
         return L._select_kernel(point.law.params, "auto") is not None
     except (ImportError, ValueError):
         return False
-
-
-def _fused_eligible(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> bool:
-    """A fully strain-controlled path on a law with a compiled kernel (see ``compiled``)."""
-    if options.finite_deformation or path.stress_control.any() or len(path) == 0:
-        return False
-    return _compiled_law(point)
 
 
 def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:

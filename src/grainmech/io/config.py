@@ -15,25 +15,32 @@ from typing import Any, Iterable
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.units import to_float
 
-__all__ = ["load_toml", "Section"]
+__all__ = ["load_toml", "read_text_file", "Section"]
 
 _MISSING = object()
 
 
-def load_toml(path: str | Path) -> dict:
-    """Read a TOML file; syntax errors become a GrainmechError naming file and line."""
+def read_text_file(path: str | Path, what: str) -> str:
+    """The text of a UTF-8 file; a missing file, a directory or bad encoding is a
+    GrainmechError naming the path (``what`` names the kind of file: "config", "data")."""
     p = Path(path)
     if not p.exists():
-        raise GrainmechError(f"config file not found: {p}")
+        raise GrainmechError(f"{what} file not found: {p}")
     if p.is_dir():
-        raise GrainmechError(f"config path is a directory, not a file: {p}")
+        raise GrainmechError(f"{what} path is a directory, not a file: {p}")
     try:
-        with p.open("rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise GrainmechError(f"{p}: invalid TOML: {exc}") from None
+        return p.read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise GrainmechError(f"{p}: not a UTF-8 text file ({exc.reason})") from None
+
+
+def load_toml(path: str | Path) -> dict:
+    """Read a TOML file; syntax errors become a GrainmechError naming file and line."""
+    text = read_text_file(path, "config")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise GrainmechError(f"{Path(path)}: invalid TOML: {exc}") from None
 
 
 class Section:

@@ -146,15 +146,10 @@ def write_curves(path: str | Path, strain: Any = None, g_ratio: Any = None, damp
 
 def read_curves(path: str | Path) -> SiteResponseCurves:
     """Read a file written by :func:`write_curves` (validated; errors name file and line)."""
+    from grainmech.io.config import read_text_file
+
     p = Path(path)
-    if not p.exists():
-        raise GrainmechError(f"curve file not found: {p}")
-    if p.is_dir():
-        raise GrainmechError(f"curve path is a directory, not a file: {p}")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise GrainmechError(f"{p}: not a UTF-8 text file ({exc.reason})") from None
+    text = read_text_file(p, "curve")
     comment = ""
     header_seen = False
     rows: list[list[float]] = []
