@@ -375,7 +375,8 @@ def _moments_to_matrices(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def moments_to_voigt(a: np.ndarray) -> np.ndarray:
-    """Voigt stiffness (6, 6) from the 27 moments accumulated by ``_add_moments3``."""
+    """Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``_add_moments3``
+    (seed Eq. 2.26 with the full tangential projector, symmetrised as :func:`stiffness`)."""
     A, M = _moments_to_matrices(a)
     Cm = A + _b_mandel(M)
     return 0.5 * (Cm + Cm.T) * _M2V[3]
