@@ -63,6 +63,8 @@ import math
 import numpy as np
 from numba import get_num_threads, njit, prange
 
+from grainmech.contact.law import _MERGE_TOL, _REV_TOL  # tolerances of the reference law
+
 __all__ = ["update_kernel", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS"]
 
 #: law codes (``law_kind`` of :mod:`grainmech.contact.law`)
@@ -219,6 +221,24 @@ def _top(P, row, k, back):
     return 0.0
 
 
+@njit(**_JIT)
+def _merge_closest_loop(P, row, k, Q, muN):
+    """Full memory: forget the loop that came closest to closing (law._merge_closest_loop)."""
+    best = -1
+    gmin = _MERGE_TOL * 2.0 * muN
+    for j in range(k - 1):
+        nxt = P[row, j + 2] if j + 2 < k else Q
+        g = abs(P[row, j] - nxt)
+        if g <= gmin and (best < 0 or g < gmin):
+            gmin = g
+            best = j
+    if best < 0:
+        return k
+    for j in range(best, k - 2):
+        P[row, j] = P[row, j + 2]
+    return k - 2
+
+
 @njit(inline="always", **_JIT)
 def _reverse(Q, k, muN, P, row, maxrev):
     """Start a branch in the opposite direction at force level ``muN``.
@@ -227,12 +247,20 @@ def _reverse(Q, k, muN, P, row, maxrev):
     branch started erases it (pop); otherwise the reversal is remembered (push ``P = Q``).
     On the new branch ``Q' = 2 mu N - Q``. Returns ``(Q, k, overflow)``.
     """
+    if k > 0:
+        # Masing's rule at a tie: the loop closed within rounding of its target (law.py)
+        Qt = _top(P, row, k, 2) if k >= 2 else _top(P, row, k, 1)
+        if Q - Qt <= _REV_TOL * 2.0 * muN:
+            Q = min(Q, Qt)
+            k = max(k - 2, 0)
     Pt = _top(P, row, k, 1)
-    skeleton_zero = (k == 0) and (Q >= muN * (1.0 - _EPS))
-    fresh = (k > 0) and (Q + Pt >= 2.0 * muN * (1.0 - _EPS))
+    skeleton_zero = (k == 0) and (Q >= muN * (1.0 - _REV_TOL))
+    fresh = (k > 0) and (Q + Pt >= 2.0 * muN * (1.0 - _REV_TOL))
     if not skeleton_zero and not fresh:
         if k >= maxrev:
-            return Q, k, True
+            k = _merge_closest_loop(P, row, k, Q, muN)
+            if k >= maxrev:
+                return Q, k, True
         P[row, k] = Q
         k += 1
     elif fresh:

@@ -109,6 +109,24 @@ __all__ = [
 ]
 
 _EPS = 1e-12
+#: Relative size (of ``2 mu N``) below which two tangential force levels of the hysteretic
+#: law count as the same point. A branch that stops this close to the reversal point it
+#: heads for has closed its loop (Masing's rule: the loop is erased), and a reversal this
+#: close to the point where the current branch started is a wiggle (it pops instead of
+#: pushing). Without it, memory grows without bound under plain symmetric cycling: a
+#: loop that closes exactly at a step end is a tie decided by rounding, and when the
+#: normal force drifts slowly (ratcheting at constant sigma_zz) each new reversal lands a
+#: few 1e-8 mu N inside the previous one and is nested under it. Merging two levels this
+#: close changes the tangential force by at most ``1e-6 * 2 mu N``, far below any
+#: resolution of contact forces or stresses, and changes the loop area by a relative
+#: amount of the same order.
+_REV_TOL = 1e-6
+#: When the reversal memory is full, the remembered loop that came closest to closing is
+#: forgotten if its shortfall is at most this fraction of ``2 mu N`` (see
+#: :func:`_merge_closest_loop`); a deeper, genuinely nested history stops the law with
+#: :class:`~grainmech.contact.ReversalMemoryError`. Slow drift of the normal force under
+#: constant-stress cycling nests loops whose ends differ by ~1e-6 ``mu N`` per cycle.
+_MERGE_TOL = 1e-3
 #: Gauss–Legendre rule for the dissipation while N falls (integrand smooth, >= 0)
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
 
@@ -801,6 +819,32 @@ class _Stack:
         self.P[rows, cols] = vals
 
 
+def _merge_closest_loop(stack: _Stack, row: int, k: int, Q: float, muN: float) -> int:
+    """Full memory: forget the remembered loop that came closest to closing; new depth.
+
+    Remembered levels ``P_0 .. P_{k-1}`` and the reversal about to be pushed
+    (``P_k = Q``) alternate in direction; ``|P_j - P_{j+2}|`` is how far the branch from
+    reversal ``j + 1`` stopped short of closing the loop ``(j, j + 1)`` (Masing's rule
+    erases a loop whose branch reaches its start). The pair with the smallest shortfall is
+    erased as if it had closed, which moves later forces by at most that shortfall. Done
+    only when it is at most :data:`_MERGE_TOL` ``* 2 mu N``; otherwise the depth is
+    returned unchanged and the caller reports the exhausted memory.
+    """
+    if k < 2:
+        return k
+    levels = np.append(stack.P[row, :k], Q)
+    gaps = np.abs(levels[:-2] - levels[2:])
+    j = int(np.argmin(gaps))
+    if gaps[j] > _MERGE_TOL * 2.0 * muN:
+        return k
+    keep = np.r_[stack.P[row, :j], stack.P[row, j + 2:k]]
+    if not stack.copied:
+        stack.P = stack.P.copy()
+        stack.copied = True
+    stack.P[row, :k - 2] = keep
+    return k - 2
+
+
 def _top(P: np.ndarray, rows: np.ndarray, k: np.ndarray, back: int) -> np.ndarray:
     """``P[row, k - back]`` where ``k - back >= 0``, else 0."""
     col = k - back
@@ -1020,15 +1064,25 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
         if idx.size == 0:
             return
         kk = k[idx]
-        Pt = _top(stack.P, idx, kk, 1)
         muNi = muN[idx]
         Qi = Q[idx]
-        skeleton_zero = (kk == 0) & (Qi >= muNi * (1.0 - _EPS))          # virgin at T ~ 0
-        fresh = (kk > 0) & (Qi + Pt >= 2.0 * muNi * (1.0 - _EPS))         # at the reversal point
+        # Masing's rule at a tie: a branch that stopped within rounding of the reversal
+        # point it was heading for has closed its loop; erase that loop before turning
+        Qt = np.where(kk >= 2, _top(stack.P, idx, kk, 2), _top(stack.P, idx, kk, 1))
+        closing = (kk > 0) & (Qi - Qt <= _REV_TOL * 2.0 * muNi)
+        Qi = np.where(closing, np.minimum(Qi, Qt), Qi)
+        kk = np.where(closing, np.maximum(kk - 2, 0), kk)
+        Pt = _top(stack.P, idx, kk, 1)
+        skeleton_zero = (kk == 0) & (Qi >= muNi * (1.0 - _REV_TOL))      # virgin at T ~ 0
+        fresh = (kk > 0) & (Qi + Pt >= 2.0 * muNi * (1.0 - _REV_TOL))     # at the reversal point
         push = ~skeleton_zero & ~fresh
         full = push & (kk >= maxrev)
         if np.any(full):
-            raise ReversalMemoryError(idx[full], maxrev)
+            for jj in np.nonzero(full)[0]:
+                kk[jj] = _merge_closest_loop(stack, int(idx[jj]), int(kk[jj]), float(Qi[jj]),
+                                             float(muNi[jj]))
+                if kk[jj] >= maxrev:
+                    raise ReversalMemoryError(idx[full], maxrev)
         pi = idx[push]
         if pi.size:
             stack.write(pi, kk[push], Qi[push])

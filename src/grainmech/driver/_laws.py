@@ -59,7 +59,7 @@ Nothing else in the driver imports contact laws.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -94,7 +94,16 @@ class LawState:
 
 @dataclass(frozen=True)
 class LawResponse:
-    """Forces and tangent stiffnesses after an update (shapes (n,), (n, 3))."""
+    """Forces and tangent stiffnesses after an update (shapes (n,), (n, 3)).
+
+    ``ks`` is the tangent along the slip (memory) axis ``axis``, ``ks_perp`` the one
+    across it and ``ktn = d tau / d alpha`` the normal-tangential coupling (Thornton &
+    Randall's ``mu dN (1 - theta)`` term, seed Eq. 3.11), as in
+    :class:`grainmech.contact.ContactResponse`; together they give the consistent contact
+    tangent ``K = ks_perp (I - n n - e e) + kn n n + ks e e + ktn e n`` that the driver's
+    Newton iterations use (:func:`grainmech.driver.point.consistent_tangent`). ``None``
+    where a law does not provide them (then ``K = kn n n + ks (I - n n)``).
+    """
 
     normal_force: np.ndarray
     tangential_force: np.ndarray
@@ -103,6 +112,9 @@ class LawResponse:
     sliding: np.ndarray
     open: np.ndarray
     dissipation: np.ndarray
+    ks_perp: np.ndarray | None = None
+    ktn: np.ndarray | None = None
+    axis: np.ndarray | None = None
 
 
 def _coulomb_limit(mu: float, N: np.ndarray) -> np.ndarray:
@@ -349,14 +361,13 @@ class ContactLaw:
 
         new, r = update(self.params, state, d_normal, d_tangential)
         return new, LawResponse(r.normal_force, r.tangential_force, r.kn, r.ks, r.sliding, r.open,
-                                r.dissipation)
+                                r.dissipation, r.ks_perp, r.ktn, r.axis)
 
     def response(self, state) -> LawResponse:
         """Forces and tangent at a state (a zero increment of the law)."""
         n = state.approach.shape[0]
         _, r = self.update(state, np.zeros(n), np.zeros((n, 3)))
-        return LawResponse(r.normal_force, r.tangential_force, r.kn, r.ks, r.sliding, r.open,
-                           np.zeros(n))
+        return replace(r, dissipation=np.zeros(n))
 
     def stored_energy(self, state) -> np.ndarray:
         """Elastic energy estimate per contact.

@@ -16,7 +16,7 @@ first-order finite-deformation correction of seed Eq. 2.36-2.38 (corrected form 
 from __future__ import annotations
 
 from functools import cached_property
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -204,6 +204,43 @@ def tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
         return stiffness(cs.with_stiffness(kn, ks))  # raises, naming the contact
     return _stiffness_arrays(cs.normals, cs.branch, cs.weights, np.ascontiguousarray(kn, dtype=float),
                              np.ascontiguousarray(ks, dtype=float))
+
+
+def _project(x: np.ndarray, branch: np.ndarray) -> np.ndarray:
+    """Rows ``B_c^T x_c`` (C, 6): the Voigt vector of ``sym(x_c (x) l_c)`` (seed Eq. 2.13).
+
+    ``B_c`` maps an engineering strain increment to the contact's relative displacement,
+    ``delta_c = B_c d eps`` (``delta_i = d eps_ij l_j``), so ``B_c^T f_c`` is the contact's
+    Love-Weber stress contribution (seed Eq. 2.6) per unit weight.
+    """
+    l = branch
+    return np.stack([l[:, 0] * x[:, 0], l[:, 1] * x[:, 1], l[:, 2] * x[:, 2],
+                     0.5 * (l[:, 2] * x[:, 1] + l[:, 1] * x[:, 2]),
+                     0.5 * (l[:, 2] * x[:, 0] + l[:, 0] * x[:, 2]),
+                     0.5 * (l[:, 1] * x[:, 0] + l[:, 0] * x[:, 1])], axis=1)
+
+
+def consistent_tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
+    """Newton Jacobian (6, 6) ``d sigma / d eps`` of the last law update (not symmetric).
+
+    ``C = sum_c w_c B_c^T K_c B_c`` (seed Eq. 2.26) with the consistent contact tangent
+    ``K = ks_perp (I - n n) + kn n n + (ks - ks_perp) e e + ktn e n`` (``e`` the slip axis,
+    ``ktn`` the Thornton-Randall coupling ``d tau / d alpha``; see
+    :class:`~grainmech.driver._laws.LawResponse`). The compiled pass of
+    :mod:`grainmech.driver._fused` assembles the same matrix; a law without ``ks_perp``
+    gives :func:`tangent`. Only 3D contact sets carry the extra terms.
+    """
+    if resp.ks_perp is None or resp.axis is None or cs.normals.shape[1] != 3:
+        return tangent(cs, resp)
+    ksp = np.maximum(resp.ks_perp, 0.0)
+    ks = np.maximum(resp.ks, 0.0)
+    C = tangent(cs, replace(resp, ks=ksp))
+    w = cs.weights
+    v = _project(resp.axis, cs.branch)
+    u = _project(cs.normals, cs.branch)
+    C += (v * (w * (ks - ksp))[:, None]).T @ v
+    C += (v * (w * resp.ktn)[:, None]).T @ u
+    return C
 
 
 def _fractions(cs: ContactSet, resp: LawResponse) -> tuple[float, float]:

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from grainmech.driver.paths import LoadPath
-from grainmech.driver.point import MaterialPoint, _fractions, evaluate, geometric_stiffness, tangent
+from grainmech.driver.point import (MaterialPoint, _fractions, consistent_tangent, evaluate,
+                                    geometric_stiffness, tangent)
 from grainmech.errors import ConfigError, GrainmechError
 
 __all__ = ["run", "DriverResult", "SolverOptions"]
@@ -163,7 +164,7 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
         if fused:
             J = ev.jacobian[np.ix_(sc, sc)]
         else:
-            C = tangent(point.contacts, ev.response) + Gm
+            C = consistent_tangent(point.contacts, ev.response) + Gm
             J = C[np.ix_(sc, sc)]
         cond = np.linalg.cond(J)
         if not np.isfinite(cond) or cond > 1e13:
@@ -322,8 +323,8 @@ def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _Fu
     out = strain_path(point, de[None, :], sc)
     if out is None:  # reversal memory exhausted somewhere: let the NumPy path say where
         ev = evaluate(point, de)
-        C = tangent(point.contacts, ev.response)
-        return _FusedEvaluation(ev.state, ev.response, ev.stress, C, C)
+        return _FusedEvaluation(ev.state, ev.response, ev.stress, tangent(point.contacts, ev.response),
+                                consistent_tangent(point.contacts, ev.response))
     return _FusedEvaluation(out["state"], out["response"], out["stress"][0], out["tangent"][0],
                             out["jacobian"][0])
 
