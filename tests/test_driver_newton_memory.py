@@ -74,3 +74,40 @@ def test_fifty_cycles_keep_the_memory_bounded(constant):
         r = run(pt, cyclic_simple_shear(amp, 50, 20, constant=constant))
         assert r.success, f"{constant} {amp}: {r.message}"
         assert r.final.state.depth.max() <= LAW.max_reversals
+
+
+def test_contact_cli_fifty_cycles_with_a_varying_normal_force(tmp_path):
+    """`grainmech contact`: 50 one-dimensional displacement cycles, N cycled too (Thornton-
+    Randall rules move every reversal level), then 50 at constant N: the run completes."""
+    from grainmech.cli import main
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        '[contact]\nlaw = "mindlin-deresiewicz"\nshear_modulus = "29 GPa"\npoisson = 0.22\n'
+        'radius1 = "1 mm"\nfriction = 0.5\n[initial]\nnormal_force = "10 N"\n'
+        + "".join('[[path]]\nsteps = 4\n'
+                  f'tangential_displacement = "{0.4 * (-1) ** k} um"\nnormal_force = "{10 + (k % 3)} N"\n'
+                  for k in range(100))
+        + '[[path]]\nkind = "cycles"\ncount = 50\nsteps = 8\ntangential_displacement_amplitude = "0.3 um"\n')
+    assert main(["contact", str(cfg), "-o", str(tmp_path / "out")]) == 0
+    rows = (tmp_path / "out" / "contact.csv").read_text().splitlines()
+    assert len(rows) > 50 * 8 * 2
+
+
+def test_rotating_tangential_path_keeps_the_memory_bounded():
+    """A tangential displacement that rotates (circle, 50 turns) and one that goes back and
+    forth along a line at constant N: the depth never grows past 2 (Masing's rule)."""
+    from grainmech.contact import state_from_normal_force, update
+
+    st = state_from_normal_force(LAW, np.array([10.0, 10.0]), 3)
+    amp = 2e-7
+    depth = []
+    for k in range(50 * 16):
+        t0, t1 = 2 * np.pi * k / 16, 2 * np.pi * (k + 1) / 16
+        circle = amp * np.array([0.0, np.cos(t1) - np.cos(t0), np.sin(t1) - np.sin(t0)])
+        line = amp * np.array([0.0, np.sin(t1) - np.sin(t0), 0.0])
+        st, resp = update(LAW, st, np.zeros(2), np.stack([circle, line]))
+        depth.append(st.depth.copy())
+    depth = np.array(depth)
+    assert depth.max() <= 2
+    assert depth[-16:, 1].max() >= 1  # the line path does remember its reversal (seed Fig. 3.1)
