@@ -211,7 +211,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
             n_cycles=ref.number("n_cycles", None, 10.0, min=0, min_inclusive=False),
             frequency=ref.number("frequency", "Hz", 1.0, min=0, min_inclusive=False),
-            phi=ref.number("friction_angle", "rad", float(np.radians(33.0)), min=0, max=np.pi / 2))
+            phi=ref.angle("friction_angle", float(np.radians(33.0)), max_deg=90.0))
         root.finish()
         return spec
     spec.path = _segments(test)

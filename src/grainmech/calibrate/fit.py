@@ -41,6 +41,7 @@ import numpy as np
 from grainmech.calibrate.data import Dataset, read_csv
 from grainmech.calibrate.model import KINDS, parse_settings, predict, set_path, targets_of, validate_data
 from grainmech.errors import ConfigError, GrainmechError
+from grainmech.io.units import ANGLE_UNITS, config_value
 
 __all__ = ["Parameter", "Problem", "FitResult", "load_problem", "problem_from_config", "fit",
            "uncertainty", "latin_hypercube_starts"]
@@ -71,7 +72,7 @@ def _quantity(value: Any, key: str) -> tuple[float, str, str]:
         si = float(base.magnitude)
         if not math.isfinite(si):
             raise ConfigError(key, value, "must be finite")
-        name = ""
+        name = "rad" if base.dimensionless and str(q.units) in ANGLE_UNITS else ""
         if not base.dimensionless:
             # a coherent SI name for the base unit (same magnitude), else pint's base units
             name = next((u for u in _SI_NAMES if ureg.Quantity(1, u).dimensionality == base.dimensionality),
@@ -233,7 +234,7 @@ class Problem:
     def config_at(self, x: Sequence[float]) -> dict:
         cfg = copy.deepcopy(self.model)
         for p, v in zip(self.parameters, x):
-            set_path(cfg, p.path, float(v))
+            set_path(cfg, p.path, config_value(v, p.si_unit))
         return cfg
 
     def predict(self, x: Sequence[float], validate: bool = False) -> dict[str, np.ndarray]:

@@ -345,7 +345,7 @@ def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: b
     G = root.number("shear_modulus_equiv", "Pa", min=0, min_inclusive=False)
     psi = root.number("psi", None, min=0, min_inclusive=False)
     nu = root.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
-    phi = root.number("friction_angle", "deg", min=0, max=90, max_inclusive=False)
+    phi = float(np.degrees(root.angle("friction_angle", max_deg=90.0, max_inclusive=False)))
     if validate:
         root.finish()
     try:

@@ -23,7 +23,7 @@ Config reference (see ``examples/contact_*.toml``)::
     friction = 0.5               #   max_reversals (mindlin-deresiewicz)
     # linear:   kn, ks, friction
     # cylinder: shear_modulus_equiv, poisson, radius, radius2, psi, friction_angle
-    #           (plain numbers in degrees, or e.g. "15 deg"), max_reversals
+    #           (with its unit, e.g. "15 deg"), max_reversals
 
     [initial]
     normal_force = "10 N"        # or approach = "1 um" (per unit length for cylinder)
@@ -117,7 +117,7 @@ def build_params(sec: Any) -> Any:
     R = sec.number("radius", "m")
     R2 = sec.number("radius2", "m", None)
     psi = sec.number("psi", None)
-    phi = sec.number("friction_angle", "deg")
+    phi = math.degrees(sec.angle("friction_angle", max_deg=90.0, max_inclusive=False))
     mr = sec.integer("max_reversals", 16, min=1)
     return wrap(Cylinder, G, nu, R, psi, math.radians(phi), R2, max_reversals=mr)
 

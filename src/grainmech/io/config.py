@@ -8,6 +8,8 @@ key that was not used — unknown keys are errors, never silently ignored.
 
 from __future__ import annotations
 
+import math
+
 import tomllib
 from pathlib import Path
 from typing import Any, Iterable
@@ -83,6 +85,27 @@ class Section:
             hi = "" if max is None else f"{max:g}" + ("]" if max_inclusive else ")")
             rng = f"{lo or '(-inf'}, {hi or 'inf)'}"
             raise ConfigError(self.key(k), v, f"must lie in {rng}" + (f" (in {unit})" if unit else ""))
+        return x
+
+    def angle(self, k: str, default: Any = _MISSING, *, max_deg: float | None = None,
+              max_inclusive: bool = True) -> float:
+        """An angle in radians; the value must carry its unit (``"24 deg"``, ``"0.42 rad"``).
+
+        One rule for every config (``docs/config.md``): a bare number is an error, since
+        engineers write friction angles in degrees and the library works in radians, and
+        a silent choice between the two has misled users. The range is ``[0, max_deg]``.
+        """
+        v = self.raw(k, default)
+        if v is default and default is not _MISSING:
+            return v
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            raise ConfigError(self.key(k), v, "an angle needs its unit: write e.g. "
+                                              f"'{v:g} deg' or '{v:g} rad'")
+        x = to_float(v, "rad", self.key(k))
+        hi = None if max_deg is None else math.radians(max_deg)
+        if x < 0 or (hi is not None and (x > hi if max_inclusive else x >= hi)):
+            rng = f"[0, {max_deg:g} deg" + ("]" if max_inclusive else ")") if max_deg is not None else ">= 0"
+            raise ConfigError(self.key(k), v, f"must lie in {rng}")
         return x
 
     def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None) -> int:

@@ -145,7 +145,7 @@ def build_law(sec: Section, packing: Any) -> Any:
     if sec.has("friction"):
         mu = sec.number("friction", None, min=0)
     elif sec.has("friction_angle"):
-        phi = sec.number("friction_angle", "rad", min=0, max=np.pi / 2, max_inclusive=False)
+        phi = sec.angle("friction_angle", max_deg=90.0, max_inclusive=False)
         mu = float(np.tan(phi))
     if law == "linear":
         kn = sec.number("kn", "N/m", min=0, min_inclusive=False)

@@ -78,3 +78,13 @@ def to_float(value: Any, unit: str | None, key: str) -> float:
     if not math.isfinite(out):
         raise ConfigError(key, value, "must be finite")
     return out
+
+
+#: pint names of angle units (dimensionless in pint; configs hold angles in radians)
+ANGLE_UNITS = ("degree", "radian", "arcminute", "arcsecond", "turn", "revolution", "gradian")
+
+
+def config_value(value: float, si_unit: str) -> float | str:
+    """A value to write into a config dict: angles as ``"<x> rad"`` (a bare angle is an
+    error in every config, ``docs/config.md``), everything else as the bare SI number."""
+    return f"{float(value)!r} rad" if si_unit == "rad" else float(value)

@@ -29,6 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from grainmech.errors import ConfigError
+from grainmech.io.units import ANGLE_UNITS as _ANGLES
 
 __all__ = ["Parameter", "parse_parameter", "grid", "latin_hypercube", "monte_carlo", "make_design",
            "DESIGNS", "si_value"]
@@ -39,7 +40,6 @@ DESIGNS = ("grid", "latin-hypercube", "monte-carlo")
 _SI_UNITS = ("Pa", "m", "N/m", "N", "1/m**3", "1/m**2", "1/m", "Hz", "s", "kg/m**3", "kg", "J",
              "J/m**3", "m**2", "m**3", "K")
 
-_ANGLES = ("degree", "radian", "arcminute", "arcsecond", "turn", "revolution", "gradian")
 
 _NUMERIC = re.compile(r"\s*[-+]?(\d|\.\d|inf|nan)", re.IGNORECASE)
 

@@ -150,6 +150,7 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     the key, instead of failing every point.
     """
     from grainmech.io.config import Section, load_toml
+    from grainmech.io.units import config_value
     from grainmech.sweep.kinds import KINDS
 
     sweep_dir = Path(sweep_dir)
@@ -208,7 +209,7 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     for i, vals in enumerate(values):
         cfg = copy.deepcopy(base)
         for p, v in zip(params, vals):
-            set_path(cfg, p.key, v)
+            set_path(cfg, p.key, config_value(v, p.unit) if isinstance(v, float) else v)
         pid = point_id(kind, cfg)
         if pid in seen:
             raise ConfigError("parameters", list(praw), f"points {seen[pid]} and {i} resolve to the same "
