@@ -13,6 +13,7 @@ from grainmech.errors import GrainmechError
 from grainmech.network import (
     Box,
     ContactNetwork,
+    rattler_threshold,
     affine_stiffness,
     contact_stiffnesses,
     coordination,
@@ -189,7 +190,7 @@ def test_cg_matches_direct_and_displacements_equilibrate():
     D = net.branch @ e.T + q[net.i, :3] - q[net.j, :3] + np.cross(q[net.i, 3:], rA) - np.cross(q[net.j, 3:], rB)
     Dn = np.einsum("ij,ij->i", D, n)
     f = kn[:, None] * Dn[:, None] * n + ks[:, None] * (D - Dn[:, None] * n)
-    ratt = rattlers(net, None, (kn > 0) & (net.normal_force > 0))
+    ratt = rattlers(net, rattler_threshold(3, frictional=True), (kn > 0) & (net.normal_force > 0))
     keep = ~ratt[net.i] & ~ratt[net.j]
     F = np.zeros((net.n_particles, 3))
     M = np.zeros((net.n_particles, 3))
@@ -379,3 +380,34 @@ def test_equal_area_density_plot_is_normalised():
     assert rim.sum() > 50 and abs(float(v[rim].mean()) - 1.0) < 0.06
     plt.close(fig)
     plt.close(plot_rose(net))
+
+
+def test_rattler_rule_follows_the_contact_law_on_a_loose_frictional_network():
+    """A loose frictional network (z = 4.2): the frictionless rule (fewer than d + 1 = 4
+    contacts, removed iteratively) strips most grains, the frictional rule (2 contacts with
+    rotations; Thornton 2000) keeps them, and the relaxed tensor is not zero."""
+    from grainmech.network import (contact_stiffnesses, random_network, rattler_threshold, rattlers,
+                                   relaxed_stiffness)
+
+    net = random_network(400, coordination=4.2, seed=3)
+    assert rattler_threshold(3, frictional=True) == 2
+    assert rattler_threshold(3, frictional=False) == 4
+    assert rattler_threshold(3, frictional=True, rotations=False) == 4
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15)
+    frictionless_rule = rattlers(net, 4).mean()
+    frictional_rule = rattlers(net, 2).mean()
+    assert frictionless_rule > 0.5 and frictional_rule < 0.2, (frictionless_rule, frictional_rule)
+    rr = relaxed_stiffness(net, kn, ks)
+    assert rr.n_rattlers == int(rattlers(net, 2).sum())
+    assert rr.C_relaxed[3, 3] > 0 and rr.C_relaxed[0, 0] > 0
+
+
+def test_relaxed_stiffness_with_nothing_left_is_an_error_not_zeros():
+    from grainmech.errors import GrainmechError
+    from grainmech.network import contact_stiffnesses, random_network, relaxed_stiffness
+
+    net = random_network(200, coordination=3.0, seed=1)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15)
+    with pytest.raises(GrainmechError, match=r"nothing is left to solve - 200 of 200 particles are "
+                                             r"rattlers \(fewer than 20 force-carrying"):
+        relaxed_stiffness(net, kn, ks, min_contacts=20)

@@ -60,6 +60,7 @@ __all__ = [
     "coordination",
     "CoordinationResult",
     "rattlers",
+    "rattler_threshold",
     "contact_stiffnesses",
     "affine_stiffness",
     "relaxed_stiffness",
@@ -365,6 +366,24 @@ def rattlers(net: ContactNetwork, min_contacts: int | None = None,
         if not drop.any():
             return ~alive
         alive &= ~drop
+
+
+def rattler_threshold(dim: int, frictional: bool, rotations: bool = True) -> int:
+    """Fewest force-carrying contacts that can hold a grain (the rattler rule).
+
+    * frictionless grains (no tangential stiffness): ``d + 1`` contacts, the minimum for
+      positive normal forces along non-parallel lines to balance any load;
+    * frictional grains with rotations (tangential springs): 2 - a grain pressed between
+      two neighbours is held (its tangential springs resist sliding and, with the rotation
+      fixed by the moment balance, rolling is resisted too), which is Thornton's (2000)
+      "mechanical" coordination rule (particles with zero or one contact excluded).
+
+    Applying the frictionless rule ``d + 1`` to a loose frictional packing removes grains
+    that are in fact held, and iterated, it can remove every grain.
+    """
+    if frictional and rotations:
+        return 2
+    return dim + 1
 
 
 @dataclass(frozen=True)
@@ -739,6 +758,11 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     remove_rattlers : bool
         Drop rattlers (:func:`rattlers`; contacts counted as carrying when ``kn > 0``
         and ``N > 0`` if forces are present) and their contacts before solving.
+    min_contacts : int, optional
+        Rattler threshold; default :func:`rattler_threshold` (2 when any contact has a
+        tangential stiffness and rotations are on, else ``d + 1``). If nothing is left
+        after removal the function raises :class:`~grainmech.errors.GrainmechError`
+        instead of returning zeros.
     rotations : bool
         Include particle rotations (needs radii; without radii the lever arms are
         ``|l|/2``).
@@ -769,10 +793,13 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     if not (np.all(np.isfinite(kn)) and np.all(np.isfinite(ks_e))):
         raise GrainmechError("kn and ks must be finite")
     stiff = kn > 0
+    if min_contacts is None:
+        min_contacts = rattler_threshold(d, bool(np.any(ks_e[stiff] > 0)), rotations)
     if remove_rattlers:
         carrying = stiff & (net.normal_force > 0) if np.any(net.force) else stiff
         ratt = rattlers(net, min_contacts, carrying)
     else:
+        carrying = stiff
         ratt = np.zeros(net.n_particles, dtype=bool)
     alive = ~ratt
     csel = (kn != 0) | (ks_e != 0)
@@ -780,8 +807,11 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     alive_idx = np.flatnonzero(alive)
     m = 6 if d == 3 else 3
     if alive_idx.size == 0 or not csel.any():
-        Z = np.zeros((m, m))
-        return RelaxedResult(Z, Z, Z, None, 0, 0, int(ratt.sum()), "none", 0, 0.0)
+        raise GrainmechError(
+            f"relaxed stiffness: nothing is left to solve - {int(ratt.sum())} of {net.n_particles} "
+            f"particles are rattlers (fewer than {min_contacts} force-carrying contacts, removed "
+            f"iteratively; {int(carrying.sum())} of {net.n_contacts} contacts carry force and have "
+            "kn > 0). Check the contact forces/stiffnesses, or lower min_contacts")
     newidx = -np.ones(net.n_particles, dtype=np.int64)
     newidx[alive_idx] = np.arange(alive_idx.size)
     ci, cj = newidx[net.i[csel]], newidx[net.j[csel]]
@@ -1009,6 +1039,14 @@ def network_report(net: ContactNetwork, *, shear_modulus: float | None = None, p
     notes: list[str] = []
     st = network_stress(net)
     fab = network_fabric(net)
+    if min_contacts is None:
+        # frictional if the law has tangential stiffness or the file has tangential forces
+        ft = net.force - net.normal_force[:, None] * net.normals if net.n_contacts else net.force
+        frictional = (shear_modulus is not None or (ks is not None and ks > 0)
+                      or (net.ks is not None and bool(np.any(net.ks > 0))) or bool(np.any(ft != 0)))
+        min_contacts = rattler_threshold(d, frictional)
+        notes.append(f"rattlers: fewer than {min_contacts} force-carrying contacts "
+                     f"({'frictional: 2' if frictional else 'frictionless: d + 1'}), removed iteratively")
     co = coordination(net, min_contacts)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -18,7 +18,7 @@ Material config (TOML, all tables optional)::
     enabled = true
     solver = "auto"        # auto | direct | cg
     remove_rattlers = true
-    min_contacts = 4       # rattler threshold (default d + 1)
+    min_contacts = 2       # rattler threshold (default: 2 frictional, d + 1 frictionless)
     [fabric]
     fit_order = 2          # even order of the spherical-harmonic fit
 """
