@@ -130,6 +130,8 @@ class RunSpec:
     constant: str = "stress"
     reference: dict | None = None
     path: Any = None
+    void_ratio: float | None = None
+    friction: float = float("inf")
 
 
 def _segments(sec: Any) -> Any:
@@ -191,6 +193,10 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     kind = test.choice("kind", RUN_TEST_KINDS)
     ref = root.section("reference", {})
     spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree)
+    pk = cfg.get("packing", {})
+    if isinstance(pk, dict) and "void_ratio" in pk:
+        spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
+    spec.friction = float(getattr(law, "friction", float("inf")))
     if kind == "cyclic-simple-shear":
         amps = test.raw("amplitudes")
         if not isinstance(amps, list) or not amps:
@@ -247,13 +253,84 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
         out.update(results=mr.results, amplitudes=[float(a) for a in mr.amplitude], G=list(mr.G),
                    damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
                    seconds=time.perf_counter() - t0, reference=spec.reference, point=point)
+        out["empirical_G_max"] = empirical_gmax_check(mr.G_max, spec.void_ratio, spec.pressure)
         return out
     say(f"path: {len(spec.path)} steps, {len(point.contacts)} directions")
     t0 = time.perf_counter()
     r = run(point, spec.path, engineering=True)
     out.update(results=[r], success=r.success, message=r.message, seconds=time.perf_counter() - t0,
                point=point)
+    out["envelope"] = envelope_check(r.stress)
     return out
+
+
+#: Model Gmax outside [1/2, 2] x Hardin-Richart is flagged (the scatter of the empirical
+#: relation about its data is ~+-20 %; a factor 2 is far outside it).
+GMAX_FLAG_FACTOR = 2.0
+
+
+def empirical_gmax_check(g_model: float, void_ratio: float | None, pressure: float) -> dict | None:
+    """The model's Gmax beside Hardin & Richart (1963) at the same void ratio and mean stress.
+
+    Returns ``None`` without a void ratio; else a dict with both empirical values [Pa], the
+    ratios model/empirical, the validity ranges, a ``flag`` (ratio to the nearer of the two
+    outside ``[1/2, 2]``) and a ``note`` saying what it means for the affine model.
+    """
+    from grainmech.analysis import hardin_richart
+
+    if void_ratio is None or not (0 < void_ratio < 2.17) or not np.isfinite(g_model):
+        return None
+    hr = hardin_richart(void_ratio, pressure)
+    r_round, r_ang = g_model / hr.G_round, g_model / hr.G_angular
+    nearest = min((r_round, r_ang), key=lambda r: abs(np.log(r)))
+    flag = not (1 / GMAX_FLAG_FACTOR <= nearest <= GMAX_FLAG_FACTOR)
+    note = (f"model Gmax is {nearest:.2f} x Hardin-Richart (1963) for e = {void_ratio:g} and "
+            f"p = {pressure / 1e3:.4g} kPa")
+    if flag and nearest > 1:
+        note += (": the affine model (seed's kinematic hypothesis: every contact follows the mean "
+                 "strain, no grain can move to relieve its contacts) is an upper bound, several "
+                 "times too stiff in shear for real sands; the relaxed tensor of a packing "
+                 "(grainmech dem) is the small-strain modulus with the grains in equilibrium")
+    elif flag:
+        note += ": far below the empirical relation; check the contact moduli and coordination"
+    return {"G_round_Pa": hr.G_round, "G_angular_Pa": hr.G_angular, "ratio_round": r_round,
+            "ratio_angular": r_ang, "void_ratio": void_ratio, "mean_stress_Pa": pressure,
+            "in_range_round": hr.in_range_round, "in_range_angular": hr.in_range_angular,
+            "flag": bool(flag), "note": note, "citation": hr.citation}
+
+
+def envelope_check(stress: np.ndarray) -> dict:
+    """Steps whose principal stress ratio exceeds what sands sustain.
+
+    Envelope: Mohr-Coulomb with the friction angle
+    :data:`~grainmech.analysis.SAND_PEAK_FRICTION_DEG` (50 deg, ``sigma1/sigma3 = 7.55``),
+    an upper bound of measured peak friction angles of sands (critical-state ~33 deg plus
+    Bolton's 1986 largest dilatancy term). The affine model cannot fail: every contact
+    follows the mean strain, so a stress ratio grows without bound under shear; states
+    beyond the envelope are artefacts of that hypothesis, not predictions.
+
+    Parameters
+    ----------
+    stress : (k+1, 6) stresses, compression positive (library order)
+
+    Returns
+    -------
+    dict with ``ratio`` (k+1,) principal ratio sigma1/sigma3 (inf where sigma3 <= 0),
+    ``beyond`` (k+1,) bool, ``limit``, ``friction_angle_deg``, ``first_step`` (or None).
+    """
+    from grainmech.analysis import SAND_PEAK_FRICTION_DEG, mohr_coulomb_ratio
+    from grainmech.conventions import vector_to_stress
+
+    lim = mohr_coulomb_ratio(np.radians(SAND_PEAK_FRICTION_DEG))
+    S = np.asarray(stress, dtype=float)
+    ratio = np.empty(len(S))
+    for k, sv in enumerate(S):
+        ev = np.linalg.eigvalsh(vector_to_stress(sv))
+        ratio[k] = ev[-1] / ev[0] if ev[0] > 0 else np.inf
+    beyond = ratio > lim
+    first = int(np.argmax(beyond)) if beyond.any() else None
+    return {"ratio": ratio, "beyond": beyond, "limit": lim, "friction_angle_deg": SAND_PEAK_FRICTION_DEG,
+            "first_step": first}
 
 
 def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> dict:

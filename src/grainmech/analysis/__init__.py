@@ -7,8 +7,12 @@ from grainmech.analysis.directional import apparent_moduli
 from grainmech.analysis.empirical import (
     DARENDELI_PHI,
     P_ATM,
+    SAND_PEAK_FRICTION_DEG,
     DarendeliCurves,
+    HardinRichart,
     darendeli,
+    hardin_richart,
+    mohr_coulomb_ratio,
     hardin_drnevich,
     masing_damping_hyperbolic,
 )
@@ -20,6 +24,7 @@ from grainmech.analysis.loops import (
     modulus_reduction,
 )
 
-__all__ = ["DARENDELI_PHI", "P_ATM", "DarendeliCurves", "LoopProperties", "ModulusReduction",
+__all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinRichart",
+           "hardin_richart", "mohr_coulomb_ratio", "LoopProperties", "ModulusReduction",
            "apparent_moduli", "condensed_modulus", "darendeli", "hardin_drnevich", "loop_properties",
            "masing_damping_hyperbolic", "modulus_reduction"]

@@ -7,6 +7,11 @@
   cycles and frequency. **Mean stress in atmospheres**: the function takes Pa and
   converts explicitly with ``P_ATM = 101325 Pa``.
 
+* Hardin & Richart (1963): small-strain shear modulus of clean sands from void ratio
+  and mean effective stress (round and angular grains).
+* A stress-ratio envelope for sands (Mohr-Coulomb, Bolton 1986) to flag model states
+  that no sand sustains.
+
 Strains are given as plain strains (not percent); Darendeli's formulae in percent are
 applied internally.
 """
@@ -21,7 +26,8 @@ import numpy as np
 from grainmech.errors import ConfigError
 
 __all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "darendeli", "DarendeliCurves",
-           "masing_damping_hyperbolic"]
+           "masing_damping_hyperbolic", "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
+           "SAND_PEAK_FRICTION_DEG"]
 
 #: standard atmosphere [Pa] used for the Pa -> atm conversion of Darendeli's mean stress
 P_ATM = 101325.0
@@ -134,3 +140,74 @@ def darendeli(gamma: Any, mean_stress: float, *, pi: float = 0.0, ocr: float = 1
     dm = c1 * d1 + c2 * d1 ** 2 + c3 * d1 ** 3
     d_pct = b * ratio ** 0.1 * dm + dmin_pct
     return DarendeliCurves(g, ratio, d_pct / 100.0, gr_pct / 100.0, dmin_pct / 100.0, a)
+
+
+@dataclass(frozen=True)
+class HardinRichart:
+    """Empirical small-strain shear modulus (see :func:`hardin_richart`).
+
+    Attributes
+    ----------
+    G_round, G_angular : float
+        Gmax [Pa] for round-grained (Ottawa) and angular-grained (crushed quartz) sand.
+    void_ratio, mean_stress : float
+        Inputs (mean stress in Pa).
+    in_range_round, in_range_angular : bool
+        Whether the void ratio lies in the range the relation was fitted on.
+    citation : str
+    """
+
+    G_round: float
+    G_angular: float
+    void_ratio: float
+    mean_stress: float
+    in_range_round: bool
+    in_range_angular: bool
+    citation: str = ("Hardin, B. O. & Richart, F. E. (1963). Elastic wave velocities in granular "
+                     "soils. J. Soil Mech. Found. Div. ASCE 89(SM1), 33-65")
+
+
+def hardin_richart(void_ratio: float, mean_stress: float) -> HardinRichart:
+    """Hardin & Richart (1963) small-strain shear modulus of dry clean sand.
+
+    ``G = A (B - e)^2 / (1 + e) * sqrt(sigma'_0)`` with ``G`` and ``sigma'_0`` in kPa:
+
+    * round grains (Ottawa sand, fitted for ``e`` 0.3-0.8): ``A = 6908``, ``B = 2.17``;
+    * angular grains (crushed quartz, ``e`` 0.6-1.3): ``A = 3230``, ``B = 2.97``.
+
+    The coefficients are the psi forms ``2630`` and ``1230`` (the round-grain form is seed
+    Eq. 6.3, Hardin & Black 1968) times ``sqrt(6.894757)`` for kPa. Example: ``e = 0.65``,
+    ``100 kPa`` gives 96.7 MPa (round) and 105.4 MPa (angular).
+
+    Parameters
+    ----------
+    void_ratio : float
+        Void ratio ``e`` (> 0 and below ``B``).
+    mean_stress : float
+        Mean effective stress [Pa] (> 0).
+    """
+    if not (np.isfinite(void_ratio) and 0 < void_ratio < 2.17):
+        raise ConfigError("void_ratio", void_ratio, "must lie in (0, 2.17) for Hardin-Richart")
+    if not (np.isfinite(mean_stress) and mean_stress > 0):
+        raise ConfigError("mean_stress", mean_stress, "must be finite and > 0 (Pa)")
+    e = float(void_ratio)
+    root = np.sqrt(mean_stress / 1e3)  # sqrt(kPa)
+    g_round = 6908.0 * (2.17 - e) ** 2 / (1.0 + e) * root * 1e3
+    g_ang = 3230.0 * (2.97 - e) ** 2 / (1.0 + e) * root * 1e3
+    return HardinRichart(float(g_round), float(g_ang), e, float(mean_stress),
+                         bool(0.3 <= e <= 0.8), bool(0.6 <= e <= 1.3))
+
+
+#: Upper bound of measured peak friction angles of sands [deg]: critical-state angle of
+#: quartz sands ~33 deg plus Bolton's (1986) largest dilatancy contribution ~15-20 deg.
+SAND_PEAK_FRICTION_DEG = 50.0
+
+
+def mohr_coulomb_ratio(friction_angle: float) -> float:
+    """Largest principal stress ratio ``sigma1/sigma3 = (1 + sin phi)/(1 - sin phi)``
+    on a Mohr-Coulomb envelope of friction angle ``phi`` [rad] without cohesion
+    (e.g. 7.55 for 50 deg, 2.62 for the contact angle atan 0.5 = 26.6 deg)."""
+    if not (np.isfinite(friction_angle) and 0 <= friction_angle < np.pi / 2):
+        raise ConfigError("friction_angle", friction_angle, "must lie in [0, pi/2) rad")
+    sn = np.sin(friction_angle)
+    return float((1 + sn) / (1 - sn))

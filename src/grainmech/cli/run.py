@@ -43,11 +43,27 @@ def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
     summary: dict[str, Any] = {"source": source, "kind": out["kind"], "success": out["success"],
                                "message": out["message"], "seconds": out.get("seconds"),
                                "initial_pressure_Pa": out["pressure"], "files": []}
+    env = out.get("envelope")
     for i, r in enumerate(out["results"]):
         cols, rows = driver_table(r)
         name = f"run_{i:02d}.csv" if out["kind"] == "cyclic-simple-shear" else "path.csv"
+        if env is not None and out["kind"] != "cyclic-simple-shear":
+            cols = cols + ["stress_ratio_sigma1_sigma3", "beyond_sand_envelope"]
+            rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
         write_csv(d / name, cols, rows)
         summary["files"].append(name)
+    if out.get("empirical_G_max"):
+        summary["empirical_G_max"] = out["empirical_G_max"]
+    if env is not None:
+        first = env["first_step"]
+        summary["envelope"] = {
+            "limit_sigma1_over_sigma3": env["limit"], "friction_angle_deg": env["friction_angle_deg"],
+            "first_step_beyond": first, "max_ratio": float(np.max(env["ratio"])),
+            "note": (("the stress ratio sigma1/sigma3 leaves the envelope sands sustain (Mohr-Coulomb, "
+                      f"phi = {env['friction_angle_deg']:g} deg: {env['limit']:.2f}) at step {first} and "
+                      f"reaches {float(np.max(env['ratio'])):.3g}; the affine model (every contact follows "
+                      "the mean strain) cannot fail, so these states are not predictions")
+                     if first is not None else "stress ratio within the envelope sands sustain")}
     if out["kind"] == "cyclic-simple-shear" and out["G"]:
         from grainmech.analysis import darendeli, hardin_drnevich
 
@@ -117,7 +133,15 @@ def _write_index(d: Path, summary: dict, cfg_text: str) -> None:
         table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
                  f"<th>damping [%]</th></tr>{rows}</table>")
         intro += (f"<p>Small-strain shear modulus Gmax = {summary['G_max_Pa']:.5g} Pa "
-                  "(condensed tangent at the initial state).</p>" + table)
+                  "(condensed tangent at the initial state).</p>")
+        emp = summary.get("empirical_G_max")
+        if emp:
+            warn = "<b>Warning:</b> " if emp["flag"] else ""
+            intro += (f"<p>{warn}Hardin &amp; Richart (1963) at the same void ratio and mean stress: "
+                      f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
+                      f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
+                      f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
+        intro += table
         sections.append(Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
                                 "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
                                 "amplitude, with Darendeli (2001) (reference strain "
@@ -130,6 +154,10 @@ def _write_index(d: Path, summary: dict, cfg_text: str) -> None:
         sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
                                 "Shear stress against normalised shear strain for every amplitude.",
                                 ("loops.png",)))
+    env = summary.get("envelope")
+    if env:
+        warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
+        intro += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of path.csv).</p>"
     if (d / "path.png").exists():
         sections.append(Section("path", "Strain and stress along the path", d / "path.png",
                                 "Every component, compression positive, engineering shear strain.",
@@ -154,8 +182,15 @@ def main(args: argparse.Namespace) -> int:
     summary = write_outputs(out, Path(args.outdir), cfg, source)
     if out["kind"] == "cyclic-simple-shear" and out["G"]:
         _progress(args.quiet, f"Gmax = {out['G_max']:.4g} Pa")
+        emp = out.get("empirical_G_max")
+        if emp:
+            _progress(args.quiet, f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
+                                  f"{emp['G_angular_Pa']:.4g} Pa angular grains")
+            _progress(args.quiet, ("  WARNING: " if emp["flag"] else "  ") + emp["note"])
         for a, g, dd in zip(summary["amplitudes"], summary["G_over_Gmax"], summary["damping"]):
             _progress(args.quiet, f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %")
+    if "envelope" in summary and summary["envelope"]["first_step_beyond"] is not None:
+        _progress(args.quiet, "WARNING: " + summary["envelope"]["note"])
     _progress(args.quiet, f"wrote {len(summary['files'])} files to {args.outdir}")
     if not out["success"]:
         print(f"grainmech: error: {out['message']} (results so far are in {args.outdir})", file=sys.stderr)
