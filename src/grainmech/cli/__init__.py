@@ -4,7 +4,9 @@ The CLI is thin: it parses arguments, calls the library and writes files through
 :mod:`grainmech.io`. Each sub-command lives in its own module exposing
 ``register(subparsers)``; the parser's ``func(args) -> int`` does the work.
 User errors (:class:`~grainmech.errors.GrainmechError`, missing files) print one line on
-stderr and exit with status 2; ``--debug`` shows the traceback instead.
+stderr and exit with status 2; ``--debug`` (before or after the sub-command) shows the
+traceback instead. Ctrl-C prints "grainmech: interrupted" and exits with 130; output
+piped into a program that stops reading (``grainmech stiffness | head -1``) ends quietly.
 """
 
 from __future__ import annotations
@@ -32,12 +34,27 @@ def build_parser() -> argparse.ArgumentParser:
     for name in _COMMANDS:
         try:
             mod = importlib.import_module(f"grainmech.cli.{name}")
-        except ModuleNotFoundError as exc:  # a command whose module is not there yet
+        except ModuleNotFoundError as exc:  # an optional command whose module is absent
             if exc.name == f"grainmech.cli.{name}":
                 continue
             raise
         mod.register(sub)
+    for p in sub.choices.values():
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help="show tracebacks on errors")
     return parser
+
+
+def _quiet_broken_pipe() -> int:
+    """The reader of stdout went away: stop quietly (no traceback, no flush error at exit)."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout is not a real file (e.g. captured in tests)
+        pass
+    return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -48,6 +65,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        if args.debug:
+            raise
+        print("grainmech: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return _quiet_broken_pipe()
     except (GrainmechError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         if args.debug:
             raise
