@@ -74,3 +74,31 @@ def test_triaxial_path_output_flags_the_envelope(tmp_path, capsys):
     flags = [float(r.split(",")[k]) for r in head[1:]]
     assert flags[first] == 1.0 and not any(flags[:first])
     assert "Warning:" in (tmp_path / "index.html").read_text()
+
+
+def test_input_warnings_name_value_and_reason():
+    import tomllib
+
+    from grainmech.jobs import grain_modulus_warning, input_warnings
+
+    base = tomllib.loads((Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data"
+                          / "default_run.toml").read_text())
+    assert input_warnings(base) == []
+    cfg = dict(base, initial={"pressure": 100})
+    (w,) = input_warnings(cfg)
+    assert w.startswith("initial.pressure = 100: a bare number is read in Pa")
+    cfg = dict(base, test=dict(base["test"], amplitudes=[1e-4, 0.05]))
+    (w,) = input_warnings(cfg)
+    assert w.startswith("test.amplitudes = [0.05]: above 0.01")
+    for m in (3.0, 13.0):
+        (w,) = input_warnings(dict(base, packing=dict(base["packing"], coordination=m)))
+        assert w.startswith(f"packing.coordination = {m:g}: outside 4-12")
+    # Yanagisawa (seed Eq. 4.2) at e = 0.9: m = 3.183^(2.469-0.9) = 6.16, inside
+    assert input_warnings(dict(base, packing=dict(base["packing"], coordination="yanagisawa", void_ratio=0.9))) == []
+
+    class Law:
+        shear_modulus = 44e9
+
+    assert grain_modulus_warning(4e8, Law()) == []
+    (w,) = grain_modulus_warning(5e10, Law())
+    assert "above the grains' own shear modulus" in w

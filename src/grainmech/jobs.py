@@ -132,6 +132,7 @@ class RunSpec:
     path: Any = None
     void_ratio: float | None = None
     friction: float = float("inf")
+    warnings: list = field(default_factory=list)
 
 
 def _segments(sec: Any) -> Any:
@@ -197,6 +198,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     if isinstance(pk, dict) and "void_ratio" in pk:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
     spec.friction = float(getattr(law, "friction", float("inf")))
+    spec.warnings = input_warnings(cfg)
     if kind == "cyclic-simple-shear":
         amps = test.raw("amplitudes")
         if not isinstance(amps, list) or not amps:
@@ -254,6 +256,7 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
                    damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
                    seconds=time.perf_counter() - t0, reference=spec.reference, point=point)
         out["empirical_G_max"] = empirical_gmax_check(mr.G_max, spec.void_ratio, spec.pressure)
+        out["warnings"] = list(spec.warnings) + grain_modulus_warning(mr.G_max, spec.law)
         return out
     say(f"path: {len(spec.path)} steps, {len(point.contacts)} directions")
     t0 = time.perf_counter()
@@ -261,6 +264,62 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
     out.update(results=[r], success=r.success, message=r.message, seconds=time.perf_counter() - t0,
                point=point)
     out["envelope"] = envelope_check(r.stress)
+    out["warnings"] = list(spec.warnings)
+    return out
+
+
+#: largest shear strain amplitude the material-point model is meant for (small strain,
+#: fixed reference geometry; laboratory G/Gmax curves end near 1e-2)
+SMALL_STRAIN_LIMIT = 1e-2
+#: coordination numbers of sphere packings: ~4 (loose frictional, Thornton 2000's
+#: mechanical value) to 12 (face-centred cubic); random close packing ~6
+SPHERE_COORDINATION_RANGE = (4.0, 12.0)
+
+
+def grain_modulus_warning(g_max: float, law: Any) -> list[str]:
+    """A warning if the packing's shear modulus exceeds the grains' own (``law.shear_modulus``):
+    a packing of grains cannot be stiffer than the solid it is made of (Hashin-Shtrikman
+    upper bound of a porous solid)."""
+    grain_g = getattr(law, "shear_modulus", None)
+    if grain_g is None or not np.isfinite(g_max) or g_max <= grain_g:
+        return []
+    return [f"model Gmax = {g_max:.4g} Pa is above the grains' own shear modulus {grain_g:.4g} Pa: "
+            "a packing cannot be stiffer than its solid"]
+
+
+def input_warnings(cfg: dict) -> list[str]:
+    """Plausibility warnings (not errors) about a run config, each with value and reason.
+
+    * a bare mean stress below 1 kPa (``pressure = 100`` is read as 100 Pa);
+    * a cyclic amplitude above :data:`SMALL_STRAIN_LIMIT`;
+    * a coordination number outside :data:`SPHERE_COORDINATION_RANGE`.
+    """
+    from grainmech.fabric import CORRELATIONS, coordination_number
+
+    out: list[str] = []
+    ini = cfg.get("initial", {}) if isinstance(cfg.get("initial"), dict) else {}
+    p = ini.get("pressure")
+    if isinstance(p, (int, float)) and not isinstance(p, bool) and 0 < p < 1e3:
+        out.append(f"initial.pressure = {p:g}: a bare number is read in Pa ({p:g} Pa, below 1 kPa); "
+                   f"write e.g. \"{p:g} kPa\" if that was meant")
+    test = cfg.get("test", {}) if isinstance(cfg.get("test"), dict) else {}
+    amps = test.get("amplitudes")
+    if isinstance(amps, list):
+        big = [a for a in amps if isinstance(a, (int, float)) and a > SMALL_STRAIN_LIMIT]
+        if big:
+            out.append(f"test.amplitudes = {big}: above {SMALL_STRAIN_LIMIT:g}, beyond the small-strain "
+                       "range of the model (fixed reference geometry, no grain rearrangement)")
+    pk = cfg.get("packing", {}) if isinstance(cfg.get("packing"), dict) else {}
+    coord, e = pk.get("coordination"), pk.get("void_ratio")
+    m = None
+    if isinstance(coord, (int, float)) and not isinstance(coord, bool):
+        m = float(coord)
+    elif isinstance(coord, str) and coord.strip().lower() in CORRELATIONS and isinstance(e, (int, float)):
+        m = float(coordination_number(float(e), coord.strip().lower()))
+    lo, hi = SPHERE_COORDINATION_RANGE
+    if m is not None and not (lo <= m <= hi):
+        out.append(f"packing.coordination = {m:.3g}: outside {lo:g}-{hi:g}, the range sphere packings "
+                   "reach (loose frictional ~4, random close ~6, face-centred cubic 12)")
     return out
 
 

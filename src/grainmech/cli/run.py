@@ -54,6 +54,7 @@ def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
         summary["files"].append(name)
     if out.get("empirical_G_max"):
         summary["empirical_G_max"] = out["empirical_G_max"]
+    summary["warnings"] = list(out.get("warnings", []))
     if env is not None:
         first = env["first_step"]
         summary["envelope"] = {
@@ -154,6 +155,8 @@ def _write_index(d: Path, summary: dict, cfg_text: str) -> None:
         sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
                                 "Shear stress against normalised shear strain for every amplitude.",
                                 ("loops.png",)))
+    for w in summary.get("warnings", []):
+        intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
     env = summary.get("envelope")
     if env:
         warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
@@ -179,6 +182,8 @@ def main(args: argparse.Namespace) -> int:
         source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
     _progress(args.quiet, f"grainmech run: {source}")
     out = compute_run(cfg, progress=lambda msg: _progress(args.quiet, msg))
+    for w in out.get("warnings", []):
+        print(f"grainmech: warning: {w}", file=sys.stderr)
     summary = write_outputs(out, Path(args.outdir), cfg, source)
     if out["kind"] == "cyclic-simple-shear" and out["G"]:
         _progress(args.quiet, f"Gmax = {out['G_max']:.4g} Pa")
