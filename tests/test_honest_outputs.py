@@ -102,3 +102,23 @@ def test_input_warnings_name_value_and_reason():
     assert grain_modulus_warning(4e8, Law()) == []
     (w,) = grain_modulus_warning(5e10, Law())
     assert "above the grains' own shear modulus" in w
+
+
+def test_mean_stress_change_per_amplitude(tmp_path):
+    """modulus_reduction.csv reports p_end/p_0 - 1 of each amplitude's run (its run CSV)."""
+    import csv
+    import tomllib
+
+    from grainmech.cli import main
+
+    cfg = (Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "default_run.toml").read_text()
+    cfg = cfg.replace("amplitudes = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3]", "amplitudes = [1e-5, 1e-3]")
+    assert tomllib.loads(cfg)["test"]["amplitudes"] == [1e-5, 1e-3]
+    (tmp_path / "c.toml").write_text(cfg)
+    assert main(["run", str(tmp_path / "c.toml"), "-o", str(tmp_path / "o"), "--quiet"]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "o" / "modulus_reduction.csv")))
+    for i, row in enumerate(rows):
+        run = list(csv.DictReader(open(tmp_path / "o" / f"run_{i:02d}.csv")))
+        p = [np.mean([float(r[f"stress_{c}"]) for c in ("xx", "yy", "zz")]) for r in (run[0], run[-1])]
+        assert float(row["mean_stress_change"]) == pytest.approx(p[1] / p[0] - 1, abs=1e-8)  # CSV: 10 digits
+    assert abs(float(rows[1]["mean_stress_change"])) > 1e-3  # sigma_zz held, sigma_xx, sigma_yy free

@@ -80,8 +80,14 @@ def write_outputs(out: dict, outdir: Path, cfg: dict, source: str) -> dict:
         gamma_r = tau_max / out["G_max"]
         d_max = (33.0 - 1.5 * np.log10(ref["n_cycles"])) / 100.0
         hd_r, hd_d = hardin_drnevich(gam, gamma_r, d_max)
-        write_csv(d / "modulus_reduction.csv", ["amplitude", "G_Pa", "G_over_Gmax", "damping"],
-                  zip(amps, G, G / out["G_max"], Dm))
+        # mean stress at the end of each amplitude's run relative to the initial p: at
+        # constant sigma_zz the horizontal stresses change during cycling (affine model)
+        dp = np.array([float(np.mean(r.stress[-1, :3]) / np.mean(r.stress[0, :3]) - 1.0)
+                       for r in out["results"][:len(G)]])
+        write_csv(d / "modulus_reduction.csv",
+                  ["amplitude", "G_Pa", "G_over_Gmax", "damping", "mean_stress_change"],
+                  zip(amps, G, G / out["G_max"], Dm, dp))
+        summary["mean_stress_change"] = dp
         summary["files"].append("modulus_reduction.csv")
         # the same curves for site-response tools (strain and damping as decimals)
         from grainmech.io.site_response import write_curves
@@ -128,13 +134,16 @@ def _write_index(d: Path, summary: dict, cfg_text: str) -> None:
              + (f" in {summary['seconds']:.1f} s" if summary.get("seconds") else "") + ".</p>")
     sections = []
     if "G_max_Pa" in summary:
-        rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td></tr>"
-                       for a, g, r, dd in zip(summary["amplitudes"], summary["G_Pa"], summary["G_over_Gmax"],
-                                              summary["damping"]))
+        rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
+                       f"<td>{100 * c:+.1f}</td></tr>"
+                       for a, g, r, dd, c in zip(summary["amplitudes"], summary["G_Pa"], summary["G_over_Gmax"],
+                                                 summary["damping"], summary["mean_stress_change"]))
         table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
-                 f"<th>damping [%]</th></tr>{rows}</table>")
+                 f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
         intro += (f"<p>Small-strain shear modulus Gmax = {summary['G_max_Pa']:.5g} Pa "
-                  "(condensed tangent at the initial state).</p>")
+                  "(condensed tangent at the initial state); every G/Gmax below is normalised by "
+                  "this one Gmax. The last column is the change of the mean stress p over each "
+                  "amplitude's run (at constant sigma_zz the horizontal stresses are free to change).</p>")
         emp = summary.get("empirical_G_max")
         if emp:
             warn = "<b>Warning:</b> " if emp["flag"] else ""
@@ -192,8 +201,10 @@ def main(args: argparse.Namespace) -> int:
             _progress(args.quiet, f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
                                   f"{emp['G_angular_Pa']:.4g} Pa angular grains")
             _progress(args.quiet, ("  WARNING: " if emp["flag"] else "  ") + emp["note"])
-        for a, g, dd in zip(summary["amplitudes"], summary["G_over_Gmax"], summary["damping"]):
-            _progress(args.quiet, f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %")
+        for a, g, dd, c in zip(summary["amplitudes"], summary["G_over_Gmax"], summary["damping"],
+                               summary["mean_stress_change"]):
+            _progress(args.quiet, f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
+                                  f"   change of p {100 * c:+6.1f} %")
     if "envelope" in summary and summary["envelope"]["first_step_beyond"] is not None:
         _progress(args.quiet, "WARNING: " + summary["envelope"]["note"])
     _progress(args.quiet, f"wrote {len(summary['files'])} files to {args.outdir}")
