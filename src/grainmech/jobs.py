@@ -178,7 +178,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     """Read a driver config (``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
     ``[quadrature]``, ``[test]``, ``[reference]``; strict keys)."""
     from grainmech.io.config import Section
-    from grainmech.io.schema import build_fabric, build_law, build_packing
+    from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure
 
     root = Section(cfg, "")
     density = build_fabric(root.section("fabric", {}))
@@ -187,7 +187,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     packing = build_packing(root.section("packing"), density)
     law = build_law(root.section("contacts"), packing)
     ini = root.section("initial")
-    pressure = ini.number("pressure", "Pa", min=0, min_inclusive=False)
+    pressure = build_pressure(ini)
     quad = root.section("quadrature", {})
     degree = quad.integer("degree", 23, min=4)
     test = root.section("test")

@@ -269,7 +269,7 @@ def _predict_directional(model: dict, data: Dataset, settings: dict, validate: b
 def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
     """Isotropic material point from a run-like model config."""
     from grainmech.driver import MaterialPoint
-    from grainmech.io.schema import build_fabric, build_law
+    from grainmech.io.schema import build_fabric, build_law, build_pressure
 
     cfg = copy.deepcopy(model)
     root = _sections(cfg, allowed)
@@ -277,7 +277,7 @@ def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
     if density.dim != 3:
         raise ConfigError("model.fabric.dim", density.dim, "the driver works in 3D")
     ini = root.section("initial")
-    pressure = ini.number("pressure", "Pa", min=0, min_inclusive=False)
+    pressure = build_pressure(ini)
     packing = _packing(root, density, pressure)
     law = build_law(root.section("contacts"), packing)
     degree = root.section("quadrature", {}).integer("degree", 11, min=4)

@@ -106,12 +106,23 @@ def build_contacts(sec: Section, packing: Any) -> Any:
     return HertzMindlin.for_equal_spheres(G, nu, packing.radius)
 
 
+#: Stresses a config may give [Pa]: 1 uPa to 1 TPa. Far outside every granular material
+#: (quartz grains crush near 1 GPa), and the limits keep Hertz forces and moduli (which
+#: go as p^(1/3) and p^(2/3)) away from floating-point under- and overflow.
+PRESSURE_MIN, PRESSURE_MAX = 1e-6, 1e12
+
+
+def build_pressure(sec: Section, key: str = "pressure") -> float:
+    """A mean stress [Pa] in :data:`PRESSURE_MIN` .. :data:`PRESSURE_MAX`."""
+    return sec.number(key, "Pa", min=PRESSURE_MIN, max=PRESSURE_MAX)
+
+
 def build_stress(sec: Section, dim: int) -> Any:
     """Pressure (float) or stress tensor from ``[stress]``; None if the table is empty."""
     if sec.has("pressure") and sec.has("tensor"):
         raise ConfigError(sec.key("tensor"), sec.data["tensor"], "give either pressure or tensor, not both")
     if sec.has("pressure"):
-        return sec.number("pressure", "Pa", min=0, min_inclusive=False)
+        return build_pressure(sec)
     if sec.has("tensor"):
         raw = sec.raw("tensor")
         from grainmech.io.units import to_float
@@ -121,6 +132,8 @@ def build_stress(sec: Section, dim: int) -> Any:
             raise ConfigError(sec.key("tensor"), raw, f"must be a {dim}x{dim} array") from None
         if S.shape != (dim, dim) or not np.allclose(S, S.T):
             raise ConfigError(sec.key("tensor"), raw, f"must be a symmetric {dim}x{dim} array")
+        if np.abs(S).max() > PRESSURE_MAX:
+            raise ConfigError(sec.key("tensor"), raw, f"entries must not exceed {PRESSURE_MAX:g} Pa in size")
         return S
     return None
 
