@@ -28,7 +28,7 @@ BASE = """
 law = "mindlin-deresiewicz"
 shear_modulus = "29 GPa"
 poisson = 0.22
-radius1 = "1 mm"
+radius = "1 mm"
 friction = 0.5
 
 [initial]
@@ -98,7 +98,8 @@ def test_units_and_plain_si_numbers_agree(tmp_path):
     (("friction = 0.5", "friction = 0.5\nfrictoin = 0.4"), "contact.frictoin"),
     (("poisson = 0.22", "poisson = 0.6"), "poisson"),
     (("friction = 0.5", "friction = -0.5"), "friction"),
-    (('radius1 = "1 mm"', 'radius1 = "1 N"'), "contact.radius1"),
+    (('radius = "1 mm"', 'radius = "1 N"'), "contact.radius"),
+    (('radius = "1 mm"', 'radius1 = "1 mm"'), "contact.radius1 = '1 mm': renamed: write 'radius'"),
     (("count = 1", "count = 1\nstepz = 3"), "path[0].stepz"),
     (('tangential_force_amplitude = "3 N"', 'tangential_force_amplitude = "6 N"'), "friction limit"),
     (('law = "mindlin-deresiewicz"', 'law = "mindlin"'), "contact.law"),

@@ -84,7 +84,7 @@ def test_contact_cli_fifty_cycles_with_a_varying_normal_force(tmp_path):
     cfg = tmp_path / "c.toml"
     cfg.write_text(
         '[contact]\nlaw = "mindlin-deresiewicz"\nshear_modulus = "29 GPa"\npoisson = 0.22\n'
-        'radius1 = "1 mm"\nfriction = 0.5\n[initial]\nnormal_force = "10 N"\n'
+        'radius = "1 mm"\nfriction = 0.5\n[initial]\nnormal_force = "10 N"\n'
         + "".join('[[path]]\nsteps = 4\n'
                   f'tangential_displacement = "{0.4 * (-1) ** k} um"\nnormal_force = "{10 + (k % 3)} N"\n'
                   for k in range(100))

@@ -12,13 +12,17 @@ class GrainmechError(ValueError):
 
 
 class ConfigError(GrainmechError):
-    """A configuration key has a bad value; the message names the key and the value."""
+    """A configuration key has a bad value; the message names the key and the value.
+
+    ``value = None`` means the key has no value (it is missing): the message is then
+    ``"key: problem"``, never ``"key = None"``.
+    """
 
     def __init__(self, key: str, value: object, problem: str) -> None:
         self.key = key
         self.value = value
         self.problem = problem
-        super().__init__(f"{key} = {value!r}: {problem}")
+        super().__init__(f"{key}: {problem}" if value is None else f"{key} = {value!r}: {problem}")
 
 
 class NegativeDensityError(GrainmechError):

@@ -6,7 +6,7 @@ expensive work (used by :mod:`grainmech.sweep` to reject misspelt keys up front)
 * ``prepare_<kind>(cfg, base_dir=None)`` reads and validates the config (strict keys,
   units at the edge) and returns a small spec object; it raises
   :class:`~grainmech.errors.ConfigError` naming the key and value.
-* ``execute_<kind>(spec, ...)`` does the computation and returns a result dict.
+* ``execute_<kind>(spec, ...)`` does the computation and returns a typed result.
 
 ``compute_<kind>(cfg)`` is both in one call, and ``<kind>_scalars(result)`` flattens a
 result into a dict of scalar outputs (column name with unit -> number, bool or str), the
@@ -14,7 +14,11 @@ row of a sweep table.
 
 Kinds: ``stiffness`` (``grainmech stiffness``), ``run`` (``grainmech run``: cyclic
 simple shear or a mixed-control path), ``dem`` (``grainmech dem`` measures of a contact
-network; the config names the files in a ``[network]`` table).
+network; the config names the files in a ``[network]`` table), ``contact``
+(``grainmech contact``: one contact along a force/displacement path). Each ``execute_``
+returns a typed result (:class:`StiffnessOutcome`, :class:`CyclicOutcome` or
+:class:`PathOutcome`, :class:`DemOutcome`, :class:`ContactOutcome`); files are written by
+:mod:`grainmech.io.reports`.
 """
 
 from __future__ import annotations
@@ -31,7 +35,8 @@ from grainmech.errors import ConfigError, GrainmechError
 __all__ = ["prepare_stiffness", "execute_stiffness", "compute_stiffness", "stiffness_scalars",
            "prepare_run", "execute_run", "compute_run", "run_scalars", "reference_strain",
            "dem_options", "prepare_dem", "execute_dem", "compute_dem", "dem_scalars",
-           "RUN_TEST_KINDS"]
+           "prepare_contact", "execute_contact", "compute_contact", "StiffnessOutcome", "RunOutcome",
+           "CyclicOutcome", "PathOutcome", "DemOutcome", "ContactOutcome", "RUN_TEST_KINDS"]
 
 RUN_TEST_KINDS = ("cyclic-simple-shear", "path")
 
@@ -50,33 +55,57 @@ class StiffnessSpec:
 def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> StiffnessSpec:
     """Read ``[packing]``, ``[fabric]``, ``[contacts]``, ``[stress]`` (strict keys)."""
     from grainmech.io.config import Section
-    from grainmech.io.schema import build_contacts, build_fabric, build_packing, build_stress
+    from grainmech.io.schema import build_fabric, build_law, build_packing, build_stress
 
     root = Section(cfg, "")
     density = build_fabric(root.section("fabric", {}))
     packing = build_packing(root.section("packing"), density)
-    contacts = build_contacts(root.section("contacts"), packing)
+    contacts = build_law(root.section("contacts"), packing.radius)
     stress = build_stress(root.section("stress", {}), density.dim)
     root.finish()
     return StiffnessSpec(density, packing, contacts, stress)
 
 
-def execute_stiffness(spec: StiffnessSpec) -> dict:
-    """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class.
+@dataclass
+class StiffnessOutcome:
+    """Result of a ``stiffness`` job.
 
-    Returns a dict with ``result`` (:class:`grainmech.material.StiffnessResult`),
-    ``engineering``, ``symmetry``, ``packing`` and ``dim``.
+    Attributes
+    ----------
+    result : grainmech.material.StiffnessResult
+        Voigt stiffness ``C`` (library order) [Pa], contact set, forces, stress.
+    engineering : EngineeringConstants
+        Engineering constants of ``C``.
+    symmetry : SymmetryClass
+        Material symmetry class of ``C``.
+    packing : grainmech.material.Packing
+    dim : int
     """
+
+    result: Any
+    engineering: Any
+    symmetry: Any
+    packing: Any
+    dim: int
+
+    @property
+    def mean_stress(self) -> float:
+        """Mean stress of the state [Pa] (compression positive)."""
+        return float(np.trace(self.result.stress) / self.dim)
+
+
+def execute_stiffness(spec: StiffnessSpec) -> StiffnessOutcome:
+    """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class."""
     from grainmech.material import packing_stiffness
     from grainmech.tensors import engineering_constants, symmetry_class
 
     res = packing_stiffness(spec.packing, spec.contacts, spec.stress)
-    return dict(result=res, engineering=engineering_constants(res.C), symmetry=symmetry_class(res.C),
-                packing=spec.packing, dim=spec.density.dim)
+    return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.packing,
+                            spec.density.dim)
 
 
-def compute_stiffness(cfg: dict) -> dict:
-    """Config dict -> stiffness result dict (see :func:`execute_stiffness`); no printing."""
+def compute_stiffness(cfg: dict) -> StiffnessOutcome:
+    """Config dict -> stiffness result (see :func:`execute_stiffness`); no printing."""
     return execute_stiffness(prepare_stiffness(cfg))
 
 
@@ -85,7 +114,7 @@ _ENGINEERING_3D = ("E_xx", "E_yy", "E_zz", "nu_xy", "nu_yx", "nu_xz", "nu_zx", "
 _ENGINEERING_2D = ("E_xx", "E_yy", "nu_xy", "nu_yx", "G_xy")
 
 
-def stiffness_scalars(out: dict) -> dict[str, Any]:
+def stiffness_scalars(out: StiffnessOutcome) -> dict[str, Any]:
     """Scalar outputs of a stiffness result: moduli [Pa], Poisson's ratios, symmetry.
 
     Columns: ``K_hill [Pa]``, ``G_hill [Pa]`` (Voigt-Reuss-Hill bulk and shear moduli),
@@ -95,17 +124,17 @@ def stiffness_scalars(out: dict) -> dict[str, Any]:
     """
     from grainmech.tensors import bulk_modulus, shear_modulus
 
-    C = np.asarray(out["result"].C, dtype=float)
-    dim = out["dim"]
-    eng = out["engineering"].as_dict()
+    C = np.asarray(out.result.C, dtype=float)
+    dim = out.dim
+    eng = out.engineering.as_dict()
     row: dict[str, Any] = {
         "K_hill [Pa]": float(bulk_modulus(C, "hill")),
         "G_hill [Pa]": float(shear_modulus(C, "hill")),
     }
     for k in (_ENGINEERING_3D if dim == 3 else _ENGINEERING_2D):
         row[f"{k} [Pa]" if k[0] in "EG" else k] = float(eng[k])
-    row["symmetry"] = out["symmetry"].name
-    row["mean_stress [Pa]"] = float(np.trace(out["result"].stress) / dim)
+    row["symmetry"] = out.symmetry.name
+    row["mean_stress [Pa]"] = out.mean_stress
     n = C.shape[0]
     for i in range(n):
         for j in range(i, n):
@@ -178,6 +207,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     """Read a driver config (``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
     ``[quadrature]``, ``[test]``, ``[reference]``; strict keys)."""
     from grainmech.io.config import Section
+    from grainmech.fabric import LEBEDEV_ORDERS
     from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure
 
     root = Section(cfg, "")
@@ -185,11 +215,18 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     if density.dim != 3:
         raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
     packing = build_packing(root.section("packing"), density)
-    law = build_law(root.section("contacts"), packing)
+    law = build_law(root.section("contacts"), packing.radius)
     ini = root.section("initial")
     pressure = build_pressure(ini)
     quad = root.section("quadrature", {})
     degree = quad.integer("degree", 23, min=4)
+    MAX_SPHERE_DEGREE = max(LEBEDEV_ORDERS)
+    top = MAX_SPHERE_DEGREE - density.order
+    if degree > top:
+        raise ConfigError(quad.key("degree"), degree, f"must be <= {top}"
+                          + (f" for this fabric (density of order {density.order}): the rule must "
+                             f"integrate density x integrand, {MAX_SPHERE_DEGREE} at most"
+                             if density.order else f" (the highest Lebedev rule)"))
     test = root.section("test")
     kind = test.choice("kind", RUN_TEST_KINDS)
     ref = root.section("reference", {})
@@ -227,17 +264,89 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     return spec
 
 
-def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> dict:
+@dataclass
+class RunOutcome:
+    """Result of a ``run`` job (common part).
+
+    Attributes
+    ----------
+    kind : str
+        ``"cyclic-simple-shear"`` or ``"path"``.
+    pressure : float
+        Initial isotropic stress [Pa].
+    results : list of grainmech.driver.DriverResult
+        One per amplitude (cyclic) or one (path).
+    success : bool
+    message : str
+    seconds : float
+    point : grainmech.driver.MaterialPoint
+        The initial state.
+    warnings : list of str
+        Plausibility warnings (value and reason).
+    """
+
+    kind: str
+    pressure: float
+    results: list
+    success: bool
+    message: str
+    seconds: float
+    point: Any
+    warnings: list = field(default_factory=list)
+
+
+@dataclass
+class CyclicOutcome(RunOutcome):
+    """Cyclic simple shear at several amplitudes (``analysis.modulus_reduction``).
+
+    Attributes
+    ----------
+    amplitudes, G, damping : ndarray (k,)
+        Amplitudes reached (decimal strain), secant modulus [Pa], damping ratio (decimal).
+    G_max : float
+        Small-strain modulus [Pa] that normalises every G/Gmax.
+    reference : dict
+        Inputs of the empirical reference curves (``pi``, ``ocr``, ``n_cycles``,
+        ``frequency``, ``phi`` [rad]).
+    empirical_G_max : dict or None
+        :func:`empirical_gmax_check`.
+    """
+
+    amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    damping: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G_max: float = float("nan")
+    reference: dict = field(default_factory=dict)
+    empirical_G_max: dict | None = None
+
+    @property
+    def G_ratio(self) -> np.ndarray:
+        """G / Gmax at each amplitude."""
+        return np.asarray(self.G, dtype=float) / self.G_max
+
+    @property
+    def mean_stress_change(self) -> np.ndarray:
+        """p at the end of each amplitude's run / initial p - 1 (at constant sigma_zz the
+        horizontal stresses change during cycling, affine model)."""
+        return np.array([float(np.mean(r.stress[-1, :3]) / np.mean(r.stress[0, :3]) - 1.0)
+                         for r in self.results[:len(self.G)]])
+
+
+@dataclass
+class PathOutcome(RunOutcome):
+    """A mixed-control path; ``envelope`` is :func:`envelope_check` of its stresses."""
+
+    envelope: dict | None = None
+
+
+def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> RunOutcome:
     """Drive the material point; ``progress(message)`` is called before each run.
 
-    Returns a dict with ``kind``, ``pressure``, ``results`` (list of DriverResult),
-    ``success``, ``message``, ``seconds``, ``point`` and, for cyclic simple shear,
-    ``amplitudes``, ``G``, ``damping``, ``G_max`` and ``reference``.
+    Returns a :class:`CyclicOutcome` or a :class:`PathOutcome`.
     """
     from grainmech.driver import MaterialPoint, run
 
     say = progress or (lambda msg: None)
-    out: dict[str, Any] = {"kind": spec.kind, "pressure": spec.pressure}
     point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
     if spec.kind == "cyclic-simple-shear":
         from grainmech.analysis import modulus_reduction
@@ -252,20 +361,20 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
         mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                waveform=spec.waveform, constant=spec.constant, progress=each,
                                raise_on_failure=False)
-        out.update(results=mr.results, amplitudes=[float(a) for a in mr.amplitude], G=list(mr.G),
-                   damping=list(mr.damping), G_max=mr.G_max, success=mr.success, message=mr.message,
-                   seconds=time.perf_counter() - t0, reference=spec.reference, point=point)
-        out["empirical_G_max"] = empirical_gmax_check(mr.G_max, spec.void_ratio, spec.pressure)
-        out["warnings"] = list(spec.warnings) + grain_modulus_warning(mr.G_max, spec.law)
-        return out
+        return CyclicOutcome(
+            kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
+            message=mr.message, seconds=time.perf_counter() - t0, point=point,
+            warnings=list(spec.warnings) + grain_modulus_warning(mr.G_max, spec.law),
+            amplitudes=np.asarray(mr.amplitude, dtype=float), G=np.asarray(mr.G, dtype=float),
+            damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
+            reference=dict(spec.reference or {}),
+            empirical_G_max=empirical_gmax_check(mr.G_max, spec.void_ratio, spec.pressure))
     say(f"path: {len(spec.path)} steps, {len(point.contacts)} directions")
     t0 = time.perf_counter()
     r = run(point, spec.path, engineering=True)
-    out.update(results=[r], success=r.success, message=r.message, seconds=time.perf_counter() - t0,
-               point=point)
-    out["envelope"] = envelope_check(r.stress)
-    out["warnings"] = list(spec.warnings)
-    return out
+    return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
+                       message=r.message, seconds=time.perf_counter() - t0, point=point,
+                       warnings=list(spec.warnings), envelope=envelope_check(r.stress))
 
 
 #: largest shear strain amplitude the material-point model is meant for (small strain,
@@ -392,8 +501,8 @@ def envelope_check(stress: np.ndarray) -> dict:
             "first_step": first}
 
 
-def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> dict:
-    """Config dict -> driver result dict (see :func:`execute_run`); no file writing."""
+def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> RunOutcome:
+    """Config dict -> driver result (see :func:`execute_run`); no file writing."""
     return execute_run(prepare_run(cfg), progress)
 
 
@@ -423,7 +532,7 @@ def _invariants(s: np.ndarray) -> tuple[float, float]:
     return p, float(np.sqrt(3.0 * j2))
 
 
-def run_scalars(out: dict) -> dict[str, Any]:
+def run_scalars(out: RunOutcome) -> dict[str, Any]:
     """Scalar outputs of a driver result.
 
     Cyclic simple shear: ``G_max [Pa]``, ``gamma_r`` (strain where G/Gmax = 0.5,
@@ -433,11 +542,11 @@ def run_scalars(out: dict) -> dict[str, Any]:
     ``dissipation [J/m^3]``, ``n_steps``, ``success``, ``message``.
     """
     row: dict[str, Any] = {}
-    if out["kind"] == "cyclic-simple-shear":
-        gmax = float(out["G_max"])
-        amps = np.asarray(out["amplitudes"], dtype=float)
-        ratio = np.asarray(out["G"], dtype=float) / gmax
-        damp = np.asarray(out["damping"], dtype=float)
+    if isinstance(out, CyclicOutcome):
+        gmax = float(out.G_max)
+        amps = np.asarray(out.amplitudes, dtype=float)
+        ratio = out.G_ratio
+        damp = np.asarray(out.damping, dtype=float)
         row["G_max [Pa]"] = gmax
         row["gamma_r"] = reference_strain(amps, ratio) if len(amps) else float("nan")
         for a, g, d in zip(amps, ratio, damp):
@@ -446,7 +555,7 @@ def run_scalars(out: dict) -> dict[str, Any]:
     else:
         from grainmech.conventions import ORDER_3D
 
-        r = out["results"][0]
+        r = out.results[0]
         s, e = np.asarray(r.stress[-1], dtype=float), np.asarray(r.strain[-1], dtype=float)
         p, q = _invariants(s)
         row["p [Pa]"] = p
@@ -457,8 +566,8 @@ def run_scalars(out: dict) -> dict[str, Any]:
             row[f"strain_{lab}"] = float(v)
         row["dissipation [J/m^3]"] = float(r.dissipation[-1])
         row["n_steps"] = int(r.n_steps)
-    row["success"] = bool(out["success"])
-    row["message"] = str(out["message"])
+    row["success"] = bool(out.success)
+    row["message"] = str(out.message)
     return row
 
 
@@ -543,26 +652,43 @@ def prepare_dem(cfg: dict, base_dir: str | Path | None = None) -> DemSpec:
     return DemSpec(contacts, particles, read, opts)
 
 
-def execute_dem(spec: DemSpec) -> dict:
-    """Read the network and return :func:`grainmech.network.network_report`."""
+@dataclass
+class DemOutcome:
+    """Result of a ``dem`` job: the network read and its measures.
+
+    Attributes
+    ----------
+    network : grainmech.network.ContactNetwork
+    report : dict
+        :func:`grainmech.network.network_report` (stress, fabric, coordination, affine and
+        relaxed stiffness, engineering constants, notes).
+    """
+
+    network: Any
+    report: dict
+
+
+def execute_dem(spec: DemSpec) -> DemOutcome:
+    """Read the network and compute :func:`grainmech.network.network_report`."""
     from grainmech.io.dem import read_network
     from grainmech.network import network_report
 
     net = read_network(spec.contacts, spec.particles, **spec.read)
-    return network_report(net, **spec.options)
+    return DemOutcome(net, network_report(net, **spec.options))
 
 
-def compute_dem(cfg: dict, base_dir: str | Path | None = None) -> dict:
+def compute_dem(cfg: dict, base_dir: str | Path | None = None) -> DemOutcome:
     """Config dict -> network report (see :func:`prepare_dem`)."""
     return execute_dem(prepare_dem(cfg, base_dir))
 
 
-def dem_scalars(rep: dict) -> dict[str, Any]:
+def dem_scalars(out: DemOutcome) -> dict[str, Any]:
     """Scalar outputs of a network report: counts, stress invariants, coordination,
     fabric anisotropy, Hill moduli and engineering constants of the affine and relaxed
     stiffness (empty when not computed)."""
     from grainmech.tensors import bulk_modulus, shear_modulus
 
+    rep = out.report
     row: dict[str, Any] = {"n_particles": int(rep["n_particles"]), "n_contacts": int(rep["n_contacts"]),
                            "volume [m^3]": float(rep["volume"])}
     S = np.asarray(rep["stress"]["tensor"], dtype=float)
@@ -590,3 +716,106 @@ def dem_scalars(rep: dict) -> dict[str, Any]:
             v = eng.get(k)
             row[f"{k}_{which}" + (" [Pa]" if k[0] in "EG" else "")] = None if v is None else float(v)
     return row
+
+
+# ------------------------------------------------------------------------------- contact
+@dataclass
+class ContactSpec:
+    """A single contact, its initial state and its loading path (``grainmech contact``)."""
+
+    params: Any
+    initial: Any
+    segments: list
+
+
+@dataclass
+class ContactOutcome:
+    """Result of a ``contact`` job.
+
+    Attributes
+    ----------
+    columns : dict of str -> ndarray (k+1,)
+        :data:`grainmech.io.reports.CONTACT_COLUMNS`; row 0 is the initial state. SI units
+        (N and m; N/m and m for a rod contact per unit length).
+    law : str
+        Class name of the contact law.
+    force_unit : str
+        ``"N"`` or ``"N/m"`` (rods).
+    """
+
+    columns: dict
+    law: str
+    force_unit: str
+
+
+def prepare_contact(cfg: dict, base_dir: str | Path | None = None) -> ContactSpec:
+    """Read a ``grainmech contact`` config: ``[contact]`` (:func:`grainmech.io.schema.build_law`,
+    every law), ``[initial]`` and ``[[path]]`` (:func:`grainmech.io.schema.build_contact_path`)."""
+    from grainmech.io.config import Section
+    from grainmech.io.schema import LAWS, build_contact_path, build_law
+
+    root = Section(cfg, "")
+    params = build_law(root.section("contact"), None, laws=LAWS)
+    initial, segments = build_contact_path(root, params)
+    root.finish()
+    return ContactSpec(params, initial, segments)
+
+
+def execute_contact(spec: ContactSpec) -> ContactOutcome:
+    """Drive the contact through the path, one :func:`grainmech.contact.solve_step` per step.
+
+    Each ramp moves its controlled channels linearly from their current values to the
+    targets; a held channel keeps its control mode. The tangential channel acts along x.
+    """
+    from grainmech.contact import solve_step, state_from_approach, state_from_normal_force
+    from grainmech.io.reports import CONTACT_COLUMNS
+    from grainmech.io.schema import contact_units
+
+    params, init = spec.params, spec.initial
+    if init.mode == "force":
+        st = state_from_normal_force(params, [init.value], dim=1)
+    else:
+        st = state_from_approach(params, [init.value], dim=1)
+    _, r0, _, _ = solve_step(params, st, d_normal=[0.0])
+    rows: list[tuple] = []
+    delta = 0.0
+    rows.append((0, -1, float(st.approach[0]), delta, float(st.normal_force[0]), 0.0, 0.0,
+                 float(r0.kn[0]), float(r0.ks[0]), False))
+    n_mode = init.mode
+    t_mode = "disp"
+    step = 0
+    for seg in spec.segments:
+        if seg.n_mode is not None:
+            n_mode = seg.n_mode
+        if seg.t_mode is not None:
+            t_mode = seg.t_mode
+        n0 = float(st.normal_force[0]) if n_mode == "force" else float(st.approach[0])
+        t0 = float(st.tangential_force[0, 0]) if t_mode == "force" else delta
+        n1 = seg.n_target if seg.n_mode is not None else n0
+        t1 = seg.t_target if seg.t_mode is not None else t0
+        for j in range(1, seg.steps + 1):
+            f = j / seg.steps
+            nv = n0 + f * (n1 - n0)
+            tv = t0 + f * (t1 - t0)
+            kw: dict[str, Any] = {}
+            if n_mode == "force":
+                kw["normal_force"] = [max(nv, 0.0)]
+            else:
+                kw["d_normal"] = [nv - float(st.approach[0])]
+            if t_mode == "force":
+                kw["tangential_force"] = [tv]
+            else:
+                kw["d_tangential"] = np.array([[tv - delta]])
+            st, r, _, dt = solve_step(params, st, **kw)
+            delta += float(dt[0, 0])
+            step += 1
+            rows.append((step, seg.index, float(st.approach[0]), delta, float(st.normal_force[0]),
+                         float(st.tangential_force[0, 0]), float(st.dissipated_energy[0]),
+                         float(r.kn[0]), float(r.ks[0]), bool(r.sliding[0])))
+    cols = {name: np.array(col) for name, col in zip(CONTACT_COLUMNS, zip(*rows))}
+    return ContactOutcome(cols, type(params).__name__, contact_units(params)[0])
+
+
+def compute_contact(cfg: dict) -> ContactOutcome:
+    """Config dict -> contact result (see :func:`execute_contact`)."""
+    return execute_contact(prepare_contact(cfg))

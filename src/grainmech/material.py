@@ -3,7 +3,8 @@
 :class:`Packing` is the analytical input of grainmech: a contact-normal density (seed
 Eq. 4.7 / 4.9) plus the number of contacts per volume and the branch length (Eq. 4.1),
 in either counting convention (``docs/conventions.md``). :func:`packing_stiffness`
-computes the stiffness tensor (seed Eq. 2.41) for constant contact stiffnesses or for
+computes the stiffness tensor (seed Eq. 2.41) for constant contact stiffnesses
+(:class:`grainmech.contact.LinearSpring`) or for
 Hertz-Mindlin contacts whose stiffness follows from the contact forces carrying an
 isotropic stress (seed Sec. 4.2.2, Eq. 4.43).
 """
@@ -21,7 +22,6 @@ from grainmech.errors import GrainmechError
 __all__ = [
     "Packing",
     "ContactStiffness",
-    "ConstantStiffness",
     "HertzMindlinStiffness",
     "normal_forces_for_stress",
     "StiffnessResult",
@@ -99,24 +99,6 @@ class ContactStiffness(Protocol):
     """Anything giving tangent contact stiffnesses from normal forces (array -> (kn, ks))."""
 
     def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-@dataclass(frozen=True)
-class ConstantStiffness:
-    """Constant contact stiffnesses (seed Sec. 4.2.1), force/length."""
-
-    kn: float
-    ks: float
-
-    def __post_init__(self) -> None:
-        for name in ("kn", "ks"):
-            v = getattr(self, name)
-            if not np.isfinite(v) or v < 0:
-                raise GrainmechError(f"{name} must be >= 0, got {v!r}")
-
-    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        shape = np.shape(normal_force)
-        return np.full(shape, float(self.kn)), np.full(shape, float(self.ks))
 
 
 def __getattr__(name: str) -> Any:
@@ -207,18 +189,21 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
     ----------
     packing : Packing
     contact : ContactStiffness
-        :class:`ConstantStiffness` or contact parameters with ``stiffness(N)``
-        (e.g. :class:`grainmech.contact.HertzMindlin`).
+        Contact parameters with ``stiffness(N)``: :class:`grainmech.contact.LinearSpring`
+        (constant stiffnesses, seed Sec. 4.2.1) or a Hertz law such as
+        :class:`grainmech.contact.HertzMindlin` (seed Eq. 3.7, 3.11).
     stress : float or array (d, d), optional
         Isotropic pressure P (float) or a stress tensor, compression positive. Required
-        when the contact stiffness depends on the force.
+        when the contact stiffness depends on the force (not for ``LinearSpring``).
 
     Returns
     -------
     StiffnessResult
     """
+    from grainmech.contact import LinearSpring
+
     d = packing.dim
-    const = isinstance(contact, ConstantStiffness)
+    const = isinstance(contact, LinearSpring)
     if stress is None:
         if not const:
             raise GrainmechError("a stress (or pressure) is needed for force-dependent contact stiffness")

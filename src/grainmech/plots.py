@@ -1,86 +1,171 @@
-"""Plots (matplotlib only here, imported lazily; Agg backend, files only)."""
+"""Plots of grainmech results (matplotlib only here, imported lazily).
+
+Every plot function draws into a matplotlib ``Axes`` and returns it: pass ``ax`` to draw
+into your own figure (a notebook, a multi-panel figure), or leave it out to draw into the
+current pyplot axes. Nothing here changes the matplotlib backend or writes files; the
+command line makes its figures with :func:`figure` (a ``matplotlib.figure.Figure`` not
+attached to pyplot, so no display is needed) and writes them through
+:func:`grainmech.io.results.write_figure`.
+
+Example
+-------
+>>> import matplotlib.pyplot as plt                      # doctest: +SKIP
+>>> fig, ax = plt.subplots()                             # doctest: +SKIP
+>>> plots.modulus_reduction(mr.amplitude, mr.G_ratio, ax=ax)   # doctest: +SKIP
+"""
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
 from grainmech.errors import GrainmechError
 
+__all__ = ["figure", "subplots", "loops", "modulus_reduction", "damping", "path_histories",
+           "contact_loops"]
 
-def _plt():
+
+def _matplotlib() -> Any:
     try:
         import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on environment
         raise GrainmechError("plots need matplotlib (pip install 'grainmech[plot]')") from exc
-    return plt
+    return matplotlib
 
 
-def _save(fig: Any, path: str | Path) -> Path:
-    from grainmech.io.results import atomic_write
+def figure(**kw: Any) -> Any:
+    """A ``matplotlib.figure.Figure`` detached from pyplot (``figsize``, ``dpi``...): it
+    needs no display and is freed when dropped (``fig.savefig`` writes it)."""
+    _matplotlib()
+    from matplotlib.figure import Figure
 
-    p = Path(path)
-    atomic_write(p, lambda fh: fig.savefig(fh, format="png", dpi=120), binary=True)
-    _plt().close(fig)
-    return p
+    return Figure(**kw)
 
 
-def loops(results: Sequence[Any], amplitudes: Sequence[float], path: str | Path, component: int = 4,
-          label: str = "xz") -> Path:
-    """Stress-strain loops (shear component ``component``) of several cyclic runs."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+def subplots(nrows: int = 1, ncols: int = 1, *, figsize: tuple[float, float] | None = None,
+             **kw: Any) -> tuple[Any, Any]:
+    """``(fig, axes)`` like ``pyplot.subplots`` on a detached :func:`figure`."""
+    fig = figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kw)
+
+
+def _axes(ax: Any) -> Any:
+    if ax is not None:
+        return ax
+    _matplotlib()
+    import matplotlib.pyplot as plt
+
+    return plt.gca()
+
+
+def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None, component: int = 4,
+          label: str = "xz") -> Any:
+    """Stress-strain loops of cyclic runs: ``tau - tau_0`` [Pa] against ``gamma / amplitude``.
+
+    Parameters
+    ----------
+    results : sequence of grainmech.driver.DriverResult
+        One per amplitude.
+    amplitudes : sequence of float
+        Shear strain amplitudes (decimal), used to normalise the strain.
+    ax : matplotlib Axes, optional
+    component : int
+        Voigt index of the shear component (4: xz, library order).
+    label : str
+        Name of the component in the labels.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = _axes(ax)
     for r, a in zip(results, amplitudes):
         g = r.strain[:, component] / a
         ax.plot(g, r.stress[:, component] - r.stress[0, component], lw=1, label=f"{a:.1e}")
-    ax.set_xlabel(f"gamma_{label} / amplitude")
+    ax.set_xlabel(f"gamma_{label} / amplitude [-]")
     ax.set_ylabel(f"tau_{label} - tau_0 [Pa]")
     ax.set_title("Cyclic simple shear loops (normalised strain)")
     ax.legend(title="amplitude", fontsize=7)
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    return ax
 
 
-def modulus_reduction(amplitude: np.ndarray, G_ratio: np.ndarray, damping: np.ndarray, path: str | Path,
-                      references: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None) -> Path:
-    """G/Gmax and damping ratio against amplitude, with reference curves ``name -> (gamma, G/Gmax, D)``."""
-    plt = _plt()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.2))
-    a1.semilogx(amplitude, G_ratio, "ko-", label="grainmech")
-    a2.semilogx(amplitude, 100 * damping, "ko-", label="grainmech")
-    for name, (g, r, d) in (references or {}).items():
-        a1.semilogx(g, r, "--", label=name)
-        a2.semilogx(g, 100 * d, "--", label=name)
-    a1.set_ylabel("G / Gmax")
-    a2.set_ylabel("damping ratio [%]")
-    for a in (a1, a2):
-        a.set_xlabel("shear strain amplitude")
-        a.grid(alpha=0.3, which="both")
-        a.legend(fontsize=8)
-    a1.set_ylim(0, 1.05)
-    fig.tight_layout()
-    return _save(fig, path)
+def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
+                      references: dict[str, tuple[Any, Any]] | None = None,
+                      label: str = "grainmech") -> Any:
+    """G/Gmax against shear strain amplitude (decimal), with reference curves
+    ``name -> (gamma, G/Gmax)``. Returns the Axes."""
+    ax = _axes(ax)
+    ax.semilogx(amplitude, G_ratio, "ko-", label=label)
+    for name, (g, r) in (references or {}).items():
+        ax.semilogx(g, r, "--", label=name)
+    ax.set_xlabel("shear strain amplitude [-]")
+    ax.set_ylabel("G / Gmax [-]")
+    ax.set_ylim(0, 1.05)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    return ax
 
 
-def path_plot(result: Any, path: str | Path) -> Path:
-    """Stress and strain histories of a driver run."""
+def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
+            references: dict[str, tuple[Any, Any]] | None = None, label: str = "grainmech") -> Any:
+    """Damping ratio [%] against shear strain amplitude (decimal), with reference curves
+    ``name -> (gamma, D)`` (D decimal). Returns the Axes."""
+    ax = _axes(ax)
+    ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), "ko-", label=label)
+    for name, (g, d) in (references or {}).items():
+        ax.semilogx(g, 100 * np.asarray(d), "--", label=name)
+    ax.set_xlabel("shear strain amplitude [-]")
+    ax.set_ylabel("damping ratio [%]")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    return ax
+
+
+def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequence[Any]:
+    """Strain (engineering shear) and stress [Pa] components against step number of a
+    driver run, in two Axes (given, or two new ones side by side). Returns the two Axes."""
     from grainmech.conventions import ORDER_3D
 
-    plt = _plt()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.2))
+    if axes is None:
+        _matplotlib()
+        import matplotlib.pyplot as plt
+
+        _, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    a1, a2 = axes
     steps = np.arange(len(result.stress))
     for k, c in enumerate(ORDER_3D):
         a1.plot(steps, result.strain[:, k], label=c)
         a2.plot(steps, result.stress[:, k], label=c)
-    a1.set_ylabel("strain (engineering shear)")
-    a2.set_ylabel("stress [Pa]")
+    a1.set_ylabel("strain (engineering shear) [-]")
+    a2.set_ylabel("stress, compression positive [Pa]")
     for a in (a1, a2):
         a.set_xlabel("step")
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
-    fig.tight_layout()
-    return _save(fig, path)
+    return a1, a2
+
+
+def contact_loops(columns: dict[str, Any], *, axes: Sequence[Any] | None = None,
+                  force_unit: str = "N") -> Sequence[Any]:
+    """One contact's tangential force-displacement loop and normal force-approach curve
+    (the columns of :class:`grainmech.jobs.ContactOutcome`). Returns the two Axes."""
+    if axes is None:
+        _matplotlib()
+        import matplotlib.pyplot as plt
+
+        _, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    ax1, ax2 = axes
+    ax1.plot(columns["tangential_displacement"], columns["tangential_force"], "-", lw=1.2)
+    ax1.set_xlabel("tangential displacement [m]")
+    ax1.set_ylabel(f"tangential force [{force_unit}]")
+    ax1.set_title("tangential force-displacement")
+    ax1.grid(True, alpha=0.3)
+    ax2.plot(columns["normal_displacement"], columns["normal_force"], "-", lw=1.2, color="C1",
+             marker=".", ms=3)
+    ax2.set_xlabel("approach [m]")
+    ax2.set_ylabel(f"normal force [{force_unit}]")
+    ax2.set_title("normal force-approach")
+    ax2.grid(True, alpha=0.3)
+    return ax1, ax2

@@ -9,11 +9,13 @@ from grainmech.analysis.empirical import (
     P_ATM,
     SAND_PEAK_FRICTION_DEG,
     DarendeliCurves,
+    HardinDrnevichReference,
     HardinRichart,
     darendeli,
     hardin_richart,
     mohr_coulomb_ratio,
     hardin_drnevich,
+    hardin_drnevich_reference,
     masing_damping_hyperbolic,
 )
 from grainmech.analysis.loops import (
@@ -24,7 +26,8 @@ from grainmech.analysis.loops import (
     modulus_reduction,
 )
 
-__all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinRichart",
+__all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinDrnevichReference",
+           "HardinRichart", "hardin_drnevich_reference",
            "hardin_richart", "mohr_coulomb_ratio", "LoopProperties", "ModulusReduction",
            "apparent_moduli", "condensed_modulus", "darendeli", "hardin_drnevich", "loop_properties",
            "masing_damping_hyperbolic", "modulus_reduction"]

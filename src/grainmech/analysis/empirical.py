@@ -25,7 +25,8 @@ import numpy as np
 
 from grainmech.errors import ConfigError
 
-__all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "darendeli", "DarendeliCurves",
+__all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "HardinDrnevichReference",
+           "hardin_drnevich_reference", "darendeli", "DarendeliCurves",
            "masing_damping_hyperbolic", "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
            "SAND_PEAK_FRICTION_DEG"]
 
@@ -64,6 +65,64 @@ def hardin_drnevich(gamma: Any, gamma_r: float, d_max: float = 0.0) -> tuple[np.
         raise ConfigError("d_max", d_max, "must lie in [0, 1)")
     r = 1.0 / (1.0 + g / gamma_r)
     return r, d_max * (1.0 - r)
+
+
+@dataclass(frozen=True)
+class HardinDrnevichReference:
+    """Parameters of the Hardin-Drnevich curves for a sand (see :func:`hardin_drnevich_reference`).
+
+    Attributes
+    ----------
+    tau_max : float
+        Shear strength [Pa].
+    gamma_r : float
+        Reference strain ``tau_max / G_max`` (decimal).
+    d_max : float
+        Largest damping ratio (decimal).
+    """
+
+    tau_max: float
+    gamma_r: float
+    d_max: float
+    citation: str = ("Hardin, B. O. & Drnevich, V. P. (1972). Shear modulus and damping in soils: "
+                     "design equations and curves. J. Soil Mech. Found. Div. ASCE 98(SM7), 667-692")
+
+
+def hardin_drnevich_reference(mean_stress: float, friction_angle: float, g_max: float,
+                              n_cycles: float = 10.0) -> HardinDrnevichReference:
+    """Reference strain and largest damping of a clean dry sand (Hardin & Drnevich 1972).
+
+    * shear strength ``tau_max = p sin(phi')`` (Mohr-Coulomb without cohesion at mean
+      effective stress ``p``), reference strain ``gamma_r = tau_max / G_max``;
+    * largest damping of clean dry sands ``D_max = (33 - 1.5 log10 N) %`` after ``N``
+      loading cycles (Hardin & Drnevich 1972, Table 2).
+
+    Parameters
+    ----------
+    mean_stress : float
+        Mean effective stress ``p`` [Pa] (> 0).
+    friction_angle : float
+        Effective friction angle ``phi'`` [rad], in (0, pi/2).
+    g_max : float
+        Small-strain shear modulus [Pa] (> 0) that normalises the curve.
+    n_cycles : float
+        Number of loading cycles ``N`` (> 0).
+
+    Returns
+    -------
+    HardinDrnevichReference
+        Use with :func:`hardin_drnevich` (``gamma_r``, ``d_max``).
+    """
+    for name, v in (("mean_stress", mean_stress), ("g_max", g_max)):
+        if not (np.isfinite(v) and v > 0):
+            raise ValueError(f"{name} = {v!r}: must be finite and > 0 (Pa)")
+    if not (np.isfinite(friction_angle) and 0 < friction_angle < np.pi / 2):
+        raise ValueError(f"friction_angle = {friction_angle!r}: must lie in (0, pi/2) rad")
+    if not (np.isfinite(n_cycles) and n_cycles > 0):
+        raise ValueError(f"n_cycles = {n_cycles!r}: must be > 0")
+    tau_max = float(mean_stress * np.sin(friction_angle))
+    return HardinDrnevichReference(tau_max, tau_max / float(g_max),
+                                   float((33.0 - 1.5 * np.log10(n_cycles)) / 100.0))
 
 
 def masing_damping_hyperbolic(gamma: Any, gamma_r: float) -> np.ndarray:

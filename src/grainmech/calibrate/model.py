@@ -185,7 +185,7 @@ def _eng_name(name: str, dim: int) -> str:
 
 def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Engineering constants at each row's pressure (seed Eq. 2.41, Hertz-Mindlin Eq. 4.43)."""
-    from grainmech.io.schema import build_contacts, build_fabric
+    from grainmech.io.schema import build_fabric, build_law
     from grainmech.material import packing_stiffness
     from grainmech.tensors import engineering_constants
 
@@ -203,7 +203,7 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
         if p <= 0:
             raise data.error("pressure must be > 0", i, "pressure")
         packing = _packing(root, density, p)
-        contacts = build_contacts(root.section("contacts"), packing)
+        contacts = build_law(root.section("contacts"), packing.radius)
         if validate and i == 0:
             root.finish()
         C = packing_stiffness(packing, contacts, p).C
@@ -222,7 +222,7 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
 
 
 def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) -> tuple[np.ndarray, int]:
-    from grainmech.io.schema import build_contacts, build_fabric, build_stress
+    from grainmech.io.schema import build_fabric, build_law, build_stress
     from grainmech.material import packing_stiffness
 
     cfg = copy.deepcopy(model)
@@ -232,7 +232,7 @@ def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) 
     p = float(stress) if np.ndim(stress) == 0 and stress is not None else (
         float(np.trace(stress)) / density.dim if stress is not None else 1.0)
     packing = _packing(root, density, p)
-    contacts = build_contacts(root.section("contacts"), packing)
+    contacts = build_law(root.section("contacts"), packing.radius)
     if validate:
         root.finish()
     return packing_stiffness(packing, contacts, stress).C, density.dim
@@ -279,7 +279,7 @@ def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
     ini = root.section("initial")
     pressure = build_pressure(ini)
     packing = _packing(root, density, pressure)
-    law = build_law(root.section("contacts"), packing)
+    law = build_law(root.section("contacts"), packing.radius)
     degree = root.section("quadrature", {}).integer("degree", 11, min=4)
     if validate:
         root.finish()

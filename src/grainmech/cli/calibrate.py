@@ -14,11 +14,14 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    from grainmech.io.reports import default_outdir
+
     p = sub.add_parser("calibrate", help="fit model parameters to measured data (least squares)",
                        description=__doc__.splitlines()[0])
     p.add_argument("config", help="calibration TOML (see examples/calibrate_*.toml)")
     p.add_argument("data", help="data CSV (header with units, e.g. 'pressure [psi],G [psi]')")
-    p.add_argument("-o", "--outdir", default="calibration", help="output folder (default ./calibration)")
+    p.add_argument("-o", "--outdir", default=default_outdir("calibrate"),
+                   help="output folder (default ./%(default)s)")
     p.add_argument("--starts", type=int, default=None,
                    help="number of starts: the given one plus seeded Latin-hypercube starts within the "
                         "bounds, run through Dask (default: [fit] starts, 1 = serial)")

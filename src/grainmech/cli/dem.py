@@ -1,8 +1,9 @@
-"""``grainmech dem CONTACTS [--particles FILE] [--format ...] [--material CONFIG.toml] [--json] -o OUTDIR``.
+"""``grainmech dem CONTACTS [--particles FILE] [--format ...] [--material CONFIG.toml] [--json] [-o OUTDIR]``.
 
 Reads a DEM contact network (LIGGGHTS/LAMMPS local dump, generic CSV/NPZ table), and
 writes its Love-Weber stress, fabric, coordination, affine and relaxed stiffness tensors,
-engineering constants and plots. See ``docs/dem.md``.
+engineering constants and plots to OUTDIR (default ``./grainmech-out/dem``). See
+``docs/dem.md``.
 
 Material config (TOML, all tables optional)::
 
@@ -28,15 +29,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from grainmech.errors import GrainmechError
-
 
 def register(sub: Any) -> None:
+    from grainmech.io.reports import default_outdir
+
     p = sub.add_parser(
         "dem", help="stress, fabric, coordination and affine/relaxed stiffness of a DEM contact network",
         description="Measures of a DEM contact network (LIGGGHTS/LAMMPS local dump or generic CSV/NPZ "
@@ -54,77 +54,39 @@ def register(sub: Any) -> None:
     p.add_argument("--material", help="TOML with [material], [stiffness], [relaxed], [fabric]")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--no-plots", action="store_true", help="do not write the plots")
-    p.add_argument("-o", "--outdir", help="directory for the result files (created if needed)")
+    p.add_argument("-o", "--outdir", default=default_outdir("dem"),
+                   help="output folder (created if needed; default ./%(default)s)")
     p.set_defaults(func=run)
 
 
-def _options(path: str | None) -> dict:
-    from grainmech.io.config import Section, load_toml
-    from grainmech.jobs import dem_options
+def _config(args: argparse.Namespace) -> dict:
+    """The dem job config: the ``--material`` tables plus a ``[network]`` table from the
+    command-line arguments (the form a sweep's ``dem`` config has)."""
+    from grainmech.errors import ConfigError
+    from grainmech.io.config import load_toml
 
-    if path is None:
-        return {}
-    root = Section(load_toml(path), "")
-    opts = dem_options(root)
-    root.finish()
-    return opts
-
-
-def _atomic(path: Path, write: Callable[[Any], None], binary: bool = False) -> None:
-    from grainmech.io.results import atomic_write
-
-    atomic_write(path, write, binary=binary, newline=None)
-
-
-def _write_matrix(path: Path, M: Any, order: list[str]) -> None:
-    def w(fh):
-        fh.write("component," + ",".join(order) + "\n")
-        for lab, row in zip(order, M):
-            fh.write(lab + "," + ",".join(f"{v:.10e}" for v in row) + "\n")
-    _atomic(path, w)
-
-
-def _plots(net: Any, out: Path) -> None:
-    import matplotlib.pyplot as plt
-
-    from grainmech.network import plot_normal_density, plot_rose
-
-    figs = [("rose.png", plot_rose(net))]
-    if net.dim == 3:
-        figs.append(("normal_density.png", plot_normal_density(net)))
-    for name, fig in figs:
-        _atomic(out / name, lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=120), binary=True)
-        plt.close(fig)
+    cfg = load_toml(args.material) if args.material else {}
+    if "network" in cfg:
+        raise ConfigError("network", cfg["network"], f"{args.material}: the network files are given on "
+                          "the command line, not in --material")
+    net: dict[str, Any] = {"contacts": args.contacts, "format": args.format}
+    for key, val in (("particles", args.particles), ("force_on", args.force_on),
+                     ("keywords", args.keywords), ("columns", args.columns)):
+        if val is not None:
+            net[key] = val
+    return {"network": net, **cfg}
 
 
 def run(args: argparse.Namespace) -> int:
-    from grainmech.io.dem import read_network
-    from grainmech.network import network_report
+    from grainmech.io.reports import write_dem_outputs
+    from grainmech.io.results import ensure_dir
+    from grainmech.jobs import compute_dem
 
-    opts = _options(args.material)
-    split = (lambda s: None if s is None else [x.strip() for x in s.split(",") if x.strip()])
-    net = read_network(args.contacts, args.particles, format=args.format, keywords=split(args.keywords),
-                       columns=split(args.columns), force_on=args.force_on)
-    rep = network_report(net, **opts)
-    if args.outdir:
-        out = Path(args.outdir)
-        if out.exists() and not out.is_dir():
-            raise GrainmechError(f"--outdir {out} exists and is not a directory")
-        out.mkdir(parents=True, exist_ok=True)
-        _atomic(out / "summary.json", lambda fh: (json.dump(rep, fh, indent=2), fh.write("\n")))
-        for key in ("stiffness_affine", "stiffness_relaxed", "stiffness_closed_form"):
-            if rep.get(key) is not None:
-                _write_matrix(out / f"{key}.csv", rep[key], rep["order"])
-        ea, er = rep.get("engineering_affine"), rep.get("engineering_relaxed")
-        if ea:
-            def we(fh):
-                fh.write("constant,affine,relaxed\n")
-                for k, v in ea.items():
-                    r = (er or {}).get(k)
-                    fh.write(f"{k},{v:.10e}," + ("" if r is None else f"{r:.10e}") + "\n")
-            _atomic(out / "engineering.csv", we)
-        if not args.no_plots:
-            _plots(net, out)
+    cfg = _config(args)
+    ensure_dir(args.outdir)
+    out = compute_dem(cfg)
+    rep = out.report
+    write_dem_outputs(out, args.outdir, plot=not args.no_plots)
     if args.json:
         json.dump(rep, sys.stdout, indent=2)
         sys.stdout.write("\n")
@@ -154,6 +116,5 @@ def run(args: argparse.Namespace) -> int:
                                          if e.get(k) is not None) + "\n")
     for n in rep.get("notes", []):
         w(f"note: {n}\n")
-    if args.outdir:
-        w(f"\nwritten to {args.outdir}\n")
+    w(f"\nwritten to {args.outdir}\n")
     return 0

@@ -15,6 +15,8 @@ __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
+    from grainmech.io.reports import default_outdir
+
     from grainmech.reproduce import figure_ids
 
     p = sub.add_parser(
@@ -24,8 +26,8 @@ def register(sub: Any) -> None:
                     "captions. Available: " + ", ".join(figure_ids()) + ".")
     p.add_argument("figures", nargs="*", metavar="FIG",
                    help="figure ids such as 4.2, fig4.3, 6.10 (default: all)")
-    p.add_argument("-o", "--outdir", default="reproduction",
-                   help="output directory (created; default ./reproduction)")
+    p.add_argument("-o", "--outdir", default=default_outdir("reproduce"),
+                   help="output folder (default ./%(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=run)
 

@@ -47,11 +47,11 @@ def run(args: argparse.Namespace) -> int:
         cfg = tomllib.loads(text)
         source = "built-in default (isotropic quartz sand, Hertz-Mindlin, 100 kPa)"
     out = compute_stiffness(cfg)
-    res, eng, sym, dim = out["result"], out["engineering"], out["symmetry"], out["dim"]
+    res, eng, sym, dim = out.result, out.engineering, out.symmetry, out.dim
     M, labels = _matrix(res.C, args.order, dim)
     # quadrature round-off (~1e-16 relative) is shown as an exact zero
     M = np.where(np.abs(M) < 1e-12 * np.abs(M).max(), 0.0, M)
-    mean_stress = float(np.trace(res.stress) / dim)
+    mean_stress = out.mean_stress
     if args.json:
         obj = {
             "stiffness": M.tolist(),
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
                          "axis": None if sym.axis is None else [float(x) for x in sym.axis],
                          "residual": float(sym.residual)},
             "mean_stress": mean_stress,
-            "convention": out["packing"].convention,
+            "convention": out.packing.convention,
             "source": source,
         }
         json.dump(obj, sys.stdout, indent=2)
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     w = sys.stdout.write
     w(f"grainmech stiffness: {source}\n")
-    w(f"counting convention: {out['packing'].convention}; mean stress {mean_stress:.6g} Pa\n\n")
+    w(f"counting convention: {out.packing.convention}; mean stress {mean_stress:.6g} Pa\n\n")
     w(f"stiffness ({'Mandel' if args.order == 'mandel' else 'Voigt'}, order {args.order}), Pa:\n")
     w("      " + "".join(f"{lab:>13}" for lab in labels) + "\n")
     for lab, row in zip(labels, M):

@@ -15,6 +15,8 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    from grainmech.io.reports import default_outdir
+
     p = sub.add_parser("sweep", help="run a parameter sweep (grid, Latin hypercube, Monte Carlo) on dask",
                        description="Run every point of a parameter sweep (grid, Latin hypercube or Monte "
                                    "Carlo over keys of a stiffness, run or dem config) on dask.distributed, "
@@ -22,8 +24,8 @@ def register(sub: Any) -> None:
                                    "(finished points are reused). See docs/sweep.md. Exit status: 0 if every "
                                    "point succeeded, 1 if some failed, 2 for a bad sweep file.")
     p.add_argument("sweep", help="sweep file (see examples/sweep_*.toml)")
-    p.add_argument("-o", "--outdir", default="grainmech-sweep",
-                   help="output folder; finished points in it are reused (default ./grainmech-sweep)")
+    p.add_argument("-o", "--outdir", default=default_outdir("sweep"),
+                   help="output folder; finished points in it are reused (default ./%(default)s)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--workers", type=int, metavar="N",
                    help="N local workers (N > 1: worker processes); default: one in-process worker")

@@ -8,8 +8,8 @@ key that was not used — unknown keys are errors, never silently ignored.
 
 from __future__ import annotations
 
+import difflib
 import math
-
 import tomllib
 from pathlib import Path
 from typing import Any, Iterable
@@ -66,6 +66,12 @@ class Section:
         self._used.add(k)
         if k not in self.data:
             if default is _MISSING:
+                # a misspelling of this key is the likelier mistake: name it
+                unread = [u for u in self.data if u not in self._used]
+                close = difflib.get_close_matches(k, unread, n=1)
+                if close:
+                    raise ConfigError(self.key(close[0]), self.data[close[0]],
+                                      f"unknown key {close[0]!r} (did you mean {k!r}?)")
                 raise ConfigError(self.key(k), None, "required key is missing")
             return default
         return self.data[k]
@@ -144,5 +150,7 @@ class Section:
         unknown = sorted(set(self.data) - self._used)
         if unknown:
             k = unknown[0]
-            raise ConfigError(self.key(k), self.data[k], "unknown key"
+            close = difflib.get_close_matches(k, sorted(self._used), n=1)
+            raise ConfigError(self.key(k), self.data[k], f"unknown key {k!r}"
+                              + (f" (did you mean {close[0]!r}?)" if close else "")
                               + (f" (other unknown keys: {', '.join(unknown[1:])})" if len(unknown) > 1 else ""))

@@ -19,8 +19,8 @@ import numpy as np
 from grainmech.conventions import ORDER_3D
 from grainmech.errors import GrainmechError
 
-__all__ = ["atomic_write", "write_text", "write_json", "write_csv", "write_npz", "driver_table",
-           "ensure_dir"]
+__all__ = ["atomic_write", "write_text", "write_json", "write_csv", "write_npz", "write_figure",
+           "driver_table", "ensure_dir"]
 
 
 def ensure_dir(path: str | Path) -> Path:
@@ -99,6 +99,16 @@ def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[A
         for r in rows:
             wr.writerow([f"{v:.10g}" if isinstance(v, (float, np.floating)) else v for v in r])
     return atomic_write(path, w)
+
+
+def write_figure(path: str | Path, fig: Any, dpi: int = 120) -> Path:
+    """A matplotlib figure as PNG (atomically); a pyplot figure is closed afterwards."""
+    p = atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=dpi), binary=True)
+    if getattr(getattr(fig, "canvas", None), "manager", None) is not None:  # made by pyplot
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return p
 
 
 def write_npz(path: str | Path, **arrays: Any) -> Path:

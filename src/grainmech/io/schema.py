@@ -10,17 +10,21 @@ Tables understood here (all keys optional unless marked):
 ``[fabric]``
     ``dim`` (3 | 2); seed parameters ``a20, a22, b22`` (3D) or ``a2, b2, a4, b4`` (2D);
     or ``tensor`` (a fabric tensor N_ij, trace 1); default isotropic.
-``[contacts]``
-    ``law = "linear"`` with ``kn``, ``ks`` (force/length), or ``law = "hertz-mindlin"``
-    with ``shear_modulus`` (stress) and ``poisson``.
+``[contacts]`` (``[contact]`` for one contact)
+    the contact law, read by :func:`build_law` for every command (``docs/config.md``).
 ``[stress]``
     ``pressure`` (stress), or ``tensor`` (3x3 / 2x2, compression positive).
 
+``[initial]``, ``[[path]]`` of ``grainmech contact``
+    :func:`build_contact_path`.
+
 Unit system: quantities with units are converted to SI; bare numbers are taken as SI.
+Angles must carry their unit (``"24 deg"``); a bare angle is an error.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,7 +32,8 @@ import numpy as np
 from grainmech.errors import ConfigError
 from grainmech.io.config import Section
 
-__all__ = ["build_fabric", "build_packing", "build_contacts", "build_stress"]
+__all__ = ["build_fabric", "build_packing", "build_law", "build_stress", "build_pressure", "LAWS",
+           "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial", "ContactSegment"]
 
 SEED_3D = ("a20", "a22", "b22")
 SEED_2D = ("a2", "b2", "a4", "b4")
@@ -58,8 +63,15 @@ def build_fabric(sec: Section) -> Any:
             raise ConfigError(sec.key("tensor"), raw, f"must be a {dim}x{dim} array")
         if not np.all(np.isfinite(N)) or abs(np.trace(N) - 1.0) > 1e-6 or not np.allclose(N, N.T):
             raise ConfigError(sec.key("tensor"), raw, "must be symmetric with trace 1 (N_ij = <n_i n_j>)")
+        if np.allclose(N, np.eye(dim) / dim, rtol=0, atol=1e-12):
+            return fabric.isotropic(dim)
         return fabric.density_from_fabric_tensor(N)
     vals = {k: sec.number(k, None, 0.0) for k in names}
+    if not any(vals.values()):
+        # the isotropic density has order 0: quadrature rules are chosen by the order of
+        # density x integrand, so an order-2 density with zero coefficients would cost
+        # a rule two degrees higher (770 instead of 14 directions for a stiffness)
+        return fabric.isotropic(dim)
     cls = fabric.SphericalDensity if dim == 3 else fabric.FourierDensity
     return cls.from_seed(**vals)
 
@@ -90,20 +102,6 @@ def build_packing(sec: Section, density: Any) -> Any:
             raise
     radius = sec.number("radius", "m", min=0, min_inclusive=False)
     return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
-
-
-def build_contacts(sec: Section, packing: Any) -> Any:
-    """Contact stiffness provider from ``[contacts]``."""
-    from grainmech.material import ConstantStiffness
-
-    law = sec.choice("law", ("linear", "hertz-mindlin"))
-    if law == "linear":
-        return ConstantStiffness(sec.number("kn", "N/m", min=0), sec.number("ks", "N/m", min=0))
-    from grainmech.contact import HertzMindlin
-
-    G = sec.number("shear_modulus", "Pa", min=0, min_inclusive=False)
-    nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
-    return HertzMindlin.for_equal_spheres(G, nu, packing.radius)
 
 
 #: Stresses a config may give [Pa]: 1 uPa to 1 TPa. Far outside every granular material
@@ -138,38 +136,191 @@ def build_stress(sec: Section, dim: int) -> Any:
     return None
 
 
-LAWS = ("linear", "hertz-mindlin", "mindlin-deresiewicz")
+#: every contact law a config can name (``[contacts] law`` / ``[contact] law``)
+LAWS = ("linear", "hertz", "hertz-mindlin", "mindlin-deresiewicz", "cylinder")
+#: laws for a packing of equal spheres (``stiffness``, ``run``, ``calibrate``)
+PACKING_LAWS = ("linear", "hertz-mindlin", "mindlin-deresiewicz")
+
+#: keys renamed in the config schema: old key -> new key
+RENAMED = {"radius1": "radius"}
 
 
-def build_law(sec: Section, packing: Any) -> Any:
-    """Incremental contact law parameters (``grainmech.contact``) from ``[contacts]``.
-
-    ``law``: ``"mindlin-deresiewicz"`` (``shear_modulus``, ``poisson``, ``friction`` or
-    ``friction_angle``), ``"hertz-mindlin"`` (same; friction optional, default infinite)
-    or ``"linear"`` (``kn``, ``ks``, optional friction).
-    """
-    from grainmech import contact
-
-    law = sec.choice("law", LAWS)
+def _friction(sec: Section, required: bool) -> float:
+    """Coulomb coefficient from ``friction`` (mu) or ``friction_angle`` (tan phi)."""
     if sec.has("friction") and sec.has("friction_angle"):
         raise ConfigError(sec.key("friction_angle"), sec.data["friction_angle"],
                           "give either friction or friction_angle, not both")
-    mu = None
     if sec.has("friction"):
-        mu = sec.number("friction", None, min=0)
-    elif sec.has("friction_angle"):
-        phi = sec.angle("friction_angle", max_deg=90.0, max_inclusive=False)
-        mu = float(np.tan(phi))
+        return sec.number("friction", None, min=0)
+    if sec.has("friction_angle"):
+        return float(np.tan(sec.angle("friction_angle", max_deg=90.0, max_inclusive=False)))
+    if required:
+        raise ConfigError(sec.key("friction"), None,
+                          f"is required for law = {sec.data.get('law')!r} (or give friction_angle)")
+    return float("inf")
+
+
+def _reversals(sec: Section) -> dict:
+    """``max_reversals`` if given (else the law's default, 16)."""
+    return {"max_reversals": sec.integer("max_reversals", min=1)} if sec.has("max_reversals") else {}
+
+
+def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...] = PACKING_LAWS) -> Any:
+    """Contact-law parameters (:mod:`grainmech.contact`) from a ``[contacts]``/``[contact]`` table.
+
+    The one reader of a contact law for every command. Keys by ``law``:
+
+    * ``"linear"``: ``kn`` (> 0), ``ks`` (>= 0) [force/length], optional ``friction`` or
+      ``friction_angle`` (default: no sliding);
+    * ``"hertz"``: ``shear_modulus``, ``poisson`` (frictionless; seed Eq. 3.1-3.7);
+    * ``"hertz-mindlin"``: as ``hertz`` plus optional ``friction``/``friction_angle``;
+    * ``"mindlin-deresiewicz"``: as ``hertz`` plus ``friction`` or ``friction_angle``
+      (required) and ``max_reversals`` (16);
+    * ``"cylinder"`` (rods, per unit length; seed Eq. 3.8, 3.17): ``shear_modulus_equiv``,
+      ``poisson``, ``radius``, optional ``radius2``, ``psi``, ``friction_angle``,
+      ``max_reversals``.
+
+    Parameters
+    ----------
+    sec : Section
+        The table.
+    radius : float, optional
+        Grain radius [m] of a packing (``packing.radius``). Without it (one contact,
+        ``grainmech contact``) the table itself gives ``radius`` and may describe a second
+        body (``radius2``, ``shear_modulus2``, ``poisson2``).
+    laws : tuple of str
+        The laws this command accepts.
+
+    Raises
+    ------
+    ConfigError
+        Naming the key and value (unknown keys are reported by ``Section.finish``).
+    """
+    from grainmech import contact
+
+    for old, new in RENAMED.items():
+        if sec.has(old):
+            raise ConfigError(sec.key(old), sec.data[old], f"renamed: write {new!r} (the grain radius)")
+    law = sec.choice("law", laws)
+    if radius is not None and sec.has("radius"):
+        raise ConfigError(sec.key("radius"), sec.data["radius"],
+                          "the grain radius of a packing is packing.radius, not a contact-law key")
+
+    def make(cls: Any, *args: Any, **kw: Any) -> Any:
+        try:
+            return cls(*args, **kw)
+        except ConfigError as exc:  # the parameter classes name their fields: use the file's keys
+            key = RENAMED.get(exc.key, exc.key)
+            raise ConfigError(sec.key(key), exc.value, exc.problem) from None
+
     if law == "linear":
         kn = sec.number("kn", "N/m", min=0, min_inclusive=False)
         ks = sec.number("ks", "N/m", min=0)
-        return contact.LinearSpring(kn, ks, friction=np.inf if mu is None else mu)
+        return make(contact.LinearSpring, kn, ks, friction=_friction(sec, False))
+    if law == "cylinder":
+        G = sec.number("shear_modulus_equiv", "Pa", min=0, min_inclusive=False)
+        nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
+        R = radius if radius is not None else sec.number("radius", "m", min=0, min_inclusive=False)
+        R2 = None if radius is not None else sec.number("radius2", "m", None, min=0, min_inclusive=False)
+        psi = sec.number("psi", None, min=0, min_inclusive=False)
+        phi = sec.angle("friction_angle", max_deg=90.0, max_inclusive=False)
+        return make(contact.Cylinder, G, nu, R, psi, phi, R2, **_reversals(sec))
     G = sec.number("shear_modulus", "Pa", min=0, min_inclusive=False)
     nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
-    r = packing.radius
+    if radius is None:
+        R1 = sec.number("radius", "m", min=0, min_inclusive=False)
+        second = (sec.number("radius2", "m", None, min=0, min_inclusive=False),
+                  sec.number("shear_modulus2", "Pa", None, min=0, min_inclusive=False),
+                  sec.number("poisson2", None, None, min=-1, max=0.5, min_inclusive=False,
+                             max_inclusive=False))
+    else:
+        R1, second = radius, (None, None, None)
+    if law == "hertz":
+        return make(contact.Hertz, G, nu, R1, *second)
     if law == "hertz-mindlin":
-        return contact.HertzMindlin(G, nu, r, friction=np.inf if mu is None else mu)
-    if mu is None:
-        raise ConfigError(sec.key("friction"), None, "is required for law = 'mindlin-deresiewicz' "
-                          "(or give friction_angle)")
-    return contact.MindlinDeresiewicz(G, nu, r, friction=mu)
+        return make(contact.HertzMindlin, G, nu, R1, *second, friction=_friction(sec, False))
+    mu = _friction(sec, True)
+    return make(contact.MindlinDeresiewicz, G, nu, R1, *second, friction=mu, **_reversals(sec))
+
+
+# ------------------------------------------------------------------ a single contact's path
+@dataclass(frozen=True)
+class ContactInitial:
+    """Initial normal state of a contact: ``mode`` ``"force"`` (N) or ``"disp"`` (approach, m)."""
+
+    mode: str
+    value: float
+
+
+@dataclass(frozen=True)
+class ContactSegment:
+    """One ramp of a contact path: per channel a mode (``"force"``, ``"disp"`` or ``None``
+    = hold) and an absolute target; ``index`` is the ``[[path]]`` entry it came from."""
+
+    steps: int
+    index: int
+    n_mode: str | None
+    n_target: float
+    t_mode: str | None
+    t_target: float
+
+
+def contact_units(params: Any) -> tuple[str, str]:
+    """(force unit, displacement unit) of a contact law: forces per unit length for rods."""
+    from grainmech.contact import Cylinder
+
+    return ("N/m" if isinstance(params, Cylinder) else "N"), "m"
+
+
+def _channel(sec: Section, fkey: str, dkey: str, fu: str, du: str) -> tuple[str | None, float]:
+    if sec.has(fkey) and sec.has(dkey):
+        raise ConfigError(sec.key(dkey), sec.data[dkey], f"give {fkey} or {dkey}, not both")
+    if sec.has(fkey):
+        return "force", sec.number(fkey, fu)
+    if sec.has(dkey):
+        return "disp", sec.number(dkey, du)
+    return None, 0.0
+
+
+def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list[ContactSegment]]:
+    """``[initial]`` and ``[[path]]`` of a ``grainmech contact`` config (cycles expanded
+    into ramps: ``+A`` in ``steps/2`` steps, then ``count`` times ``-A``, ``+A``)."""
+    fu, du = contact_units(params)
+    ini = root.section("initial", {})
+    if ini.has("normal_force") and ini.has("approach"):
+        raise ConfigError(ini.key("approach"), ini.data["approach"], "give normal_force or approach, not both")
+    if ini.has("approach"):
+        init = ContactInitial("disp", ini.number("approach", du))
+    else:
+        init = ContactInitial("force", ini.number("normal_force", fu, 0.0, min=0.0))
+    raw = root.raw("path")
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError("path", raw, "expected a non-empty array of tables [[path]]")
+    segs: list[ContactSegment] = []
+    for i, item in enumerate(raw):
+        sec = Section(item, f"path[{i}]")
+        kind = sec.choice("kind", ("ramp", "cycles"), "ramp")
+        steps = sec.integer("steps", min=1)
+        if kind == "ramp":
+            n_mode, n_t = _channel(sec, "normal_force", "normal_displacement", fu, du)
+            if n_mode == "force" and n_t < 0:
+                raise ConfigError(sec.key("normal_force"), sec.data["normal_force"],
+                                  "must be >= 0 (compression positive)")
+            t_mode, t_t = _channel(sec, "tangential_force", "tangential_displacement", fu, du)
+            segs.append(ContactSegment(steps, i, n_mode, n_t, t_mode, t_t))
+        else:
+            count = sec.integer("count", min=1)
+            t_mode, amp = _channel(sec, "tangential_force_amplitude", "tangential_displacement_amplitude", fu, du)
+            if t_mode is None:
+                raise ConfigError(sec.key("tangential_force_amplitude"), None,
+                                  "a cycles segment needs tangential_force_amplitude or "
+                                  "tangential_displacement_amplitude")
+            if amp <= 0:
+                key = "tangential_force_amplitude" if t_mode == "force" else "tangential_displacement_amplitude"
+                raise ConfigError(sec.key(key), sec.data[key], "amplitude must be positive")
+            segs.append(ContactSegment(max(1, (steps + 1) // 2), i, None, 0.0, t_mode, amp))
+            for _ in range(count):
+                segs.append(ContactSegment(steps, i, None, 0.0, t_mode, -amp))
+                segs.append(ContactSegment(steps, i, None, 0.0, t_mode, amp))
+        sec.finish()
+    return init, segs

@@ -1,4 +1,4 @@
-"""Plots of the reproduced figures (matplotlib, Agg backend, imported lazily).
+"""Plots of the reproduced figures (matplotlib through :mod:`grainmech.plots`, imported lazily).
 
 One function per seed figure, ``plot(fig, path)`` dispatching on ``fig.fig_id``. The
 data come from the figure modules; nothing is computed here.
@@ -20,14 +20,15 @@ _METHOD_STYLE = {"state estimate": "-", "path following": "--"}
 
 
 def _plt() -> Any:
-    from grainmech.plots import _plt as plt_loader
-    return plt_loader()
+    """``subplots`` / ``figure`` on figures detached from pyplot (no backend is chosen)."""
+    from grainmech import plots
+    return plots
 
 
 def _save(fig: Any, path: Path) -> Path:
-    from grainmech.plots import _save as save
+    from grainmech.io.results import write_figure
     fig.tight_layout()
-    return save(fig, path)
+    return write_figure(path, fig)
 
 
 def _fig4_2(d: FigureData, path: Path) -> Path:
@@ -50,8 +51,8 @@ def _fig4_2(d: FigureData, path: Path) -> Path:
                          else lab for lab in labels_], loc="lower center", ncol=3, fontsize=8)
     fig.suptitle("Seed Fig. 4.2: 4 pi xi(n) in three sections")
     fig.tight_layout(rect=(0, 0.07, 1, 1))
-    from grainmech.plots import _save as save
-    return save(fig, path)
+    from grainmech.io.results import write_figure
+    return write_figure(path, fig)
 
 
 def _fig4_3(d: FigureData, path: Path) -> Path:

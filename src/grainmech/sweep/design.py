@@ -171,6 +171,14 @@ def parse_parameter(key: str, sec: Any, design: str) -> Parameter:
     from grainmech.sweep.spec import parse_path
 
     parse_path(key, sec.name)
+    if str(key).rsplit(".", 1)[-1].endswith("angle") and not sec.has("unit"):
+        # one rule for angles in every config (docs/config.md): the unit is required
+        for k in ("values", "min", "max"):
+            vs = sec.data.get(k)
+            for v in (vs if isinstance(vs, list) else [vs]):
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    raise ConfigError(sec.key(k), sec.data[k], "an angle needs its unit: write e.g. "
+                                                               f"'{v:g} deg' or '{v:g} rad'")
     unit = _check_si_unit(sec.raw("unit"), sec.key("unit")) if sec.has("unit") else None
     scale = sec.choice("scale", ("linear", "log"), "linear")
     if sec.has("values"):

@@ -1,0 +1,263 @@
+"""Output folders of the commands: the files of a ``run``, ``contact`` or ``dem`` job.
+
+Each writer takes the typed result of a job (:mod:`grainmech.jobs`) and an output
+directory, writes every file atomically (:mod:`grainmech.io.results`) and returns what it
+wrote. Figures are drawn by :mod:`grainmech.plots`; nothing here computes physics.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from grainmech.io.results import driver_table, ensure_dir, write_csv, write_figure, write_json, write_text
+
+__all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
+           "write_dem_outputs", "CONTACT_COLUMNS"]
+
+#: every command writes to ``./grainmech-out/<command>`` unless ``-o OUTDIR`` is given
+DEFAULT_OUTPUT_ROOT = "grainmech-out"
+
+
+def default_outdir(command: str) -> str:
+    """The default output folder of a command: ``grainmech-out/<command>`` (relative to
+    the working directory; one rule for every command, listed in ``.gitignore``)."""
+    return f"{DEFAULT_OUTPUT_ROOT}/{command}"
+
+
+# ----------------------------------------------------------------------------------- run
+def _reference_curves(out: Any) -> dict:
+    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress."""
+    from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
+
+    amps = np.asarray(out.amplitudes)
+    ref = out.reference
+    gam = np.logspace(np.log10(min(amps.min(), 1e-6)), np.log10(max(amps.max(), 1e-2)), 60)
+    dar = darendeli(gam, out.pressure, pi=ref["pi"], ocr=ref["ocr"], n_cycles=ref["n_cycles"],
+                    frequency=ref["frequency"])
+    hd = hardin_drnevich_reference(out.pressure, ref["phi"], out.G_max, ref["n_cycles"])
+    hd_r, hd_d = hardin_drnevich(gam, hd.gamma_r, hd.d_max)
+    return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d}
+
+
+def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
+    """Files of ``grainmech run``: a CSV per run, ``modulus_reduction.csv``,
+    ``site_response_curves.csv``, PNG plots, ``config_used.json``, ``summary.json`` and
+    ``index.html``. ``out`` is a :class:`grainmech.jobs.CyclicOutcome` or
+    :class:`grainmech.jobs.PathOutcome`. Returns the summary (``files`` lists the names)."""
+    from grainmech import plots
+    from grainmech.jobs import CyclicOutcome
+
+    d = ensure_dir(outdir)
+    cyclic = isinstance(out, CyclicOutcome)
+    summary: dict[str, Any] = {"source": source, "kind": out.kind, "success": out.success,
+                               "message": out.message, "seconds": out.seconds,
+                               "initial_pressure_Pa": out.pressure, "files": []}
+    env = None if cyclic else out.envelope
+    for i, r in enumerate(out.results):
+        cols, rows = driver_table(r)
+        name = f"run_{i:02d}.csv" if cyclic else "path.csv"
+        if env is not None:
+            cols = cols + ["stress_ratio_sigma1_sigma3", "beyond_sand_envelope"]
+            rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
+        write_csv(d / name, cols, rows)
+        summary["files"].append(name)
+    if cyclic and out.empirical_G_max:
+        summary["empirical_G_max"] = out.empirical_G_max
+    summary["warnings"] = list(out.warnings)
+    if env is not None:
+        first = env["first_step"]
+        summary["envelope"] = {
+            "limit_sigma1_over_sigma3": env["limit"], "friction_angle_deg": env["friction_angle_deg"],
+            "first_step_beyond": first, "max_ratio": float(np.max(env["ratio"])),
+            "note": (("the stress ratio sigma1/sigma3 leaves the envelope sands sustain (Mohr-Coulomb, "
+                      f"phi = {env['friction_angle_deg']:g} deg: {env['limit']:.2f}) at step {first} and "
+                      f"reaches {float(np.max(env['ratio'])):.3g}; the affine model (every contact follows "
+                      "the mean strain) cannot fail, so these states are not predictions")
+                     if first is not None else "stress ratio within the envelope sands sustain")}
+    if cyclic and len(out.G):
+        amps, G, Dm, ratio = np.asarray(out.amplitudes), np.asarray(out.G), np.asarray(out.damping), out.G_ratio
+        refs = _reference_curves(out)
+        dar, hd = refs["darendeli"], refs["hardin_drnevich"]
+        dp = out.mean_stress_change
+        write_csv(d / "modulus_reduction.csv",
+                  ["amplitude", "G_Pa", "G_over_Gmax", "damping", "mean_stress_change"],
+                  zip(amps, G, ratio, Dm, dp))
+        summary["mean_stress_change"] = dp
+        summary["files"].append("modulus_reduction.csv")
+        # the same curves for site-response tools (strain and damping as decimals)
+        from grainmech.io.site_response import write_curves
+
+        o = np.argsort(amps)
+        if np.all(np.diff(amps[o]) > 0):
+            write_curves(d / "site_response_curves.csv", amps[o], ratio[o], Dm[o], g_max=out.G_max,
+                         source=f"grainmech run: {source}, mean stress {out.pressure:.6g} Pa")
+            summary["files"].append("site_response_curves.csv")
+        fig, ax = plots.subplots(figsize=(6.4, 4.8))
+        plots.loops(out.results[:len(G)], amps, ax=ax)
+        write_figure(d / "loops.png", fig)
+        fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
+        gam = refs["gamma"]
+        plots.modulus_reduction(amps, ratio, ax=a1, references={
+            "Darendeli (2001)": (gam, dar.G_ratio), "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])})
+        plots.damping(amps, Dm, ax=a2, references={
+            "Darendeli (2001)": (gam, dar.damping), "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])})
+        fig.tight_layout()
+        write_figure(d / "modulus_reduction.png", fig)
+        summary["files"] += ["loops.png", "modulus_reduction.png"]
+        summary.update(G_max_Pa=out.G_max, amplitudes=amps, G_Pa=G, G_over_Gmax=ratio, damping=Dm,
+                       darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
+                       hardin_drnevich_d_max=hd.d_max)
+    elif not cyclic:
+        fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
+        plots.path_histories(out.results[0], axes=axes)
+        fig.tight_layout()
+        write_figure(d / "path.png", fig)
+        summary["files"].append("path.png")
+    cfg_text = json.dumps(cfg, indent=2, default=str)
+    write_text(d / "config_used.json", cfg_text)
+    summary["files"].append("config_used.json")
+    write_json(d / "summary.json", summary)
+    summary["files"].append("summary.json")
+    _write_run_index(d, summary, cfg_text)
+    summary["files"].append("index.html")
+    return summary
+
+
+def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
+    """``index.html``: key numbers, the plots and the exact inputs used."""
+    from grainmech import __version__
+    from grainmech.io.html import Section, write_page
+
+    status = "completed" if summary["success"] else f"STOPPED: {summary['message']}"
+    intro = (f"<p>grainmech {html.escape(__version__)} &mdash; {html.escape(str(summary['source']))}; "
+             f"test <b>{html.escape(summary['kind'])}</b>, initial isotropic stress "
+             f"{summary['initial_pressure_Pa']:.6g} Pa; {html.escape(status)}"
+             + (f" in {summary['seconds']:.1f} s" if summary.get("seconds") else "") + ".</p>")
+    sections = []
+    if "G_max_Pa" in summary:
+        rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
+                       f"<td>{100 * c:+.1f}</td></tr>"
+                       for a, g, r, dd, c in zip(summary["amplitudes"], summary["G_Pa"], summary["G_over_Gmax"],
+                                                 summary["damping"], summary["mean_stress_change"]))
+        table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
+                 f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
+        intro += (f"<p>Small-strain shear modulus Gmax = {summary['G_max_Pa']:.5g} Pa "
+                  "(condensed tangent at the initial state); every G/Gmax below is normalised by "
+                  "this one Gmax. The last column is the change of the mean stress p over each "
+                  "amplitude's run (at constant sigma_zz the horizontal stresses are free to change).</p>")
+        emp = summary.get("empirical_G_max")
+        if emp:
+            warn = "<b>Warning:</b> " if emp["flag"] else ""
+            intro += (f"<p>{warn}Hardin &amp; Richart (1963) at the same void ratio and mean stress: "
+                      f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
+                      f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
+                      f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
+        intro += table
+        sections.append(Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
+                                "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
+                                "amplitude, with Darendeli (2001) (reference strain "
+                                f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
+                                f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
+                                f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
+                                ("modulus_reduction.png", "modulus_reduction.csv")
+                                + (("site_response_curves.csv",)
+                                   if "site_response_curves.csv" in summary["files"] else ())))
+        sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
+                                "Shear stress against normalised shear strain for every amplitude.",
+                                ("loops.png",)))
+    for w in summary.get("warnings", []):
+        intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
+    env = summary.get("envelope")
+    if env:
+        warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
+        intro += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of path.csv).</p>"
+    if "path.png" in summary["files"]:
+        sections.append(Section("path", "Strain and stress along the path", d / "path.png",
+                                "Every component, compression positive, engineering shear strain.",
+                                ("path.png", "path.csv")))
+    sections.append(Section("inputs", "Inputs used", None, "The configuration exactly as read.",
+                            ("config_used.json", "summary.json"),
+                            raw_html=f"<pre>{html.escape(cfg_text)}</pre>"))
+    write_page(d / "index.html", "grainmech run", intro, sections)
+
+
+# ------------------------------------------------------------------------------- contact
+#: columns of ``contact.csv`` (SI units; tangential quantities along the loading axis x)
+CONTACT_COLUMNS = ("step", "segment", "normal_displacement", "tangential_displacement", "normal_force",
+                   "tangential_force", "dissipated_energy", "normal_stiffness", "tangential_stiffness",
+                   "sliding")
+
+
+def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
+    """``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
+    :class:`grainmech.jobs.ContactOutcome`. Returns the paths written."""
+    from grainmech.io.results import atomic_write
+
+    d = ensure_dir(outdir)
+    cols = out.columns
+
+    def writer(fh: Any) -> None:
+        fh.write(",".join(CONTACT_COLUMNS) + "\n")
+        for i in range(len(cols["step"])):
+            vals = []
+            for c in CONTACT_COLUMNS:
+                v = cols[c][i]
+                if c in ("step", "segment"):
+                    vals.append(str(int(v)))
+                elif c == "sliding":
+                    vals.append("1" if bool(v) else "0")
+                else:
+                    vals.append(repr(float(v)))
+            fh.write(",".join(vals) + "\n")
+
+    written = [atomic_write(d / "contact.csv", writer)]
+    if plot:
+        from grainmech import plots
+
+        fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
+        plots.contact_loops(cols, axes=axes, force_unit=out.force_unit)
+        fig.suptitle(f"{out.law} contact")
+        fig.tight_layout()
+        written.append(write_figure(d / "contact.png", fig, dpi=110))
+    return written
+
+
+# ----------------------------------------------------------------------------------- dem
+def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
+    """``summary.json``, the stiffness matrices and engineering constants as CSV, and the
+    rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`."""
+    from grainmech.io.results import atomic_write
+
+    d = ensure_dir(outdir)
+    rep = out.report
+    written = [write_json(d / "summary.json", rep)]
+    for key in ("stiffness_affine", "stiffness_relaxed", "stiffness_closed_form"):
+        M = rep.get(key)
+        if M is not None:
+            def wm(fh: Any, M: Any = M) -> None:
+                fh.write("component," + ",".join(rep["order"]) + "\n")
+                for lab, row in zip(rep["order"], M):
+                    fh.write(lab + "," + ",".join(f"{v:.10e}" for v in row) + "\n")
+            written.append(atomic_write(d / f"{key}.csv", wm))
+    ea, er = rep.get("engineering_affine"), rep.get("engineering_relaxed")
+    if ea:
+        def we(fh: Any) -> None:
+            fh.write("constant,affine,relaxed\n")
+            for k, v in ea.items():
+                r = (er or {}).get(k)
+                fh.write(f"{k},{v:.10e}," + ("" if r is None else f"{r:.10e}") + "\n")
+        written.append(atomic_write(d / "engineering.csv", we))
+    if plot:
+        from grainmech.network import plot_normal_density, plot_rose
+
+        figs = [("rose.png", plot_rose(out.network))]
+        if out.network.dim == 3:
+            figs.append(("normal_density.png", plot_normal_density(out.network)))
+        for name, fig in figs:
+            written.append(write_figure(d / name, fig))
+    return written
