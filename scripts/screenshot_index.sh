@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Render an output folder's index.html in headless Chromium and save a screenshot, to check
 # by eye that a page opens in a browser with its plots and numbers.
-#   usage: scripts/screenshot_index.sh [OUTDIR=grainmech-out] [PNG=OUTDIR/index-screenshot.png]
+#   usage: scripts/screenshot_index.sh [OUTDIR=grainmech-out/run] [PNG=OUTDIR/index-screenshot.png]
 # Needs Debian's chromium (apt-get install chromium). No network access is used.
 set -euo pipefail
-out="${1:-grainmech-out}"
+out="${1:-grainmech-out/run}"
 png="${2:-$out/index-screenshot.png}"
 [ -f "$out/index.html" ] || { echo "no $out/index.html (run grainmech run or grainmech reproduce first)" >&2; exit 2; }
 browser="$(command -v chromium || command -v chromium-browser || true)"

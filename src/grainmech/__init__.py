@@ -3,9 +3,62 @@
 Implements the particulate model of Chang (1988), "Deformation behavior of sands under
 cyclic loading - a micro-structural approach" (the *seed* report), and goes beyond it.
 Conventions (compression positive, component order) are in :mod:`grainmech.conventions`.
+
+The main objects are available from the package itself and are imported on first use
+(``import grainmech`` stays fast and imports neither matplotlib nor numba)::
+
+    import grainmech as gm
+    pk = gm.Packing.from_grains(gm.isotropic(3), void_ratio=0.65, coordination=8.7, radius=2.5e-4)
+    res = gm.packing_stiffness(pk, gm.HertzMindlin(44e9, 0.08, 2.5e-4), 1e5)
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from grainmech.errors import ConfigError, GrainmechError
 
 __version__ = "0.1.0"
-__all__ = ["ConfigError", "GrainmechError", "__version__"]
+
+#: public name -> module that defines it (imported lazily by :func:`__getattr__`)
+_LAZY: dict[str, str] = {
+    # fabric: contact-normal densities (seed Eq. 4.7-4.9), fitting, coordination
+    **dict.fromkeys(("SphericalDensity", "FourierDensity", "isotropic", "density_from_fabric_tensor",
+                     "fit_density", "fabric_tensor", "coordination_number"), "grainmech.fabric"),
+    # contact laws (seed Ch. 3)
+    **dict.fromkeys(("Hertz", "HertzMindlin", "MindlinDeresiewicz", "LinearSpring", "Cylinder"),
+                    "grainmech.contact"),
+    # a packing and its stiffness (seed Eq. 2.41)
+    **dict.fromkeys(("Packing", "packing_stiffness", "StiffnessResult"), "grainmech.material"),
+    **dict.fromkeys(("ContactSet", "stiffness", "love_weber_stress"), "grainmech.assembly"),
+    **dict.fromkeys(("engineering_constants", "symmetry_class", "bulk_modulus", "shear_modulus"),
+                    "grainmech.tensors"),
+    # material-point driver and loading paths
+    **dict.fromkeys(("MaterialPoint", "run", "segment", "cycles", "concatenate", "cyclic_simple_shear",
+                     "triaxial", "DriverResult"), "grainmech.driver"),
+    # analysis and empirical references
+    **dict.fromkeys(("modulus_reduction", "ModulusReduction", "darendeli", "hardin_drnevich",
+                     "hardin_drnevich_reference", "hardin_richart", "apparent_moduli"), "grainmech.analysis"),
+    # packings of grains (DEM contact networks)
+    **dict.fromkeys(("ContactNetwork", "relaxed_stiffness", "affine_stiffness"), "grainmech.network"),
+    # config -> result, as the command line does it
+    **dict.fromkeys(("compute_stiffness", "compute_run", "compute_contact", "compute_dem"), "grainmech.jobs"),
+    "plots": "grainmech.plots",
+}
+
+__all__ = ["ConfigError", "GrainmechError", "__version__", *sorted(_LAZY)]
+
+
+def __getattr__(name: str) -> Any:
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'grainmech' has no attribute {name!r}")
+    module = importlib.import_module(mod)
+    value = module if mod.rsplit(".", 1)[-1] == name else getattr(module, name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

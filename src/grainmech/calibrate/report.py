@@ -19,7 +19,6 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import GrainmechError
 
 __all__ = ["summary", "write_report", "plot_fit"]
 
@@ -112,14 +111,9 @@ def write_report(result: Any, outdir: str | Path, *, plot: bool = True) -> list[
 
 def plot_fit(result: Any, path: str | Path) -> Path:
     """Data (markers) and model (line) for each fitted column against the abscissa."""
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError as exc:  # pragma: no cover - depends on environment
-        raise GrainmechError("the fit plot needs matplotlib (pip install 'grainmech[plot]')") from exc
+    from grainmech import plots
     from grainmech.calibrate.model import KINDS
-    from grainmech.io.results import atomic_write
+    from grainmech.io.results import write_figure
 
     pr = result.problem
     xname = KINDS[pr.kind].x
@@ -138,7 +132,7 @@ def plot_fit(result: Any, path: str | Path) -> Path:
     n = len(pr.targets)
     head = 0.12 * (len(pr.parameters) + 1)  # inches for the title lines
     height = 3.8 + head
-    fig, axes = plt.subplots(1, n, figsize=(4.8 * n, height), squeeze=False)
+    fig, axes = plots.subplots(1, n, figsize=(4.8 * n, height), squeeze=False)
     group = data["void_ratio"] if data.has("void_ratio") else np.zeros(len(data))
     from grainmech.calibrate.data import column_unit
     from grainmech.io.units import to_float
@@ -162,7 +156,4 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         ax.legend(fontsize=7)
     fig.suptitle(f"grainmech calibrate ({pr.kind}):\n" + pr.describe(result.x).replace(", ", "\n"), fontsize=7)
     fig.tight_layout(rect=(0, 0, 1, 1 - head / height))
-    p = Path(path)
-    atomic_write(p, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
-    plt.close(fig)
-    return p
+    return write_figure(Path(path), fig, dpi=110)

@@ -25,16 +25,14 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
                if c in header and any(_finite(r[header.index(c)]) for r in ok)]
     if not ok or not inputs or not outputs:
         return False
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    import matplotlib.colors
     import matplotlib.ticker
 
-    from grainmech.io.results import atomic_write
+    from grainmech import plots
+    from grainmech.io.results import write_figure
 
     nr, nc = len(outputs), len(inputs)
-    fig, axes = plt.subplots(nr, nc, figsize=(3.6 * nc + 0.8, 2.9 * nr + 0.4), squeeze=False)
+    fig, axes = plots.subplots(nr, nc, figsize=(3.6 * nc + 0.8, 2.9 * nr + 0.4), squeeze=False)
     for i, out in enumerate(outputs):
         jo = header.index(out)
         for j, par in enumerate(inputs):
@@ -67,6 +65,5 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
             ax.grid(alpha=0.3)
     fig.suptitle(f"grainmech sweep ({sweep.kind}, {sweep.design}, {len(ok)}/{len(rows)} points ok)", fontsize=9)
     fig.tight_layout()
-    atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=110), binary=True)
-    plt.close(fig)
+    write_figure(path, fig, dpi=110)
     return True
