@@ -47,3 +47,32 @@ def test_calibrate_examples(path, tmp_path):
     """Each examples/calibrate_X.toml fits its data in calibrate_X.csv and converges."""
     assert main(["calibrate", str(path), str(path.with_suffix(".csv")), "-o", str(tmp_path), "--quiet"]) == 0
     assert (tmp_path / "fit.json").stat().st_size > 0
+
+
+def test_readme_python_example_runs():
+    """The notebook-style example of README.md (section "Python") runs as printed and
+    gives an isotropic stiffness and a falling G/Gmax curve."""
+    import re
+
+    import numpy as np
+
+    text = (EX.parent / "README.md").read_text()
+    section = text[text.index("## Python"):]
+    blocks = re.findall(r"```python\n(.*?)```", section, flags=re.S)
+    assert blocks, "README.md has no python block under '## Python'"
+    code = blocks[0]
+    assert len([ln for ln in code.splitlines() if ln.strip()]) <= 12
+    matplotlib = pytest.importorskip("matplotlib")
+    import matplotlib.pyplot as plt
+
+    ns: dict = {}
+    try:
+        exec(compile(code, "README.md", "exec"), ns)
+        C, mr, ax = ns["C"], ns["mr"], ns["ax"]
+        assert isinstance(ax, matplotlib.axes.Axes)
+    finally:
+        plt.close("all")
+    # isotropic: C11 = C12 + 2 C44 (Voigt), and G/Gmax falls from ~1 with amplitude
+    assert C[0, 0] == pytest.approx(C[0, 1] + 2 * C[3, 3], rel=1e-10)
+    assert mr.G_ratio[0] > 0.99 and np.all(np.diff(mr.G_ratio) < 0) and mr.G_ratio[-1] < 0.6
+    assert np.all(np.diff(mr.damping) > 0)
