@@ -238,3 +238,9 @@ def test_plots_take_and_return_axes_and_keep_the_backend(tmp_path, cli):
     assert matplotlib.get_backend() == before
     src = "\n".join(f.read_text() for f in SRC.rglob("*.py") if f.name != "network.py")
     assert "matplotlib.use(" not in src
+
+
+def test_python_dash_m_grainmech():
+    out = subprocess.run([sys.executable, "-m", "grainmech", "--version"], capture_output=True, text=True,
+                         env={"PYTHONPATH": str(SRC.parent), "PATH": ""})
+    assert out.returncode == 0 and out.stdout.startswith("grainmech ")
