@@ -57,7 +57,7 @@ def _make(parallel: bool):
                             normals, branch, weights, dstrain, jrows,
                             alpha, N, T, e, direction, depth, P, energy,
                             stress_c, mom_c, scal_c, jac_c,
-                            f_slide, f_diss, f_ks, f_kn, f_open, fail):
+                            f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail):
         # the state arrays (alpha ... energy) are advanced in place; f_* receive the
         # response of the last step
         n = alpha.shape[0]
@@ -88,8 +88,8 @@ def _make(parallel: bool):
             sl_out = f_slide[lo:hi]
             diss_out = f_diss[lo:hi]
             ks_out = f_ks[lo:hi]
-            ksp_out = np.empty(c)
-            ktn_out = np.empty(c)
+            ksp_out = f_ksp[lo:hi]
+            ktn_out = f_ktn[lo:hi]
             kn_out = f_kn[lo:hi]
             op_out = f_open[lo:hi]
             dn = np.empty(c)
@@ -333,7 +333,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     # the state, copied: the kernel advances it in place
     state = ContactState(*(np.array(x, dtype=dt, order="C") for x, dt in zip(
         st, (float, float, float, float, np.int8, np.int32, float, np.bool_, float))))
-    f_diss, f_ks, f_kn = np.empty(n), np.empty(n), np.empty(n)
+    f_diss, f_ks, f_ksp, f_ktn, f_kn = (np.empty(n) for _ in range(5))
     f_slide = np.empty(n, dtype=np.bool_)
     f_open = np.empty(n, dtype=np.bool_)
     fail = np.full(nch, -1, dtype=np.int64)
@@ -343,7 +343,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
                         state.approach, state.normal_force, state.tangential_force, state.axis,
                         state.direction, state.depth, state.reversals, state.dissipated_energy,
                         stress_c, mom_c, scal_c, jac_c,
-                        f_slide, f_diss, f_ks, f_kn, f_open, fail)
+                        f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail)
     if np.any(fail >= 0):
         return None
     stress = stress_c.sum(axis=0)
@@ -354,7 +354,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
     state = state._replace(sliding=f_slide)
     response = LawResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_slide, f_open,
-                           f_diss)
+                           f_diss, f_ksp, f_ktn, state.axis)
     jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
     return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}
