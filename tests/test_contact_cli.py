@@ -122,3 +122,24 @@ def test_cylinder_example_runs(tmp_path):
     data = _read(out / "contact.csv")
     assert np.all(np.isfinite(data["tangential_force"]))
     assert data["dissipated_energy"][-1] > 0
+
+
+@pytest.mark.parametrize("amplitude", ['tangential_force_amplitude = "3 N"',
+                                       'tangential_displacement_amplitude = "0.3 um"'])
+def test_fifty_cycles_do_not_fill_the_reversal_memory(tmp_path, amplitude):
+    """50 symmetric cycles (force- or displacement-controlled, constant N) with
+    ``max_reversals = 4``: Masing's rule erases every closed loop (Mindlin & Deresiewicz
+    1953, seed Eq. 3.13-3.15), so the run completes and the last loop's dissipation equals
+    the closed form of Mindlin et al. (1952) (``md_dissipation_per_cycle``) to 1 %."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(BASE.replace("friction = 0.5", "friction = 0.5\nmax_reversals = 4")
+                   .replace("count = 1", "count = 50").replace("steps = 12", "steps = 16")
+                   .replace('tangential_force_amplitude = "3 N"\n', "") + amplitude + "\n")
+    assert main(["contact", str(cfg), "-o", str(tmp_path / "out"), "--no-plot"]) == 0
+    c = _read(tmp_path / "out" / "contact.csv")
+    assert len(c["step"]) == 1 + 8 + 50 * 2 * 16  # ramp to +A, then 50 cycles
+    law = MindlinDeresiewicz(29e9, 0.22, 1e-3, friction=0.5)
+    t = c["tangential_force"][-33:]
+    t_star = 0.5 * (t.max() - t.min())
+    d_loop = c["dissipated_energy"][-1] - c["dissipated_energy"][-33]
+    assert d_loop == pytest.approx(md_dissipation_per_cycle(t_star, 10.0, law), rel=1e-2)

@@ -125,7 +125,12 @@ _REV_TOL = 1e-6
 #: forgotten if its shortfall is at most this fraction of ``2 mu N`` (see
 #: :func:`_merge_closest_loop`); a deeper, genuinely nested history stops the law with
 #: :class:`~grainmech.contact.ReversalMemoryError`. Slow drift of the normal force under
-#: constant-stress cycling nests loops whose ends differ by ~1e-6 ``mu N`` per cycle.
+#: constant-stress cycling nests loops whose ends differ by ~1e-6 ``mu N`` per cycle: the
+#: reversal invariants ``P_j`` are constant (Thornton & Randall) while ``N`` ratchets, so
+#: a branch at constant strain amplitude stops just short of the level it started from,
+#: and without this rule 50 cycles at gamma = 1e-4 and constant sigma_zz (5810 directions)
+#: exhaust 16 levels after about 9 cycles. Forgetting a loop moves every later force by at
+#: most its shortfall, i.e. by at most 0.1 % of the friction limit ``2 mu N`` of the loop.
 _MERGE_TOL = 1e-3
 #: Gauss–Legendre rule for the dissipation while N falls (integrand smooth, >= 0)
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
