@@ -17,7 +17,7 @@ applied to every contact at once (contact axis first, 3D tangential vectors):
 
 and prints contact updates per second (contacts x steps / wall time) for each backend of
 ``update`` (``numpy``: the vectorised reference; ``numba``: the compiled kernel of
-``grainmech.contact._kernel``, compiled or loaded from its cache in the untimed warm-up
+``grainmech.contact.kernel``, compiled or loaded from its cache in the untimed warm-up
 step; it runs on ``numba.get_num_threads()`` threads above ``PARALLEL_THRESHOLD`` contacts).
 """
 

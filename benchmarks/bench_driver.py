@@ -13,7 +13,7 @@ direction-update = one evaluation of the law at one direction, Newton iterations
 substeps included). The first run of each variant is a warm-up (numba compilation or
 cache loading) and is not timed.
 
-Run: ``python benchmarks/bench_driver.py [--constant volume stress] [--backend contact|iwan]``
+Run: ``python benchmarks/bench_driver.py [--constant volume stress] [--backend auto|numpy]``
 """
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ from grainmech.fabric import sphere_rule
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--backend", default="contact", choices=["contact", "iwan"])
+    ap.add_argument("--backend", default="auto", choices=["auto", "numpy"],
+                    help="contact-law evaluation: compiled kernel when available, or the NumPy reference")
     ap.add_argument("--cycles", type=int, default=10)
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--amplitude", type=float, default=1e-4)

@@ -1,6 +1,6 @@
 """The compiled (numba) contact kernel equals the NumPy reference path.
 
-``update(..., backend="numba")`` (module :mod:`grainmech.contact._kernel`) must give the
+``update(..., backend="numba")`` (module :mod:`grainmech.contact.kernel`) must give the
 state and response of ``update(..., backend="numpy")`` to rounding:
 
 * forces to 1e-12 of the friction force ``mu N``, stiffnesses to 1e-12 of their natural
@@ -343,7 +343,7 @@ def test_backend_selection(monkeypatch):
 
 
 def test_kernel_is_pure_and_parallel_path_equals_serial(monkeypatch):
-    from grainmech.contact import _kernel
+    from grainmech.contact import kernel as _kernel
 
     p = MD
     aref = ALPHA_REF["md"]

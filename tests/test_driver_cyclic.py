@@ -94,15 +94,6 @@ def test_energy_balance_over_cycles(point):
     assert wv == pytest.approx(dv, rel=2e-3)
 
 
-def test_energy_balance_iwan_backend():
-    """Iwan backend: work = stored change + dissipated along the whole path within 0.5 %."""
-    pt = MaterialPoint.isotropic(PK, LAW, P0, backend="iwan")
-    r = run(pt, cyclic_simple_shear(1e-4, 2, 80))
-    assert r.success, r.message
-    bal = r.work - (r.stored - r.stored[0]) - r.dissipation
-    assert np.abs(bal).max() < 5e-3 * r.dissipation[-1]
-
-
 def test_step_halving_changes_cyclic_result_little(point, sweep):
     """40 -> 80 steps per cycle: G changes < 0.1 %, damping < 3 % (stated tolerances)."""
     fine = modulus_reduction(point, AMPS[1:], n_cycles=2, steps_per_cycle=80)

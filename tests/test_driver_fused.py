@@ -4,7 +4,7 @@ against closed forms in test_driver_linear.py / test_driver_cyclic.py.
 
 Independent reference in each case: the step loop evaluates the kinematic hypothesis
 (seed Eq. 2.13) with NumPy matrix products, the Love-Weber stress (Eq. 2.6) with
-``_love_weber_full`` and the tangent (Eq. 2.26) with ``assembly.stiffness``; the fused
+``love_weber_sum`` and the tangent (Eq. 2.26) with ``assembly.stiffness``; the fused
 path re-implements all three in compiled code.
 """
 

@@ -55,6 +55,9 @@ __all__ = [
     "StressResult",
     "numba_available",
     "static_contact_forces",
+    "stiffness_from_arrays",
+    "love_weber_sum",
+    "moments_to_voigt",
 ]
 
 _CHUNK = 1 << 18  # contacts per NumPy chunk: bounds temporary memory (~30 MB)
@@ -256,7 +259,7 @@ try:  # optional compiled kernel (extra "fast")
     import numba as _nb
 
     @_nb.njit(inline="always", fastmath=True, cache=True)
-    def _add_moments3(a, nx, ny, nz, lx, ly, lz, cn, cs, r2):  # pragma: no cover - numba
+    def add_moments3(a, nx, ny, nz, lx, ly, lz, cn, cs, r2):  # pragma: no cover - numba
         """Add one contact's terms to the 27 moments of :func:`_moments_to_matrices` (3D).
 
         ``cn = w (kn - ks)``, ``cs = w ks``: ``a[:21]`` the upper triangle of
@@ -315,7 +318,7 @@ try:  # optional compiled kernel (extra "fast")
             for i in range(lo, hi):
                 wi = w[i]
                 cs = wi * ks[i]
-                _add_moments3(a, n[i, 0], n[i, 1], n[i, 2], l_[i, 0], l_[i, 1], l_[i, 2],
+                add_moments3(a, n[i, 0], n[i, 1], n[i, 2], l_[i, 0], l_[i, 1], l_[i, 2],
                               wi * kn[i] - cs, cs, r2)
             for k in range(27):
                 out[c, k] = a[k]
@@ -375,7 +378,7 @@ def _moments_to_matrices(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def moments_to_voigt(a: np.ndarray) -> np.ndarray:
-    """Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``_add_moments3``
+    """Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``add_moments3``
     (seed Eq. 2.26 with the full tangential projector, symmetrised as :func:`stiffness`)."""
     A, M = _moments_to_matrices(a)
     Cm = A + _b_mandel(M)
@@ -427,13 +430,17 @@ def stiffness(contacts: ContactSet, *, mandel: bool = False, backend: str = "aut
     if backend == "numba" and not _HAVE_NUMBA:
         raise GrainmechError("backend 'numba' requested but numba is not installed "
                              "(pip install 'grainmech[fast]')")
-    return _stiffness_arrays(contacts.normals, contacts.branch, contacts.weights, contacts.kn, contacts.ks,
+    return stiffness_from_arrays(contacts.normals, contacts.branch, contacts.weights, contacts.kn, contacts.ks,
                              mandel=mandel, backend=backend)
 
 
-def _stiffness_arrays(n: np.ndarray, l_: np.ndarray, w: np.ndarray, kn: np.ndarray, ks: np.ndarray, *,
+def stiffness_from_arrays(n: np.ndarray, l_: np.ndarray, w: np.ndarray, kn: np.ndarray, ks: np.ndarray, *,
                       mandel: bool = False, backend: str = "auto") -> np.ndarray:
-    """:func:`stiffness` on validated contiguous float arrays (no checks; for inner loops)."""
+    """:func:`stiffness` (seed Eq. 2.26) on validated contiguous float arrays.
+
+    No checks: for inner loops (the material-point driver) that validated their arrays once.
+    Shapes: ``n``, ``l_`` (C, d); ``w``, ``kn``, ``ks`` (C,). Returns (m, m) Voigt (or Mandel).
+    """
     use_numba = backend == "numba" or (backend == "auto" and _HAVE_NUMBA and n.shape[0] >= 2000)
     A, M = _moments_compiled(n, l_, w, kn, ks) if use_numba else _moments_numpy(n, l_, w, kn, ks)
     Cm = A + _b_mandel(M)
@@ -472,8 +479,11 @@ class StressResult:
         return float(np.trace(self.stress) / self.stress.shape[0])
 
 
-def _love_weber_full(f: np.ndarray, l_: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """``sum_c w_c f_c (x) l_c`` (full, unsymmetrised) on validated arrays."""
+def love_weber_sum(f: np.ndarray, l_: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``sum_c w_c f_c (x) l_c`` (seed Eq. 2.6 before symmetrisation) on validated arrays.
+
+    No checks (for inner loops): ``f``, ``l_`` (C, d), ``w`` (C,); returns (d, d).
+    """
     full = np.zeros((f.shape[1], f.shape[1]))
     for start in range(0, f.shape[0], _CHUNK):
         sl = slice(start, start + _CHUNK)
@@ -506,7 +516,7 @@ def love_weber_stress(forces: np.ndarray, branch: np.ndarray, weights: np.ndarra
     w = np.broadcast_to(_as_array("weights", weights, "(n,)"), (f.shape[0],))
     _check_finite("forces", f)
     _check_finite("branch", l_)
-    full = _love_weber_full(f, l_, w)
+    full = love_weber_sum(f, l_, w)
     sym = 0.5 * (full + full.T)
     skew = 0.5 * (full - full.T)
     ns = np.linalg.norm(sym)

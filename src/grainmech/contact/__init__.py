@@ -13,6 +13,9 @@ Incremental laws (:mod:`grainmech.contact.law`): :func:`initial_state`,
 :func:`state_from_normal_force`, :func:`update` returning
 ``(ContactState, ContactResponse)``.
 
+One interface for the drivers (:mod:`grainmech.contact.interface`):
+:class:`ContactLawProtocol`, implemented by :class:`ContactLaw`.
+
 Analytic Mindlin–Deresiewicz references (:mod:`grainmech.contact.analytic`) and a
 force-controlled step solver (:mod:`grainmech.contact.control`).
 
@@ -43,11 +46,15 @@ from grainmech.contact.geometry import (
     mindlin_tangential_stiffness,
     mindlin_tangential_stiffness_from_force,
 )
+from grainmech.contact.forms import LawForms, law_forms
+from grainmech.contact.interface import ContactLaw, ContactLawProtocol, make_law
 from grainmech.contact.law import (
     ContactResponse,
     ContactState,
+    compiled_kernel,
     initial_state,
     law_kind,
+    max_reversals,
     reversal_forces,
     state_from_approach,
     state_from_forces,
@@ -79,6 +86,13 @@ __all__ = [
     "update",
     "reversal_forces",
     "law_kind",
+    "law_forms",
+    "LawForms",
+    "max_reversals",
+    "compiled_kernel",
+    "ContactLaw",
+    "ContactLawProtocol",
+    "make_law",
     "solve_step",
     "hertz_normal_force",
     "hertz_contact_radius",

@@ -12,13 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from grainmech.contact.law import (
-    ContactResponse,
-    ContactState,
-    _approach_from_force,
-    _kt0,
-    update,
-)
+from grainmech.contact.forms import law_forms
+from grainmech.contact.law import ContactResponse, ContactState, update
 from grainmech.errors import GrainmechError
 
 __all__ = ["solve_step"]
@@ -76,7 +71,7 @@ def solve_step(params: object, state: ContactState, *,
         Nt = np.broadcast_to(np.asarray(normal_force, dtype=float), (n,)).copy()
         if not np.all(np.isfinite(Nt)) or np.any(Nt < 0):
             raise GrainmechError("prescribed normal force must be finite and >= 0")
-        alpha_t = np.where(Nt > 0, _approach_from_force(params, Nt), np.minimum(state.approach, 0.0))
+        alpha_t = np.where(Nt > 0, law_forms(params).approach_from_force(Nt), np.minimum(state.approach, 0.0))
         dn = alpha_t - state.approach
     else:
         dn = np.broadcast_to(np.asarray(d_normal, dtype=float), (n,)).copy()
@@ -119,7 +114,7 @@ def solve_step(params: object, state: ContactState, *,
 
     # bracket: x = 0 gives f0; step out along -sign(f0) with the no-slip stiffness (an upper
     # bound of the tangent, so the first guess undershoots) and double until the sign changes
-    k0 = np.maximum(_kt0(params, N1), 1e-300)
+    k0 = np.maximum(law_forms(params).kt0(N1), 1e-300)
     sgn = -np.sign(f0)
     lo = np.zeros(n)
     flo = f0.copy()

@@ -19,6 +19,13 @@ from grainmech.contact._errors import ContactDomainError
 from grainmech.contact.params import Cylinder, Hertz, LinearSpring
 
 __all__ = [
+    "hertz_force",
+    "hertz_radius",
+    "hertz_radius_from_approach",
+    "hertz_kn",
+    "mindlin_kt0",
+    "hertz_energy",
+    "spring_energy",
     "hertz_normal_force",
     "hertz_contact_radius",
     "hertz_contact_radius_from_force",
@@ -33,6 +40,62 @@ __all__ = [
     "cylinder_normal_force",
     "cylinder_tangential_stiffness",
 ]
+
+
+try:  # one definition of the Hertz/Mindlin closed forms for NumPy and compiled code
+    from numba.extending import register_jitable as _jitable
+except ImportError:  # pragma: no cover - numba is optional
+    def _jitable(fn):  # type: ignore[no-redef]
+        return fn
+
+
+# ---------------------------------------------------------------------------------------
+# Hertz/Mindlin closed forms in the effective constants (E*, R*, G*). Each is written once
+# and serves scalars and arrays in NumPy and, through ``register_jitable``, compiled code
+# (the per-contact kernel of :mod:`grainmech.contact.kernel`, the driver's compiled pass).
+# ---------------------------------------------------------------------------------------
+@_jitable
+def hertz_force(alpha, E, R):
+    """``N = (4/3) E* R*^(1/2) alpha^(3/2)``, 0 for ``alpha <= 0`` (seed Eq. 3.6) [N]."""
+    a = np.maximum(alpha, 0.0)
+    return (4.0 / 3.0) * E * np.sqrt(R) * a * np.sqrt(a)
+
+
+@_jitable
+def hertz_radius(N, E, R):
+    """Contact radius ``a = (3 N R* / (4 E*))^(1/3)``, 0 for ``N <= 0`` (seed Eq. 3.2) [m]."""
+    return np.cbrt(0.75 * np.maximum(N, 0.0) * R / E)
+
+
+@_jitable
+def hertz_radius_from_approach(alpha, R):
+    """Contact radius ``a = (R* alpha)^(1/2)``, 0 for ``alpha <= 0`` (seed Eq. 3.5) [m]."""
+    return np.sqrt(R * np.maximum(alpha, 0.0))
+
+
+@_jitable
+def hertz_kn(a, E):
+    """Normal stiffness ``kn = dN/dalpha = 2 E* a`` from the contact radius (seed Eq. 3.7) [N/m]."""
+    return 2.0 * E * a
+
+
+@_jitable
+def mindlin_kt0(a, G):
+    """No-slip tangential stiffness ``kt0 = 8 G* a`` (Mindlin 1949; seed Eq. 3.11 with theta = 1,
+    ``G*`` of Eq. 3.12), 0 for ``a <= 0`` [N/m]."""
+    return 8.0 * G * np.maximum(a, 0.0)
+
+
+@_jitable
+def hertz_energy(N, alpha):
+    """Elastic energy of the Hertz normal law, ``int N dalpha = (2/5) N alpha`` (seed Eq. 3.6) [J]."""
+    return 0.4 * N * np.maximum(alpha, 0.0)
+
+
+@_jitable
+def spring_energy(N, alpha):
+    """Elastic energy of a linear normal spring, ``N alpha / 2`` [J]."""
+    return 0.5 * N * np.maximum(alpha, 0.0)
 
 
 def _pos(x: ArrayLike) -> np.ndarray:
@@ -60,13 +123,12 @@ def hertz_normal_force(approach: ArrayLike, params: Hertz) -> np.ndarray:
     ndarray, shape (n,)
         Normal force ``N`` [N].
     """
-    a = _pos(approach)
-    return (4.0 / 3.0) * params.effective_modulus * np.sqrt(params.effective_radius) * a * np.sqrt(a)
+    return hertz_force(_pos(approach), params.effective_modulus, params.effective_radius)
 
 
 def hertz_contact_radius(approach: ArrayLike, params: Hertz) -> np.ndarray:
     """Contact radius from the approach, ``a = (R* alpha)^(1/2)`` (seed Eq. 3.5) [m]."""
-    return np.sqrt(params.effective_radius * _pos(approach))
+    return hertz_radius_from_approach(_pos(approach), params.effective_radius)
 
 
 def hertz_contact_radius_from_force(normal_force: ArrayLike, params: Hertz) -> np.ndarray:
@@ -78,7 +140,7 @@ def hertz_contact_radius_from_force(normal_force: ArrayLike, params: Hertz) -> n
         ``N`` [N]; non-positive values give ``a = 0``.
     params : Hertz
     """
-    return np.cbrt(0.75 * _pos(normal_force) * params.effective_radius / params.effective_modulus)
+    return hertz_radius(_pos(normal_force), params.effective_modulus, params.effective_radius)
 
 
 def hertz_approach_from_force(normal_force: ArrayLike, params: Hertz) -> np.ndarray:
@@ -96,12 +158,12 @@ def hertz_normal_stiffness(normal_force: ArrayLike, params: Hertz) -> np.ndarray
         Current normal force ``N`` [N]; ``a`` from seed Eq. 3.2.
     params : Hertz
     """
-    return 2.0 * params.effective_modulus * hertz_contact_radius_from_force(normal_force, params)
+    return hertz_kn(hertz_contact_radius_from_force(normal_force, params), params.effective_modulus)
 
 
 def hertz_normal_stiffness_from_approach(approach: ArrayLike, params: Hertz) -> np.ndarray:
     """``kn = 2 E* a`` with ``a = (R* alpha)^(1/2)`` (seed Eq. 3.5, 3.7) [N/m]."""
-    return 2.0 * params.effective_modulus * hertz_contact_radius(approach, params)
+    return hertz_kn(hertz_contact_radius(approach, params), params.effective_modulus)
 
 
 def mindlin_tangential_stiffness(contact_radius: ArrayLike, params: Hertz) -> np.ndarray:
@@ -119,7 +181,7 @@ def mindlin_tangential_stiffness(contact_radius: ArrayLike, params: Hertz) -> np
     ndarray, shape (n,)
         [N/m]. For equal spheres ``8 G* a = 4 G a / (2 - nu)``.
     """
-    return 8.0 * params.effective_shear_modulus * _pos(contact_radius)
+    return mindlin_kt0(_pos(contact_radius), params.effective_shear_modulus)
 
 
 def mindlin_tangential_stiffness_from_force(normal_force: ArrayLike, params: Hertz) -> np.ndarray:

@@ -81,20 +81,14 @@ integral over a closed cycle equals the loop area ``oint T d delta``.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from grainmech.contact import geometry as geo
 from grainmech.contact._errors import ReversalMemoryError
-from grainmech.contact.params import (
-    Cylinder,
-    Hertz,
-    HertzMindlin,
-    LinearSpring,
-    MindlinDeresiewicz,
-)
+from grainmech.contact.forms import law_forms
 
 __all__ = [
     "ContactState",
@@ -106,6 +100,8 @@ __all__ = [
     "update",
     "reversal_forces",
     "law_kind",
+    "max_reversals",
+    "compiled_kernel",
 ]
 
 _EPS = 1e-12
@@ -240,57 +236,12 @@ class ContactResponse(NamedTuple):
 # ---------------------------------------------------------------------------------------
 def law_kind(params: object) -> str:
     """``"md"`` (hysteretic memory law), ``"jenkins"`` (elastic + Coulomb) or ``"frictionless"``."""
-    if isinstance(params, (MindlinDeresiewicz, Cylinder)):
-        return "md"
-    if isinstance(params, (HertzMindlin, LinearSpring)):
-        return "jenkins"
-    if isinstance(params, Hertz):
-        return "frictionless"
-    raise TypeError(f"params must be a grainmech.contact parameter object, got {type(params).__name__}")
+    return law_forms(params).kind
 
 
-def _max_rev(params: object) -> int:
-    return int(getattr(params, "max_reversals", 0)) if law_kind(params) == "md" else 0
-
-
-def _normal_force(params: object, alpha: np.ndarray) -> np.ndarray:
-    if isinstance(params, Hertz):
-        return geo.hertz_normal_force(alpha, params)
-    if isinstance(params, Cylinder):
-        return geo.cylinder_normal_force(alpha, params)
-    return geo.linear_normal_force(alpha, params)  # LinearSpring
-
-
-def _approach_from_force(params: object, N: np.ndarray) -> np.ndarray:
-    if isinstance(params, Hertz):
-        return geo.hertz_approach_from_force(N, params)
-    if isinstance(params, Cylinder):
-        return geo.cylinder_approach_from_force(N, params)
-    return np.maximum(N, 0.0) / params.kn  # type: ignore[union-attr]
-
-
-def _kn(params: object, N: np.ndarray) -> np.ndarray:
-    if isinstance(params, Hertz):
-        return geo.hertz_normal_stiffness(N, params)
-    if isinstance(params, Cylinder):
-        return geo.cylinder_normal_stiffness(N, params)
-    return np.where(N > 0.0, params.kn, 0.0)  # type: ignore[union-attr]
-
-
-def _kt0(params: object, N: np.ndarray) -> np.ndarray:
-    """No-slip tangential stiffness at normal force N (0 if N <= 0)."""
-    if isinstance(params, Hertz):
-        return geo.mindlin_tangential_stiffness_from_force(N, params)
-    if isinstance(params, Cylinder):
-        return geo.cylinder_normal_stiffness(N, params) / params.psi
-    return np.where(N > 0.0, params.ks, 0.0)  # type: ignore[union-attr]
-
-
-def _ratio(params: object) -> float:
-    """``r = kn / kt0`` (constant for every law here)."""
-    if isinstance(params, (Hertz, Cylinder)):
-        return params.stiffness_ratio
-    return params.kn / params.ks if params.ks > 0 else math.inf  # type: ignore[union-attr]
+def max_reversals(params: object) -> int:
+    """Reversal memory of the law's state (``max_reversals`` of a hysteretic law, else 0)."""
+    return law_forms(params).max_reversals
 
 
 def _secant_kt(params: object, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
@@ -300,15 +251,16 @@ def _secant_kt(params: object, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
     Exact for a step that is straight in (alpha, delta) because ``kt0 = kn / r`` and
     ``kn = dN/dalpha``. Falls back to ``kt0(N1)`` when the approach does not change.
     """
-    if isinstance(params, LinearSpring):
-        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)
-    r = _ratio(params)
+    forms = law_forms(params)
+    if forms.linear:
+        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)  # type: ignore[attr-defined]
+    r = forms.ratio
     da = a1 - a0
     dN = N1 - N0
     ok = np.abs(da) > 1e-14 * np.maximum(np.abs(a0), np.abs(a1))
     with np.errstate(divide="ignore", invalid="ignore"):
         sec = np.where(ok, dN / (r * np.where(ok, da, 1.0)), 0.0)
-    return np.where(ok, sec, _kt0(params, N1))
+    return np.where(ok, sec, forms.kt0(N1))
 
 
 # ---------------------------------------------------------------------------------------
@@ -319,7 +271,7 @@ def _empty_state(params: object, n: int, dim: int) -> ContactState:
         raise ValueError(f"dim must be 1, 2 or 3, got {dim!r}")
     if n < 0:
         raise ValueError(f"n_contacts must be >= 0, got {n!r}")
-    m = _max_rev(params)
+    m = max_reversals(params)
     return ContactState(
         approach=np.zeros(n),
         normal_force=np.zeros(n),
@@ -362,7 +314,7 @@ def state_from_approach(params: object, approach: ArrayLike, dim: int = 3) -> Co
     if not np.all(np.isfinite(alpha)):
         raise ValueError("approach must be finite")
     st = _empty_state(params, alpha.shape[0], int(dim))
-    N = _normal_force(params, alpha)
+    N = law_forms(params).normal_force(alpha)
     return st._replace(approach=alpha, normal_force=N)
 
 
@@ -380,7 +332,7 @@ def state_from_normal_force(params: object, normal_force: ArrayLike, dim: int = 
         raise ValueError(f"normal_force must be 1-D, got shape {N.shape}")
     if not np.all(np.isfinite(N)) or np.any(N < 0):
         raise ValueError("normal_force must be finite and >= 0")
-    alpha = _approach_from_force(params, N)
+    alpha = law_forms(params).approach_from_force(N)
     st = _empty_state(params, N.shape[0], int(dim))
     return st._replace(approach=alpha, normal_force=N)
 
@@ -537,7 +489,7 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         whose normal turns.
     backend : {"auto", "numpy", "numba"}
         ``numpy``: the vectorised reference implementation of this module. ``numba``:
-        the compiled per-contact kernel of :mod:`grainmech.contact._kernel` (same
+        the compiled per-contact kernel of :mod:`grainmech.contact.kernel` (same
         algorithm, agrees to rounding; :class:`MindlinDeresiewicz`,
         :class:`HertzMindlin`, :class:`LinearSpring` and frictionless :class:`Hertz`;
         raises ``ValueError`` for other laws and ``ImportError`` without numba).
@@ -557,10 +509,10 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         Rod contacts loaded beyond the validity of seed Eq. 3.8.
     """
     kind = law_kind(params)
-    if state.reversals.shape[1] != _max_rev(params):
+    if state.reversals.shape[1] != max_reversals(params):
         raise ValueError(f"state was built for max_reversals = {state.reversals.shape[1]}, "
-                         f"params have {_max_rev(params)}; build it with initial_state(params, ...)")
-    kernel = _select_kernel(params, backend)
+                         f"params have {max_reversals(params)}; build it with initial_state(params, ...)")
+    kernel = compiled_kernel(params, backend)
     dn, dt = _check_increments(state, d_normal, d_tangential,
                                check_finite=kernel is None or normals is not None)
     T0, e0 = _reproject(state.tangential_force, state.axis, normals)
@@ -570,7 +522,7 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
     alpha0 = state.approach
     alpha1 = alpha0 + dn
     N0 = state.normal_force
-    N1 = _normal_force(params, alpha1)
+    N1 = law_forms(params).normal_force(alpha1)
     closed0 = alpha0 > 0.0
     closed1 = alpha1 > 0.0
 
@@ -593,7 +545,7 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         out = _frictionless_update(params, T0, N1)
     T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn = out
 
-    kn = _kn(params, N1)
+    kn = law_forms(params).kn(N1)
     new_state = ContactState(
         approach=alpha1,
         normal_force=N1,
@@ -621,37 +573,48 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
 
 
 # ---------------------------------------------------------------------------------------
-# Compiled backend (grainmech.contact._kernel): selection and dispatch
+# Compiled backend (grainmech.contact.kernel): selection and dispatch
 # ---------------------------------------------------------------------------------------
 _BACKENDS = ("auto", "numpy", "numba")
 _KERNEL: object = None   # the module once imported; False if numba is unavailable
 
 
 def _load_kernel() -> object:
-    """Import :mod:`grainmech.contact._kernel` once (``False`` when numba is missing)."""
+    """Import :mod:`grainmech.contact.kernel` once (``False`` when numba is missing)."""
     global _KERNEL
     if _KERNEL is None:
         try:
-            from grainmech.contact import _kernel
+            from grainmech.contact import kernel
         except ImportError:
             _KERNEL = False
         else:
-            _KERNEL = _kernel
+            _KERNEL = kernel
     return _KERNEL
 
 
-def _kernel_supports(params: object) -> bool:
-    """Laws of the compiled kernel: Hertz-type (spheres) and linear springs, not rods."""
-    return isinstance(params, (Hertz, LinearSpring))
+def compiled_kernel(params: object, backend: str = "auto") -> object:
+    """The compiled kernel module (:mod:`grainmech.contact.kernel`) for ``backend``, or ``None``.
 
+    Parameters
+    ----------
+    params : contact parameter object
+    backend : {"auto", "numpy", "numba"}
+        ``numpy``: always ``None`` (the reference path). ``auto``: the kernel when numba is
+        importable and supports the law (spheres and linear springs, not rods), else
+        ``None``. ``numba``: the kernel, or an error.
 
-def _select_kernel(params: object, backend: str) -> object:
-    """The kernel module for ``backend``, or ``None`` for the NumPy path."""
+    Raises
+    ------
+    ValueError
+        Unknown ``backend``, or ``numba`` for a law the kernel does not support.
+    ImportError
+        ``numba`` requested but numba is not importable.
+    """
     if backend == "numpy":
         return None
     if backend not in _BACKENDS:
         raise ValueError(f"backend must be one of {', '.join(map(repr, _BACKENDS))}, got {backend!r}")
-    supported = _kernel_supports(params)
+    supported = law_forms(params).compiled
     if backend == "numba":
         if not supported:
             raise ValueError(f"backend='numba' does not support {type(params).__name__} "
@@ -666,48 +629,6 @@ def _select_kernel(params: object, backend: str) -> object:
     return None if mod is False else mod
 
 
-_KERNEL_CONSTANTS: dict = {}
-
-
-def _kernel_constants(params: object) -> tuple:
-    """Scalar constants and tables of the compiled kernel for ``params`` (cached)."""
-    try:
-        return _KERNEL_CONSTANTS[params]
-    except (KeyError, TypeError):
-        pass
-    kind = law_kind(params)
-    code = {"md": 0, "jenkins": 1, "frictionless": 2}[kind]
-    linear = isinstance(params, LinearSpring)
-    if linear:
-        E = R = Gs = 1.0
-        kn_lin, ks_lin = float(params.kn), float(params.ks)  # type: ignore[attr-defined]
-    else:
-        E = float(params.effective_modulus)  # type: ignore[attr-defined]
-        R = float(params.effective_radius)  # type: ignore[attr-defined]
-        Gs = float(params.effective_shear_modulus)  # type: ignore[attr-defined]
-        kn_lin = ks_lin = 0.0
-    mu = float(params.friction)  # type: ignore[attr-defined]
-    if kind == "md":
-        p = float(params.stick_exponent)  # type: ignore[attr-defined]
-    else:
-        p = 1.0 / 3.0
-    m_exp = 1.0 / (1.0 - p)
-    consts = (code, linear, E, R, Gs, kn_lin, ks_lin, mu, math.isfinite(mu), float(_ratio(params)),
-              # series and quadrature tables as tuples: values, not arrays (no reference
-              # counting in the compiled per-contact loop)
-              p, m_exp, int(_max_rev(params)), tuple(map(float, _h_series(m_exp))),
-              tuple(map(float, _g_series(p))), tuple(map(float, _GL_X)), tuple(map(float, _GL_W)),
-              # spheres (p = 1/3): shortcuts in the dissipation integrals (see _kernel);
-              # kt0(N) = k8 N**(1/3) (seed Eq. 3.2, 3.11)
-              (not linear) and p == 1.0 / 3.0,
-              0.0 if linear else 8.0 * Gs * float(np.cbrt(0.75 * R / E)))
-    try:
-        _KERNEL_CONSTANTS[params] = consts
-    except TypeError:  # pragma: no cover - unhashable user subclass
-        pass
-    return consts
-
-
 def _update_compiled(kernel: object, params: object, state: ContactState, T0: np.ndarray,
                      e0: np.ndarray, dn: np.ndarray, dt: np.ndarray
                      ) -> tuple[ContactState, ContactResponse]:
@@ -717,33 +638,37 @@ def _update_compiled(kernel: object, params: object, state: ContactState, T0: np
         x = np.ascontiguousarray(x, dtype=dtype)
         return x if x.flags.writeable else x.copy()
 
+    K = kernel  # type: Any
+    forms = law_forms(params)
     alpha0 = c(state.approach, dtype=float)
     dn = c(dn, dtype=float)
     # the closed forms of the normal law, vectorised as in the reference path
-    N1 = _normal_force(params, alpha0 + dn)
-    if isinstance(params, Hertz):
-        rad1 = geo.hertz_contact_radius_from_force(N1, params)
-        rad0 = geo.hertz_contact_radius_from_force(
-            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)
-    else:
+    N1 = forms.normal_force(alpha0 + dn)
+    if forms.linear:
         rad0 = rad1 = N1
-    out = kernel.update_kernel(  # type: ignore[attr-defined]
-        _kernel_constants(params), alpha0, c(state.normal_force, dtype=float),
-        c(T0, dtype=float), c(e0, dtype=float), c(state.direction, dtype=np.int8),
-        c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),
-        c(state.dissipated_energy, dtype=float), dn, c(dt, dtype=float), N1, rad0, rad1)
-    (status, flags, alpha1, N1, T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn, kn, opn,
-     energy) = out
+    else:
+        rad1 = geo.hertz_contact_radius_from_force(N1, params)  # type: ignore[arg-type]
+        rad0 = geo.hertz_contact_radius_from_force(
+            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)  # type: ignore[arg-type]
+    st = K.KernelState(alpha0, c(state.normal_force, dtype=float), c(T0, dtype=float),
+                       c(e0, dtype=float), c(state.direction, dtype=np.int8),
+                       c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),
+                       c(state.dissipated_energy, dtype=float))
+    status, out, flags = K.update_kernel(K.constants(params), st,
+                                         K.KernelIncrement(dn, c(dt, dtype=float), N1, rad0, rad1))
     if status:
         _check_finite(dn, dt, status)
     if flags.any():
         for code in (1, 2):  # the reference raises for the rising-N reversals first
             bad = np.nonzero(flags == code)[0]
             if bad.size:
-                raise ReversalMemoryError(bad, _max_rev(params))
+                raise ReversalMemoryError(bad, max_reversals(params))
         raise RuntimeError("Mindlin-Deresiewicz branch integration did not terminate")  # pragma: no cover
-    new_state = ContactState(alpha1, N1, T1, e1, s1, k1, P1, slide, energy)
-    resp = ContactResponse(N1, T1, kn, ks, ks_perp, ktn, e1, slide, opn, diss)
+    new_state = ContactState(out.approach, out.normal_force, out.tangential_force, out.axis,
+                             out.direction, out.depth, out.reversals, out.sliding,
+                             st.dissipated_energy + out.dissipation)
+    resp = ContactResponse(out.normal_force, out.tangential_force, out.kn, out.ks, out.ks_perp,
+                           out.ktn, out.axis, out.sliding, out.open, out.dissipation)
     return new_state, resp
 
 
@@ -772,8 +697,8 @@ def _jenkins_update(params: object, T0: np.ndarray, N0: np.ndarray, N1: np.ndarr
     """
     n, dim = T0.shape
     mu = params.friction
-    kt0 = _kt0(params, N0)
-    kt1 = _kt0(params, N1)
+    kt0 = law_forms(params).kt0(N0)
+    kt1 = law_forms(params).kt0(N1)
     closed1 = N1 > 0.0
     rising = N1 > N0
     kbar = np.where(rising, _secant_kt(params, N0, N1, a0, a1), kt1)
@@ -928,8 +853,8 @@ def _md_update(params: object, state: ContactState, T0: np.ndarray, e0: np.ndarr
     mu = float(params.friction)
     p = float(params.stick_exponent)
     m_exp = 1.0 / (1.0 - p)
-    r = _ratio(params)
-    maxrev = _max_rev(params)
+    r = law_forms(params).ratio
+    maxrev = max_reversals(params)
 
     s = np.where(virgin_reset, 1, state.direction).astype(np.int8)
     k = np.where(virgin_reset, 0, state.depth).astype(np.int32)
@@ -950,8 +875,8 @@ def _md_update(params: object, state: ContactState, T0: np.ndarray, e0: np.ndarr
     d_par = _dot(dt, e)
     d_perp = dt - d_par[:, None] * e
 
-    kt0_0 = _kt0(params, N0)
-    kt0_1 = _kt0(params, N1)
+    kt0_0 = law_forms(params).kt0(N0)
+    kt0_1 = law_forms(params).kt0(N1)
     rising = N1 > N0
     falling = N1 < N0
     kbar = np.where(rising, _secant_kt(params, N0, N1, a0, a1), kt0_1)
@@ -1195,7 +1120,7 @@ def _falling_n(params: object, mu: float, p: float, m_exp: float, stack: _Stack,
     it = 0
     while np.any(act):
         it += 1
-        if it > 2 * max(_max_rev(params), 1) + 6:  # pragma: no cover
+        if it > 2 * max(max_reversals(params), 1) + 6:  # pragma: no cover
             raise RuntimeError("falling-N integration did not terminate")
         idx = np.nonzero(act)[0]
         kk = k[idx]
@@ -1252,7 +1177,7 @@ def _falling_n(params: object, mu: float, p: float, m_exp: float, stack: _Stack,
             Ng = tg * tg * tg
             yg = np.where(sliding_now, 0.0, zfun(Ng) ** m_exp)
             gg = _g_of_y(yg, p)
-            kt = _kt0(params, Ng)
+            kt = law_forms(params).kt0(Ng)
             with np.errstate(divide="ignore", invalid="ignore"):
                 f = np.where(kt > 0, mu * mu * Ng * gg / np.where(kt > 0, kt, 1.0), 0.0)
             acc += wg * f * 3.0 * tg * tg

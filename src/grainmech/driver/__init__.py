@@ -1,4 +1,4 @@
-"""Material-point driver (issue 4): contact set + contact law + loading path.
+"""Material-point driver: contact set + contact law + loading path.
 
 Public API
 ----------
@@ -8,7 +8,7 @@ Public API
 See ``docs/driver.md``.
 """
 
-from grainmech.driver._laws import ContactLaw, IwanLaw, make_law
+from grainmech.contact.interface import ContactLaw, make_law
 from grainmech.driver.paths import (
     COMPONENTS,
     Control,
@@ -30,7 +30,7 @@ from grainmech.driver.point import MaterialPoint, evaluate, geometric_stiffness,
 from grainmech.driver.solver import DriverResult, SolverOptions, run
 
 __all__ = [
-    "COMPONENTS", "Control", "ContactLaw", "DriverResult", "IwanLaw", "LoadPath", "MaterialPoint",
+    "COMPONENTS", "Control", "ContactLaw", "DriverResult", "LoadPath", "MaterialPoint",
     "SolverOptions", "concatenate", "constant_mean_stress", "cycles", "cyclic_simple_shear",
     "cyclic_triaxial", "evaluate", "fig610_path", "fig610_stress", "geometric_stiffness", "geometry", "isotropic_compression",
     "make_law", "parse_mask", "run", "segment", "simple_shear", "tangent", "triaxial",

@@ -6,8 +6,8 @@ increments directly: the contacts do not interact, no Newton iteration is needed
 each contact's whole history can be integrated in one go. This module does exactly what
 :func:`grainmech.driver.solver.run` does step by step for such a path --
 
-* the contact law: the compiled per-contact update of :mod:`grainmech.contact._kernel`
-  (``_rows``: Mindlin–Deresiewicz with the Thornton–Randall rules, seed Eq. 3.9–3.16;
+* the contact law: the compiled per-contact update of :mod:`grainmech.contact.kernel`
+  (:func:`~grainmech.contact.kernel.rows`: Mindlin–Deresiewicz with the Thornton–Randall rules, seed Eq. 3.9–3.16;
   Hertz–Mindlin / linear springs with a Coulomb cap; frictionless Hertz), with the
   normal force from seed Eq. 3.6 (Hertz, ``N = 4/3 E* R*^(1/2) alpha^(3/2)``) or
   ``kn alpha`` and the contact radius from seed Eq. 3.2;
@@ -15,14 +15,14 @@ each contact's whole history can be integrated in one go. This module does exact
 * the tangent stiffness from the laws' ``kn``, ``ks`` (seed Eq. 2.26, the moments of
   :mod:`grainmech.assembly`);
 * sliding and open fractions, dissipation, and the stored-energy estimate of
-  :meth:`grainmech.driver._laws.ContactLaw.stored_energy`
+  :meth:`grainmech.contact.interface.ContactLaw.stored_energy`
 
 -- but with the loop over steps inside the compiled code, chunk by chunk of contacts
 (a ``prange`` over chunks; each chunk's state stays in cache for the whole path). The
 results equal the step-by-step driver's to rounding (``tests/test_driver_fused.py``).
 
 Used automatically by :func:`~grainmech.driver.solver.run` (``SolverOptions.compiled``)
-for :class:`~grainmech.driver._laws.ContactLaw` points with a law the compiled kernel
+for :class:`~grainmech.contact.interface.ContactLaw` points with a law the compiled kernel
 supports, without the finite-deformation option. Anything the fast path cannot do
 (another law, a contact needing more reversal memory than it has) falls back to the
 step-by-step driver, which then reports the failure with its usual message.
@@ -35,8 +35,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainmech.assembly import _add_moments3, moments_to_voigt
-from grainmech.contact._kernel import _rows
+from grainmech.assembly import add_moments3, moments_to_voigt
+from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius, hertz_radius_from_approach,
+                                        mindlin_kt0, spring_energy)
+from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
+                                      KernelState, rows)
 
 __all__ = ["strain_path"]
 
@@ -46,15 +49,13 @@ _CH = 128  # contacts per chunk (work item of the prange)
 def _make(parallel: bool):
     """The pass compiled serial or parallel (``prange`` over chunks); same bits either way.
 
-    A closure over ``rng`` (as in :mod:`grainmech.contact._kernel`): two dispatchers of one
+    A closure over ``rng`` (as in :mod:`grainmech.contact.kernel`): two dispatchers of one
     plain function would share numba's on-disk cache entry and the "parallel" one would
     load the serial code.
     """
     rng = prange if parallel else range
 
-    def _strain_path_body(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
-                            hcoef, gcoef, glx, glw, sph, k8,
-                            normals, branch, weights, dstrain, jrows,
+    def _strain_path_body(kc, normals, branch, weights, dstrain, jrows,
                             alpha, N, T, e, direction, depth, P, energy,
                             stress_c, mom_c, scal_c, jac_c,
                             f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail):
@@ -64,8 +65,10 @@ def _make(parallel: bool):
         m = dstrain.shape[0]
         nrev = P.shape[1]
         nch = (n + _CH - 1) // _CH
-        hc = (4.0 / 3.0) * E * math.sqrt(R)
         r2 = math.sqrt(2.0) / 2.0
+        # plain values into the (parallel) loop; the named tuple is rebuilt inside
+        (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
+         glx, glw, sph, k8) = kc
         for ch in rng(nch):
             lo = ch * _CH
             hi = min(n, lo + _CH)
@@ -105,6 +108,13 @@ def _make(parallel: bool):
             u = np.empty(6)
             v = np.empty(6)
             jac = np.zeros((6, 6))
+            kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
+                                  maxrev, hcoef, gcoef, glx, glw, sph, k8)
+            st_in = KernelState(a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in)
+            inc = KernelIncrement(dn, dt, N1, rad0, rad1)
+            res = KernelOutput(a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
+                               ksp_out, ktn_out, kn_out, op_out)
+            scratch = KernelScratch(tp, dp, flags)
             any_rows = False
             for q in range(6):
                 if jrows[q]:
@@ -140,15 +150,11 @@ def _make(parallel: bool):
                         rad0[j] = N1[j]
                         rad1[j] = N1[j]
                     else:
-                        N1[j] = hc * ap * math.sqrt(ap)                  # seed Eq. 3.6
+                        N1[j] = hertz_force(ap, E, R)                    # seed Eq. 3.6
                         Nc = N_in[j] if (a_in[j] > 0.0 and N_in[j] > 0.0) else 0.0
-                        rad0[j] = np.cbrt(0.75 * Nc * R / E)             # seed Eq. 3.2
-                        rad1[j] = np.cbrt(0.75 * N1[j] * R / E)
-                _rows(0, c, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
-                      hcoef, gcoef, glx, glw, sph, k8,
-                      a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in, dn, dt, N1, rad0, rad1,
-                      a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
-                      ksp_out, ktn_out, kn_out, op_out, tp, dp, flags)
+                        rad0[j] = hertz_radius(Nc, E, R)                 # seed Eq. 3.2
+                        rad1[j] = hertz_radius(N1[j], E, R)
+                rows(0, c, kcc, st_in, inc, res, scratch)
                 bad = False
                 for j in range(c):
                     if flags[j] != 0:
@@ -194,7 +200,7 @@ def _make(parallel: bool):
                     knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
                     ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
                     cs = w * ksj
-                    _add_moments3(a, nx, ny, nz, lx, ly, lz, w * knj - cs, cs, r2)
+                    add_moments3(a, nx, ny, nz, lx, ly, lz, w * knj - cs, cs, r2)
                     if sl_out[j]:
                         wsl += w
                     if op_out[j]:
@@ -204,11 +210,11 @@ def _make(parallel: bool):
                     ap = a_out[j] if a_out[j] > 0.0 else 0.0
                     T2 = T_out[j, 0] ** 2 + T_out[j, 1] ** 2 + T_out[j, 2] ** 2
                     if linear:
-                        en_n = 0.5 * Nj * ap
+                        en_n = spring_energy(Nj, ap)
                         kt0 = ks_lin if Nj > 0.0 else 0.0
                     else:
-                        en_n = 0.4 * Nj * ap
-                        kt0 = 8.0 * Gs * math.sqrt(R * ap)
+                        en_n = hertz_energy(Nj, ap)
+                        kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
                     wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
                     if any_rows:
                         # consistent contact tangent (Newton only): K = ksp I + (kn - ksp) n n
@@ -276,15 +282,15 @@ _kernel_parallel = _make(True)
 
 
 def _strain_path_kernel(*args):
-    """Parallel from :data:`grainmech.contact._kernel.PARALLEL_THRESHOLD` contacts (and more
+    """Parallel from :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD` contacts (and more
     than one numba thread), serial below: for small sets the threads' start-up (and, on a
     busy machine, waiting for a free core) costs more than the work."""
     from numba import get_num_threads
 
-    from grainmech.contact import _kernel
+    from grainmech.contact import kernel
 
-    n = args[19].shape[0]  # normals (after the 19 law constants)
-    parallel = n >= _kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
+    n = args[1].shape[0]  # normals (after the law constants)
+    parallel = n >= kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
     return (_kernel_parallel if parallel else _kernel_serial)(*args)
 
 
@@ -294,7 +300,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     Parameters
     ----------
     point : MaterialPoint
-        With a :class:`~grainmech.driver._laws.ContactLaw` whose parameters the compiled
+        With a :class:`~grainmech.contact.interface.ContactLaw` whose parameters the compiled
         kernel supports (the caller checks).
     d_strain : (m, 6) strain increments (engineering shear, library order)
     jacobian_rows : (6,) bool, optional
@@ -311,13 +317,12 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
         when a contact needs more reversal memory than it has (the caller then reruns the
         path step by step, which reports where).
     """
-    from grainmech.contact import law as L
-    from grainmech.contact.law import ContactState
-    from grainmech.driver._laws import LawResponse
+    from grainmech.contact.kernel import constants
+    from grainmech.contact.law import ContactResponse, ContactState
 
     cs = point.contacts
     params = point.law.params
-    consts = L._kernel_constants(params)
+    consts = constants(params)
     st = point.state
     n = cs.normals.shape[0]
     m = d_strain.shape[0]
@@ -339,7 +344,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     fail = np.full(nch, -1, dtype=np.int64)
     jrows = np.zeros(6, dtype=np.bool_) if jacobian_rows is None else np.ascontiguousarray(jacobian_rows, dtype=np.bool_)
     jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
-    _strain_path_kernel(*consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain), jrows,
+    _strain_path_kernel(consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain), jrows,
                         state.approach, state.normal_force, state.tangential_force, state.axis,
                         state.direction, state.depth, state.reversals, state.dissipated_energy,
                         stress_c, mom_c, scal_c, jac_c,
@@ -353,8 +358,8 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     frac = scal[:, :2] / wtot if wtot > 0 else np.zeros((m, 2))
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
     state = state._replace(sliding=f_slide)
-    response = LawResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_slide, f_open,
-                           f_diss, f_ksp, f_ktn, state.axis)
+    response = ContactResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_ksp, f_ktn,
+                               state.axis, f_slide, f_open, f_diss)
     jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
     return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}

@@ -16,15 +16,16 @@ first-order finite-deformation correction of seed Eq. 2.36-2.38 (corrected form 
 from __future__ import annotations
 
 from functools import cached_property
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from grainmech.assembly import (ContactSet, _love_weber_full, _stiffness_arrays, love_weber_stress,
-                                static_contact_forces, stiffness)
+from grainmech.assembly import (ContactSet, love_weber_stress, love_weber_sum, static_contact_forces,
+                                stiffness, stiffness_from_arrays)
 from grainmech.conventions import stress_to_vector, vector_to_stress, vector_to_strain
-from grainmech.driver._laws import LawResponse, coulomb_limit, make_law
+from grainmech.contact.interface import coulomb_limit, make_law
+from grainmech.contact.law import ContactResponse
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.material import Packing, normal_forces_for_stress
 
@@ -57,7 +58,7 @@ class Evaluation:
     """Result of applying a strain increment to a point (not yet accepted)."""
 
     state: Any
-    response: LawResponse
+    response: ContactResponse
     stress: np.ndarray  # (6,)
 
 
@@ -69,9 +70,9 @@ class MaterialPoint:
     ----------
     contacts : ContactSet
         Geometry (normals, branch vectors ``l`` [length], weights [1/volume]).
-    law : driver law (see :mod:`grainmech.driver._laws`)
+    law : ContactLawProtocol (:mod:`grainmech.contact.interface`)
     state : per-contact law state
-    response : LawResponse at ``state``
+    response : ContactResponse at ``state``
     strain : (6,) total strain since the reference state, engineering shear, library order
     stress : (6,) stress [force/length^2], compression positive: the Love-Weber stress of
         the contact forces plus ``correction``
@@ -83,7 +84,7 @@ class MaterialPoint:
     contacts: ContactSet
     law: Any
     state: Any
-    response: LawResponse
+    response: ContactResponse
     strain: np.ndarray
     stress: np.ndarray
     correction: np.ndarray = field(default_factory=lambda: np.zeros(6))
@@ -106,8 +107,13 @@ class MaterialPoint:
     @classmethod
     def from_forces(cls, source: Any, law: Any, normal_force: np.ndarray,
                     tangential_force: np.ndarray | None = None, *, extra_degree: int = 4,
-                    backend: str = "contact") -> "MaterialPoint":
-        """Point whose contacts carry given forces (virgin tangential history)."""
+                    backend: str = "auto") -> "MaterialPoint":
+        """Point whose contacts carry given forces (virgin tangential history).
+
+        ``law``: a contact parameter object or a law (:class:`~grainmech.contact.interface.ContactLawProtocol`);
+        ``backend`` ({"auto", "numpy", "numba"}) selects the evaluation of a parameter object's
+        law (:func:`grainmech.contact.update`).
+        """
         cs = geometry(source, extra_degree=extra_degree)
         lw = make_law(law, backend=backend)
         st = lw.initial_state(normal_force, tangential_force)
@@ -116,7 +122,7 @@ class MaterialPoint:
 
     @classmethod
     def isotropic(cls, source: Any, law: Any, pressure: float, *, extra_degree: int = 4,
-                  backend: str = "contact") -> "MaterialPoint":
+                  backend: str = "auto") -> "MaterialPoint":
         """Point under isotropic stress ``pressure`` with purely normal contact forces.
 
         Forces from :func:`grainmech.material.normal_forces_for_stress` (for an isotropic
@@ -131,7 +137,7 @@ class MaterialPoint:
     @classmethod
     def at_stress(cls, source: Any, law: Any, sigma: Any, *, initial: str = "state-estimate",
                   start_pressure: float | None = None, n_steps: int = 50, extra_degree: int = 4,
-                  backend: str = "contact", **run_options: Any) -> "MaterialPoint":
+                  backend: str = "auto", **run_options: Any) -> "MaterialPoint":
         """Point at an anisotropic stress, by one of two methods (``docs/driver.md``).
 
         Parameters
@@ -188,21 +194,21 @@ class MaterialPoint:
         raise ConfigError("initial", initial, "must be 'state-estimate' or 'path-following'")
 
 
-def _stress(cs: ContactSet, resp: LawResponse) -> np.ndarray:
+def _stress(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
     f = resp.normal_force[:, None] * cs.normals + resp.tangential_force
     if not np.all(np.isfinite(f)):
         return stress_to_vector(love_weber_stress(f, cs.branch, cs.weights).stress)  # raises, naming the contact
-    full = _love_weber_full(f, cs.branch, cs.weights)
+    full = love_weber_sum(f, cs.branch, cs.weights)
     return stress_to_vector(0.5 * (full + full.T))
 
 
-def tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
+def tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
     """Voigt tangent (6, 6) from per-contact tangent stiffnesses (seed Eq. 2.26)."""
     kn = np.maximum(resp.kn, 0.0)
     ks = np.maximum(resp.ks, 0.0)
     if not (np.all(np.isfinite(kn)) and np.all(np.isfinite(ks))):
         return stiffness(cs.with_stiffness(kn, ks))  # raises, naming the contact
-    return _stiffness_arrays(cs.normals, cs.branch, cs.weights, np.ascontiguousarray(kn, dtype=float),
+    return stiffness_from_arrays(cs.normals, cs.branch, cs.weights, np.ascontiguousarray(kn, dtype=float),
                              np.ascontiguousarray(ks, dtype=float))
 
 
@@ -220,13 +226,13 @@ def _project(x: np.ndarray, branch: np.ndarray) -> np.ndarray:
                      0.5 * (l[:, 1] * x[:, 0] + l[:, 0] * x[:, 1])], axis=1)
 
 
-def consistent_tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
+def consistent_tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
     """Newton Jacobian (6, 6) ``d sigma / d eps`` of the last law update (not symmetric).
 
     ``C = sum_c w_c B_c^T K_c B_c`` (seed Eq. 2.26) with the consistent contact tangent
     ``K = ks_perp (I - n n) + kn n n + (ks - ks_perp) e e + ktn e n`` (``e`` the slip axis,
     ``ktn`` the Thornton-Randall coupling ``d tau / d alpha``; see
-    :class:`~grainmech.driver._laws.LawResponse`). The compiled pass of
+    :class:`~grainmech.contact.ContactResponse`). The compiled pass of
     :mod:`grainmech.driver._fused` assembles the same matrix; a law without ``ks_perp``
     gives :func:`tangent`. Only 3D contact sets carry the extra terms.
     """
@@ -234,7 +240,7 @@ def consistent_tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
         return tangent(cs, resp)
     ksp = np.maximum(resp.ks_perp, 0.0)
     ks = np.maximum(resp.ks, 0.0)
-    C = tangent(cs, replace(resp, ks=ksp))
+    C = tangent(cs, resp._replace(ks=ksp))
     w = cs.weights
     v = _project(resp.axis, cs.branch)
     u = _project(cs.normals, cs.branch)
@@ -243,7 +249,7 @@ def consistent_tangent(cs: ContactSet, resp: LawResponse) -> np.ndarray:
     return C
 
 
-def _fractions(cs: ContactSet, resp: LawResponse) -> tuple[float, float]:
+def _fractions(cs: ContactSet, resp: ContactResponse) -> tuple[float, float]:
     w = cs.weights
     tot = float(w.sum())
     if tot <= 0:

@@ -330,17 +330,11 @@ def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _Fu
 
 
 def _compiled_law(point: MaterialPoint) -> bool:
-    """The point's law is a :class:`ContactLaw` with a compiled kernel (numba present)."""
-    from grainmech.driver._laws import ContactLaw
+    """The point's law is a :class:`~grainmech.contact.interface.ContactLaw` evaluated by the
+    compiled kernel (numba present, law supported, backend not ``numpy``)."""
+    from grainmech.contact.interface import ContactLaw
 
-    if not isinstance(point.law, ContactLaw):
-        return False
-    from grainmech.contact import law as L
-
-    try:
-        return L._select_kernel(point.law.params, "auto") is not None
-    except (ImportError, ValueError):
-        return False
+    return isinstance(point.law, ContactLaw) and point.law.compiled
 
 
 def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:

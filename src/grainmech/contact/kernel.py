@@ -60,12 +60,18 @@ from __future__ import annotations
 
 import math
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import get_num_threads, njit, prange
 
-from grainmech.contact.law import _MERGE_TOL, _REV_TOL  # tolerances of the reference law
+from grainmech.contact import law as _law
 
-__all__ = ["update_kernel", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS"]
+from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
+
+__all__ = ["update_kernel", "rows", "constants", "KernelConstants", "KernelState", "KernelIncrement",
+           "KernelOutput", "KernelScratch", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS",
+           "PARALLEL_THRESHOLD"]
 
 #: law codes (``law_kind`` of :mod:`grainmech.contact.law`)
 LAW_MD = 0
@@ -82,8 +88,160 @@ FLAG_MEMORY_FLAT = 2     # reversal memory full in the constant/falling-N revers
 FLAG_NO_TERMINATION = 3  # branch integration did not terminate (never observed)
 
 _EPS = 1e-12
+# the tolerances of the reference law (values, so that the compiled code is self-contained)
+_REV_TOL = _law._REV_TOL
+_MERGE_TOL = _law._MERGE_TOL
 _CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
 _JIT = dict(cache=True, error_model="numpy", fastmath=False)
+
+
+# ---------------------------------------------------------------------------------------
+# Arguments of the kernel: named tuples (numba passes them by value, fields by name)
+# ---------------------------------------------------------------------------------------
+class KernelConstants(NamedTuple):
+    """Scalar constants and tables of one contact law (:func:`constants`).
+
+    ``law`` is :data:`LAW_MD`, :data:`LAW_JENKINS` or :data:`LAW_FRICTIONLESS`; ``linear``
+    a linear normal spring (``kn_lin``, ``ks_lin`` [N/m]) instead of Hertz (``E`` = E*,
+    ``R`` = R*, ``Gs`` = G*, seed Eq. 3.12); ``mu`` the friction coefficient
+    (``mu_finite``: not infinite); ``r = kn/kt0``; ``p`` the stick exponent of theta
+    (seed Eq. 3.13-3.17) and ``m_exp = 1/(1-p)``; ``maxrev`` the reversal memory;
+    ``hcoef``, ``gcoef`` the series of the energy functions; ``glx``, ``glw`` a
+    Gauss-Legendre rule; ``sph`` spheres (p = 1/3, power shortcuts); ``k8`` with
+    ``kt0(N) = k8 N^(1/3)`` (seed Eq. 3.2, 3.11).
+    """
+
+    law: int
+    linear: bool
+    E: float
+    R: float
+    Gs: float
+    kn_lin: float
+    ks_lin: float
+    mu: float
+    mu_finite: bool
+    r: float
+    p: float
+    m_exp: float
+    maxrev: int
+    hcoef: tuple
+    gcoef: tuple
+    glx: tuple
+    glw: tuple
+    sph: bool
+    k8: float
+
+
+class KernelState(NamedTuple):
+    """State arrays of ``n`` contacts (the fields of :class:`~grainmech.contact.ContactState`
+    without ``sliding``): approach (n,), normal_force (n,), tangential_force (n, dim),
+    axis (n, dim), direction int8 (n,), depth int32 (n,), reversals (n, max_reversals),
+    dissipated_energy (n,)."""
+
+    approach: np.ndarray
+    normal_force: np.ndarray
+    tangential_force: np.ndarray
+    axis: np.ndarray
+    direction: np.ndarray
+    depth: np.ndarray
+    reversals: np.ndarray
+    dissipated_energy: np.ndarray
+
+
+class KernelIncrement(NamedTuple):
+    """One step: ``d_normal`` (n,), ``d_tangential`` (n, dim), the normal force at its end
+    ``N1`` (n,) (seed Eq. 3.6 or ``kn alpha``) and the Hertz contact radii ``rad0``,
+    ``rad1`` (n,) at its start and end (seed Eq. 3.2; any values for linear springs)."""
+
+    d_normal: np.ndarray
+    d_tangential: np.ndarray
+    N1: np.ndarray
+    rad0: np.ndarray
+    rad1: np.ndarray
+
+
+class KernelOutput(NamedTuple):
+    """Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
+    excepted) and the response (``sliding``, ``dissipation`` of the step, ``ks``,
+    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals)."""
+
+    approach: np.ndarray
+    normal_force: np.ndarray
+    tangential_force: np.ndarray
+    axis: np.ndarray
+    direction: np.ndarray
+    depth: np.ndarray
+    reversals: np.ndarray
+    sliding: np.ndarray
+    dissipation: np.ndarray
+    ks: np.ndarray
+    ks_perp: np.ndarray
+    ktn: np.ndarray
+    kn: np.ndarray
+    open: np.ndarray
+
+
+class KernelScratch(NamedTuple):
+    """Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
+    1/2 reversal memory full on a rising / constant or falling N; 3 no termination)."""
+
+    tp: np.ndarray
+    dp: np.ndarray
+    flags: np.ndarray
+
+
+def new_output(n: int, dim: int, max_reversals: int) -> KernelOutput:
+    """Uninitialised :class:`KernelOutput` arrays for ``n`` contacts."""
+    return KernelOutput(np.empty(n), np.empty(n), np.empty((n, dim)), np.empty((n, dim)),
+                        np.empty(n, dtype=np.int8), np.empty(n, dtype=np.int32),
+                        np.empty((n, max_reversals)), np.empty(n, dtype=np.bool_), np.empty(n),
+                        np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+
+
+def new_scratch(n: int, dim: int) -> KernelScratch:
+    """:class:`KernelScratch` for ``n`` contacts."""
+    return KernelScratch(np.empty((n, dim)), np.empty((n, dim)), np.zeros(n, dtype=np.int8))
+
+
+_CONSTANTS: dict = {}
+
+
+def constants(params: object) -> KernelConstants:
+    """:class:`KernelConstants` of a contact parameter object (cached per object)."""
+    try:
+        return _CONSTANTS[params]
+    except (KeyError, TypeError):
+        pass
+    kind = _law.law_kind(params)
+    forms = _law.law_forms(params)
+    linear = forms.linear
+    if linear:
+        E = R = Gs = 1.0
+        kn_lin, ks_lin = float(params.kn), float(params.ks)  # type: ignore[attr-defined]
+    else:
+        E = float(params.effective_modulus)  # type: ignore[attr-defined]
+        R = float(params.effective_radius)  # type: ignore[attr-defined]
+        Gs = float(params.effective_shear_modulus)  # type: ignore[attr-defined]
+        kn_lin = ks_lin = 0.0
+    mu = float(params.friction)  # type: ignore[attr-defined]
+    p = float(params.stick_exponent) if kind == "md" else 1.0 / 3.0  # type: ignore[attr-defined]
+    m_exp = 1.0 / (1.0 - p)
+    kc = KernelConstants(
+        {"md": LAW_MD, "jenkins": LAW_JENKINS, "frictionless": LAW_FRICTIONLESS}[kind], linear,
+        E, R, Gs, kn_lin, ks_lin, mu, math.isfinite(mu), float(forms.ratio), p, m_exp,
+        int(_law.max_reversals(params)),
+        # series and quadrature tables as tuples: values, not arrays (no reference counting
+        # in the compiled per-contact loop)
+        tuple(map(float, _law._h_series(m_exp))), tuple(map(float, _law._g_series(p))),
+        tuple(map(float, _law._GL_X)), tuple(map(float, _law._GL_W)),
+        (not linear) and p == 1.0 / 3.0,
+        # kt0(N) = 8 G* a(N) = k8 N^(1/3) (seed Eq. 3.2, 3.11)
+        0.0 if linear else float(mindlin_kt0(hertz_radius(1.0, E, R), Gs)))
+    try:
+        _CONSTANTS[params] = kc
+    except TypeError:  # pragma: no cover - unhashable user subclass
+        pass
+    return kc
 
 
 # ---------------------------------------------------------------------------------------
@@ -95,18 +253,11 @@ def _clip01(x):
 
 
 @njit(**_JIT)
-def _contact_radius(N, E, R):
-    """Hertz contact radius ``a = (3 N R* / (4 E*))^(1/3)`` (seed Eq. 3.2)."""
-    Np = N if N > 0.0 else 0.0
-    return np.cbrt(0.75 * Np * R / E)
-
-
-@njit(**_JIT)
 def _kn(N, linear, E, R, kn_lin):
     """Tangent normal stiffness: Hertz ``2 E* a`` (seed Eq. 3.7) or ``kn``; 0 when open."""
     if linear:
         return kn_lin if N > 0.0 else 0.0
-    return 2.0 * E * _contact_radius(N, E, R)
+    return hertz_kn(hertz_radius(N, E, R), E)
 
 
 @njit(**_JIT)
@@ -114,9 +265,7 @@ def _kt0(N, linear, E, R, Gs, ks_lin):
     """No-slip tangential stiffness ``8 G* a`` (seed Eq. 3.11 with theta = 1, Eq. 3.12) or ``ks``."""
     if linear:
         return ks_lin if N > 0.0 else 0.0
-    a = _contact_radius(N, E, R)
-    a = a if a > 0.0 else 0.0
-    return 8.0 * Gs * a
+    return mindlin_kt0(hertz_radius(N, E, R), Gs)
 
 
 @njit(**_JIT)
@@ -276,8 +425,7 @@ def _z_of_n(Nv, na, z0, c, q, sph=False):
 
 
 @njit(**_JIT)
-def _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, ks_lin,
-               gcoef, glx, glw, sph, k8):
+def _falling_n(Q, s, k, P, row, N0, N1, kc):
     """Exact integration of a fall of ``N`` (``N0 -> N1``) at fixed tangential displacement.
 
     Thornton & Randall's rate law (seed Eq. 3.11 with ``d delta = 0``,
@@ -286,6 +434,9 @@ def _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, 
     virgin branch, erasure of the last reversal, Masing closure (bisection). Dissipation
     by 12-point Gauss–Legendre in ``N^(1/3)``. Returns ``(Q, s, k, dissipation, ok)``.
     """
+    mu, p, m_exp, maxrev, sph, k8 = kc.mu, kc.p, kc.m_exp, kc.maxrev, kc.sph, kc.k8
+    linear, E, R, Gs, ks_lin = kc.linear, kc.E, kc.R, kc.Gs, kc.ks_lin
+    gcoef, glx, glw = kc.gcoef, kc.glx, kc.glw
     diss = 0.0
     Na = N0
     Nb = N1
@@ -397,8 +548,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs, 
 
 
 @njit(inline="always", **_JIT)
-def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, mu, p, m_exp, r,
-             maxrev, linear, E, R, Gs, ks_lin, hcoef, gcoef, glx, glw, sph, k8):
+def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, kc):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
 
     Seed Eq. 3.11, ``d tau = 8 G* a theta d delta + s mu dN (1 - theta)``, with theta from
@@ -409,6 +559,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, m
     Returns ``(tau, s, k, dissipation, elastic, flag)``; ``P`` (the contact's reversal
     row) is updated in place.
     """
+    mu, p, m_exp, r, maxrev, hcoef, sph = kc.mu, kc.p, kc.m_exp, kc.r, kc.maxrev, kc.hcoef, kc.sph
     diss = 0.0
     muN0 = mu * N0
     muN1 = mu * N1
@@ -438,8 +589,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, m
 
     # falling N at fixed displacement (exact), then the displacement
     if falling:
-        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, mu, p, m_exp, maxrev, linear, E, R, Gs,
-                                     ks_lin, gcoef, glx, glw, sph, k8)
+        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, kc)
         if not ok:
             return tau, s, k, diss, False, FLAG_NO_TERMINATION
         diss += dd
@@ -518,13 +668,29 @@ def _dot_rows(A, i, B, j):
 
 
 @njit(**_JIT)
-def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
-         hcoef, gcoef, glx, glw, sph, k8,
-         alpha0, N0s, T0s, e0s, dir0, depth0, P0, diss0, dn, dt, N1s, rad0, rad1,
-         alpha1o, N1o, T1, e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, kn_o, open_o,
-         tp, dp, flags):
-    """Advance contacts ``lo <= i < hi`` (writes their rows of every output array; ``tp``, ``dp`` are
-    scratch rows for the perpendicular force and displacement)."""
+def rows(lo, hi, kc, state, inc, out, scratch):
+    """Advance contacts ``lo <= i < hi`` by one increment (the per-contact law).
+
+    Parameters
+    ----------
+    lo, hi : int
+    kc : KernelConstants
+    state : KernelState
+        Start of the step (``tangential_force``, ``axis`` already re-projected).
+    inc : KernelIncrement
+    out : KernelOutput
+        Rows ``lo:hi`` of every array are written.
+    scratch : KernelScratch
+        Rows ``lo:hi`` of ``tp``, ``dp`` are work space; ``flags[i]`` is set non-zero for
+        a contact the law could not advance (reversal memory full, no termination).
+    """
+    law, linear, E, R, Gs, kn_lin, ks_lin = kc.law, kc.linear, kc.E, kc.R, kc.Gs, kc.kn_lin, kc.ks_lin
+    mu, mu_finite, r = kc.mu, kc.mu_finite, kc.r
+    alpha0, N0s, T0s, e0s, dir0, depth0, P0, _diss0 = state
+    dn, dt, N1s, rad0, rad1 = inc
+    alpha1o, N1o, T1, e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, kn_o, open_o = out
+    tp, dp, flags = scratch
+    p = kc.p
     dim = T0s.shape[1]
     for i in range(lo, hi):
         a0 = alpha0[i]
@@ -553,14 +719,14 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
             # contact radius (seed Eq. 3.2, by the caller) for kn = 2 E* a (Eq. 3.7) and
             # kt0 = 8 G* a (Eq. 3.11 with theta = 1)
             a_1 = rad1[i]
-            kn = 2.0 * E * a_1
-            kt01 = 8.0 * Gs * (a_1 if a_1 > 0.0 else 0.0)
+            kn = hertz_kn(a_1, E)
+            kt01 = mindlin_kt0(a_1, Gs)
         kn_o[i] = kn
         closed1 = N1 > 0.0
         if linear:
             kt00 = _kt0(N0, linear, E, R, Gs, ks_lin)
         else:
-            kt00 = 8.0 * Gs * (rad0[i] if rad0[i] > 0.0 else 0.0)
+            kt00 = mindlin_kt0(rad0[i], Gs)
         rising = N1 > N0
         kbar = _secant_kt(N0, N1, a0e, a1, linear, r, ks_lin, kt01) if rising else kt01
         if (kt00 > 0.0) and (kt01 < kt00):
@@ -649,8 +815,7 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
         elastic = False
         if mu > 0.0:
             tau, s, k, d_diss, elastic, flag = _md_axis(
-                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, mu, p, m_exp,
-                r, maxrev, linear, E, R, Gs, ks_lin, hcoef, gcoef, glx, glw, sph, k8)
+                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, kc)
             if flag != 0:
                 flags[i] = flag
                 continue
@@ -723,7 +888,7 @@ def _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_
         elif elastic:
             theta = 1.0
         else:
-            theta = _pow_p(y, p, sph)
+            theta = _pow_p(y, p, kc.sph)
         s1o[i] = s
         k1o[i] = k
         slide_o[i] = slide
@@ -749,49 +914,24 @@ def _make_kernel(parallel):
     """
     rng = prange if parallel else range
 
-    def kernel(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev,
-               hcoef, gcoef, glx, glw, sph, k8,
-               alpha0, N0s, T0s, e0s, dir0, depth0, P0, diss0, dn, dt, N1s, rad0, rad1):
-        n, dim = T0s.shape
-        m = P0.shape[1]
-        alpha1 = np.empty(n)
-        N1 = np.empty(n)
-        T1 = np.empty((n, dim))
-        e1 = np.empty((n, dim))
-        s1 = np.empty(n, dtype=np.int8)
-        k1 = np.empty(n, dtype=np.int32)
-        P1 = np.empty((n, m))
-        slide = np.empty(n, dtype=np.bool_)
-        diss = np.empty(n)
-        ks = np.empty(n)
-        ksp = np.empty(n)
-        ktn = np.empty(n)
-        kn = np.empty(n)
-        opn = np.empty(n, dtype=np.bool_)
-        energy = np.empty(n)
-        flags = np.zeros(n, dtype=np.int8)
-        if not _finite(dn):
-            status = BAD_DNORMAL
-        elif not _finite(dt):
-            status = BAD_DTANGENTIAL
-        else:
-            status = OK
-        if status == OK:
-            tp = np.empty((n, dim))
-            dp = np.empty((n, dim))
-            nch = (n + _CHUNK - 1) // _CHUNK
-            for ch in rng(nch):
-                lo = ch * _CHUNK
-                hi = min(n, lo + _CHUNK)
-                _rows(lo, hi, law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
-                     maxrev, hcoef, gcoef, glx, glw, sph, k8,
-                     alpha0, N0s, T0s, e0s, dir0, depth0, P0, diss0, dn, dt, N1s, rad0, rad1,
-                     alpha1, N1, T1, e1, s1, k1, P1, slide, diss, ks, ksp, ktn, kn, opn,
-                     tp, dp, flags)
-                for i in range(lo, hi):
-                    energy[i] = diss0[i] + diss[i]
-        return (status, flags, alpha1, N1, T1, e1, s1, k1, P1, slide, diss, ks, ksp, ktn, kn,
-                opn, energy)
+    def kernel(kc, state, inc, out, scratch):
+        n = state.approach.shape[0]
+        if not _finite(inc.d_normal):
+            return BAD_DNORMAL
+        if not _finite(inc.d_tangential):
+            return BAD_DTANGENTIAL
+        nch = (n + _CHUNK - 1) // _CHUNK
+        # the constants enter the (parallel) loop as plain values: a parfor cannot take a
+        # named tuple holding tuples, so it is rebuilt inside
+        (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
+         glx, glw, sph, k8) = kc
+        for ch in rng(nch):
+            lo = ch * _CHUNK
+            hi = min(n, lo + _CHUNK)
+            rows(lo, hi, KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p,
+                                         m_exp, maxrev, hcoef, gcoef, glx, glw, sph, k8),
+                 state, inc, out, scratch)
+        return OK
 
     kernel.__doc__ = """Advance ``n`` contacts by one increment (see :func:`update_kernel`)."""
     return njit(parallel=parallel, **_JIT)(kernel)
@@ -807,37 +947,35 @@ _kernel_parallel = _make_kernel(True)
 PARALLEL_THRESHOLD = 2048
 
 
-def update_kernel(consts, alpha0, N0, T0, e0, direction, depth, reversals, energy0, dn, dt,
-                  N1, rad0, rad1):
+def update_kernel(kc: KernelConstants, state: KernelState, inc: KernelIncrement
+                  ) -> tuple[int, KernelOutput, np.ndarray]:
     """Run the compiled update on contiguous arrays (the caller validates shapes).
 
     Parameters
     ----------
-    consts : tuple
-        ``(law, linear, E, R, G*, kn, ks, mu, mu_finite, r, p, m, max_reversals,
-        h_series, g_series, gl_nodes, gl_weights, sph, k8)`` built by
-        :func:`grainmech.contact.law._kernel_constants`.
-    alpha0, N0, T0, e0, direction, depth, reversals, energy0 : ndarray
-        The fields of the :class:`~grainmech.contact.ContactState` (``T0``, ``e0`` already
-        re-projected if the normals turned).
-    dn, dt : ndarray
-        Increments ``d alpha`` (n,) and ``d delta`` (n, dim).
-    N1, rad0, rad1 : ndarray, shape (n,)
-        Normal force at the end of the step (seed Eq. 3.6, or ``kn alpha``) and, for
-        Hertz contacts, the contact radii (seed Eq. 3.2) at the start (normal force of
-        the contacts closed at the start, else 0) and at the end of the step. They are
-        evaluated by the caller with the vectorised closed forms of
-        :mod:`grainmech.contact.geometry`, i.e. exactly as the reference does.
+    kc : KernelConstants
+        From :func:`constants`.
+    state : KernelState
+        ``tangential_force`` and ``axis`` already re-projected if the normals turned.
+    inc : KernelIncrement
+        Increments and the closed forms of the normal law at the step ends, evaluated by
+        the caller with the vectorised functions of :mod:`grainmech.contact.geometry`,
+        i.e. exactly as the reference does.
 
     Returns
     -------
-    tuple
-        ``(status, flags, alpha1, N1, T1, e1, s1, k1, P1, sliding, dissipation, ks,
-        ks_perp, ktn, kn, open, dissipated_energy)``; ``status`` 1/2 for non-finite
-        ``d_normal``/``d_tangential``; ``flags`` per contact: 1 reversal memory full on a
-        rising-N reversal, 2 on a constant/falling-N one, 3 no termination.
+    status : int
+        0; 1/2 for non-finite ``d_normal``/``d_tangential`` (nothing computed).
+    out : KernelOutput
+        New state and response (``dissipation`` of this step).
+    flags : ndarray of int8, shape (n,)
+        Per contact: 1 reversal memory full on a rising-N reversal, 2 on a constant or
+        falling-N one, 3 no termination.
     """
-    parallel = alpha0.shape[0] >= PARALLEL_THRESHOLD and get_num_threads() > 1
+    n, dim = state.tangential_force.shape
+    out = new_output(n, dim, state.reversals.shape[1])
+    scratch = new_scratch(n, dim)
+    parallel = n >= PARALLEL_THRESHOLD and get_num_threads() > 1
     fn = _kernel_parallel if parallel else _kernel_serial
-    return fn(*consts, alpha0, N0, T0, e0, direction, depth, reversals, energy0, dn, dt, N1, rad0,
-              rad1)
+    status = fn(kc, state, inc, out, scratch)
+    return int(status), out, scratch.flags
