@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import itertools
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -316,7 +318,7 @@ def test_relaxed_stiffness_is_objective(seed):
     """Rotating the whole network (centres, cell, forces) rotates both tensors (seed Eq. 2.28-2.29)."""
     from scipy.spatial.transform import Rotation
 
-    from grainmech.tensors import rotate_stiffness
+    from grainmech.elasticity import rotate_stiffness
 
     net = random_network(50, seed=seed)
     R = Rotation.random(random_state=seed).as_matrix()
@@ -341,13 +343,17 @@ def test_report_closed_form_isotropic_for_cubic_lattice():
     rep = network_report(net, shear_modulus=G, poisson=NU, relaxed=False)
     kn, ks = hertz_kn_ks(1.0, 1.0, dl)
     s = net.n_contacts / net.volume * (2 - dl) ** 2
-    C = np.array(rep["stiffness_closed_form"])
+    C = rep.stiffness_closed_form
     np.testing.assert_allclose(np.diag(C), [s * (3 * kn + 2 * ks) / 15] * 3 + [s * (2 * kn + 3 * ks) / 30] * 3,
                                rtol=1e-9)
     np.testing.assert_allclose(C[0, 1], s * (kn - ks) / 15, rtol=1e-9)
+    assert rep.relaxed is None
+    js = rep.to_json()
     for key in ("stress", "fabric", "coordination", "stiffness_affine", "order"):
-        assert key in rep
-    assert rep["stiffness_relaxed"] is None
+        assert key in js
+    assert js["stiffness_relaxed"] is None
+    np.testing.assert_array_equal(np.array(js["stiffness_closed_form"]), C)
+    json.dumps(js, allow_nan=False)  # plain JSON: lists, floats, None
 
 
 def test_equal_area_density_plot_is_normalised():
