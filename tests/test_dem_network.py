@@ -417,3 +417,22 @@ def test_relaxed_stiffness_with_nothing_left_is_an_error_not_zeros():
     with pytest.raises(GrainmechError, match=r"nothing is left to solve - 200 of 200 particles are "
                                              r"rattlers \(fewer than 20 force-carrying"):
         relaxed_stiffness(net, kn, ks, min_contacts=20)
+
+
+def test_frictionless_loose_network_names_the_rule_that_removed_everything():
+    """Frictionless contacts (ks = 0) need d + 1 = 4 contacts (rattler_threshold); a network
+    with z = 3 has too few (a random graph with mean degree 3 has no 4-core), so removal
+    leaves nothing and the error names the rule and its cause instead of returning zeros."""
+    from grainmech.errors import GrainmechError
+    from grainmech.network import contact_stiffnesses, random_network, rattlers, relaxed_stiffness
+
+    net = random_network(300, coordination=3.0, seed=2)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15)
+    assert rattlers(net, 4).all()
+    with pytest.raises(GrainmechError, match=r"300 of 300 particles are rattlers \(fewer than 4 force-"
+                                             r"carrying contacts, the frictionless rule: no contact has "
+                                             r"ks > 0"):
+        relaxed_stiffness(net, kn, np.zeros_like(ks))
+    # the same network with its tangential stiffness keeps grains (frictional rule: 2)
+    rr = relaxed_stiffness(net, kn, ks)
+    assert rr.n_particles > 0 and rr.C_relaxed[0, 0] > 0

@@ -227,7 +227,13 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         raise GrainmechError("kn and ks must be finite")
     stiff = kn > 0
     if min_contacts is None:
-        min_contacts = rattler_threshold(d, bool(np.any(ks_e[stiff] > 0)), rotations)
+        frictional = bool(np.any(ks_e[stiff] > 0))
+        min_contacts = rattler_threshold(d, frictional, rotations)
+        rule = (f"the {'frictional' if frictional and rotations else 'frictionless'} rule: "
+                + ("some contact has ks > 0 and grains rotate" if frictional and rotations else
+                   "no contact has ks > 0" if not frictional else "rotations are off"))
+    else:
+        rule = "min_contacts as given"
     if remove_rattlers:
         carrying = stiff & (net.normal_force > 0) if np.any(net.force) else stiff
         ratt = rattlers(net, min_contacts, carrying)
@@ -242,9 +248,10 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     if alive_idx.size == 0 or not csel.any():
         raise GrainmechError(
             f"relaxed stiffness: nothing is left to solve - {int(ratt.sum())} of {net.n_particles} "
-            f"particles are rattlers (fewer than {min_contacts} force-carrying contacts, removed "
-            f"iteratively; {int(carrying.sum())} of {net.n_contacts} contacts carry force and have "
-            "kn > 0). Check the contact forces/stiffnesses, or lower min_contacts")
+            f"particles are rattlers (fewer than {min_contacts} force-carrying contacts, {rule}; "
+            f"removed iteratively; {int(carrying.sum())} of {net.n_contacts} contacts carry force "
+            "and have kn > 0). The network is too loose for this rule: check the contact "
+            "forces/stiffnesses, or lower min_contacts")
     newidx = -np.ones(net.n_particles, dtype=np.int64)
     newidx[alive_idx] = np.arange(alive_idx.size)
     ci, cj = newidx[net.i[csel]], newidx[net.j[csel]]
