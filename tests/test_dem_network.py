@@ -8,7 +8,7 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from grainmech.errors import GrainmechError
@@ -169,7 +169,11 @@ def test_relaxed_no_stiffer_than_affine(seed, z, ratio, rot):
     rng = np.random.default_rng(seed)
     kn = rng.uniform(0.5, 2.0, net.n_contacts) * 1e6
     ks = ratio * kn * rng.uniform(0.5, 1.0, net.n_contacts)
-    res = relaxed_stiffness(net, kn, ks, rotations=rot)
+    try:
+        res = relaxed_stiffness(net, kn, ks, rotations=rot)
+    except GrainmechError as exc:  # a small frictionless network can be all rattlers
+        assert "nothing is left to solve" in str(exc)
+        assume(False)
     # affine of the full network >= affine of the rattler-free network >= relaxed
     Cfull = affine_stiffness(net, kn, ks)
     for D in (res.correction, Cfull - res.C_relaxed):
@@ -420,15 +424,16 @@ def test_relaxed_stiffness_with_nothing_left_is_an_error_not_zeros():
 
 
 def test_frictionless_loose_network_names_the_rule_that_removed_everything():
-    """Frictionless contacts (ks = 0) need d + 1 = 4 contacts (rattler_threshold); a network
-    with z = 3 has too few (a random graph with mean degree 3 has no 4-core), so removal
-    leaves nothing and the error names the rule and its cause instead of returning zeros."""
+    """Frictionless contacts (ks = 0) need d + 1 = 4 contacts (rattler_threshold); in this
+    network with z = 2 iterated removal leaves no grain with 4 contacts, so the error names
+    the rule and its cause instead of returning zeros; the frictional rule (2) keeps about
+    half of the grains."""
     from grainmech.errors import GrainmechError
     from grainmech.network import contact_stiffnesses, random_network, rattlers, relaxed_stiffness
 
-    net = random_network(300, coordination=3.0, seed=2)
+    net = random_network(300, coordination=2.0, seed=3)
     kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15)
-    assert rattlers(net, 4).all()
+    assert rattlers(net, 4).all() and rattlers(net, 2).mean() < 0.6
     with pytest.raises(GrainmechError, match=r"300 of 300 particles are rattlers \(fewer than 4 force-"
                                              r"carrying contacts, the frictionless rule: no contact has "
                                              r"ks > 0"):

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainmech.errors import GrainmechError
+from grainmech.network import _solvers
 from grainmech.network.data import ContactNetwork
 from grainmech.network.measures import rattler_threshold, rattlers
 from grainmech.network.stiffness import affine_stiffness, contact_matrix, effective_ks, strain_map
@@ -60,18 +61,22 @@ def _cross_matrix(r: np.ndarray) -> np.ndarray:
     return X
 
 
-def _assemble(net: ContactNetwork, alive_idx: np.ndarray, ci: np.ndarray, cj: np.ndarray,
-              n: np.ndarray, l_: np.ndarray, kn: np.ndarray, ks: np.ndarray,
-              rA: np.ndarray, rB: np.ndarray, rotations: bool):
-    """Block Hessian H (BSR, b x b blocks) and B (ndof, m) of the relaxed problem."""
+def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndarray, kn: np.ndarray,
+              ks: np.ndarray, rA: np.ndarray, rB: np.ndarray, rotations: bool):
+    """Hessian ``H = G^T K G`` (CSR, ``P b`` square), ``B = G^T K E`` (``P b``, m), the gross
+    size of ``B`` per column and ``b`` (unknowns per particle).
+
+    ``G`` (``C d`` x ``P b``) maps the particle unknowns to the contact displacements
+    ``Delta_c = G_A q_A + G_B q_B`` with ``G_A = [I, -[r_A]x]``, ``G_B = [-I, [r_B]x]``; it is
+    built as one vectorised COO matrix, ``K`` is block diagonal (``d x d`` per contact) and
+    both products run in SciPy's sparse kernels.
+    """
     import scipy.sparse as sp
 
     d = n.shape[1]
     b = 2 * d if (rotations and d == 3) else (d + 1 if rotations else d)
-    P = alive_idx.size
     C = ci.size
     K = contact_matrix(n, kn, ks)  # (C, d, d)
-    # Delta = G_A q_A + G_B q_B + E e;  G_A = [I, -[rA]x], G_B = [-I, +[rB]x]
     GA = np.zeros((C, d, b))
     GB = np.zeros((C, d, b))
     GA[:, :, :d] = np.eye(d)
@@ -83,76 +88,39 @@ def _assemble(net: ContactNetwork, alive_idx: np.ndarray, ci: np.ndarray, cj: np
         else:  # theta e_z x r = theta (-r_y, r_x)
             GA[:, 0, 2], GA[:, 1, 2] = -rA[:, 1], rA[:, 0]
             GB[:, 0, 2], GB[:, 1, 2] = rB[:, 1], -rB[:, 0]
-    KGA = K @ GA
-    KGB = K @ GB
-    GAt = np.swapaxes(GA, 1, 2)
-    GBt = np.swapaxes(GB, 1, 2)
-    HAA = GAt @ KGA
-    HBB = GBt @ KGB
-    HAB = GAt @ KGB
-    E = strain_map(l_)
-    m = E.shape[2]
-    KE = K @ E
-    BA = GAt @ KE  # (C, b, m)
-    BB = GBt @ KE
-    # diagonal blocks
-    diag = np.zeros((P, b, b))
-    np.add.at(diag, ci, HAA)
-    np.add.at(diag, cj, HBB)
-    rows = np.concatenate([np.arange(P), ci, cj])
-    cols = np.concatenate([np.arange(P), cj, ci])
-    blocks = np.concatenate([diag, HAB, np.swapaxes(HAB, 1, 2)])
-    order = np.lexsort((cols, rows))
-    rows, cols, blocks = rows[order], cols[order], blocks[order]
-    key = rows * P + cols
-    first = np.concatenate([[True], key[1:] != key[:-1]])
-    starts = np.flatnonzero(first)
-    blocks = np.add.reduceat(blocks, starts, axis=0)
-    rows, cols = rows[starts], cols[starts]
-    indptr = np.searchsorted(rows, np.arange(P + 1))
-    H = sp.bsr_matrix((blocks, cols, indptr), shape=(P * b, P * b))
-    Bm = np.zeros((P, b, m))
-    np.add.at(Bm, ci, BA)
-    np.add.at(Bm, cj, BB)
+    row = np.broadcast_to((np.arange(C)[:, None] * d + np.arange(d))[:, :, None], (C, d, b))
+    k = np.arange(b)
+    colA = np.broadcast_to((ci[:, None] * b + k)[:, None, :], (C, d, b))
+    colB = np.broadcast_to((cj[:, None] * b + k)[:, None, :], (C, d, b))
+    vals = np.concatenate([GA.ravel(), GB.ravel()])
+    keep = vals != 0
+    G = sp.csr_matrix((vals[keep], (np.concatenate([row.ravel(), row.ravel()])[keep],
+                                    np.concatenate([colA.ravel(), colB.ravel()])[keep])),
+                      shape=(C * d, P * b))
+    Kb = sp.bsr_matrix((K, np.arange(C), np.arange(C + 1)), shape=(C * d, C * d)).tocsr()
+    GT = G.T.tocsr()
+    H = (GT @ (Kb @ G)).tocsr()
+    H = (0.5 * (H + H.T)).tocsr()  # exactly symmetric for the Cholesky factorisation
+    KE = np.matmul(K, strain_map(l_))  # (C, d, m)
+    m = KE.shape[2]
+    B = np.asarray(GT @ KE.reshape(C * d, m))
     # size of B before cancellation between contacts (scale for residuals)
-    bref = np.sqrt(np.einsum("cia,cia->a", BA, BA) + np.einsum("cia,cia->a", BB, BB))
-    return H, Bm.reshape(P * b, m), diag, b, bref
+    bref2 = np.zeros(m)
+    for Gx in (GA, GB):
+        for s in range(0, C, 65536):
+            X = np.einsum("cik,cia->cka", Gx[s:s + 65536], KE[s:s + 65536])
+            bref2 += np.einsum("cka,cka->a", X, X)
+    return H, B, np.sqrt(bref2), b
 
 
-def _block_cg(H, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxiter: int,
-              ref: np.ndarray) -> tuple[np.ndarray, int, float]:
-    """Block-Jacobi preconditioned CG, all right-hand sides at once (columns independent)."""
-    P, b, _ = diag_blocks.shape
-    # pseudo-inverse of each diagonal block (handles zero rotation blocks)
-    Minv = np.linalg.pinv(diag_blocks, hermitian=True)
-
-    def prec(r):
-        return np.matmul(Minv, r.reshape(P, b, -1)).reshape(r.shape)
-
-    x = np.zeros_like(rhs)
-    r = rhs.copy()
-    z = prec(r)
-    p = z.copy()
-    rz = np.einsum("ij,ij->j", r, z)
-    nb = np.maximum(np.linalg.norm(rhs, axis=0), ref)
-    nb[nb == 0] = 1.0
-    it = 0
-    res = np.linalg.norm(r, axis=0) / nb
-    while it < maxiter and res.max() > tol:
-        Hp = H @ p
-        pHp = np.einsum("ij,ij->j", p, Hp)
-        active = pHp > 0
-        alpha = np.where(active, rz / np.where(active, pHp, 1.0), 0.0)
-        x += p * alpha
-        r -= Hp * alpha
-        z = prec(r)
-        rz_new = np.einsum("ij,ij->j", r, z)
-        beta = np.where(rz > 0, rz_new / np.where(rz > 0, rz, 1.0), 0.0)
-        p = z + p * beta
-        rz = rz_new
-        it += 1
-        res = np.linalg.norm(r, axis=0) / nb
-    return x, it, float(res.max())
+def _diagonal_blocks(H, P: int, b: int) -> np.ndarray:
+    """The ``b x b`` diagonal blocks of ``H`` (P, b, b)."""
+    Hb = H.tobsr(blocksize=(b, b))
+    rows = np.repeat(np.arange(P), np.diff(Hb.indptr))
+    on = Hb.indices == rows
+    out = np.zeros((P, b, b))
+    out[rows[on]] = Hb.data[on]
+    return out
 
 
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
@@ -214,10 +182,8 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         (rattler-free) network.
     """
     import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
 
-    if solver not in ("auto", "direct", "cg"):
-        raise GrainmechError(f"solver must be 'auto', 'direct' or 'cg', got {solver!r}")
+    _solvers.choose(solver, 0)  # validates the name and the optional package
     d = net.dim
     kn = np.asarray(kn, float)
     ks_e = effective_ks(net, ks, geometric)
@@ -263,34 +229,33 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         RA = RB = 0.5 * net.branch_length[csel]
     rA = RA[:, None] * n
     rB = -RB[:, None] * n
-    H, B, diag, b, bref = _assemble(net, alive_idx, ci, cj, n, l_, kn[csel], ks_e[csel], rA, rB, rotations)
-    V = net.volume
     P = alive_idx.size
+    H, B, bref, b = _assemble(P, ci, cj, n, l_, kn[csel], ks_e[csel], rA, rB, rotations)
+    V = net.volume
     ndof = P * b
     rhs = -B
-    # pin the translation of particle 0 (global translation mode)
-    free = np.ones(ndof, dtype=bool)
-    free[:d] = False
-    use_direct = solver == "direct" or (solver == "auto" and ndof <= 15000)
-    Hc = H.tocsr()
-    if use_direct:
-        Hf = Hc[free][:, free].tocsc()
-        dg = Hf.diagonal()
-        scale = float(np.max(np.abs(dg))) if dg.size else 1.0
-        reg = 1e-12 * np.where(dg > 0, dg, scale)
-        Hf = (Hf + sp.diags(reg)).tocsc()
-        try:
-            lu = spla.splu(Hf)
-        except RuntimeError as exc:  # exactly singular even after regularisation
-            raise GrainmechError(f"relaxed stiffness: factorisation failed ({exc})") from None
-        q = np.zeros((ndof, m))
-        q[free] = lu.solve(rhs[free])
-        iters = 1
-        name = "direct"
+    name = _solvers.choose(solver, ndof)
+    if name == "cg":
+        q, iters, _ = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, maxiter, 1e-6 * bref)
     else:
-        q, iters, _ = _block_cg(Hc, rhs, diag, tol, maxiter, 1e-6 * bref)
-        name = "cg"
-    R = Hc @ q - rhs
+        # pin the translation of particle 0 (global translation mode); the other zero modes
+        # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
+        # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
+        # of the translational one, times the squared mean lever arm for rotations), then
+        # removed again by iterative refinement against H itself
+        free = np.ones(ndof, dtype=bool)
+        free[:d] = False
+        Hf = H[free][:, free].tocsr()
+        kind = np.flatnonzero(free) % b
+        typemax = np.zeros(b)
+        np.maximum.at(typemax, kind, np.abs(Hf.diagonal()))
+        ref = np.full(b, float(typemax[:d].max()) or 1.0)
+        ref[d:] *= float(np.mean(np.r_[RA, RB]) ** 2)
+        typemax = np.maximum(typemax, 1e-6 * ref)
+        q = np.zeros((ndof, m))
+        q[free], iters = _solvers.solve_spd(Hf, rhs[free], name, dof_type=kind, shift=1e-10 * typemax[kind],
+                                            tol=tol, maxiter=maxiter)
+    R = H @ q - rhs
     nb = np.maximum(np.linalg.norm(rhs, axis=0), 1e-6 * bref)
     scale_r = np.where(nb > 0, nb, 1.0)
     residual = float(np.max(np.linalg.norm(R, axis=0) / scale_r))
@@ -303,8 +268,10 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     if return_displacements:
         disp = np.zeros((net.n_particles, b, m))
         disp[alive_idx] = q.reshape(P, b, m)
-    if name == "cg" and residual > max(tol * 100, 1e-6):
-        raise GrainmechError(f"relaxed stiffness: CG did not converge in {iters} iterations "
-                             f"(relative residual {residual:.3g}); raise maxiter or use solver='direct'")
+    if residual > max(tol * 100, 1e-6):
+        what = (f"CG did not converge in {iters} iterations" if name in ("cg", "amg") else
+                "the factorisation is not accurate (ill-conditioned network)")
+        raise GrainmechError(f"relaxed stiffness: solver {name!r}: {what} (relative residual "
+                             f"{residual:.3g}); raise maxiter or try another solver")
     return RelaxedResult(Cr, Ca, correction, disp, int(P), int(csel.sum()), int(ratt.sum()), name,
                          int(iters), residual)
