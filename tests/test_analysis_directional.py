@@ -5,7 +5,7 @@ import pytest
 
 from grainmech.analysis import apparent_moduli
 from grainmech.errors import ConfigError
-from grainmech.tensors import (directional_poisson, directional_young, isotropic_stiffness,
+from grainmech.elasticity import (directional_poisson, directional_young, isotropic_stiffness,
                                transversely_isotropic_stiffness)
 
 

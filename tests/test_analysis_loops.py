@@ -10,7 +10,7 @@ import pytest
 
 from grainmech.analysis import condensed_modulus, loop_properties, masing_damping_hyperbolic
 from grainmech.errors import ConfigError
-from grainmech.tensors import isotropic_stiffness
+from grainmech.elasticity import isotropic_stiffness
 
 
 def test_ellipse_loop():

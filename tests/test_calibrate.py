@@ -383,7 +383,7 @@ def _rod_data(alpha, eps, sd=None):
 
 
 def test_random_rods_noise_free_recovery_and_se_vs_scatter():
-    from grainmech.reproduce import random_rods
+    from grainmech.rods import random_packing as random_rods
 
     cfg = tomllib.loads(ROD_TOML.read_text())
     alpha = np.array([0.0, 15.0, 22.5, 30.0, 37.5, 45.0])

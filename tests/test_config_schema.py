@@ -123,7 +123,7 @@ def test_linear_spring_is_the_constant_stiffness_law():
     from grainmech.contact import LinearSpring
     from grainmech.fabric import isotropic
     from grainmech.material import Packing, packing_stiffness
-    from grainmech.tensors import bulk_modulus, shear_modulus
+    from grainmech.elasticity import bulk_modulus, shear_modulus
 
     assert not hasattr(material, "ConstantStiffness")
     nv, l, kn, ks = 2.0e9, 5e-4, 3e6, 1e6

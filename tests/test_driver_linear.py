@@ -18,7 +18,7 @@ from grainmech.driver import (Control, MaterialPoint, cyclic_simple_shear, parse
 from grainmech.errors import ConfigError
 from grainmech.fabric import isotropic
 from grainmech.material import Packing
-from grainmech.tensors import isotropic_constants
+from grainmech.elasticity import isotropic_constants
 
 PK = Packing.from_grains(isotropic(3), void_ratio=0.6, coordination=8, radius=1e-3)
 P0 = 1e5

@@ -11,7 +11,10 @@ import numpy as np
 import pytest
 
 from grainmech.errors import GrainmechError
-from grainmech.reproduce import random_rods, rods
+from grainmech import rods as rodlib
+from grainmech.reproduce import random_rods as rod_figs
+from grainmech.reproduce import rods
+from grainmech.rods import random_packing as random_rods
 
 G, NU, PSI, P = 15000.0, 0.1, 2.5, 2.5  # seed Sec. 6.1.1 / 5.3 (psi)
 ALPHA = np.radians(np.arange(0.0, 180.0, 7.5))
@@ -106,7 +109,7 @@ def test_two_size_e_f_anisotropic(regular):
 
 def test_regular_geometry_contacts_from_distances():
     """Seed Fig. 5.2 / Sec. 5.2: rod diameters and the contact structure of each cell."""
-    g = {k: rods.PACKINGS[k] for k in rods.ORDER}
+    g = {k: rodlib.PACKINGS[k] for k in rods.ORDER}
     assert g["A"].coordination() == 4 and g["B"].coordination() == 6
     assert g["C"].coordination() == 5 and g["D"].coordination() == 4
     # C's area per rod is the mean of A's and B's: (1 + sqrt3/2)/2 d^2
@@ -117,16 +120,16 @@ def test_regular_geometry_contacts_from_distances():
         i, j, l_ = p.contacts()
         assert np.allclose(np.linalg.norm(l_, axis=1), (p.diameters[i] + p.diameters[j]) / 2)
     # the contact set carries the radii of Eq. 3.8 and the right weights
-    cs = rods.regular_packing("E")
+    cs = rodlib.regular_packing("E")
     assert set(np.round(cs.radius1 + cs.radius2, 12)) == {0.375, 0.5}
     assert np.allclose(cs.weights, 1 / g["E"].cell_area)
 
 
 def test_bad_packing_name_is_user_error():
     with pytest.raises(GrainmechError, match="'Z'"):
-        rods.regular_packing("Z")
+        rodlib.regular_packing("Z")
     with pytest.raises(GrainmechError, match="diameter"):
-        rods.regular_packing("A", diameter=-1.0)
+        rodlib.regular_packing("A", diameter=-1.0)
 
 
 def test_fig5_2_and_registry():
@@ -147,7 +150,7 @@ def test_random_packing_statistics_vs_seed_sec_6_1_2(kind):
     the seed's photographs: m within 25 % (one size) / 15 % (two sizes), below the seed's."""
     cs = random_rods.packing(kind)
     st = random_rods.packing_stats(cs)
-    seed = random_rods.SEED_STATS[kind]
+    seed = rod_figs.SEED_STATS[kind]
     assert st["particles"] == (271 if kind == "one-size" else 419)   # seed Sec. 5.2
     assert st["void_ratio"] == pytest.approx(0.179, abs=1e-12)
     assert st["contacts"] == 2 * st["physical_contacts"] == 2 * len(cs)
@@ -201,7 +204,7 @@ def test_strains_of_square_lattice_by_hand():
     """Strains API on a plain ContactSet in SI (square packing A, alpha = 0): eps_yy = dP/Kn,
     eps_xx = eps_xy = 0 (seed Eq. 2.26 + Eq. 3.8 at N = P d)."""
     d = 0.5 * random_rods.INCH_M
-    cs = rods.regular_packing("square", diameter=d)
+    cs = rodlib.regular_packing("square", diameter=d)
     Gpa, p, dp = G * random_rods.PSI_PA, P * random_rods.PSI_PA, 0.5 * random_rods.PSI_PA
     eps = random_rods.strains(cs, np.array([0.0, 90.0]), G=Gpa, psi=PSI)
     kn = _kn_eq_3_8(p * d, d / 2, G=Gpa)
@@ -214,7 +217,7 @@ def test_strains_of_square_lattice_by_hand():
                                            ({"G": 1e8, "psi": 1.0, "nu": 0.7}, "nu"),
                                            ({"G": 1e8, "psi": 1.0, "phi_mu_deg": 95}, "phi_mu_deg")])
 def test_strains_bad_input(kwargs, field):
-    cs = rods.regular_packing("square", diameter=0.0127)
+    cs = rodlib.regular_packing("square", diameter=0.0127)
     with pytest.raises(GrainmechError, match=field):
         random_rods.strains(cs, np.array([0.0]), **kwargs)
 

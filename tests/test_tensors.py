@@ -1,4 +1,4 @@
-"""Tests of grainmech.tensors against independent references.
+"""Tests of grainmech.elasticity against independent references.
 
 References used here (none of them calls the function under test to produce the
 expected value):
@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import matrix_to_tensor4, reorder, tensor4_to_matrix, voigt_to_mandel
 from grainmech.errors import GrainmechError
-from grainmech import tensors as T
+from grainmech import elasticity as T
 
 FAST = settings(max_examples=8, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])
@@ -225,7 +225,7 @@ def test_isotropic_builder_errors():
 def test_engineering_constants_isotropic():
     E, nu = 7.5e7, 0.27
     ec = T.engineering_constants(T.isotropic_stiffness(E=E, nu=nu))
-    for k in ("E_x", "E_y", "E_z"):
+    for k in ("E_xx", "E_yy", "E_zz"):
         assert getattr(ec, k) == pytest.approx(E, rel=1e-13)
     for k in ("nu_xy", "nu_yx", "nu_xz", "nu_zx", "nu_yz", "nu_zy"):
         assert getattr(ec, k) == pytest.approx(nu, rel=1e-13)
@@ -238,14 +238,14 @@ def test_engineering_constants_isotropic():
     lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
     C2 = np.array([[lam + 2 * mu, lam, 0], [lam, lam + 2 * mu, 0], [0, 0, mu]])
     ec2 = T.engineering_constants(C2)
-    assert ec2.E_x == pytest.approx(E / (1 - nu**2), rel=1e-13)
+    assert ec2.E_xx == pytest.approx(E / (1 - nu**2), rel=1e-13)
     assert ec2.nu_xy == pytest.approx(nu / (1 - nu), rel=1e-13)
     assert ec2.G_xy == pytest.approx(mu, rel=1e-13)
     assert set(ec2.as_dict()) == {"E_xx", "E_yy", "nu_xy", "nu_yx", "G_xy"}
 
 
 def test_orthotropic_builder_round_trip_and_convention():
-    args = dict(E_x=100.0, E_y=80.0, E_z=50.0, nu_xy=0.2, nu_xz=0.25, nu_yz=0.3,
+    args = dict(E_xx=100.0, E_yy=80.0, E_zz=50.0, nu_xy=0.2, nu_xz=0.25, nu_yz=0.3,
                 G_yz=20.0, G_xz=25.0, G_xy=30.0)
     C = T.orthotropic_stiffness(**args)
     ec = T.engineering_constants(C)
@@ -258,7 +258,7 @@ def test_orthotropic_builder_round_trip_and_convention():
     e = uniaxial_strain(C, 2)
     assert ec.nu_zx == pytest.approx(-e[0] / e[2], rel=1e-12)
     # reciprocity nu_ij / E_i = nu_ji / E_j
-    assert ec.nu_zx / ec.E_z == pytest.approx(ec.nu_xz / ec.E_x, rel=1e-12)
+    assert ec.nu_zx / ec.E_zz == pytest.approx(ec.nu_xz / ec.E_xx, rel=1e-12)
     assert not ec.couplings
     with pytest.raises(GrainmechError, match="G_xy must be positive"):
         T.orthotropic_stiffness(**{**args, "G_xy": -1.0})
@@ -274,7 +274,7 @@ def test_engineering_constants_virtual_experiments(seed):
     names = "xyz"
     for i in range(3):
         e = uniaxial_strain(C, i)
-        assert getattr(ec, f"E_{names[i]}") == pytest.approx(1 / e[i], rel=1e-10)
+        assert getattr(ec, f"E_{names[i] * 2}") == pytest.approx(1 / e[i], rel=1e-10)
         for j in range(3):
             if i != j:
                 assert getattr(ec, f"nu_{names[i]}{names[j]}") == pytest.approx(
@@ -286,7 +286,7 @@ def test_engineering_constants_virtual_experiments(seed):
         e = uniaxial_strain(C, 3 + a)
         assert getattr(ec, f"G_{lab}") == pytest.approx(1 / e[3 + a], rel=1e-10)
     # directional moduli along the axes equal the engineering constants
-    assert np.allclose(T.directional_young(C, np.eye(3)), [ec.E_x, ec.E_y, ec.E_z], rtol=1e-10)
+    assert np.allclose(T.directional_young(C, np.eye(3)), [ec.E_xx, ec.E_yy, ec.E_zz], rtol=1e-10)
     assert T.directional_poisson(C, EX, EY) == pytest.approx(ec.nu_xy, rel=1e-9, abs=1e-12)
     assert T.directional_poisson(C, EZ, EX) == pytest.approx(ec.nu_zx, rel=1e-9, abs=1e-12)
     assert T.directional_shear(C, EY, EZ) == pytest.approx(ec.G_yz, rel=1e-10)
@@ -480,7 +480,7 @@ def test_rotated_orthotropic_from_engineering_constants(E_x, E_y, E_z, nus, Gs, 
     assert np.allclose(np.sort(M, axis=1)[:, -1], 1.0, atol=1e-8)
     # and the engineering constants in the natural frame are a permutation of the input
     got = T.engineering_constants(T.rotate_stiffness(T.rotate_stiffness(C, R), r.axes))
-    assert sorted([got.E_x, got.E_y, got.E_z]) == pytest.approx(sorted(ec), rel=1e-8)
+    assert sorted([got.E_xx, got.E_yy, got.E_zz]) == pytest.approx(sorted(ec), rel=1e-8)
 
 
 def test_symmetry_tolerance_semantics():
@@ -553,7 +553,7 @@ def test_tensor4_input_accepted():
     C = T.transversely_isotropic_stiffness(10.0, 0.25, 6.0, 0.2, 2.0, axis=[0, 1, 0])
     r = T.symmetry_class(matrix_to_tensor4(C))
     assert r.name == "transversely isotropic" and np.allclose(r.axis, EY)
-    assert T.engineering_constants(matrix_to_tensor4(C)).E_y == pytest.approx(6.0)
+    assert T.engineering_constants(matrix_to_tensor4(C)).E_yy == pytest.approx(6.0)
     C2 = T.isotropic_stiffness(E=2.0, nu=0.3, dim=2)
     assert T.symmetry_class(matrix_to_tensor4(C2)).name == "isotropic"
     assert T.isotropic_constants(matrix_to_tensor4(C2)).E == pytest.approx(2.0)
@@ -633,3 +633,23 @@ def test_trigonal_nearly_aligned_frame_is_not_snapped_off_its_twofold_axis():
     assert r.name == "trigonal"
     Cn = T.rotate_stiffness(Cr, r.axes)
     assert abs(Cn[0, 4]) < 1e-10 * np.abs(Cn).max()
+
+
+@pytest.mark.parametrize("C", [
+    np.diag([3.0, 4.0, 5.0, 1.0, 1.5, 2.0]) + 0.5 * (np.ones((6, 6)) - np.eye(6)) * np.r_[1, 1, 1, 0, 0, 0][:, None]
+    * np.r_[1, 1, 1, 0, 0, 0][None, :],
+    np.array([[3.0, 1.0, 0.4], [1.0, 2.0, 0.3], [0.4, 0.3, 1.5]]),
+])
+def test_engineering_constants_names_are_the_dict_keys_and_hold_floats(C):
+    """The attributes of EngineeringConstants are the keys of as_dict(), all Python floats
+    (a monoclinic 2D example also carries couplings)."""
+    import dataclasses
+
+    ec = T.engineering_constants(C)
+    d = ec.as_dict()
+    names = [f.name for f in dataclasses.fields(ec) if f.name != "couplings"]
+    assert list(d)[:len(names)] == names
+    for k in names:
+        assert type(getattr(ec, k)) is float and d[k] == getattr(ec, k)
+    assert all(type(v) is float for v in ec.couplings.values())
+    assert ec.E_xx == pytest.approx(1.0 / np.linalg.inv(C)[0, 0], rel=1e-14)  # Lekhnitskii: E_x = 1/S_11

@@ -33,7 +33,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("Packing", "packing_stiffness", "StiffnessResult"), "grainmech.material"),
     **dict.fromkeys(("ContactSet", "stiffness", "love_weber_stress"), "grainmech.assembly"),
     **dict.fromkeys(("engineering_constants", "symmetry_class", "bulk_modulus", "shear_modulus"),
-                    "grainmech.tensors"),
+                    "grainmech.elasticity"),
     # material-point driver and loading paths
     **dict.fromkeys(("MaterialPoint", "run", "segment", "cycles", "concatenate", "cyclic_simple_shear",
                      "triaxial", "DriverResult"), "grainmech.driver"),

@@ -97,7 +97,7 @@ class StiffnessOutcome:
 def execute_stiffness(spec: StiffnessSpec) -> StiffnessOutcome:
     """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class."""
     from grainmech.material import packing_stiffness
-    from grainmech.tensors import engineering_constants, symmetry_class
+    from grainmech.elasticity import engineering_constants, symmetry_class
 
     res = packing_stiffness(spec.packing, spec.contacts, spec.stress)
     return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.packing,
@@ -122,7 +122,7 @@ def stiffness_scalars(out: StiffnessOutcome) -> dict[str, Any]:
     coupling coefficients omitted), ``symmetry`` (class name), ``mean_stress [Pa]`` and the
     Voigt components ``C11 [Pa]`` ... (upper triangle, library order).
     """
-    from grainmech.tensors import bulk_modulus, shear_modulus
+    from grainmech.elasticity import bulk_modulus, shear_modulus
 
     C = np.asarray(out.result.C, dtype=float)
     dim = out.dim
@@ -671,7 +671,7 @@ class DemOutcome:
 def execute_dem(spec: DemSpec) -> DemOutcome:
     """Read the network and compute :func:`grainmech.network.network_report`."""
     from grainmech.io.dem import read_network
-    from grainmech.network import network_report
+    from grainmech.network import network_report_json as network_report
 
     net = read_network(spec.contacts, spec.particles, **spec.read)
     return DemOutcome(net, network_report(net, **spec.options))
@@ -686,7 +686,7 @@ def dem_scalars(out: DemOutcome) -> dict[str, Any]:
     """Scalar outputs of a network report: counts, stress invariants, coordination,
     fabric anisotropy, Hill moduli and engineering constants of the affine and relaxed
     stiffness (empty when not computed)."""
-    from grainmech.tensors import bulk_modulus, shear_modulus
+    from grainmech.elasticity import bulk_modulus, shear_modulus
 
     rep = out.report
     row: dict[str, Any] = {"n_particles": int(rep["n_particles"]), "n_contacts": int(rep["n_contacts"]),

@@ -187,7 +187,7 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
     """Engineering constants at each row's pressure (seed Eq. 2.41, Hertz-Mindlin Eq. 4.43)."""
     from grainmech.io.schema import build_fabric, build_law
     from grainmech.material import packing_stiffness
-    from grainmech.tensors import engineering_constants
+    from grainmech.elasticity import engineering_constants
 
     targets = [t for t in KINDS["modulus-pressure"].targets if data.has(t)]
     out = {t: np.empty(len(data)) for t in targets}
@@ -241,7 +241,7 @@ def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) 
 def _predict_directional(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Apparent modulus (seed Eq. 6.1) and Poisson's ratio (Eq. 6.2 corrected) against alpha."""
     from grainmech.analysis import apparent_moduli
-    from grainmech.tensors import directional_poisson, directional_young
+    from grainmech.elasticity import directional_poisson, directional_young
 
     C, dim = _stiffness_at_stress(model, KINDS["directional"].model_keys, validate)
     alpha = data["alpha"]
@@ -349,11 +349,11 @@ def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: b
     if validate:
         root.finish()
     try:
-        from grainmech.reproduce import random_rods
+        from grainmech.rods import random_packing as random_rods
     except ModuleNotFoundError as exc:  # pragma: no cover - depends on the checkout
         raise GrainmechError("data kind 'rod-strains' needs grainmech.reproduce.random_rods") from exc
     if kind in ("square", "hexagonal"):
-        from grainmech.reproduce.rods import regular_packing
+        from grainmech.rods import regular_packing
 
         cs = regular_packing(kind, diameter=settings["diameter"])
     else:

@@ -288,7 +288,7 @@ def _result(success: bool, status: int, message: str, arr: dict, point: Material
             options: SolverOptions) -> DriverResult:
     eng: dict = {}
     if options.engineering:
-        from grainmech.tensors import engineering_constants
+        from grainmech.elasticity import engineering_constants
 
         dicts = []
         for C in arr["tangent"]:

@@ -16,7 +16,7 @@ Main entry points
 from __future__ import annotations
 
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
-from grainmech.fabric.fit import FitResult, NegativeDensityWarning, fabric_tensor, fit_density
+from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
 from grainmech.fabric.fourier import FourierDensity
 from grainmech.fabric.harmonics import (
     SphericalDensity,
@@ -99,7 +99,7 @@ __all__ = [
     "CorrelationRangeWarning",
     "DensityBase",
     "DensityExtremum",
-    "FitResult",
+    "DensityFit",
     "FourierDensity",
     "LEBEDEV_NEGATIVE_WEIGHT_ORDERS",
     "LEBEDEV_ORDERS",

@@ -52,7 +52,7 @@ from grainmech.fabric._basis import fourier_index_arrays, real_fourier, real_sh
 from grainmech.fabric.fourier import FourierDensity
 from grainmech.fabric.harmonics import SphericalDensity, _seed_factor, sh_degrees_orders
 
-__all__ = ["fabric_tensor", "fit_density", "FitResult", "NegativeDensityWarning"]
+__all__ = ["fabric_tensor", "fit_density", "DensityFit", "NegativeDensityWarning"]
 
 _CHUNK = 65536
 
@@ -95,7 +95,7 @@ def fabric_tensor(normals: object, rank: int = 2, weights: object | None = None)
 
 
 @dataclass(frozen=True, eq=False)
-class FitResult:
+class DensityFit:
     """Result of :func:`fit_density`.
 
     Attributes
@@ -243,7 +243,7 @@ def _chi_square(n: np.ndarray, w: np.ndarray, density: DensityBase, n_bins: int
 
 def fit_density(normals: object, order: int, weights: object | None = None,
                 on_negative: Literal["warn", "raise", "shrink", "allow"] = "warn",
-                n_bins: int | None = None) -> FitResult:
+                n_bins: int | None = None) -> DensityFit:
     """Fit a contact-normal density of even ``order`` to measured unit normals.
 
     Parameters
@@ -269,7 +269,7 @@ def fit_density(normals: object, order: int, weights: object | None = None,
 
     Returns
     -------
-    FitResult
+    DensityFit
     """
     n = _checks.as_normals(normals)
     if n.ndim != 2:
@@ -347,7 +347,7 @@ def fit_density(normals: object, order: int, weights: object | None = None,
             if min_exp < 5:
                 notes.append(f"smallest expected bin count {min_exp:.3g} < 5: chi-square "
                              "approximation is rough")
-    return FitResult(
+    return DensityFit(
         density=dens, coefficients=c, covariance=cov, standard_errors=se,
         seed_coefficients=_seed_from_vector(c, L, d),
         seed_standard_errors={k: (abs(a), abs(b)) for k, (a, b) in

@@ -17,7 +17,7 @@ import numpy as np
 
 from grainmech.closed_form import packing_scale, spheres_second_order
 from grainmech.reproduce._base import FigureData, long_table
-from grainmech.tensors import engineering_constants
+from grainmech.elasticity import engineering_constants
 
 __all__ = ["INPUTS", "FABRICS", "moduli", "fig4_3", "fig4_4", "fig4_5", "fig4_6", "fig4_7"]
 

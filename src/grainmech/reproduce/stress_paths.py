@@ -21,7 +21,7 @@ from grainmech.driver import MaterialPoint, fig610_path, fig610_stress, geometry
 from grainmech.fabric import coordination_number, isotropic
 from grainmech.material import Packing
 from grainmech.reproduce._base import FigureData, long_table
-from grainmech.tensors import engineering_constants
+from grainmech.elasticity import engineering_constants
 
 __all__ = ["PATHS", "INPUTS", "critical_ratio", "compute", "fig6_10", "fig6_11", "fig6_12"]
 

@@ -1,0 +1,209 @@
+"""Sparse symmetric positive-definite solvers for the relaxed stiffness (several right-hand
+sides at once).
+
+* ``cholesky`` - sparse Cholesky factorisation (CHOLMOD, supernodal, fill-reducing
+  ordering) from the optional package ``cholespy``; factor once, solve all columns.
+* ``superlu`` - SciPy's SuperLU with the symmetric ordering ``MMD_AT_PLUS_A`` and
+  diagonal pivoting (the SciPy-only direct fallback).
+* ``amg`` - conjugate gradients preconditioned by one V-cycle of smoothed-aggregation
+  algebraic multigrid (optional package ``pyamg``; Vanek, Mandel & Brezina 1996), the
+  rigid modes of one particle (unit translations and rotations of every particle) as the
+  near-null space.
+* ``cg`` - block-Jacobi preconditioned conjugate gradients (NumPy/SciPy only).
+
+``docs/performance.md`` has the measurements behind :func:`choose`.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from typing import Any
+
+import numpy as np
+
+from grainmech.errors import GrainmechError
+
+__all__ = ["METHODS", "available", "choose", "solve_spd", "block_cg"]
+
+#: Names accepted by :func:`solve_spd` (``direct``: the best direct method installed).
+METHODS = ("auto", "direct", "cholesky", "superlu", "amg", "cg")
+
+#: Unknowns up to which ``auto`` uses a direct factorisation (above: AMG-CG if pyamg is
+#: installed); see ``docs/performance.md``.
+DIRECT_LIMIT_CHOLESKY = 150_000
+DIRECT_LIMIT_SUPERLU = 20_000
+
+
+def available(method: str) -> bool:
+    """True if the optional package behind ``method`` is installed."""
+    pkg = {"cholesky": "cholespy", "amg": "pyamg"}.get(method)
+    return pkg is None or importlib.util.find_spec(pkg) is not None
+
+
+def choose(method: str, n: int) -> str:
+    """The method :func:`solve_spd` runs for ``method`` and ``n`` unknowns.
+
+    ``auto``: a direct factorisation up to :data:`DIRECT_LIMIT_CHOLESKY` unknowns with
+    cholespy (:data:`DIRECT_LIMIT_SUPERLU` with SuperLU, whose fill-in and time grow
+    faster), AMG-preconditioned CG above when pyamg is installed, else block-Jacobi CG.
+    ``direct``: cholesky if installed, else superlu.
+    """
+    if method not in METHODS:
+        raise GrainmechError(f"solver must be one of {', '.join(METHODS)}; got {method!r}")
+    have_chol, have_amg = available("cholesky"), available("amg")
+    if method == "direct":
+        return "cholesky" if have_chol else "superlu"
+    if method == "auto":
+        if have_chol and (n <= DIRECT_LIMIT_CHOLESKY or not have_amg):
+            return "cholesky"
+        if n <= DIRECT_LIMIT_SUPERLU:
+            return "superlu"
+        return "amg" if have_amg else "cg"
+    if not available(method):
+        pkg = {"cholesky": "cholespy", "amg": "pyamg"}[method]
+        raise GrainmechError(f"solver {method!r} needs the optional package {pkg} "
+                             "(pip install 'grainmech[fast]')")
+    return method
+
+
+def _factor_solve(A: Any, rhs: np.ndarray, method: str) -> tuple[Any, np.ndarray]:
+    """Factor ``A`` (CSR, SPD) and solve ``A X = rhs`` for all columns; returns the solve."""
+    import scipy.sparse as sp
+
+    if method == "cholesky":
+        from cholespy import CholeskySolverD, MatrixType
+
+        Ac = sp.csr_matrix(A)
+        try:
+            f = CholeskySolverD(Ac.shape[0], Ac.indptr.astype(np.int32), Ac.indices.astype(np.int32),
+                                np.ascontiguousarray(Ac.data, dtype=float), MatrixType.CSR)
+        except (ValueError, RuntimeError) as exc:
+            raise GrainmechError(f"relaxed stiffness: Cholesky factorisation failed ({exc})") from None
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            b = np.ascontiguousarray(b, dtype=float)
+            x = np.zeros_like(b)
+            f.solve(b, x)
+            return x
+    else:
+        import scipy.sparse.linalg as spla
+
+        try:
+            lu = spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+        except RuntimeError as exc:  # exactly singular even after regularisation
+            raise GrainmechError(f"relaxed stiffness: factorisation failed ({exc})") from None
+        solve = lu.solve
+    return solve, solve(rhs)
+
+
+def _amg_cg(A: Any, rhs: np.ndarray, dof_type: np.ndarray, tol: float, maxiter: int
+            ) -> tuple[np.ndarray, int]:
+    """CG with a smoothed-aggregation AMG V-cycle as preconditioner, column by column."""
+    import pyamg
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    n = A.shape[0]
+    # near-null space: the same unit translation / rotation of every particle
+    Bn = np.zeros((n, int(dof_type.max()) + 1))
+    Bn[np.arange(n), dof_type] = 1.0
+    ml = pyamg.smoothed_aggregation_solver(sp.csr_matrix(A), B=Bn, symmetry="symmetric",
+                                           strength=("symmetric", {"theta": 0.0}),
+                                           smooth=("jacobi", {"omega": 4.0 / 3.0}),
+                                           max_coarse=2000)
+    M = ml.aspreconditioner(cycle="V")
+    X = np.zeros_like(rhs)
+    iters = 0
+    for k in range(rhs.shape[1]):
+        count = [0]
+
+        def cb(_: Any, c: list[int] = count) -> None:
+            c[0] += 1
+        x, info = spla.cg(A, rhs[:, k], rtol=tol, atol=0.0, maxiter=maxiter, M=M, callback=cb)
+        X[:, k] = x
+        iters = max(iters, count[0])
+    return X, iters
+
+
+def block_cg(H: Any, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxiter: int,
+             ref: np.ndarray) -> tuple[np.ndarray, int, float]:
+    """Block-Jacobi preconditioned CG, all right-hand sides at once (columns independent).
+
+    Works on the singular ``H`` (zero modes are not excited: the right-hand sides lie in
+    its range). Returns the solution, the iterations and the largest relative residual.
+    """
+    P, b, _ = diag_blocks.shape
+    # pseudo-inverse of each diagonal block (handles zero rotation blocks)
+    Minv = np.linalg.pinv(diag_blocks, hermitian=True)
+
+    def prec(r: np.ndarray) -> np.ndarray:
+        return np.matmul(Minv, r.reshape(P, b, -1)).reshape(r.shape)
+
+    x = np.zeros_like(rhs)
+    r = rhs.copy()
+    z = prec(r)
+    p = z.copy()
+    rz = np.einsum("ij,ij->j", r, z)
+    nb = np.maximum(np.linalg.norm(rhs, axis=0), ref)
+    nb[nb == 0] = 1.0
+    it = 0
+    res = np.linalg.norm(r, axis=0) / nb
+    while it < maxiter and res.max() > tol:
+        Hp = H @ p
+        pHp = np.einsum("ij,ij->j", p, Hp)
+        active = pHp > 0
+        alpha = np.where(active, rz / np.where(active, pHp, 1.0), 0.0)
+        x += p * alpha
+        r -= Hp * alpha
+        z = prec(r)
+        rz_new = np.einsum("ij,ij->j", r, z)
+        beta = np.where(rz > 0, rz_new / np.where(rz > 0, rz, 1.0), 0.0)
+        p = z + p * beta
+        rz = rz_new
+        it += 1
+        res = np.linalg.norm(r, axis=0) / nb
+    return x, it, float(res.max())
+
+
+def solve_spd(A: Any, rhs: np.ndarray, method: str, *, dof_type: np.ndarray, shift: np.ndarray | None = None,
+              tol: float = 1e-10, maxiter: int = 20000, refine: int = 3) -> tuple[np.ndarray, int]:
+    """Solve ``A X = rhs`` (``A`` sparse symmetric positive semi-definite, ``rhs`` (n, k) in
+    its range) with ``method`` (``cholesky``, ``superlu`` or ``amg``; see :func:`choose`).
+
+    Parameters
+    ----------
+    dof_type : int array (n,)
+        Kind of each unknown (translation x, y, z, rotation x, y, z) for the AMG near-null
+        space.
+    shift : array (n,), optional
+        Diagonal added to ``A`` before it is factored (lifts the zero modes). Direct
+        methods then refine against ``A`` itself (``X += F^-1 (rhs - A X)``, at most
+        ``refine`` steps while the relative residual is above ``tol``), so the shift does
+        not change the answer in the range of ``A``.
+
+    Returns
+    -------
+    X : array (n, k)
+    iterations : int
+        Solves with the factor (1 + refinement steps) for direct methods, the most CG
+        iterations of any column for ``amg``.
+    """
+    import scipy.sparse as sp
+
+    As = A if shift is None else (A + sp.diags(shift)).tocsr()
+    if method in ("cholesky", "superlu"):
+        solve, X = _factor_solve(As, rhs, method)
+        nb = np.linalg.norm(rhs, axis=0)
+        nb[nb == 0] = 1.0
+        steps = 1
+        for _ in range(refine):
+            R = rhs - A @ X
+            if np.max(np.linalg.norm(R, axis=0) / nb) <= tol:
+                break
+            X = X + solve(R)
+            steps += 1
+        return X, steps
+    if method == "amg":
+        return _amg_cg(As, rhs, dof_type, tol, maxiter)
+    raise GrainmechError(f"solve_spd: unknown method {method!r}")
