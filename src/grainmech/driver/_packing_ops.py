@@ -33,7 +33,7 @@ def strain_tensor(e: np.ndarray) -> np.ndarray:
 
 def voigt_of(f: np.ndarray, l_: np.ndarray) -> np.ndarray:
     """``E^T f``: Voigt vector (6,) of ``sym(sum_c f_c (x) l_c)`` (seed Eq. 2.6 times V)."""
-    S = f.T @ l_
+    S = np.einsum("ci,cj->ij", f, l_)  # no BLAS call: small products pay thread start-up costs
     return np.array([S[0, 0], S[1, 1], S[2, 2], 0.5 * (S[1, 2] + S[2, 1]),
                      0.5 * (S[0, 2] + S[2, 0]), 0.5 * (S[0, 1] + S[1, 0])])
 
@@ -117,7 +117,7 @@ class Kinematics:
 
     def delta(self, dq: np.ndarray, de: np.ndarray) -> np.ndarray:
         """Relative displacement (C, 3) of ``dq`` (n_free,) and strain ``de`` (6,)."""
-        return (self.G @ dq + self.E @ de).reshape(-1, 3)
+        return (self.G @ dq).reshape(-1, 3) + np.einsum("cj,ij->ci", self.l, strain_tensor(de))
 
     def balance(self, f: np.ndarray) -> np.ndarray:
         """Out-of-balance forces and moments ``G^T f`` (n_free,) of forces ``f`` (C, 3)."""
@@ -226,6 +226,6 @@ class Preconditioner:
         if not S.any():
             return z, re[:0]
         Bs, Ys = self.B0[:, S], self.Y[:, S]
-        Sc = self.A0[np.ix_(S, S)] - Bs.T @ Ys
-        ye = np.linalg.solve(Sc, re - Bs.T @ z)
-        return z - Ys @ ye, ye
+        Sc = self.A0[np.ix_(S, S)] - np.einsum("ik,il->kl", Bs, Ys)
+        ye = np.linalg.solve(Sc, re - np.einsum("ik,i->k", Bs, z))
+        return z - np.einsum("ik,k->i", Ys, ye), ye
