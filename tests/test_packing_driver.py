@@ -187,3 +187,17 @@ def test_results_are_driver_results(point):
     assert isinstance(r, DriverResult)
     assert r.strain.shape == (5, 6) and r.residual.shape == (5,) and r.final.n_grains == point.n_grains
     assert np.all(r.dissipation >= 0) and np.all(np.diff(r.dissipation) >= -1e-12 * r.dissipation.max())
+
+
+def test_at_stress_then_modulus_reduction(packing):
+    """The run-config entry point: network + law + confining stress -> ModulusReduction."""
+    p0 = PackingPoint.from_network(packing, MD).stress[:3].mean()
+    pt = PackingPoint.at_stress(packing, MD, 0.5 * p0, n_steps=4)
+    assert np.allclose(pt.stress, 0.5 * p0 * np.array([1, 1, 1, 0, 0, 0]), rtol=0, atol=1e-7 * p0)
+    assert pt.strain[:3].sum() < 0  # unloading: the packing dilates
+    mr = packing_modulus_reduction(pt, [1e-5], n_cycles=1, steps_per_cycle=8)
+    g_full = PackingPoint.from_network(packing, MD).tangent[4, 4]
+    # Hertz: G ~ p^(1/3) at fixed fabric (seed Eq. 3.7/3.11 with a ~ N^(1/3)); loose bound for the relaxed tensor
+    assert 0.7 < mr.G_max / g_full < 0.9
+    with pytest.raises(ConfigError, match="sigma"):
+        PackingPoint.at_stress(packing, MD, -1.0)

@@ -73,9 +73,10 @@ class PackingOptions:
         (rigid translation removed) exceeds this fraction of its radius.
     max_strain : float
         Small-strain bound: stop (status 2) when a strain component exceeds this.
-    tangent : {"start", "ends", "every"}
-        Steps whose relaxed 6x6 tangent is computed (``DriverResult.tangent``); rows not
-        computed are NaN. ``"every"`` costs six linear solves per step.
+    tangent : {"none", "start", "ends", "every"}
+        Steps whose relaxed 6x6 tangent is computed (``DriverResult.tangent``; ``"start"``
+        is the initial state, ``"ends"`` also the last); rows not computed are NaN.
+        Each costs six GMRES solves (about a second for 2000 grains).
     factorization : {"auto", "cholespy", "superlu"}
         Sparse Cholesky (cholespy, optional dependency) or SciPy's SuperLU.
     law_backend : str or None
@@ -112,8 +113,8 @@ class PackingOptions:
         if not (self.max_fluctuation > 0 and self.max_strain > 0):
             raise ConfigError("max_fluctuation/max_strain", (self.max_fluctuation, self.max_strain),
                               "must be positive")
-        if self.tangent not in ("start", "ends", "every"):
-            raise ConfigError("tangent", self.tangent, "must be 'start', 'ends' or 'every'")
+        if self.tangent not in ("none", "start", "ends", "every"):
+            raise ConfigError("tangent", self.tangent, "must be 'none', 'start', 'ends' or 'every'")
         if self.factorization not in ("auto", "cholespy", "superlu"):
             raise ConfigError("factorization", self.factorization, "must be 'auto', 'cholespy' or 'superlu'")
 
@@ -380,7 +381,7 @@ class PackingPoint:
         pt = replace(pt, notes=pt.notes + (f"input unbalanced force ratio {ufr:.3g}",))
         if equilibrate:
             res = run_packing(pt, LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6))),
-                              options=replace(opts, tangent="start"))
+                              options=replace(opts, tangent="none"))
             if not res.success:
                 raise GrainmechError(f"{net.source or 'network'}: equilibrating the input failed: {res.message}")
             eq = res.final
@@ -388,8 +389,41 @@ class PackingPoint:
             pt = replace(eq, strain=np.zeros(6), q=np.zeros_like(eq.q),
                          notes=eq.notes + (f"equilibrated at fixed strain: stress changed by {ds:.3g} "
                                            "(relative); residual fluctuations reset to zero",),
-                         _cache={})
+                         _cache={"prec": pt.preconditioner()})  # same contacts, same elastic operator to ~ufr
         return pt
+
+    @classmethod
+    def at_stress(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], *, n_steps: int = 10,
+                  options: PackingOptions | None = None, **from_network: Any) -> "PackingPoint":
+        """Packing point brought to a confining stress by a stress-controlled straight path.
+
+        :meth:`from_network`, then ``n_steps`` all-stress-controlled steps of
+        :func:`run_packing` from the packing's stress to ``sigma`` (a pressure ``p`` means
+        ``p I``), with the contact laws' history. The strain of the path is kept.
+
+        Raises
+        ------
+        GrainmechError
+            If the path fails or leaves the small-strain range (the message says where).
+        """
+        from grainmech.driver import segment
+
+        sig = np.asarray(sigma, dtype=float)
+        if sig.ndim == 0:
+            if not (math.isfinite(float(sig)) and float(sig) > 0):
+                raise ConfigError("sigma", float(sig), "a confining pressure must be positive (compression positive)")
+            sig = float(sig) * np.array([1.0, 1, 1, 0, 0, 0])
+        if sig.shape != (6,) or not np.all(np.isfinite(sig)):
+            raise ConfigError("sigma", np.shape(sigma), "must be a pressure or a finite (6,) stress vector")
+        opts = options or PackingOptions()
+        pt = cls.from_network(net, params, options=opts, **from_network)
+        res = run_packing(pt, segment("SSSSSS", sig - pt.stress, n_steps), replace(opts, tangent="none"))
+        if not res.success:
+            raise GrainmechError(f"{net.source or 'network'}: bringing the packing to the stress "
+                                 f"{np.round(sig, 6).tolist()} failed: {res.message}")
+        return replace(res.final, notes=res.final.notes + (
+            f"brought from the input stress to {np.round(sig, 6).tolist()} in {n_steps} stress-controlled steps "
+            f"(volumetric strain {float(res.final.strain[:3].sum()):.3g})",), _cache={})
 
     # ------------------------------------------------------------------ derived
     @property
@@ -863,7 +897,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
 
     rows["strain"].append(point.strain.copy())
     rows["stress"].append(point.stress.copy())
-    rows["tangent"].append(point.tangent)
+    rows["tangent"].append(nan66 if opts.tangent == "none" else point.tangent)
     sl0, op0 = point.fractions()
     for k, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("stored", point.stored_energy()),
                  ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
@@ -1023,7 +1057,7 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
     else:
         prep = Hertz(params.shear_modulus, params.poisson, params.radius1, params.radius2,  # type: ignore[attr-defined]
                      params.shear_modulus2, params.poisson2)  # type: ignore[attr-defined]
-    opts = options or PackingOptions(max_iter=200, max_depth=0, max_backtracks=30, tangent="start",
+    opts = options or PackingOptions(max_iter=200, max_depth=0, max_backtracks=30, tangent="none",
                                      max_fluctuation=0.2, max_strain=0.05)
     pt = PackingPoint.from_network(net, prep, forces="overlap", gap=gap, max_unbalanced=math.inf,
                                    equilibrate=False, options=opts)
