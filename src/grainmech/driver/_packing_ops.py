@@ -1,0 +1,231 @@
+"""Kinematics, residuals and linear algebra of the packing driver (private).
+
+Conventions (as :func:`grainmech.network.relaxed_stiffness`, ``docs/packing-driver.md``):
+every tracked contact ``c`` joins grains ``A = a[c]`` and ``B = b[c]`` (rows of the
+non-rattler grains), branch ``l = x_B - x_A`` (periodic image), unit normal ``n = l/|l|``,
+lever arms ``r_A = R_A n`` and ``r_B = -R_B n``. Each grain has six fluctuation
+unknowns ``q_p = (u_p, theta_p)``; with the engineering Voigt strain ``e``
+(compression positive) the relative displacement of the contact is
+
+``Delta_c = eps . l_c + u_A - u_B + theta_A x r_A - theta_B x r_B = G_c q + E_c e``
+
+(seed Eq. 2.13 for the affine part). The force ``f_c`` (by A on B, compression positive)
+is work-conjugate to ``Delta_c``, so the out-of-balance force and moment of every grain
+is ``G^T f`` and ``V sigma = E^T f`` (Love-Weber, seed Eq. 2.6).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__: list[str] = []
+
+
+def strain_tensor(e: np.ndarray) -> np.ndarray:
+    """(3, 3) strain tensor of an engineering Voigt vector (xx, yy, zz, yz, xz, xy)."""
+    return np.array([[e[0], 0.5 * e[5], 0.5 * e[4]],
+                     [0.5 * e[5], e[1], 0.5 * e[3]],
+                     [0.5 * e[4], 0.5 * e[3], e[2]]])
+
+
+def voigt_of(f: np.ndarray, l_: np.ndarray) -> np.ndarray:
+    """``E^T f``: Voigt vector (6,) of ``sym(sum_c f_c (x) l_c)`` (seed Eq. 2.6 times V)."""
+    S = np.einsum("ci,cj->ij", f, l_)  # no BLAS call: small products pay thread start-up costs
+    return np.array([S[0, 0], S[1, 1], S[2, 2], 0.5 * (S[1, 2] + S[2, 1]),
+                     0.5 * (S[0, 2] + S[2, 0]), 0.5 * (S[0, 1] + S[1, 0])])
+
+
+def _cross_rows(r: np.ndarray) -> np.ndarray:
+    """[r]_x with [r]_x v = r x v, shape (C, 3, 3)."""
+    X = np.zeros(r.shape[:-1] + (3, 3))
+    X[..., 0, 1] = -r[..., 2]
+    X[..., 0, 2] = r[..., 1]
+    X[..., 1, 0] = r[..., 2]
+    X[..., 1, 2] = -r[..., 0]
+    X[..., 2, 0] = -r[..., 1]
+    X[..., 2, 1] = r[..., 0]
+    return X
+
+
+@dataclass(frozen=True, eq=False)
+class Kinematics:
+    """Fixed reference geometry of the tracked contacts and its linear maps.
+
+    Attributes
+    ----------
+    a, b : int arrays (C,)
+        Grain rows (non-rattlers) of A and B.
+    n, l : arrays (C, 3)
+        Unit normal and branch vector [length].
+    free : bool array (6 P,)
+        Unknowns solved for (the translation of grain 0 is pinned: global translation).
+    G : sparse (3C, n_free)
+        ``Delta = G q_free + E e``.
+    Gt : sparse (n_free, 3C)
+        Its transpose (CSR): out-of-balance forces and moments ``G^T f``.
+    E : array (3C, 6)
+        Affine map of the engineering strain.
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    n: np.ndarray
+    l: np.ndarray
+    n_grains: int
+    free: np.ndarray
+    G: sp.csr_matrix
+    Gt: sp.csr_matrix
+    E: np.ndarray
+
+    @classmethod
+    def build(cls, a: np.ndarray, b: np.ndarray, n: np.ndarray, l_: np.ndarray, RA: np.ndarray,
+              RB: np.ndarray, n_grains: int) -> "Kinematics":
+        C = a.size
+        rA = RA[:, None] * n
+        rB = -RB[:, None] * n
+        blk = np.zeros((C, 3, 12))
+        blk[:, :, 0:3] = np.eye(3)
+        blk[:, :, 3:6] = -_cross_rows(rA)
+        blk[:, :, 6:9] = -np.eye(3)
+        blk[:, :, 9:12] = _cross_rows(rB)
+        cols = np.concatenate([6 * a[:, None] + np.arange(6), 6 * b[:, None] + np.arange(6)], axis=1)
+        rows = 3 * np.arange(C)[:, None, None] + np.arange(3)[None, :, None]
+        G = sp.csr_matrix((blk.ravel(), (np.broadcast_to(rows, blk.shape).ravel(),
+                                         np.broadcast_to(cols[:, None, :], blk.shape).ravel())),
+                          shape=(3 * C, 6 * n_grains))
+        free = np.ones(6 * n_grains, dtype=bool)
+        free[:3] = False
+        Gf = G[:, free].tocsr()
+        Gf.eliminate_zeros()
+        E = np.zeros((C, 3, 6))
+        for k in range(6):
+            unit = np.zeros(6)
+            unit[k] = 1.0
+            E[:, :, k] = l_ @ strain_tensor(unit)
+        return cls(a, b, n, l_, int(n_grains), free, Gf, Gf.T.tocsr(), E.reshape(3 * C, 6))
+
+    @property
+    def n_contacts(self) -> int:
+        return int(self.a.size)
+
+    @property
+    def n_free(self) -> int:
+        return int(self.free.sum())
+
+    def delta(self, dq: np.ndarray, de: np.ndarray) -> np.ndarray:
+        """Relative displacement (C, 3) of ``dq`` (n_free,) and strain ``de`` (6,)."""
+        return (self.G @ dq).reshape(-1, 3) + np.einsum("cj,ij->ci", self.l, strain_tensor(de))
+
+    def balance(self, f: np.ndarray) -> np.ndarray:
+        """Out-of-balance forces and moments ``G^T f`` (n_free,) of forces ``f`` (C, 3)."""
+        return self.Gt @ f.reshape(-1)
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        """(P, 6) array of a free-dof vector (pinned entries zero)."""
+        out = np.zeros(6 * self.n_grains)
+        out[self.free] = x
+        return out.reshape(self.n_grains, 6)
+
+
+def contact_tangent(n: np.ndarray, kn: np.ndarray, ks: np.ndarray, ks_perp: np.ndarray,
+                    ktn: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Consistent contact tangent ``dF/dDelta`` (C, 3, 3).
+
+    ``K = kn n n + ks_perp (I - n n) + (ks - ks_perp) e e + ktn e n`` with ``e`` the slip
+    axis and ``ktn = d tau / d alpha`` (seed Eq. 3.11; Thornton & Randall 1988), as the
+    material-point driver assembles it (``docs/driver.md``).
+    """
+    nn = n[:, :, None] * n[:, None, :]
+    ee = axis[:, :, None] * axis[:, None, :]
+    en = axis[:, :, None] * n[:, None, :]
+    K = (kn - ks_perp)[:, None, None] * nn + ks_perp[:, None, None] * np.eye(3)
+    K += (ks - ks_perp)[:, None, None] * ee + ktn[:, None, None] * en
+    return K
+
+
+def block_diagonal(K: np.ndarray) -> sp.bsr_matrix:
+    """Block-diagonal sparse matrix of (C, 3, 3) blocks."""
+    C = K.shape[0]
+    return sp.bsr_matrix((K, np.arange(C), np.arange(C + 1)), shape=(3 * C, 3 * C))
+
+
+class _Factor:
+    """Sparse symmetric positive definite factorisation (cholespy if importable, else SuperLU)."""
+
+    def __init__(self, A: sp.spmatrix, backend: str) -> None:
+        self.name = "superlu"
+        if backend in ("auto", "cholespy"):
+            try:
+                import cholespy
+            except ImportError:
+                if backend == "cholespy":
+                    raise
+            else:
+                c = A.tocoo()
+                self._s = cholespy.CholeskySolverD(A.shape[0], c.row.astype(np.int32),
+                                                   c.col.astype(np.int32), np.ascontiguousarray(c.data),
+                                                   cholespy.MatrixType.COO)
+                self.name = "cholespy"
+                return
+        import scipy.sparse.linalg as spla
+
+        self._lu = spla.splu(A.tocsc())
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        if self.name == "cholespy":
+            b = np.ascontiguousarray(b, dtype=float)
+            x = np.zeros_like(b)
+            self._s.solve(b, x)
+            return x
+        return self._lu.solve(b)
+
+
+class Preconditioner:
+    """Exact inverse of the bordered elastic operator ``[[H0, B0_S], [B0_S^T, A0_SS]]``.
+
+    ``H0 = G^T K0 G`` with the symmetric elastic contact stiffness ``K0 = kn n n +
+    ks_perp (I - n n)`` (no slip) of the state it was built from, regularised by
+    ``1e-10 diag`` (floppy modes: free rotations of frictionless grains, a grain held by
+    two contacts); ``B0 = G^T K0 E``, ``A0 = E^T K0 E``. The stress-controlled strains
+    are eliminated by the Schur complement. Also provides the Jacobi scaling ``D``.
+    """
+
+    def __init__(self, kin: Kinematics, K0: np.ndarray, backend: str = "auto") -> None:
+        Kb = block_diagonal(K0)
+        KG = (Kb @ kin.G).tocsr()
+        H = (kin.Gt @ KG).tocsr()
+        dg = H.diagonal().copy()
+        rot = np.tile(np.arange(6) >= 3, kin.n_grains)[kin.free]
+        # floors of the translational [force/length] and rotational [force length] diagonals
+        dt = dg[~rot]
+        ft = float(np.median(dt[dt > 0])) if np.any(dt > 0) else 1.0
+        r2 = float(np.mean(np.einsum("ij,ij->i", kin.l, kin.l))) / 4.0
+        dr = dg[rot]
+        okr = dr > 1e-8 * ft * r2
+        fr = float(np.median(dr[okr])) if okr.any() else ft * r2
+        floor = np.where(rot, fr, ft)
+        reg = np.where(dg > 1e-6 * floor, 1e-10 * dg, 1e-6 * floor)
+        H = (H + sp.diags(reg)).tocsr()
+        H = 0.5 * (H + H.T)
+        self.factor = _Factor(H, backend)
+        KE = Kb @ kin.E
+        self.B0 = kin.Gt @ KE                     # (n_free, 6)
+        self.A0 = kin.E.T @ KE                     # (6, 6)
+        self.Y = self.factor.solve(self.B0)        # H0^-1 B0
+        self.dq = 1.0 / np.sqrt(dg + reg)
+        self.de = 1.0 / np.sqrt(np.maximum(np.diag(self.A0), 1e-300))
+        self.solves = 0
+
+    def apply(self, rq: np.ndarray, re: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``M^-1 (rq, re)`` for the stress-controlled components ``S`` (bool (6,))."""
+        self.solves += 1
+        z = self.factor.solve(rq)
+        if not S.any():
+            return z, re[:0]
+        Bs, Ys = self.B0[:, S], self.Y[:, S]
+        Sc = self.A0[np.ix_(S, S)] - np.einsum("ik,il->kl", Bs, Ys)
+        ye = np.linalg.solve(Sc, re - np.einsum("ik,i->k", Bs, z))
+        return z - np.einsum("ik,k->i", Ys, ye), ye

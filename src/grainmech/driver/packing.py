@@ -1,0 +1,1124 @@
+"""Packing driver: loading paths on a packing of grains, every grain in equilibrium.
+
+The material point of :mod:`grainmech.driver` follows the seed's kinematic hypothesis
+(every contact follows the mean strain, seed Eq. 2.13). Here the material point is a
+packing (:class:`grainmech.network.ContactNetwork`): each grain ``p`` has a fluctuation
+``q_p = (u_p, theta_p)`` on top of the affine field, and every step is solved so that
+every grain is in force and moment equilibrium (Kruyt & Rothenburg 1998; Agnolin & Roux
+2007; Lemaitre & Maloney 2006 for the small-strain limit, which is
+:func:`grainmech.network.relaxed_stiffness`). Small strain, fixed reference geometry:
+branch vectors, normals, lever arms and the volume stay those of the input packing.
+
+Public API
+----------
+:class:`PackingPoint` (``from_network``), :func:`run_packing` ->
+:class:`PackingResult` (a :class:`grainmech.driver.DriverResult` with per-step
+equilibrium residuals), :class:`PackingOptions`, :func:`packing_modulus_reduction`
+(G/Gmax and damping, an :class:`grainmech.analysis.ModulusReduction`),
+:func:`equilibrate_network` (a stable packing from an unbalanced network) and
+:func:`unbalanced_force_ratio`. The derivation and its sources are in
+``docs/packing-driver.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from grainmech.contact import (Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz, ContactState,
+                               state_from_approach, state_from_forces, update)
+from grainmech.driver import Control, DriverResult, LoadPath, cyclic_simple_shear
+from grainmech.driver._packing_ops import (Kinematics, Preconditioner, contact_tangent, voigt_of)
+from grainmech.errors import ConfigError, GrainmechError
+from grainmech.network import ContactNetwork, rattlers
+
+__all__ = ["PackingOptions", "PackingPoint", "PackingResult", "run_packing", "packing_modulus_reduction",
+           "equilibrate_network", "perturbed_fcc_network", "unbalanced_force_ratio"]
+
+#: status codes of :class:`PackingResult`
+STATUS_DONE, STATUS_FAILED, STATUS_SMALL_STRAIN = 0, 1, 2
+
+
+# --------------------------------------------------------------------------- options
+
+@dataclass(frozen=True)
+class PackingOptions:
+    """Options of the packing driver.
+
+    Attributes
+    ----------
+    rtol : float
+        Equilibrium tolerance: every grain's out-of-balance force ``|F_p|`` and moment
+        ``|M_p|/R_p`` at most ``rtol`` times the mean contact force, and every
+        stress-controlled component within ``rtol`` times the stress scale of the step.
+    max_iter : int
+        Newton iterations per (sub)step.
+    max_depth : int
+        Halvings of a step that does not converge (2**max_depth substeps at most).
+    max_backtracks : int
+        Halvings of the Newton update in the line search.
+    krylov_rtol : float
+        Relative tolerance of GMRES on the Newton system (inexact Newton).
+    krylov_max : int
+        GMRES iterations per Newton iteration.
+    refactor_after : int
+        Refactor the elastic preconditioner at the next step when GMRES needed more
+        iterations than this.
+    max_fluctuation : float
+        Small-strain bound: stop (status 2) when a grain's displacement fluctuation
+        (rigid translation removed) exceeds this fraction of its radius.
+    max_strain : float
+        Small-strain bound: stop (status 2) when a strain component exceeds this.
+    tangent : {"none", "start", "ends", "every"}
+        Steps whose relaxed 6x6 tangent is computed (``DriverResult.tangent``; ``"start"``
+        is the initial state, ``"ends"`` also the last); rows not computed are NaN.
+        Each costs six GMRES solves (about a second for 2000 grains).
+    factorization : {"auto", "cholespy", "superlu"}
+        Sparse Cholesky (cholespy, optional dependency) or SciPy's SuperLU.
+    law_backend : str or None
+        ``backend`` passed to :func:`grainmech.contact.update` (``None``: its default).
+    """
+
+    rtol: float = 1e-8
+    rtol_accept: float = 1e-6
+    max_iter: int = 25
+    max_depth: int = 6
+    max_backtracks: int = 8
+    krylov_rtol: float = 1e-3
+    krylov_max: int = 60
+    refactor_after: int = 25
+    max_fluctuation: float = 0.05
+    max_strain: float = 0.02
+    tangent: str = "ends"
+    factorization: str = "auto"
+    law_backend: str | None = "numpy"
+
+    def __post_init__(self) -> None:
+        if not (0 < self.rtol < 1e-2):
+            raise ConfigError("rtol", self.rtol, "must lie in (0, 1e-2)")
+        if not (self.rtol <= self.rtol_accept < 1e-2):
+            raise ConfigError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
+        for name in ("max_iter", "krylov_max", "refactor_after"):
+            if int(getattr(self, name)) < 1:
+                raise ConfigError(name, getattr(self, name), "must be >= 1")
+        for name in ("max_depth", "max_backtracks"):
+            if not (0 <= int(getattr(self, name)) <= 30):
+                raise ConfigError(name, getattr(self, name), "must lie in [0, 30]")
+        if not (0 < self.krylov_rtol < 1):
+            raise ConfigError("krylov_rtol", self.krylov_rtol, "must lie in (0, 1)")
+        if not (self.max_fluctuation > 0 and self.max_strain > 0):
+            raise ConfigError("max_fluctuation/max_strain", (self.max_fluctuation, self.max_strain),
+                              "must be positive")
+        if self.tangent not in ("none", "start", "ends", "every"):
+            raise ConfigError("tangent", self.tangent, "must be 'none', 'start', 'ends' or 'every'")
+        if self.factorization not in ("auto", "cholespy", "superlu"):
+            raise ConfigError("factorization", self.factorization, "must be 'auto', 'cholespy' or 'superlu'")
+
+
+# --------------------------------------------------------------------------- the point
+
+def _law_scale(params: object, Rs: np.ndarray) -> np.ndarray:
+    """Displacement scale ``s_c = (R*_c / R*_law)^(1/3)`` of a Hertz-type law (1 for springs).
+
+    Hertz (seed Eq. 3.6) ``N = (4/3) E* R*^(1/2) alpha^(3/2)`` and Mindlin's
+    ``dT = 8 G* a d delta`` with ``a = (R* alpha)^(1/2)`` (seed Eq. 3.5, 3.11) give the same
+    forces for a contact of radius ``R*`` at displacements ``(alpha, delta)`` as for the
+    law's radius ``R*_law`` at ``(s alpha, s delta)``; the stiffnesses are ``s`` times the
+    law's and the dissipated energy ``1/s`` times. So one parameter object serves every
+    contact of a polydisperse packing.
+    """
+    if isinstance(params, LinearSpring):
+        return np.ones_like(Rs)
+    return np.cbrt(Rs / params.effective_radius)  # type: ignore[attr-defined]
+
+
+def _frictional(params: object) -> bool:
+    if isinstance(params, LinearSpring):
+        return params.ks > 0 and params.friction > 0
+    if isinstance(params, (HertzMindlin, MindlinDeresiewicz)):
+        return params.friction > 0
+    return False
+
+
+def _check_params(params: object) -> None:
+    if not isinstance(params, (Hertz, LinearSpring)):
+        raise ConfigError("params", type(params).__name__,
+                          "the packing driver needs a sphere law: Hertz, HertzMindlin, MindlinDeresiewicz "
+                          "or LinearSpring")
+
+
+def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs of non-rattler grains not in contact whose gap is below ``gap`` times their mean radius."""
+    pos, R, box = net.positions, net.radii, net.box
+    idx = np.flatnonzero(alive)
+    if idx.size < 2 or gap <= 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))
+    cut = 2.0 * float(R[idx].max()) * (1.0 + gap)
+    if np.allclose(box.cell, np.diag(np.diag(box.cell))) and box.periodic.all():
+        from scipy.spatial import cKDTree
+
+        L = np.diag(box.cell)
+        tree = cKDTree(np.mod(pos[idx] - box.origin, L), boxsize=L)
+        pr = tree.query_pairs(min(cut, 0.4999 * float(L.min())), output_type="ndarray")
+        I, J = idx[pr[:, 0]], idx[pr[:, 1]]
+    else:
+        if idx.size > 4000:
+            raise ConfigError("gap", gap, "gap-pair search in a non-orthogonal or non-periodic cell is "
+                              "limited to 4000 grains; use gap = 0")
+        I, J = np.triu_indices(idx.size, 1)
+        I, J = idx[I], idx[J]
+    br = box.minimum_image(pos[J] - pos[I])
+    d = np.linalg.norm(br, axis=1)
+    g = d - R[I] - R[J]
+    keep = (g > 0) & (g < gap * 0.5 * (R[I] + R[J]))
+    I, J, br = I[keep], J[keep], br[keep]
+    # drop pairs already listed as contacts
+    P = net.n_particles
+    listed = set((np.minimum(net.i, net.j) * P + np.maximum(net.i, net.j)).tolist())
+    key = np.minimum(I, J) * P + np.maximum(I, J)
+    new = np.array([k not in listed for k in key.tolist()], dtype=bool)
+    return I[new], J[new], br[new]
+
+
+@dataclass(frozen=True, eq=False)
+class PackingPoint:
+    """Converged state of a packing (see module notes and ``docs/packing-driver.md``).
+
+    Attributes
+    ----------
+    network : ContactNetwork
+        The input packing (reference geometry).
+    params : contact law parameters (material constants and friction; the radius of each
+        contact comes from its grains, see :func:`_law_scale`).
+    kinematics : private geometry of the tracked contacts (non-rattler grains).
+    grains : int array (P,)
+        Rows of ``network`` of the grains kept (rattlers excluded).
+    radii : array (P,) [length]
+    contact_rows : int array (C,)
+        Row of ``network`` of each tracked contact, ``-1`` for a pair tracked because of
+        its small initial gap.
+    scale : array (C,)
+        Law displacement scale ``s_c``.
+    state : ContactState
+        Contact law state (law space: displacements times ``s_c``).
+    response : ContactResponse
+        Law response at ``state`` (law space).
+    forces : array (C, 3)
+        Contact forces (by A on B, compression positive) [force].
+    q : array (P, 6)
+        Grain fluctuations (translation [length], rotation [rad]); grain 0's translation
+        is pinned (global translation).
+    strain, stress : arrays (6,)
+        Total strain since the input state (engineering shear, compression positive) and
+        Love-Weber stress (seed Eq. 2.6), library order ``xx, yy, zz, yz, xz, xy``.
+    volume : float
+    n_rattlers : int
+    initially_closed : bool array (C,)
+        Contacts carrying force in the input state.
+    notes : tuple of str
+    """
+
+    network: ContactNetwork
+    params: Any
+    kinematics: Kinematics
+    grains: np.ndarray
+    radii: np.ndarray
+    contact_rows: np.ndarray
+    scale: np.ndarray
+    state: ContactState
+    response: Any
+    forces: np.ndarray
+    q: np.ndarray
+    strain: np.ndarray
+    stress: np.ndarray
+    volume: float
+    n_rattlers: int
+    initially_closed: np.ndarray
+    notes: tuple = ()
+    law_backend: str | None = "numpy"
+    factorization: str = "auto"
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    # ------------------------------------------------------------------ constructor
+    @classmethod
+    def from_network(cls, net: ContactNetwork, params: Any, *, forces: str = "auto", gap: float = 0.05,
+                     max_unbalanced: float = 1e-2, equilibrate: bool = True,
+                     options: PackingOptions | None = None) -> "PackingPoint":
+        """Packing point from a contact network and a contact law.
+
+        Parameters
+        ----------
+        net : ContactNetwork
+            3D, periodic packing with radii (spheres).
+        params : Hertz, HertzMindlin, MindlinDeresiewicz or LinearSpring
+            Material constants and friction; each contact uses the effective radius
+            ``R_A R_B / (R_A + R_B)`` of its grains.
+        forces : {"auto", "stored", "overlap"}
+            ``stored``: the network's contact forces (normal part from ``f . n``,
+            tangential part placed on the virgin Mindlin-Deresiewicz branch,
+            :func:`grainmech.contact.state_from_forces`); ``overlap``: normal forces from
+            the overlaps by the law (Hertz, seed Eq. 3.6), no tangential force; ``auto``:
+            stored if any force is non-zero, else overlap.
+        gap : float
+            Pairs of grains not in contact whose gap is below ``gap`` times their mean
+            radius are tracked (open) so that they can close.
+        max_unbalanced : float
+            Largest accepted :func:`unbalanced_force_ratio` of the input (mean-based);
+            above it the packing is not mechanically stable and a
+            :class:`~grainmech.errors.GrainmechError` says so.
+        equilibrate : bool
+            Remove the remaining imbalance with one strain-controlled step of zero
+            increment (the stress changes by about the unbalanced ratio; the change is in
+            ``notes``).
+
+        Raises
+        ------
+        GrainmechError (a ValueError)
+            Bad input, naming the field and the value.
+        """
+        _check_params(params)
+        opts = options or PackingOptions()
+        if not isinstance(net, ContactNetwork):
+            raise ConfigError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
+        if net.dim != 3:
+            raise ConfigError("network.dim", net.dim, "the packing driver works in 3D")
+        if net.radii is None:
+            raise ConfigError("network.radii", None, "are required (spheres): give the particle radii")
+        if not net.box.periodic.all():
+            raise ConfigError("network.box.periodic", net.box.periodic.tolist(),
+                              "must be periodic in x, y and z (walls are not modelled)")
+        if forces not in ("auto", "stored", "overlap"):
+            raise ConfigError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
+        if not (gap >= 0 and math.isfinite(gap)):
+            raise ConfigError("gap", gap, "must be finite and >= 0")
+        if net.n_contacts == 0:
+            raise ConfigError("network", net.source, "has no contacts")
+        n, L = net.normals, net.branch_length
+        RA, RB = net.radii[net.i], net.radii[net.j]
+        if forces == "auto":
+            forces = "stored" if np.any(net.force != 0) else "overlap"
+        notes: list[str] = []
+        if forces == "stored":
+            N = np.einsum("ij,ij->i", net.force, n)
+            T = net.force - N[:, None] * n
+        else:
+            alpha = net.overlap if net.overlap is not None else RA + RB - L
+            Rs = RA * RB / (RA + RB)
+            N = state_from_approach(params, np.maximum(alpha, 0.0) * _law_scale(params, Rs)).normal_force
+            T = np.zeros_like(net.force)
+        carrying = N > 0
+        frictional = _frictional(params)
+        if not frictional and np.any(T[carrying] != 0):
+            Tm = np.linalg.norm(T, axis=1)
+            if Tm.max() > 1e-9 * max(float(N.max()), 1e-300):
+                notes.append(f"frictionless law: tangential forces of the input dropped (largest "
+                             f"|T|/N = {float(np.max(Tm[carrying] / N[carrying])):.3g})")
+            T = np.zeros_like(T)
+        T = np.where(carrying[:, None], T, 0.0)
+        min_c = 2 if frictional else 4
+        ratt = rattlers(net, min_c, carrying)
+        alive = ~ratt
+        if not alive.any():
+            raise GrainmechError(f"{net.source or 'network'}: every grain is a rattler (fewer than {min_c} "
+                                 f"force-carrying contacts, removed iteratively; {int(carrying.sum())} of "
+                                 f"{net.n_contacts} contacts carry force): nothing is left to load")
+        notes.append(f"rattlers: {int(ratt.sum())} of {net.n_particles} grains excluded (fewer than {min_c} "
+                     f"force-carrying contacts, {'frictional' if frictional else 'frictionless'} rule, "
+                     "removed iteratively)")
+        keep_c = alive[net.i] & alive[net.j]
+        gi, gj, gbr = _gap_pairs(net, gap, alive)
+        if gi.size:
+            notes.append(f"{gi.size} pairs with a gap below {gap:g} x mean radius tracked (open)")
+        rows = np.concatenate([np.flatnonzero(keep_c), -np.ones(gi.size, dtype=int)])
+        I = np.concatenate([net.i[keep_c], gi])
+        J = np.concatenate([net.j[keep_c], gj])
+        br = np.concatenate([net.branch[keep_c], gbr])
+        Lc = np.linalg.norm(br, axis=1)
+        nc = br / Lc[:, None]
+        Ra, Rb = net.radii[I], net.radii[J]
+        Rs = Ra * Rb / (Ra + Rb)
+        s = _law_scale(params, Rs)
+        Nk, Tk = N[keep_c], T[keep_c]
+        # contact law state (law space): listed contacts at their forces, gap pairs open
+        if frictional:
+            mag = np.linalg.norm(Tk, axis=1)
+            muN = params.friction * Nk
+            over = mag > muN * (1 + 1e-6)
+            if np.any(over):
+                k = int(np.flatnonzero(over)[0])
+                raise GrainmechError(f"contact {int(rows[k])}: |T| = {mag[k]:.6g} exceeds mu N = {muN[k]:.6g} "
+                                     f"(friction {params.friction:g}); use forces='overlap' or the packing's "
+                                     "friction coefficient")
+            cap = np.where(mag > muN, muN / np.where(mag > 0, mag, 1.0), 1.0)
+            st_l = state_from_forces(params, Nk, Tk * cap[:, None])
+        else:
+            st_l = state_from_forces(params, Nk, np.zeros_like(Tk))
+        st_g = state_from_approach(params, -(Lc[Nk.size:] - Ra[Nk.size:] - Rb[Nk.size:]) * s[Nk.size:])
+        state = ContactState(*(np.concatenate([x, y]) for x, y in zip(st_l, st_g)))
+        grains = np.flatnonzero(alive)
+        newidx = -np.ones(net.n_particles, dtype=int)
+        newidx[grains] = np.arange(grains.size)
+        kin = Kinematics.build(newidx[I], newidx[J], nc, br, Ra, Rb, grains.size)
+        V = net.volume
+        st0, resp0 = update(params, state, np.zeros(state.n_contacts), np.zeros((state.n_contacts, 3)),
+                            **_law_kw(opts.law_backend))
+        f = resp0.normal_force[:, None] * nc + resp0.tangential_force
+        pt = cls(net, params, kin, grains, net.radii[grains], rows, s, st0, resp0, f,
+                 np.zeros((grains.size, 6)), np.zeros(6), voigt_of(f, br) / V, V, int(ratt.sum()),
+                 np.concatenate([Nk > 0, np.zeros(gi.size, bool)]), tuple(notes), opts.law_backend,
+                 opts.factorization)
+        ufr = unbalanced_force_ratio(pt)
+        if not ufr <= max_unbalanced:
+            raise GrainmechError(
+                f"{net.source or 'network'} is not mechanically stable: unbalanced force ratio {ufr:.3g} "
+                f"> max_unbalanced = {max_unbalanced:g} (mean out-of-balance force and moment/radius per "
+                "grain over the mean contact force). Equilibrate it first (DEM, or "
+                "grainmech.driver.packing.equilibrate_network)")
+        pt = replace(pt, notes=pt.notes + (f"input unbalanced force ratio {ufr:.3g}",))
+        if equilibrate:
+            res = run_packing(pt, LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6))),
+                              options=replace(opts, tangent="none"))
+            if not res.success:
+                raise GrainmechError(f"{net.source or 'network'}: equilibrating the input failed: {res.message}")
+            eq = res.final
+            ds = float(np.abs(eq.stress - pt.stress).max() / max(np.abs(pt.stress).max(), 1e-300))
+            pt = replace(eq, strain=np.zeros(6), q=np.zeros_like(eq.q),
+                         notes=eq.notes + (f"equilibrated at fixed strain: stress changed by {ds:.3g} "
+                                           "(relative); residual fluctuations reset to zero",),
+                         _cache={"prec": pt.preconditioner()})  # same contacts, same elastic operator to ~ufr
+        return pt
+
+    @classmethod
+    def at_stress(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], *, n_steps: int = 10,
+                  options: PackingOptions | None = None, **from_network: Any) -> "PackingPoint":
+        """Packing point brought to a confining stress by a stress-controlled straight path.
+
+        :meth:`from_network`, then ``n_steps`` all-stress-controlled steps of
+        :func:`run_packing` from the packing's stress to ``sigma`` (a pressure ``p`` means
+        ``p I``), with the contact laws' history. The strain of the path is kept.
+
+        Raises
+        ------
+        GrainmechError
+            If the path fails or leaves the small-strain range (the message says where).
+        """
+        from grainmech.driver import segment
+
+        sig = np.asarray(sigma, dtype=float)
+        if sig.ndim == 0:
+            if not (math.isfinite(float(sig)) and float(sig) > 0):
+                raise ConfigError("sigma", float(sig), "a confining pressure must be positive (compression positive)")
+            sig = float(sig) * np.array([1.0, 1, 1, 0, 0, 0])
+        if sig.shape != (6,) or not np.all(np.isfinite(sig)):
+            raise ConfigError("sigma", np.shape(sigma), "must be a pressure or a finite (6,) stress vector")
+        opts = options or PackingOptions()
+        pt = cls.from_network(net, params, options=opts, **from_network)
+        res = run_packing(pt, segment("SSSSSS", sig - pt.stress, n_steps), replace(opts, tangent="none"))
+        if not res.success:
+            raise GrainmechError(f"{net.source or 'network'}: bringing the packing to the stress "
+                                 f"{np.round(sig, 6).tolist()} failed: {res.message}")
+        return replace(res.final, notes=res.final.notes + (
+            f"brought from the input stress to {np.round(sig, 6).tolist()} in {n_steps} stress-controlled steps "
+            f"(volumetric strain {float(res.final.strain[:3].sum()):.3g})",), _cache={})
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def n_grains(self) -> int:
+        return int(self.grains.size)
+
+    @property
+    def n_contacts(self) -> int:
+        return self.kinematics.n_contacts
+
+    @property
+    def frictional(self) -> bool:
+        return _frictional(self.params)
+
+    def contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
+        """Consistent and elastic contact tangents (C, 3, 3) of the current state [force/length]."""
+        r, s, kin = self.response, self.scale, self.kinematics
+        closed = ~np.asarray(r.open, bool)
+        kn = np.where(closed, r.kn, 0.0) * s
+        ksp = np.where(closed, r.ks_perp, 0.0) * s
+        K = contact_tangent(kin.n, kn, np.where(closed, r.ks, 0.0) * s, ksp,
+                            np.where(closed, r.ktn, 0.0) * s, r.axis)
+        K0 = contact_tangent(kin.n, kn, ksp, ksp, np.zeros_like(kn), r.axis)
+        return K, K0
+
+    def preconditioner(self) -> Preconditioner:
+        """Factorised elastic operator of this state (cached)."""
+        if "prec" not in self._cache:
+            self._cache["prec"] = Preconditioner(self.kinematics, self.contact_stiffness()[1], self.factorization)
+        return self._cache["prec"]
+
+    @cached_property
+    def tangent(self) -> np.ndarray:
+        """Relaxed tangent (6, 6), Voigt, library order [stress]: ``(1/V)(A - B^T H^-1 B)``.
+
+        ``H = G^T K G``, ``B = G^T K E``, ``A = E^T K E`` with the consistent contact tangent
+        ``K`` of the current state (Lemaitre & Maloney 2006, Eq. 12; with ``K = kn n n +
+        ks (I - n n)`` this is :func:`grainmech.network.relaxed_stiffness`).
+        """
+        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max)
+
+    def fluctuation(self) -> float:
+        """Largest grain displacement fluctuation over its radius (mean translation removed)."""
+        u = self.q[:, :3] - self.q[:, :3].mean(axis=0)
+        return float(np.max(np.linalg.norm(u, axis=1) / self.radii)) if self.n_grains else 0.0
+
+    def dissipated(self) -> float:
+        """Cumulative frictional dissipation per unit volume since the input state."""
+        return float(np.sum(self.state.dissipated_energy / self.scale) / self.volume)
+
+    def stored_energy(self) -> float:
+        """Elastic energy per unit volume held by the contacts (estimate).
+
+        Hertz: ``(2/5) N alpha`` (seed Eq. 3.6 integrated) plus ``|T|^2 / (2 k_t0)`` with the
+        no-slip stiffness ``k_t0 = 8 G* a``; linear springs ``N^2/(2 kn) + |T|^2/(2 ks)``.
+        The tangential term is exact for a spring and an estimate for Mindlin-Deresiewicz.
+        """
+        r, st = self.response, self.state
+        closed = ~np.asarray(r.open, bool)
+        T2 = np.einsum("ij,ij->i", r.tangential_force, r.tangential_force)
+        kt = r.ks_perp * self.scale
+        et = np.where(closed & (kt > 0), T2 / (2 * np.where(kt > 0, kt, 1.0)), 0.0)
+        if isinstance(self.params, LinearSpring):
+            en = r.normal_force ** 2 / (2 * self.params.kn)
+        else:
+            en = 0.4 * r.normal_force * np.maximum(st.approach, 0.0) / self.scale
+        return float(np.sum(np.where(closed, en, 0.0) + et) / self.volume)
+
+    def fractions(self) -> tuple[float, float]:
+        """(sliding fraction of the closed contacts, fraction of the initially closed contacts now open)."""
+        r = self.response
+        closed = ~np.asarray(r.open, bool)
+        sl = float(np.sum(np.asarray(r.sliding, bool) & closed) / max(int(closed.sum()), 1))
+        ic = self.initially_closed
+        op = float(np.sum(ic & ~closed) / max(int(ic.sum()), 1))
+        return sl, op
+
+
+def _law_kw(backend: str | None) -> dict:
+    return {} if backend is None else {"backend": backend}
+
+
+def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
+    """Out-of-balance measure of a packing point.
+
+    ``kind="mean"``: mean over grains of ``sqrt(|F_p|^2 + (|M_p|/R_p)^2)`` over the mean
+    ``|f_c|`` of the force-carrying contacts (the usual DEM "unbalanced force ratio",
+    e.g. YADE's ``unbalancedForce``, with moments added); ``kind="max"``: the largest
+    of ``|F_p|``, ``|M_p|/R_p`` over the same mean (the driver's convergence measure).
+    Returns 0 for a packing without contact forces.
+    """
+    g = point.kinematics.full(point.kinematics.balance(point.forces))
+    fm = np.linalg.norm(point.forces, axis=1)
+    fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
+    if fmean == 0.0:
+        return 0.0
+    # the pinned translation of grain 0 is not in G: its balance follows from the others
+    g[0, :3] = -g[1:, :3].sum(axis=0)
+    F = np.linalg.norm(g[:, :3], axis=1)
+    M = np.linalg.norm(g[:, 3:], axis=1) / point.radii
+    if kind == "max":
+        return float(max(F.max(), M.max()) / fmean)
+    return float(np.mean(np.hypot(F, M)) / fmean)
+
+
+def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int) -> np.ndarray:
+    """Relaxed tangent (6, 6) of ``point`` with its consistent contact tangent (GMRES per column)."""
+    import scipy.sparse.linalg as spla
+
+    from grainmech.driver._packing_ops import block_diagonal
+
+    kin = point.kinematics
+    K, _ = point.contact_stiffness()
+    Kb = block_diagonal(K)
+    KE = Kb @ kin.E
+    B = kin.Gt @ KE
+    A = kin.E.T @ KE
+    D = prec.dq
+    nq = kin.n_free
+    S0 = np.zeros(6, bool)
+    op = spla.LinearOperator((nq, nq), matvec=lambda y: D * (kin.Gt @ (Kb @ (kin.G @ (D * y)))), dtype=float)
+    pc = spla.LinearOperator((nq, nq), matvec=lambda z: prec.apply(z / D, np.zeros(0), S0)[0] / D, dtype=float)
+    X = np.zeros((nq, 6))
+    for k in range(6):
+        if not np.any(B[:, k]):
+            continue
+        y, _ = spla.gmres(op, D * B[:, k], rtol=1e-10, atol=0.0, restart=krylov_max, maxiter=3, M=pc)
+        X[:, k] = D * y
+    C = (A - (kin.E.T @ (Kb @ (kin.G @ X)))) / point.volume
+    return C
+
+
+# --------------------------------------------------------------------------- step solver
+
+class _StepFailure(Exception):
+    def __init__(self, cause: str) -> None:
+        super().__init__(cause)
+        self.cause = cause
+
+
+@dataclass
+class _Context:
+    """Per-run solver state: preconditioner and counters."""
+
+    prec: Preconditioner
+    opts: PackingOptions
+    refactor: bool = False
+    factorizations: int = 0
+    krylov: int = 0
+    accepted: int = 0
+    last: tuple | None = None  # (v, S, xq, xe) of the last (sub)step: predictor of the next
+    stiff_ok: bool = True  # the last initial-stiffness try contracted well
+    energy: bool = False  # line search on the potential energy (frictionless laws only)
+
+
+def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
+    """Contact law at the trial increment (from the converged ``point``): state, response, forces."""
+    kin, s = point.kinematics, point.scale
+    D = kin.delta(dq, de)
+    dn = np.einsum("ij,ij->i", D, kin.n)
+    dt = D - dn[:, None] * kin.n
+    if not (np.all(np.isfinite(dn)) and np.all(np.isfinite(dt))):
+        raise _StepFailure("Newton update not finite")
+    try:
+        st, resp = update(point.params, point.state, dn * s, dt * s[:, None], **_law_kw(point.law_backend))
+    except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
+        raise _StepFailure(f"contact law error: {exc}") from None
+    f = resp.normal_force[:, None] * kin.n + resp.tangential_force
+    return st, resp, f
+
+
+def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
+    """Elastic energy (C,) of frictionless contacts [energy]: Hertz ``(2/5) N alpha`` (seed
+    Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``."""
+    N = resp.normal_force
+    if isinstance(point.params, LinearSpring):
+        return N * N / (2 * point.params.kn)
+    return 0.4 * N * np.maximum(st.approach, 0.0) / point.scale
+
+
+def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+           counters: list) -> PackingPoint:
+    """Newton-Krylov iterations of one (sub)step with line search; returns the new point."""
+    import scipy.sparse.linalg as spla
+
+    from grainmech.driver._packing_ops import block_diagonal
+
+    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    V = point.volume
+    nq, ms = kin.n_free, int(S.sum())
+    fm = np.linalg.norm(point.forces, axis=1)
+    fref = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
+    sref = max(float(np.abs(point.stress).max()), float(np.abs(target[S]).max()) if ms else 0.0)
+    if fref == 0.0 or sref == 0.0:  # unloaded packing: scale from the stiffness and the step
+        est = float(np.abs(prec.A0).max()) / V * max(float(np.abs(de_E).max()), 1e-12)
+        sref = sref or est
+        fref = fref or est * V / max(kin.n_contacts, 1) / float(np.mean(np.linalg.norm(kin.l, axis=1)))
+    Rg = point.radii
+    rmean = float(Rg.mean())
+    tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
+    tole = opts.rtol * sref * V
+    Dq, De = prec.dq, prec.de[S]
+
+    def residual(xq: np.ndarray, xe: np.ndarray):
+        de = de_E.copy()
+        de[S] = xe
+        st, resp, f = _evaluate(point, xq, de)
+        rq = kin.balance(f)
+        vs = voigt_of(f, kin.l)
+        re = vs[S] - V * target[S]
+        return st, resp, f, rq, re, vs, de
+
+    w0 = _potential(point, point.state, point.response) if ctx.energy else None
+
+    def merit(cur: tuple) -> float:
+        if ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
+            return float(np.sum(_potential(point, cur[0], cur[1]) - w0)) - V * float(np.dot(target[S], cur[6][S]))
+        return rnorm(cur)
+
+    def rnorm(cur: tuple) -> float:
+        return float(np.sqrt(np.sum((Dq * cur[3]) ** 2) + np.sum((De * cur[4]) ** 2)))
+
+    def converged(rq: np.ndarray, re: np.ndarray) -> bool:
+        return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
+
+    def accept(rq: np.ndarray, re: np.ndarray) -> bool:
+        f = opts.rtol_accept / opts.rtol
+        return bool(np.all(np.abs(rq) <= f * tolq) and (ms == 0 or np.all(np.abs(re) <= f * tole)))
+
+    def done(cur: tuple, it: int) -> PackingPoint:
+        st, resp, f, rq, re, vs, de = cur
+        new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(xq),
+                      strain=point.strain + de, stress=vs / V, _cache={})
+        counters[0] += 1
+        counters[1] += it - 1
+        counters[2] += float(np.sum(resp.dissipation / point.scale) / V)
+        counters[3] += float(np.dot(0.5 * (point.stress + new.stress), de))
+        ctx.last = (v, S.copy(), xq.copy(), xe.copy())
+        return new
+
+    # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
+    # linear response; a reversal gives factor -1)
+    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
+    xq, xe = np.zeros(nq), np.zeros(ms)
+    fac = 0.0
+    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
+        vl = ctx.last[0]
+        vv = float(np.dot(vl, vl))
+        if vv > 0:
+            fac = float(np.dot(v, vl)) / vv
+            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    stiff_steps = 0
+    # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
+    stiff_first = not ctx.energy and (ctx.stiff_ok or fac < 0)
+    cur = residual(xq, xe)
+    m = merit(cur)
+    for it in range(1, opts.max_iter + 1):
+        st, resp, f, rq, re, vs, de = cur
+        if converged(rq, re):
+            return done(cur, it)
+        if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
+            dxq, dxe = prec.apply(-rq, -re, S)
+            trial = residual(xq + dxq, xe + dxe)
+            mt = merit(trial)
+            if mt <= 0.1 * m or converged(trial[3], trial[4]):
+                xq, xe, cur, m = xq + dxq, xe + dxe, trial, mt
+                ctx.stiff_ok = True
+                continue
+            stiff_first = ctx.stiff_ok = False  # poor contraction: consistent-tangent Newton
+        # consistent tangent of the trial state
+        r_s = point.scale
+        closed = ~np.asarray(resp.open, bool)
+        K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
+                            np.where(closed, resp.ks_perp, 0.0) * r_s, np.where(closed, resp.ktn, 0.0) * r_s,
+                            resp.axis)
+        Kb = block_diagonal(K)
+
+        def matvec(y: np.ndarray) -> np.ndarray:
+            vq = Dq * y[:nq]
+            d6 = np.zeros(6)
+            d6[S] = De * y[nq:]
+            df = Kb @ kin.delta(vq, d6).reshape(-1)
+            return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]])
+
+        def psolve(z: np.ndarray) -> np.ndarray:
+            yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
+            return np.concatenate([yq / Dq, ye / De])
+
+        n = nq + ms
+        count = [0]
+
+        def cb(_r: Any) -> None:
+            count[0] += 1
+
+        rhs = -np.concatenate([Dq * rq, De * re])
+        y, _info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), rhs,
+                              rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
+                              M=spla.LinearOperator((n, n), matvec=psolve, dtype=float),
+                              callback=cb, callback_type="pr_norm")
+        ctx.krylov += count[0]
+        if count[0] > opts.refactor_after:  # the elastic operator is stale: refactor at this state
+            ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
+            ctx.prec = prec = Preconditioner(kin, contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s,
+                                                                  ksp, ksp, np.zeros_like(ksp), resp.axis),
+                                             opts.factorization)
+            ctx.factorizations += 1
+            Dq, De = prec.dq, prec.de[S]
+            m = merit(cur)
+        if not np.all(np.isfinite(y)):
+            raise _StepFailure("linear solve not finite")
+        dxq, dxe = Dq * y[:nq], De * y[nq:]
+        slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
+        if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
+            dxq, dxe = prec.apply(-rq, -re, S)
+            slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
+        # trust limit: no grain moves more than 1 % of the mean radius (or turns 0.01 rad) in one update
+        mv = kin.full(dxq)
+        big = max(float(np.max(np.linalg.norm(mv[:, :3], axis=1))) / (0.01 * rmean),
+                  float(np.max(np.linalg.norm(mv[:, 3:], axis=1))) / 0.01, 1.0)
+        lam = 1.0 / big
+        for nb in range(opts.max_backtracks + 1):
+            if nb == 2 and accept(rq, re):  # stalling at a kink, already below rtol_accept
+                ctx.accepted += 1
+                return done(cur, it)
+            trial = residual(xq + lam * dxq, xe + lam * dxe)
+            mt = merit(trial)
+            ok = mt <= m + 1e-4 * lam * slope if ctx.energy else mt <= (1.0 - 1e-4 * lam) * m
+            ok = ok or (ctx.energy and mt <= m and rnorm(trial) <= (1.0 - 1e-4 * lam) * rnorm(cur))
+            if ok or converged(trial[3], trial[4]):
+                break
+            lam *= 0.5
+        else:
+            # non-smooth law (a branch switching inside the step, e.g. at a reversal): one
+            # initial-stiffness iteration, dx = -M^-1 r with the elastic operator M, which is
+            # stiffer than every branch of the law and so contracts (a modified Newton step)
+            if accept(rq, re):  # Newton stalled at a kink of the law, below rtol_accept: accept
+                ctx.accepted += 1
+                return done(cur, it)
+            if ctx.energy:
+                sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
+                raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual {rnorm(cur):.3g}; "
+                                   f"{100 * sl:.0f}% of closed contacts sliding, {int(closed.sum())} closed)")
+            dxq, dxe = prec.apply(-rq, -re, S)
+            mv = kin.full(dxq)
+            lam = 1.0 / max(float(np.max(np.linalg.norm(mv[:, :3], axis=1))) / (0.01 * rmean),
+                            float(np.max(np.linalg.norm(mv[:, 3:], axis=1))) / 0.01, 1.0)
+            trial = residual(xq + lam * dxq, xe + lam * dxe)
+            mt = merit(trial)
+            stiff_steps += 1
+        xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
+    rq, re = cur[3], cur[4]
+    if accept(rq, re):
+        ctx.accepted += 1
+        return done(cur, opts.max_iter + 1)
+    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (largest force residual "
+                       f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
+
+
+def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+                depth: int, ctx: _Context, counters: list) -> PackingPoint:
+    """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure."""
+    try:
+        return _solve(point, S, de_E, t1, ctx, counters)
+    except _StepFailure as exc:
+        err = exc
+    if depth == 0 and ctx.refactor is False:  # maybe a stale preconditioner: refactor once
+        ctx.prec = point.preconditioner()
+        ctx.factorizations += 1
+        try:
+            return _solve(point, S, de_E, t1, ctx, counters)
+        except _StepFailure as exc:
+            err = exc
+    if depth >= ctx.opts.max_depth:
+        raise _StepFailure(f"{err.cause} (after {ctx.opts.max_depth} halvings)")
+    tm = 0.5 * (t0 + t1)
+    mid = _subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters)
+    return _subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters)
+
+
+# --------------------------------------------------------------------------- results and run
+
+@dataclass(frozen=True)
+class PackingResult(DriverResult):
+    """:class:`grainmech.driver.DriverResult` of the packing driver, plus per step
+
+    Attributes
+    ----------
+    residual : (k+1,) unbalanced force ratio at the end of each step (``kind="max"`` of
+        :func:`unbalanced_force_ratio`)
+    fluctuation : (k+1,) largest grain displacement fluctuation / radius
+    closed : (k+1,) int, number of closed contacts
+    krylov : (k+1,) int, GMRES iterations of the step
+    factorizations : int, factorisations of the elastic operator in the run
+    notes : tuple of str (rattlers, gap pairs, ...)
+
+    ``status``: 0 done, 1 a step failed, 2 the path left the small-strain range.
+    ``tangent`` rows that were not computed (see :attr:`PackingOptions.tangent`) are NaN.
+    ``sliding_fraction`` is over the closed contacts; ``open_fraction`` the fraction of
+    the initially closed contacts that are open.
+    """
+
+    residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fluctuation: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    closed: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    krylov: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    factorizations: int = 0
+    notes: tuple = ()
+
+
+def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None,
+                **kwargs: Any) -> PackingResult:
+    """Drive a packing along a loading path (mixed strain/stress control).
+
+    Same path semantics as :func:`grainmech.driver.run`: per step and component a control
+    kind (strain or stress) and an increment; targets do not drift; a component switching
+    control restarts from the current value. Each step is solved by Newton iterations on
+    all grain fluctuations and the stress-controlled strain components together (consistent
+    tangent, GMRES preconditioned by the factorised elastic operator, line search), halved
+    up to ``max_depth`` times when it does not converge.
+
+    Parameters
+    ----------
+    point : PackingPoint
+    path : LoadPath
+    options : PackingOptions, optional
+    **kwargs : fields of :class:`PackingOptions` as a shortcut.
+
+    Returns
+    -------
+    PackingResult
+        ``success`` False (status 1: a step failed, 2: small-strain range left) keeps
+        every step done before, with the message naming the step and the cause.
+    """
+    opts = options or PackingOptions(law_backend=point.law_backend, factorization=point.factorization)
+    if kwargs:
+        opts = replace(opts, **kwargs)
+    return _run(point, path, opts)
+
+
+def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False) -> PackingResult:
+    """:func:`run_packing` with its options resolved (``energy``: potential-energy line search)."""
+    if not isinstance(path, LoadPath):
+        raise ConfigError("path", type(path).__name__, "must be a LoadPath")
+    if not isinstance(point, PackingPoint):
+        raise ConfigError("point", type(point).__name__, "must be a PackingPoint")
+    point = replace(point, law_backend=opts.law_backend, factorization=opts.factorization, _cache=point._cache) \
+        if (opts.law_backend, opts.factorization) != (point.law_backend, point.factorization) else point
+    m = len(path)
+    fresh = "prec" not in point._cache
+    ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
+    nan66 = np.full((6, 6), np.nan)
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
+                                             "sub", "it", "res", "fl", "cl", "kr")}
+
+    def record(pt: PackingPoint, diss: float, work: float, sub: int, it: int, kr: int, tang: bool) -> None:
+        sl, op = pt.fractions()
+        rows["strain"].append(pt.strain.copy())
+        rows["stress"].append(pt.stress.copy())
+        rows["tangent"].append(_relaxed_tangent(pt, ctx.prec, opts.krylov_max) if tang else nan66)
+        rows["sl"].append(sl)
+        rows["op"].append(op)
+        rows["diss"].append(diss)
+        rows["work"].append(work)
+        rows["stored"].append(pt.stored_energy())
+        rows["sub"].append(sub)
+        rows["it"].append(it)
+        rows["res"].append(unbalanced_force_ratio(pt, kind="max"))
+        rows["fl"].append(pt.fluctuation())
+        rows["cl"].append(int(np.sum(~np.asarray(pt.response.open, bool))))
+        rows["kr"].append(kr)
+
+    rows["strain"].append(point.strain.copy())
+    rows["stress"].append(point.stress.copy())
+    rows["tangent"].append(nan66 if opts.tangent == "none" else point.tangent)
+    sl0, op0 = point.fractions()
+    for k, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("stored", point.stored_energy()),
+                 ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
+                 ("fl", point.fluctuation()), ("cl", int(np.sum(~np.asarray(point.response.open, bool)))),
+                 ("kr", 0)):
+        rows[k].append(v)
+    diss = work = 0.0
+    t_stress, t_strain = point.stress.copy(), point.strain.copy()
+    prev = None
+    success, status, message = True, STATUS_DONE, f"completed {m} steps"
+    for k in range(m):
+        sc = path.stress_control[k]
+        inc = path.increment[k]
+        if prev is not None:  # a component switching control restarts from the state
+            switched = sc != prev
+            t_stress = np.where(switched & sc, point.stress, t_stress)
+            t_strain = np.where(switched & ~sc, point.strain, t_strain)
+        prev = sc
+        new_t_stress = np.where(sc, t_stress + inc, point.stress)
+        new_t_strain = np.where(~sc, t_strain + inc, point.strain)
+        if np.abs(new_t_strain[~sc]).max(initial=0.0) > opts.max_strain:
+            j = int(np.argmax(np.where(~sc, np.abs(new_t_strain), -1.0)))
+            success, status = False, STATUS_SMALL_STRAIN
+            message = (f"step {k + 1}: strain component {j} would reach {new_t_strain[j]:.3g}, beyond "
+                       f"max_strain = {opts.max_strain:g} (small-strain, fixed-geometry model); results kept "
+                       f"up to step {k}")
+            break
+        if ctx.refactor:
+            ctx.prec = point.preconditioner()
+            ctx.factorizations += 1
+            ctx.refactor = False
+        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
+        counters = [0, 0, 0.0, 0.0]
+        kr0 = ctx.krylov
+        try:
+            new = _subdivided(point, sc, d_strain, np.where(sc, point.stress, 0.0),
+                              np.where(sc, new_t_stress, 0.0), 0, ctx, counters)
+        except _StepFailure as exc:
+            success, status = False, STATUS_FAILED
+            message = f"step {k + 1}: no equilibrium found: {exc.cause}; results kept up to step {k}"
+            break
+        fl = new.fluctuation()
+        big = float(np.abs(new.strain).max())
+        if fl > opts.max_fluctuation or big > opts.max_strain:
+            success, status = False, STATUS_SMALL_STRAIN
+            what = (f"a grain's displacement fluctuation reached {fl:.3g} of its radius (max_fluctuation = "
+                    f"{opts.max_fluctuation:g})" if fl > opts.max_fluctuation else
+                    f"a strain component reached {big:.3g} (max_strain = {opts.max_strain:g})")
+            message = (f"step {k + 1}: left the small-strain range: {what}; the fixed-geometry model no longer "
+                       f"applies; results kept up to step {k}")
+            break
+        point = new
+        t_stress = np.where(sc, new_t_stress, point.stress)
+        t_strain = np.where(~sc, new_t_strain, point.strain)
+        diss += counters[2]
+        work += counters[3]
+        last = k == m - 1
+        record(point, diss, work, counters[0], counters[1], ctx.krylov - kr0,
+               opts.tangent == "every" or (opts.tangent == "ends" and last))
+    arr = {k: np.array(v) for k, v in rows.items()}
+    if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
+        arr["tangent"][-1] = _relaxed_tangent(point, ctx.prec, opts.krylov_max)
+    return PackingResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"], arr["sl"],
+                         arr["op"], arr["diss"], arr["work"], arr["stored"], arr["sub"].astype(int),
+                         arr["it"].astype(int), point, m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
+                         arr["kr"].astype(int), ctx.factorizations,
+                         point.notes + ((f"{ctx.accepted} (sub)steps accepted with a residual between rtol = "
+                                         f"{opts.rtol:g} and rtol_accept = {opts.rtol_accept:g} (Newton stalled "
+                                         "at a kink of the contact law)",) if ctx.accepted else ()))
+
+
+# --------------------------------------------------------------------------- modulus reduction
+
+def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], *, n_cycles: int = 2,
+                              steps_per_cycle: int = 40, waveform: str = "triangle", constant: str = "stress",
+                              progress: Callable[[int, float, Any], None] | None = None,
+                              raise_on_failure: bool = True, options: PackingOptions | None = None,
+                              **kwargs: Any):
+    """G/Gmax and damping of a packing: strain-controlled cyclic simple shear per amplitude.
+
+    As :func:`grainmech.analysis.modulus_reduction` (each amplitude starts from ``point``;
+    the last of ``n_cycles`` cycles is analysed by
+    :func:`grainmech.analysis.loop_properties`: secant modulus, damping
+    ``D = dW / (4 pi W)``), with every grain in equilibrium (:func:`run_packing`).
+    ``G_max`` is the relaxed tangent's ``C_55`` condensed with the path's control
+    (``sigma_zz`` free at constant stress; plain ``C_55`` at constant volume).
+
+    Raises
+    ------
+    GrainmechError
+        If the law is frictionless (no damping: the loops have no area), or if a run
+        fails and ``raise_on_failure``.
+
+    Returns
+    -------
+    grainmech.analysis.ModulusReduction
+        ``results`` holds the :class:`PackingResult` of every amplitude.
+    """
+    from grainmech.analysis import ModulusReduction, condensed_modulus, loop_properties
+
+    if not point.frictional:
+        raise GrainmechError(f"damping needs friction: the contact law {type(point.params).__name__} of this "
+                             "packing is frictionless (no tangential dissipation), so every loop has zero "
+                             "area; use MindlinDeresiewicz or HertzMindlin with friction > 0")
+    amps = np.asarray(amplitudes, dtype=float)
+    if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
+        raise ConfigError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
+    G, D, res = [], [], []
+    success, message = True, "done"
+    path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
+    for i, a in enumerate(amps):
+        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
+        if progress is not None:
+            progress(i, float(a), path)
+        r = run_packing(point, path, options, **{"tangent": "start", **kwargs})
+        res.append(r)
+        if not r.success:
+            message = f"amplitude {a:g}: {r.message}"
+            if raise_on_failure:
+                raise GrainmechError(message)
+            success = False
+            break
+        last = slice(len(path) - steps_per_cycle, len(path) + 1)
+        lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
+        G.append(lp.secant_modulus)
+        D.append(lp.damping)
+    Gmax = condensed_modulus(point.tangent, 4, path.stress_control[0])
+    return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), Gmax, res, success, message)
+
+
+# --------------------------------------------------------------------------- preparation
+
+def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | None = None,
+                        gap: float = 0.05, options: PackingOptions | None = None) -> ContactNetwork:
+    """A mechanically stable network from an unbalanced one (frictionless relaxation).
+
+    The grains of ``net`` (e.g. :func:`grainmech.network.random_network`, which is not in
+    equilibrium) are moved, in the small-strain fixed-geometry model of this module, until
+    every grain is in force balance with *frictionless* contacts of the same normal law
+    (Hertz with the material of ``params``, or the normal spring of a
+    :class:`~grainmech.contact.LinearSpring`). Frictionless Hertz contacts have a convex
+    energy, so the equilibrium is path independent. With ``pressure`` the stress is
+    brought to ``pressure * I`` (all components stress controlled), else the strain is
+    held.
+
+    Returns
+    -------
+    ContactNetwork
+        Same particles and cell; the contacts that carry force at equilibrium (listed
+        ones and closed gap pairs), with forces ``N n`` and ``overlap`` the equilibrium
+        approach. Positions are the reference ones (the fluctuations are small-strain
+        corrections); ``overlap`` is therefore not ``R_A + R_B - |l|``.
+    """
+    _check_params(params)
+    if isinstance(params, LinearSpring):
+        prep: Any = LinearSpring(params.kn, 0.0, 0.0)
+    else:
+        prep = Hertz(params.shear_modulus, params.poisson, params.radius1, params.radius2,  # type: ignore[attr-defined]
+                     params.shear_modulus2, params.poisson2)  # type: ignore[attr-defined]
+    opts = options or PackingOptions(max_iter=200, max_depth=0, max_backtracks=30, tangent="none",
+                                     max_fluctuation=0.2, max_strain=0.05)
+    pt = PackingPoint.from_network(net, prep, forces="overlap", gap=gap, max_unbalanced=math.inf,
+                                   equilibrate=False, options=opts)
+    if pressure is None:
+        path = LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6)))
+    else:
+        if not (math.isfinite(pressure) and pressure > 0):
+            raise ConfigError("pressure", pressure, "must be a positive stress (compression positive)")
+        path = LoadPath(np.ones((1, 6), bool),
+                        (np.array([pressure] * 3 + [0.0] * 3) - pt.stress)[None, :])
+    res = _run(pt, path, opts, energy=True)
+    if not res.success:
+        raise GrainmechError(f"{net.source or 'network'}: equilibration failed: {res.message}")
+    eq = res.final
+    closed = eq.response.normal_force > 0
+    I = eq.grains[eq.kinematics.a[closed]]
+    J = eq.grains[eq.kinematics.b[closed]]
+    f = eq.forces[closed]
+    alpha = eq.state.approach[closed] / eq.scale[closed]
+    return ContactNetwork(net.ids, net.positions, net.radii, net.box, I, J, f, eq.kinematics.l[closed], alpha,
+                          source=f"{net.source or 'network'}, equilibrated (frictionless"
+                                 f"{'' if pressure is None else f', p = {pressure:g}'})")
+
+
+def perturbed_fcc_network(n_cells: int, *, radius: float = 1.0, overlap: float = 0.02, disorder: float = 0.003,
+                          vacancies: float = 0.0, shear_modulus: float = 29e9, poisson: float = 0.15,
+                          seed: int | np.random.Generator | None = 0) -> ContactNetwork:
+    """Disordered face-centred-cubic packing of Hertz spheres (not yet in equilibrium).
+
+    :func:`grainmech.network.lattice_network` (``"fcc"``, ``4 n_cells^3`` grains, every
+    nearest-neighbour pair overlapping by ``overlap`` radii) with each centre moved by a
+    Gaussian of standard deviation ``disorder`` radii per axis and each radius scaled by
+    ``1 + disorder U(-1, 1)``; a fraction ``vacancies`` of the grains (chosen at random)
+    is removed with its contacts, which makes the force network and the relaxation
+    disordered. Contacts are the lattice's pairs, with the new overlaps (no forces
+    stored). Coordination 12 (about ``12 (1 - vacancies)`` with vacancies) is above the
+    isostatic 6, so :func:`equilibrate_network` relaxes it with the grains held. For
+    tests and benchmarks until DEM packings are used.
+    """
+    from grainmech.network import Box, lattice_network
+
+    if not (0 <= vacancies <= 0.3):
+        raise ConfigError("vacancies", vacancies, "must lie in [0, 0.3] (more leaves a loose, floppy network)")
+    if not (0 <= disorder < 0.25 * overlap):
+        raise ConfigError("disorder", disorder, f"must lie in [0, overlap/4 = {0.25 * overlap:g}) so that every "
+                          "lattice contact stays closed")
+    base = lattice_network("fcc", int(n_cells), float(radius), float(overlap) * float(radius),
+                           shear_modulus=shear_modulus, poisson=poisson)
+    rng = np.random.default_rng(seed)
+    P = base.n_particles
+    pos = base.positions + disorder * radius * rng.normal(size=(P, 3))
+    R = base.radii * (1.0 + disorder * rng.uniform(-1.0, 1.0, P))
+    box: Box = base.box
+    keep = np.ones(P, dtype=bool)
+    keep[rng.choice(P, int(round(vacancies * P)), replace=False)] = False
+    new = np.cumsum(keep) - 1
+    cs = keep[base.i] & keep[base.j]
+    I, J = new[base.i[cs]], new[base.j[cs]]
+    pos, R = pos[keep], R[keep]
+    br = box.minimum_image(pos[J] - pos[I])
+    alpha = R[I] + R[J] - np.linalg.norm(br, axis=1)
+    return ContactNetwork(base.ids[keep], pos, R, box, I, J, np.zeros_like(br), br, alpha,
+                          source=f"perturbed fcc {n_cells}^3 (overlap {overlap:g} R, disorder {disorder:g} R, "
+                                 f"vacancies {vacancies:g}, seed {seed})")
