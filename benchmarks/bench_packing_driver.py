@@ -7,12 +7,19 @@ first (not timed with the curves). Prints wall times, Newton and GMRES iteration
 step and the throughput. Target: <= 30 s for the curves on 2 cores.
 
 Run: ``PYTHONPATH=src python benchmarks/bench_packing_driver.py [n_cells] [law_backend]``
+(``law_backend``: ``numpy``, the reference law, or ``auto``, the compiled kernel when
+numba is present). OpenBLAS is limited to one thread unless ``OPENBLAS_NUM_THREADS`` is
+set: SciPy's GMRES makes many small BLAS calls whose thread start-up costs more than the
+work (3x slower on a loaded 2-core machine).
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np
 
@@ -33,6 +40,7 @@ def main() -> None:
     pt = PackingPoint.from_network(net, law, options=opts)
     _ = pt.tangent
     t2 = time.perf_counter()
+    print(f"equilibration {t1 - t0:.2f} s, point (factorisation, relaxed tangent) {t2 - t1:.2f} s", flush=True)
     amps = np.logspace(-6, -3, 7)
     mr = packing_modulus_reduction(pt, amps, n_cycles=2, steps_per_cycle=40, options=opts)
     t3 = time.perf_counter()
@@ -43,7 +51,6 @@ def main() -> None:
     print(f"packing: {pt.n_grains} grains, {pt.n_contacts} tracked contacts "
           f"({int(pt.initially_closed.sum())} closed), {6 * pt.n_grains - 3} grain unknowns, "
           f"p = {pt.stress[:3].mean():.4g} Pa; law backend {backend}")
-    print(f"equilibration {t1 - t0:.2f} s, point + relaxed tangent {t2 - t1:.2f} s")
     print(f"curves: {t3 - t2:.2f} s wall for {steps} steps = {steps / (t3 - t2):.1f} steps/s; "
           f"Newton iterations/step {newton / steps:.2f}, GMRES iterations/step {krylov / steps:.2f}, "
           f"extra factorisations {fact}")
