@@ -36,9 +36,15 @@ __all__ = ["prepare_stiffness", "execute_stiffness", "compute_stiffness", "stiff
            "prepare_run", "execute_run", "compute_run", "run_scalars", "reference_strain",
            "dem_options", "prepare_dem", "execute_dem", "compute_dem", "dem_scalars",
            "prepare_contact", "execute_contact", "compute_contact", "StiffnessOutcome", "RunOutcome",
-           "CyclicOutcome", "PathOutcome", "DemOutcome", "ContactOutcome", "RUN_TEST_KINDS"]
+           "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome", "ContactOutcome",
+           "RUN_TEST_KINDS", "RUN_METHODS", "PackingSource"]
 
 RUN_TEST_KINDS = ("cyclic-simple-shear", "path")
+#: kinematic models of ``grainmech run`` (``[model] method``): ``"affine"``, the seed's
+#: kinematic hypothesis (every contact follows the mean strain, seed Eq. 2.13) on an
+#: analytical fabric; ``"packing"``, a packing of grains with every grain in equilibrium
+#: (:mod:`grainmech.driver.packing`)
+RUN_METHODS = ("affine", "packing")
 
 
 # ----------------------------------------------------------------------------- stiffness
@@ -162,6 +168,90 @@ class RunSpec:
     void_ratio: float | None = None
     friction: float = float("inf")
     warnings: list = field(default_factory=list)
+    methods: tuple = ("affine",)
+    grains: "PackingSource | None" = None
+    packing_law: Any = None
+
+
+@dataclass
+class PackingSource:
+    """The packing of grains of ``method = "packing"`` (``[model]`` table of a run config).
+
+    Attributes
+    ----------
+    label : str
+        ``"shipped packing 'medium'"`` or the file name, for messages and reports.
+    network : grainmech.network.ContactNetwork
+        The packing read (3D, periodic, with radii).
+    """
+
+    label: str
+    network: Any
+
+    @property
+    def void_ratio(self) -> float:
+        """Void ratio ``e = V / V_s - 1`` of the cell (``V_s``: volume of all spheres,
+        rattlers included)."""
+        net = self.network
+        solid = float(np.sum(4.0 / 3.0 * np.pi * np.asarray(net.radii, dtype=float) ** 3))
+        return float(net.box.volume / solid - 1.0)
+
+
+def _read_methods(model: Any) -> tuple:
+    """``[model] method``: one of :data:`RUN_METHODS` or a list of them (default ``"affine"``)."""
+    raw = model.raw("method", "affine")
+    items = [raw] if isinstance(raw, str) else raw
+    if not isinstance(items, list) or not items or not all(isinstance(m, str) for m in items):
+        raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them")
+    bad = [m for m in items if m not in RUN_METHODS]
+    if bad or len(set(items)) != len(items):
+        raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them "
+                          "(each at most once)")
+    return tuple(items)
+
+
+def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
+    """The packing of ``method = "packing"``: ``packing = "<name>"`` (a shipped packing,
+    :func:`grainmech.packing.load_packing`) or ``network = "<file>"`` (a contact network
+    :func:`grainmech.io.dem.read_network` reads; ``particles`` and ``format`` as in the
+    ``[network]`` table of ``grainmech dem``)."""
+    has_name, has_file = model.has("packing"), model.has("network")
+    if has_name == has_file:
+        raise ConfigError(model.key("packing"), model.raw("packing", None),
+                          "method = 'packing' needs exactly one of model.packing (a shipped packing by name) "
+                          "or model.network (a contact-network file)")
+    if has_name:
+        name = model.raw("packing")
+        if not isinstance(name, str):
+            raise ConfigError(model.key("packing"), name, "must be the name of a shipped packing")
+        from grainmech.packing import load_packing
+
+        try:
+            net = load_packing(name)
+        except GrainmechError as exc:
+            raise ConfigError(model.key("packing"), name, str(exc)) from None
+        label = f"shipped packing {name!r}"
+    else:
+        from grainmech.io.dem import read_network
+
+        base = Path(base_dir) if base_dir is not None else Path(".")
+
+        def path(k: str) -> Path | None:
+            v = model.raw(k, None)
+            if v is None:
+                return None
+            if not isinstance(v, str) or not v.strip():
+                raise ConfigError(model.key(k), v, "must be a file path")
+            return base / v
+
+        contacts, particles = path("network"), path("particles")
+        fmt = model.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto")
+        net = read_network(contacts, particles, format=fmt)
+        label = str(model.raw("network"))
+    if net.dim != 3 or net.radii is None or not net.box.periodic.all():
+        raise ConfigError(model.key("packing" if has_name else "network"), label,
+                          "the packing driver needs a 3D periodic packing of spheres with radii")
+    return PackingSource(label, net)
 
 
 def _segments(sec: Any) -> Any:
@@ -211,11 +301,38 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure
 
     root = Section(cfg, "")
+    model = root.section("model", {})
+    methods = _read_methods(model)
+    grains = _read_grains(model, base_dir) if "packing" in methods else None
+    for k in ("packing", "network", "particles", "format"):
+        if grains is None and model.has(k):
+            raise ConfigError(model.key(k), model.raw(k), "names the packing of method = 'packing', "
+                              f"which this config does not use (method = {list(methods)})")
     density = build_fabric(root.section("fabric", {}))
     if density.dim != 3:
         raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
-    packing = build_packing(root.section("packing"), density)
-    law = build_law(root.section("contacts"), packing.radius)
+    if "affine" in methods:
+        packing = build_packing(root.section("packing"), density)
+        law = build_law(root.section("contacts"), packing.radius)
+    else:
+        if root.has("packing"):
+            raise ConfigError("packing", cfg.get("packing"), "[packing] describes the affine model's "
+                              "packing (void ratio, coordination, radius); with method = 'packing' the "
+                              "grains come from model.packing or model.network: remove the table or add "
+                              "'affine' to model.method")
+        packing = None
+        law = build_law(root.section("contacts"), float(np.median(grains.network.radii)))
+    packing_law = None
+    if grains is not None:
+        from grainmech.contact import Hertz, LinearSpring
+
+        if not isinstance(law, (Hertz, LinearSpring)):
+            raise ConfigError("contacts.law", type(law).__name__, "method = 'packing' needs a law for spheres "
+                              "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
+        # the packing driver evaluates every contact at its own radius R_A R_B / (R_A + R_B)
+        # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
+        # own radius is only a reference
+        packing_law = law
     ini = root.section("initial")
     pressure = build_pressure(ini)
     quad = root.section("quadrature", {})
@@ -230,7 +347,8 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     test = root.section("test")
     kind = test.choice("kind", RUN_TEST_KINDS)
     ref = root.section("reference", {})
-    spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree)
+    spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
+                   methods=methods, grains=grains, packing_law=packing_law)
     pk = cfg.get("packing", {})
     if isinstance(pk, dict) and "void_ratio" in pk:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
@@ -251,6 +369,11 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
         spec.constant = test.choice("constant", ("stress", "volume"), "stress")
+        mu = float(getattr(packing_law, "friction", 0.0) or 0.0)
+        if packing_law is not None and not (0 < mu < float("inf")):
+            raise ConfigError("contacts.friction", getattr(packing_law, "friction", None),
+                              "damping needs friction: the packing model's loops have no area without a finite "
+                              "Coulomb limit (give contacts.friction or contacts.friction_angle)")
         spec.reference = dict(
             pi=ref.number("plasticity_index", None, 0.0, min=0),
             ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
@@ -283,6 +406,11 @@ class RunOutcome:
         The initial state.
     warnings : list of str
         Plausibility warnings (value and reason).
+    method : str
+        ``"affine"`` or ``"packing"`` (:data:`RUN_METHODS`).
+    details : dict
+        For ``"packing"``: the packing (label, grains, rattlers, contacts, void ratio, input
+        mean stress, notes of the point) and the largest equilibrium residual of any step.
     """
 
     kind: str
@@ -293,6 +421,8 @@ class RunOutcome:
     seconds: float
     point: Any
     warnings: list = field(default_factory=list)
+    method: str = "affine"
+    details: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -339,14 +469,54 @@ class PathOutcome(RunOutcome):
     envelope: dict | None = None
 
 
-def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> RunOutcome:
-    """Drive the material point; ``progress(message)`` is called before each run.
+@dataclass
+class RunComparison:
+    """Several kinematic models on one test (``[model] method`` a list): one
+    :class:`RunOutcome` per method, in the config's order."""
 
-    Returns a :class:`CyclicOutcome` or a :class:`PathOutcome`.
+    outcomes: list
+
+    @property
+    def success(self) -> bool:
+        return all(o.success for o in self.outcomes)
+
+    @property
+    def message(self) -> str:
+        return "; ".join(f"{o.method}: {o.message}" for o in self.outcomes)
+
+    @property
+    def warnings(self) -> list:
+        return [w for o in self.outcomes for w in o.warnings]
+
+    @property
+    def seconds(self) -> float:
+        return float(sum(o.seconds for o in self.outcomes))
+
+    @property
+    def kind(self) -> str:
+        return self.outcomes[0].kind
+
+    @property
+    def pressure(self) -> float:
+        return self.outcomes[0].pressure
+
+
+def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> "RunOutcome | RunComparison":
+    """Drive the material point of every method of ``spec``; ``progress(message)`` is
+    called before each run.
+
+    Returns a :class:`CyclicOutcome` or a :class:`PathOutcome` for one method, a
+    :class:`RunComparison` of them for several.
     """
+    say = progress or (lambda msg: None)
+    outs = [_execute_affine(spec, say) if m == "affine" else _execute_packing(spec, say) for m in spec.methods]
+    return outs[0] if len(outs) == 1 else RunComparison(outs)
+
+
+def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+    """The seed's material point (kinematic hypothesis) on the analytical fabric."""
     from grainmech.driver import MaterialPoint, run
 
-    say = progress or (lambda msg: None)
     point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
     if spec.kind == "cyclic-simple-shear":
         from grainmech.analysis import modulus_reduction
@@ -354,27 +524,88 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
         amps = spec.amplitudes
 
         def each(i: int, a: float, path: Any) -> None:
-            say(f"[{i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
+            say(f"[affine {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
                 f"({len(path)} steps, {len(point.contacts)} directions)")
 
         t0 = time.perf_counter()
         mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                waveform=spec.waveform, constant=spec.constant, progress=each,
                                raise_on_failure=False)
-        return CyclicOutcome(
-            kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
-            message=mr.message, seconds=time.perf_counter() - t0, point=point,
-            warnings=list(spec.warnings) + grain_modulus_warning(mr.G_max, spec.law),
-            amplitudes=np.asarray(mr.amplitude, dtype=float), G=np.asarray(mr.G, dtype=float),
-            damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
-            reference=dict(spec.reference or {}),
-            empirical_G_max=empirical_gmax_check(mr.G_max, spec.void_ratio, spec.pressure))
-    say(f"path: {len(spec.path)} steps, {len(point.contacts)} directions")
+        return _cyclic_outcome(spec, "affine", mr, time.perf_counter() - t0, point, spec.void_ratio)
+    say(f"[affine] path: {len(spec.path)} steps, {len(point.contacts)} directions")
     t0 = time.perf_counter()
     r = run(point, spec.path, engineering=True)
     return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
                        message=r.message, seconds=time.perf_counter() - t0, point=point,
-                       warnings=list(spec.warnings), envelope=envelope_check(r.stress))
+                       warnings=list(spec.warnings), envelope=envelope_check(r.stress), method="affine")
+
+
+def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: Any,
+                    void_ratio: float | None, details: dict | None = None) -> "CyclicOutcome":
+    return CyclicOutcome(
+        kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
+        message=mr.message, seconds=seconds, point=point, method=method, details=dict(details or {}),
+        warnings=(list(spec.warnings) if method == "affine" else [])
+        + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law),
+        amplitudes=np.asarray(mr.amplitude, dtype=float), G=np.asarray(mr.G, dtype=float),
+        damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
+        reference=dict(spec.reference or {}),
+        empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method))
+
+
+#: relative difference between a packing's stress and the run's mean stress below which
+#: the packing is used as it is (otherwise it is brought to the stress first)
+PACKING_STRESS_TOLERANCE = 5e-3
+
+
+def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+    """The packing driver (:mod:`grainmech.driver.packing`) on the packing of ``spec.grains``:
+    every grain in force and moment equilibrium at every step."""
+    from grainmech.driver.packing import (PackingOptions, PackingPoint, packing_modulus_reduction,
+                                          run_packing)
+
+    src = spec.grains
+    net = src.network
+    opts = PackingOptions(law_backend="auto")
+    t0 = time.perf_counter()
+    say(f"[packing] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, "
+        f"void ratio {src.void_ratio:.3f}; equilibrium check and elastic factorisation")
+    pt = PackingPoint.from_network(net, spec.packing_law, options=opts)
+    p0 = float(np.mean(pt.stress[:3]))
+    if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
+        say(f"[packing] bringing the packing from p = {p0:.4g} Pa to {spec.pressure:.4g} Pa "
+            "(stress-controlled, every grain in equilibrium)")
+        pt = PackingPoint.at_stress(net, spec.packing_law, spec.pressure, options=opts)
+    details = {"packing": src.label, "grains": int(pt.n_grains), "rattlers": int(pt.n_rattlers),
+               "contacts_tracked": int(pt.n_contacts), "contacts_closed": int(np.sum(pt.initially_closed)),
+               "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),
+               "prepare_seconds": time.perf_counter() - t0}
+    if spec.kind == "cyclic-simple-shear":
+        amps = spec.amplitudes
+
+        def each(i: int, a: float, path: Any) -> None:
+            say(f"[packing {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
+                f"({len(path)} steps, {pt.n_grains} grains)")
+
+        t1 = time.perf_counter()
+        mr = packing_modulus_reduction(pt, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
+                                       waveform=spec.waveform, constant=spec.constant, progress=each,
+                                       raise_on_failure=False, options=opts)
+        details["max_residual"] = _max_residual(mr.results)
+        return _cyclic_outcome(spec, "packing", mr, time.perf_counter() - t1, pt, src.void_ratio, details)
+    say(f"[packing] path: {len(spec.path)} steps, {pt.n_grains} grains")
+    t1 = time.perf_counter()
+    r = run_packing(pt, spec.path, opts)
+    details["max_residual"] = _max_residual([r])
+    return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
+                       message=r.message, seconds=time.perf_counter() - t1, point=pt,
+                       envelope=envelope_check(r.stress), method="packing", details=details)
+
+
+def _max_residual(results: list) -> float:
+    """Largest out-of-balance ratio of any step (``PackingResult.residual``)."""
+    vals = [float(np.max(r.residual)) for r in results if len(getattr(r, "residual", ()))]
+    return max(vals) if vals else float("nan")
 
 
 #: largest shear strain amplitude the material-point model is meant for (small strain,
@@ -437,7 +668,8 @@ def input_warnings(cfg: dict) -> list[str]:
 GMAX_FLAG_FACTOR = 2.0
 
 
-def empirical_gmax_check(g_model: float, void_ratio: float | None, pressure: float) -> dict | None:
+def empirical_gmax_check(g_model: float, void_ratio: float | None, pressure: float,
+                         method: str = "affine") -> dict | None:
     """The model's Gmax beside Hardin & Richart (1963) at the same void ratio and mean stress.
 
     Returns ``None`` without a void ratio; else a dict with both empirical values [Pa], the
@@ -454,7 +686,11 @@ def empirical_gmax_check(g_model: float, void_ratio: float | None, pressure: flo
     flag = not (1 / GMAX_FLAG_FACTOR <= nearest <= GMAX_FLAG_FACTOR)
     note = (f"model Gmax is {nearest:.2f} x Hardin-Richart (1963) for e = {void_ratio:g} and "
             f"p = {pressure / 1e3:.4g} kPa")
-    if flag and nearest > 1:
+    if flag and nearest > 1 and method == "packing":
+        note += (": the packing is stiffer than sands of this void ratio (Hardin-Richart's sands are "
+                 "angular and less coordinated than packings of smooth spheres; compare with a packing "
+                 "of the sand's own density and coordination)")
+    elif flag and nearest > 1:
         note += (": the affine model (seed's kinematic hypothesis: every contact follows the mean "
                  "strain, no grain can move to relieve its contacts) is an upper bound, several "
                  "times too stiff in shear for real sands; the relaxed tensor of a packing "
@@ -501,7 +737,7 @@ def envelope_check(stress: np.ndarray) -> dict:
             "first_step": first}
 
 
-def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> RunOutcome:
+def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> "RunOutcome | RunComparison":
     """Config dict -> driver result (see :func:`execute_run`); no file writing."""
     return execute_run(prepare_run(cfg), progress)
 
@@ -540,7 +776,14 @@ def run_scalars(out: RunOutcome) -> dict[str, Any]:
     ``damping@<amplitude>`` for every amplitude, ``success``, ``message``.
     Path: final ``p [Pa]`` and ``q [Pa]``, the final stress and strain components,
     ``dissipation [J/m^3]``, ``n_steps``, ``success``, ``message``.
+    Several methods (:class:`RunComparison`): each method's columns prefixed
+    ``"<method>: "``, then the overall ``success`` and ``message``.
     """
+    if isinstance(out, RunComparison):
+        row = {f"{o.method}: {k}": v for o in out.outcomes for k, v in run_scalars(o).items()}
+        row["success"] = bool(out.success)
+        row["message"] = str(out.message)
+        return row
     row: dict[str, Any] = {}
     if isinstance(out, CyclicOutcome):
         gmax = float(out.G_max)

@@ -93,11 +93,12 @@ def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None
 
 def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
                       references: dict[str, tuple[Any, Any]] | None = None,
-                      label: str = "grainmech") -> Any:
+                      label: str = "grainmech", style: str = "ko-") -> Any:
     """G/Gmax against shear strain amplitude (decimal), with reference curves
-    ``name -> (gamma, G/Gmax)``. Returns the Axes."""
+    ``name -> (gamma, G/Gmax)``; call again on the same Axes (another ``label`` and
+    ``style``, no references) to add a model. Returns the Axes."""
     ax = _axes(ax)
-    ax.semilogx(amplitude, G_ratio, "ko-", label=label)
+    ax.semilogx(amplitude, G_ratio, style, label=label)
     for name, (g, r) in (references or {}).items():
         ax.semilogx(g, r, "--", label=name)
     ax.set_xlabel("shear strain amplitude [-]")
@@ -109,11 +110,13 @@ def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
 
 
 def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
-            references: dict[str, tuple[Any, Any]] | None = None, label: str = "grainmech") -> Any:
+            references: dict[str, tuple[Any, Any]] | None = None, label: str = "grainmech",
+            style: str = "ko-") -> Any:
     """Damping ratio [%] against shear strain amplitude (decimal), with reference curves
-    ``name -> (gamma, D)`` (D decimal). Returns the Axes."""
+    ``name -> (gamma, D)`` (D decimal); call again on the same Axes to add a model.
+    Returns the Axes."""
     ax = _axes(ax)
-    ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), "ko-", label=label)
+    ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), style, label=label)
     for name, (g, d) in (references or {}).items():
         ax.semilogx(g, 100 * np.asarray(d), "--", label=name)
     ax.set_xlabel("shear strain amplitude [-]")

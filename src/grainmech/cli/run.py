@@ -31,7 +31,7 @@ def main(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
     from grainmech.io.reports import write_run_outputs
     from grainmech.io.results import ensure_dir
-    from grainmech.jobs import CyclicOutcome, compute_run
+    from grainmech.jobs import CyclicOutcome, RunComparison, compute_run
 
     def say(msg: str) -> None:
         if not args.quiet:
@@ -49,19 +49,28 @@ def main(args: argparse.Namespace) -> int:
     for w in out.warnings:
         print(f"grainmech: warning: {w}", file=sys.stderr)
     summary = write_run_outputs(out, args.outdir, cfg, source)
-    if isinstance(out, CyclicOutcome) and len(out.G):
-        say(f"Gmax = {out.G_max:.4g} Pa")
-        emp = out.empirical_G_max
-        if emp:
-            say(f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
-                f"{emp['G_angular_Pa']:.4g} Pa angular grains")
-            say(("  WARNING: " if emp["flag"] else "  ") + emp["note"])
-        for a, g, dd, c in zip(out.amplitudes, out.G_ratio, out.damping, out.mean_stress_change):
-            say(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
-                f"   change of p {100 * c:+6.1f} %")
-    env = summary.get("envelope")
-    if env and env["first_step_beyond"] is not None:
-        say("WARNING: " + env["note"])
+    outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
+    for o in outs:
+        m = summary["models"][o.method] if "models" in summary else summary
+        if len(outs) > 1:
+            say(f"{o.method} model ({'completed' if o.success else 'STOPPED: ' + o.message}):")
+        det = o.details
+        if det:
+            say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
+                f"{det['void_ratio']:.3f}; largest out-of-balance force ratio {det.get('max_residual', float('nan')):.2g}")
+        if isinstance(o, CyclicOutcome) and len(o.G):
+            say(f"  Gmax = {o.G_max:.4g} Pa")
+            emp = o.empirical_G_max
+            if emp:
+                say(f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
+                    f"{emp['G_angular_Pa']:.4g} Pa angular grains")
+                say(("  WARNING: " if emp["flag"] else "  ") + emp["note"])
+            for a, g, dd, c in zip(o.amplitudes, o.G_ratio, o.damping, o.mean_stress_change):
+                say(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
+                    f"   change of p {100 * c:+6.1f} %")
+        env = m.get("envelope")
+        if env and env["first_step_beyond"] is not None:
+            say("WARNING: " + env["note"])
     say(f"wrote {len(summary['files'])} files to {args.outdir}")
     if not out.success:
         print(f"grainmech: error: {out.message} (results so far are in {args.outdir})", file=sys.stderr)

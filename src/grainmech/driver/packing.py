@@ -465,6 +465,19 @@ class PackingPoint:
         """
         return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max)
 
+    @cached_property
+    def elastic_tangent(self) -> np.ndarray:
+        """Relaxed tangent (6, 6) with the elastic contact stiffness ``K0 = kn n n +
+        ks_perp (I - n n)`` (no slip) of the current state [stress].
+
+        The stiffness of a small strain reversal from this state: at the reversal every
+        Mindlin-Deresiewicz contact unloads with its no-slip stiffness ``8 G* a``
+        (seed Eq. 3.11; Mindlin & Deresiewicz 1953), whatever its tangential force. This is
+        the small-strain modulus a small cycle or a shear wave measures (``G_max``); it
+        equals :attr:`tangent` when no contact carries a tangential force.
+        """
+        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max, elastic=True)
+
     def fluctuation(self) -> float:
         """Largest grain displacement fluctuation over its radius (mean translation removed)."""
         u = self.q[:, :3] - self.q[:, :3].mean(axis=0)
@@ -529,14 +542,15 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     return float(np.mean(np.hypot(F, M)) / fmean)
 
 
-def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int) -> np.ndarray:
-    """Relaxed tangent (6, 6) of ``point`` with its consistent contact tangent (GMRES per column)."""
+def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False) -> np.ndarray:
+    """Relaxed tangent (6, 6) of ``point`` with its consistent contact tangent, or with the
+    elastic one (``elastic``), by GMRES per column."""
     import scipy.sparse.linalg as spla
 
     from grainmech.driver._packing_ops import block_diagonal
 
     kin = point.kinematics
-    K, _ = point.contact_stiffness()
+    K = point.contact_stiffness()[1 if elastic else 0]
     Kb = block_diagonal(K)
     KE = Kb @ kin.E
     B = kin.Gt @ KE
@@ -982,8 +996,10 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
     the last of ``n_cycles`` cycles is analysed by
     :func:`grainmech.analysis.loop_properties`: secant modulus, damping
     ``D = dW / (4 pi W)``), with every grain in equilibrium (:func:`run_packing`).
-    ``G_max`` is the relaxed tangent's ``C_55`` condensed with the path's control
-    (``sigma_zz`` free at constant stress; plain ``C_55`` at constant volume).
+    ``G_max`` is ``C_55`` of :attr:`PackingPoint.elastic_tangent` (the stiffness of a small
+    reversal: a packing with tangential contact forces, e.g. from DEM, is stiffer for a
+    small cycle than along its current loading direction) condensed with the path's
+    control (``sigma_zz`` free at constant stress; plain ``C_55`` at constant volume).
 
     Raises
     ------
@@ -1024,7 +1040,7 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
         lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
         G.append(lp.secant_modulus)
         D.append(lp.damping)
-    Gmax = condensed_modulus(point.tangent, 4, path.stress_control[0])
+    Gmax = condensed_modulus(point.elastic_tangent, 4, path.stress_control[0])
     return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), Gmax, res, success, message)
 
 

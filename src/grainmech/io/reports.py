@@ -44,80 +44,40 @@ def _reference_curves(out: Any) -> dict:
     return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d}
 
 
+#: how each kinematic model is drawn and named where the two are compared
+MODEL_STYLE = {"affine": ("ko-", "affine (seed: every contact follows the mean strain)"),
+               "packing": ("bs-", "packing (every grain in equilibrium)")}
+
+
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
     """Files of ``grainmech run``: a CSV per run, ``modulus_reduction.csv``,
     ``site_response_curves.csv``, PNG plots, ``config_used.json``, ``summary.json`` and
     ``index.html``. ``out`` is a :class:`grainmech.jobs.CyclicOutcome` or
-    :class:`grainmech.jobs.PathOutcome`. Returns the summary (``files`` lists the names)."""
-    from grainmech import plots
-    from grainmech.jobs import CyclicOutcome
+    :class:`grainmech.jobs.PathOutcome` (one model), or a
+    :class:`grainmech.jobs.RunComparison` (several models: each model's files carry the
+    prefix ``<method>_``, the curves of all models share ``modulus_reduction.png``, and
+    ``summary.json`` has one entry per model under ``models``). Returns the summary
+    (``files`` lists the names)."""
+    from grainmech.jobs import RunComparison
 
     d = ensure_dir(outdir)
-    cyclic = isinstance(out, CyclicOutcome)
+    outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
+    compare = len(outs) > 1
     summary: dict[str, Any] = {"source": source, "kind": out.kind, "success": out.success,
                                "message": out.message, "seconds": out.seconds,
-                               "initial_pressure_Pa": out.pressure, "files": []}
-    env = None if cyclic else out.envelope
-    for i, r in enumerate(out.results):
-        cols, rows = driver_table(r)
-        name = f"run_{i:02d}.csv" if cyclic else "path.csv"
-        if env is not None:
-            cols = cols + ["stress_ratio_sigma1_sigma3", "beyond_sand_envelope"]
-            rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
-        write_csv(d / name, cols, rows)
-        summary["files"].append(name)
-    if cyclic and out.empirical_G_max:
-        summary["empirical_G_max"] = out.empirical_G_max
+                               "initial_pressure_Pa": out.pressure, "files": [],
+                               "methods": [o.method for o in outs]}
+    models = {}
+    for o in outs:
+        models[o.method] = _write_model_files(o, d, f"{o.method}_" if compare else "", summary["files"], source)
+    if compare:
+        summary["models"] = models
+    else:
+        summary.update(models[outs[0].method])
     summary["warnings"] = list(out.warnings)
-    if env is not None:
-        first = env["first_step"]
-        summary["envelope"] = {
-            "limit_sigma1_over_sigma3": env["limit"], "friction_angle_deg": env["friction_angle_deg"],
-            "first_step_beyond": first, "max_ratio": float(np.max(env["ratio"])),
-            "note": (("the stress ratio sigma1/sigma3 leaves the envelope sands sustain (Mohr-Coulomb, "
-                      f"phi = {env['friction_angle_deg']:g} deg: {env['limit']:.2f}) at step {first} and "
-                      f"reaches {float(np.max(env['ratio'])):.3g}; the affine model (every contact follows "
-                      "the mean strain) cannot fail, so these states are not predictions")
-                     if first is not None else "stress ratio within the envelope sands sustain")}
-    if cyclic and len(out.G):
-        amps, G, Dm, ratio = np.asarray(out.amplitudes), np.asarray(out.G), np.asarray(out.damping), out.G_ratio
-        refs = _reference_curves(out)
-        dar, hd = refs["darendeli"], refs["hardin_drnevich"]
-        dp = out.mean_stress_change
-        write_csv(d / "modulus_reduction.csv",
-                  ["amplitude", "G_Pa", "G_over_Gmax", "damping", "mean_stress_change"],
-                  zip(amps, G, ratio, Dm, dp))
-        summary["mean_stress_change"] = dp
-        summary["files"].append("modulus_reduction.csv")
-        # the same curves for site-response tools (strain and damping as decimals)
-        from grainmech.io.site_response import write_curves
-
-        o = np.argsort(amps)
-        if np.all(np.diff(amps[o]) > 0):
-            write_curves(d / "site_response_curves.csv", amps[o], ratio[o], Dm[o], g_max=out.G_max,
-                         source=f"grainmech run: {source}, mean stress {out.pressure:.6g} Pa")
-            summary["files"].append("site_response_curves.csv")
-        fig, ax = plots.subplots(figsize=(6.4, 4.8))
-        plots.loops(out.results[:len(G)], amps, ax=ax)
-        write_figure(d / "loops.png", fig)
-        fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
-        gam = refs["gamma"]
-        plots.modulus_reduction(amps, ratio, ax=a1, references={
-            "Darendeli (2001)": (gam, dar.G_ratio), "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])})
-        plots.damping(amps, Dm, ax=a2, references={
-            "Darendeli (2001)": (gam, dar.damping), "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])})
-        fig.tight_layout()
-        write_figure(d / "modulus_reduction.png", fig)
-        summary["files"] += ["loops.png", "modulus_reduction.png"]
-        summary.update(G_max_Pa=out.G_max, amplitudes=amps, G_Pa=G, G_over_Gmax=ratio, damping=Dm,
-                       darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
-                       hardin_drnevich_d_max=hd.d_max)
-    elif not cyclic:
-        fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
-        plots.path_histories(out.results[0], axes=axes)
-        fig.tight_layout()
-        write_figure(d / "path.png", fig)
-        summary["files"].append("path.png")
+    cyclic = [(o, models[o.method]) for o in outs if "G_max_Pa" in models[o.method]]
+    if cyclic:
+        _write_curves_figure(d, cyclic, compare, summary)
     cfg_text = json.dumps(cfg, indent=2, default=str)
     write_text(d / "config_used.json", cfg_text)
     summary["files"].append("config_used.json")
@@ -126,6 +86,98 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
     _write_run_index(d, summary, cfg_text)
     summary["files"].append("index.html")
     return summary
+
+
+def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -> dict:
+    """Per-step CSVs and per-model tables/plots of one model's outcome; returns its summary."""
+    from grainmech import plots
+    from grainmech.jobs import CyclicOutcome
+
+    cyclic = isinstance(o, CyclicOutcome)
+    env = None if cyclic else o.envelope
+    m: dict[str, Any] = {"method": o.method, "success": o.success, "message": o.message, "seconds": o.seconds}
+    if o.details:
+        m["details"] = o.details
+    for i, r in enumerate(o.results):
+        cols, rows = driver_table(r)
+        name = prefix + (f"run_{i:02d}.csv" if cyclic else "path.csv")
+        if getattr(r, "residual", None) is not None and len(r.residual) == len(rows):
+            cols = cols + ["equilibrium_residual"]
+            rows = np.hstack([rows, np.asarray(r.residual, dtype=float)[:, None]])
+        if env is not None:
+            cols = cols + ["stress_ratio_sigma1_sigma3", "beyond_sand_envelope"]
+            rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
+        write_csv(d / name, cols, rows)
+        files.append(name)
+    if cyclic and o.empirical_G_max:
+        m["empirical_G_max"] = o.empirical_G_max
+    if env is not None:
+        first = env["first_step"]
+        cannot_fail = (" the affine model (every contact follows the mean strain) cannot fail, so these "
+                       "states are not predictions" if o.method == "affine" else
+                       " the grain friction of the packing does not hold such states for long: read them "
+                       "with the sliding fraction and the equilibrium residual")
+        m["envelope"] = {
+            "limit_sigma1_over_sigma3": env["limit"], "friction_angle_deg": env["friction_angle_deg"],
+            "first_step_beyond": first, "max_ratio": float(np.max(env["ratio"])),
+            "note": ((f"the stress ratio sigma1/sigma3 leaves the envelope sands sustain "
+                      f"(Mohr-Coulomb, phi = {env['friction_angle_deg']:g} deg: {env['limit']:.2f}) at step "
+                      f"{first} and reaches {float(np.max(env['ratio'])):.3g};" + cannot_fail)
+                     if first is not None else "stress ratio within the envelope sands sustain")}
+        fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
+        plots.path_histories(o.results[0], axes=axes)
+        fig.tight_layout()
+        write_figure(d / f"{prefix}path.png", fig)
+        files.append(f"{prefix}path.png")
+    if cyclic and len(o.G):
+        amps, G, Dm, ratio = np.asarray(o.amplitudes), np.asarray(o.G), np.asarray(o.damping), o.G_ratio
+        dp = o.mean_stress_change
+        write_csv(d / f"{prefix}modulus_reduction.csv",
+                  ["amplitude", "G_Pa", "G_over_Gmax", "damping", "mean_stress_change"],
+                  zip(amps, G, ratio, Dm, dp))
+        files.append(f"{prefix}modulus_reduction.csv")
+        # the same curves for site-response tools (strain and damping as decimals)
+        from grainmech.io.site_response import write_curves
+
+        order = np.argsort(amps)
+        if np.all(np.diff(amps[order]) > 0):
+            write_curves(d / f"{prefix}site_response_curves.csv", amps[order], ratio[order], Dm[order],
+                         g_max=o.G_max, source=f"grainmech run ({o.method} model): {source}, "
+                                               f"mean stress {o.pressure:.6g} Pa")
+            files.append(f"{prefix}site_response_curves.csv")
+        fig, ax = plots.subplots(figsize=(6.4, 4.8))
+        plots.loops(o.results[:len(G)], amps, ax=ax)
+        ax.set_title(MODEL_STYLE[o.method][1], fontsize=9)
+        write_figure(d / f"{prefix}loops.png", fig)
+        files.append(f"{prefix}loops.png")
+        m.update(G_max_Pa=o.G_max, amplitudes=amps, G_Pa=G, G_over_Gmax=ratio, damping=Dm,
+                 mean_stress_change=dp)
+    return m
+
+
+def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
+    """``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
+    and Hardin-Drnevich (1972) at the run's mean stress."""
+    from grainmech import plots
+
+    first, _ = cyclic[0]
+    refs = _reference_curves(first)
+    dar, hd, gam = refs["darendeli"], refs["hardin_drnevich"], refs["gamma"]
+    fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
+    for k, (o, m) in enumerate(cyclic):
+        style, name = MODEL_STYLE[o.method] if compare else ("ko-", "grainmech")
+        last = k == len(cyclic) - 1
+        plots.modulus_reduction(m["amplitudes"], m["G_over_Gmax"], ax=a1, label=name, style=style,
+                                references={"Darendeli (2001)": (gam, dar.G_ratio),
+                                            "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])} if last else None)
+        plots.damping(m["amplitudes"], m["damping"], ax=a2, label=name, style=style,
+                      references={"Darendeli (2001)": (gam, dar.damping),
+                                  "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])} if last else None)
+    fig.tight_layout()
+    write_figure(d / "modulus_reduction.png", fig)
+    summary["files"].append("modulus_reduction.png")
+    summary.update(darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
+                   hardin_drnevich_d_max=hd.d_max)
 
 
 def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
@@ -138,48 +190,73 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
              f"test <b>{html.escape(summary['kind'])}</b>, initial isotropic stress "
              f"{summary['initial_pressure_Pa']:.6g} Pa; {html.escape(status)}"
              + (f" in {summary['seconds']:.1f} s" if summary.get("seconds") else "") + ".</p>")
+    compare = "models" in summary
+    models = list(summary["models"].values()) if compare else [summary]
+    if compare:
+        intro += ("<p>Two kinematic models of the same sand: <b>affine</b>, the seed's kinematic "
+                  "hypothesis (every contact follows the mean strain, on the analytical fabric), an "
+                  "upper bound that cannot fail; <b>packing</b>, a packing of grains in which every "
+                  "grain moves and turns until it is in force and moment equilibrium at every step "
+                  "(see docs/packing-driver.md).</p>")
     sections = []
-    if "G_max_Pa" in summary:
-        rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
-                       f"<td>{100 * c:+.1f}</td></tr>"
-                       for a, g, r, dd, c in zip(summary["amplitudes"], summary["G_Pa"], summary["G_over_Gmax"],
-                                                 summary["damping"], summary["mean_stress_change"]))
-        table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
-                 f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
-        intro += (f"<p>Small-strain shear modulus Gmax = {summary['G_max_Pa']:.5g} Pa "
-                  "(condensed tangent at the initial state); every G/Gmax below is normalised by "
-                  "this one Gmax. The last column is the change of the mean stress p over each "
-                  "amplitude's run (at constant sigma_zz the horizontal stresses are free to change).</p>")
-        emp = summary.get("empirical_G_max")
-        if emp:
-            warn = "<b>Warning:</b> " if emp["flag"] else ""
-            intro += (f"<p>{warn}Hardin &amp; Richart (1963) at the same void ratio and mean stress: "
-                      f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
-                      f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
-                      f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
-        intro += table
-        sections.append(Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
-                                "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
-                                "amplitude, with Darendeli (2001) (reference strain "
-                                f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
-                                f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
-                                f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
-                                ("modulus_reduction.png", "modulus_reduction.csv")
-                                + (("site_response_curves.csv",)
-                                   if "site_response_curves.csv" in summary["files"] else ())))
-        sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
-                                "Shear stress against normalised shear strain for every amplitude.",
-                                ("loops.png",)))
+    for m in models:
+        pre = f"{m['method']}_" if compare else ""
+        head = f"<h3>{html.escape(m['method'])} model</h3>" if compare else ""
+        if not m["success"]:
+            head += f"<p><b>Stopped:</b> {html.escape(str(m['message']))}</p>"
+        det = m.get("details")
+        if det:
+            head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in equilibrium "
+                     f"({det['rattlers']} rattlers left out), {det['contacts_closed']} contacts "
+                     f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
+                     f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "
+                     "(column equilibrium_residual).</p>")
+        if "G_max_Pa" in m:
+            rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
+                           f"<td>{100 * c:+.1f}</td></tr>"
+                           for a, g, r, dd, c in zip(m["amplitudes"], m["G_Pa"], m["G_over_Gmax"],
+                                                     m["damping"], m["mean_stress_change"]))
+            table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
+                     f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
+            head += (f"<p>Small-strain shear modulus Gmax = {m['G_max_Pa']:.5g} Pa "
+                     "(condensed tangent at the initial state); every G/Gmax of this model is normalised by "
+                     "this one Gmax. The last column is the change of the mean stress p over each "
+                     "amplitude's run (at constant sigma_zz the horizontal stresses are free to change).</p>")
+            emp = m.get("empirical_G_max")
+            if emp:
+                warn = "<b>Warning:</b> " if emp["flag"] else ""
+                head += (f"<p>{warn}Hardin &amp; Richart (1963) at the same void ratio and mean stress: "
+                         f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
+                         f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
+                         f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
+            head += table
+            sections.append(Section(f"{pre}loops", f"Stress-strain loops{' (' + m['method'] + ')' if compare else ''}",
+                                    d / f"{pre}loops.png",
+                                    "Shear stress against normalised shear strain for every amplitude.",
+                                    (f"{pre}loops.png", f"{pre}modulus_reduction.csv")
+                                    + ((f"{pre}site_response_curves.csv",)
+                                       if f"{pre}site_response_curves.csv" in summary["files"] else ())))
+        env = m.get("envelope")
+        if env:
+            warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
+            head += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of {pre}path.csv).</p>"
+        if f"{pre}path.png" in summary["files"]:
+            sections.append(Section(f"{pre}path", "Strain and stress along the path"
+                                    + (f" ({m['method']})" if compare else ""), d / f"{pre}path.png",
+                                    "Every component, compression positive, engineering shear strain.",
+                                    (f"{pre}path.png", f"{pre}path.csv")))
+        intro += head
+    if "darendeli_gamma_r" in summary:
+        sections.insert(0, Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
+                                   "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
+                                   "amplitude" + (" for each model" if compare else "")
+                                   + ", with Darendeli (2001) (reference strain "
+                                   f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
+                                   f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
+                                   f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
+                                   ("modulus_reduction.png",)))
     for w in summary.get("warnings", []):
         intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
-    env = summary.get("envelope")
-    if env:
-        warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
-        intro += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of path.csv).</p>"
-    if "path.png" in summary["files"]:
-        sections.append(Section("path", "Strain and stress along the path", d / "path.png",
-                                "Every component, compression positive, engineering shear strain.",
-                                ("path.png", "path.csv")))
     sections.append(Section("inputs", "Inputs used", None, "The configuration exactly as read.",
                             ("config_used.json", "summary.json"),
                             raw_html=f"<pre>{html.escape(cfg_text)}</pre>"))
