@@ -225,3 +225,17 @@ amplitudes = [1e-6]
 [quadrature]
 degree = {degree}
 """)
+
+
+def test_unstable_packing_file_is_refused(network_files, tmp_path):
+    """A packing whose stored forces are not in equilibrium (every other contact's force
+    doubled) is refused with the unbalanced force ratio, before any loading."""
+    d, net = network_files
+    f = net.force.copy()
+    f[::2] *= 2.0
+    np.savez(tmp_path / "contacts.npz", id1=net.ids[net.i], id2=net.ids[net.j], fx=f[:, 0], fy=f[:, 1],
+             fz=f[:, 2], delta=net.overlap)
+    cfg = _config(d, _packing_pressure(net), ["packing"])
+    cfg["model"]["network"] = (tmp_path / "contacts.npz").as_posix()
+    with pytest.raises(GrainmechError, match="not mechanically stable: unbalanced force ratio"):
+        compute_run(cfg)
