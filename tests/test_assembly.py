@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from _hyp import given, settings, st
 
 from grainmech import assembly
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness, stiffness_tensor

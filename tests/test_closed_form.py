@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from _hyp import given, settings, st
 from scipy.integrate import lebedev_rule
 
 from grainmech import closed_form as cf

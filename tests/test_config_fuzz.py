@@ -4,7 +4,7 @@ import json
 import math
 
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from _hyp import HealthCheck, given, settings, st
 
 from grainmech.cli import main
 

@@ -21,8 +21,8 @@ import zlib
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from _hyp import HealthCheck, given, settings
+from _hyp import st
 
 import grainmech.contact.law as law_module
 from grainmech.contact import (

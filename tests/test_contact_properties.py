@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from _hyp import HealthCheck, given, settings
+from _hyp import st
 from scipy.spatial.transform import Rotation
 
 from grainmech.contact import (

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
-from hypothesis.extra.numpy import arrays
+from _hyp import given, settings, st
+from _hyp import arrays
 
 from grainmech import conventions as cv
 

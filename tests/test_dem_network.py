@@ -8,8 +8,8 @@ import json
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
-from hypothesis import strategies as st
+from _hyp import HealthCheck, assume, given, settings
+from _hyp import st
 
 from grainmech.errors import GrainmechError
 from grainmech.network import (

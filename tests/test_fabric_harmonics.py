@@ -7,7 +7,7 @@ from math import factorial
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import given, settings, strategies as st
+from _hyp import given, settings, st
 from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import seed_angles, seed_normal

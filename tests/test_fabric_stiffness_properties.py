@@ -1,7 +1,7 @@
 """Fabric -> stiffness invariants (issue 2 property tests; seed Eq. 2.28-2.29, 2.41, 4.19)."""
 
 import numpy as np
-from hypothesis import given, settings, strategies as st
+from _hyp import given, settings, st
 
 from grainmech import fabric
 from grainmech.assembly import ContactSet, stiffness

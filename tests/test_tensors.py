@@ -21,8 +21,8 @@ import itertools
 import numpy as np
 import pytest
 import sympy as sp
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from _hyp import HealthCheck, given, settings
+from _hyp import st
 from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import matrix_to_tensor4, reorder, tensor4_to_matrix, voigt_to_mandel

@@ -146,6 +146,7 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
     tol = opts.rtol * scale
     loose = opts.rtol_accept * scale
     best: tuple | None = None  # (residual, new point, response) of the best iterate within `loose`
+    hist: list = []  # residual of every iteration
     if sc.any():
         rhs = target[sc] - point.stress[sc] - C[np.ix_(sc, ~sc)] @ de[~sc]
         try:
@@ -175,10 +176,11 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
                 object.__setattr__(new, "tangent", ev.tangent)
             if rmax <= tol:
                 return new, it, ev.response, False
-            if best is not None and rmax > 0.1 * best[0]:  # stalled at a tie of the law
-                return (new, it, ev.response, True) if rmax <= best[0] else (best[1], it, best[2], True)
             if best is None or rmax < best[0]:
                 best = (rmax, new, ev.response)
+            if len(hist) >= 2 and abs(rmax - hist[-2]) <= 1e-6 * rmax:  # two-cycle at a tie of the law
+                return best[1], it, best[2], True
+        hist.append(rmax)
         if fused:
             J = ev.jacobian[np.ix_(sc, sc)]
         else:
