@@ -323,7 +323,7 @@ class Cylinder:
         Poisson's ratio ``nu`` in (-1, 0.5).
     radius : float
         The radius ``R`` of seed Eq. 3.8 [m]: the rod radius for two equal rods (see
-        ``docs/seed-errata-ch3.md``: with this reading the seed's half-width
+        ``docs/seed-errata.md``, R-3.8a: with this reading the seed's half-width
         ``a = (2 (1-nu) N R / (pi G))^(1/2)`` is Hertz's).
     psi : float
         The constant ``Psi`` of seed Eq. 3.17 (> 0); ``kn / ks = Psi`` at ``T = 0``.

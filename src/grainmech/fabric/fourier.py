@@ -10,7 +10,7 @@ sin theta)`` (Eq. 4.35; :func:`grainmech.conventions.seed_normal_2d`), so that
 
 Normalisation: the seed's Eq. 4.35 prints ``1/(4 pi)`` in front of the tensor form; the
 correct factor is ``1/(2 pi)`` as in Eq. 4.9, 4.10b and 4.34 (see
-``docs/seed-errata-ch4-fabric.md``): with ``1/(4 pi)`` the density would integrate to 1/2
+``docs/seed-errata.md``, F1): with ``1/(4 pi)`` the density would integrate to 1/2
 and ``phi_ij`` would be ``8 (N_ij - delta_ij/2)``, contradicting Eq. 4.11's factor 4.
 
 Tensor form (library components, ``cos 2 theta = n_y^2 - n_x^2``,
