@@ -21,10 +21,10 @@ import numpy as np
 from grainmech.contact import geometry as geo
 from grainmech.contact.params import Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
 
-__all__ = ["LawForms", "law_forms", "KINDS"]
+__all__ = ["LawForms", "law_forms", "LAW_KINDS"]
 
 #: law kinds: hysteretic with reversal memory, elastic + Coulomb cap, frictionless
-KINDS = ("md", "jenkins", "frictionless")
+LAW_KINDS = ("md", "jenkins", "frictionless")
 
 
 @dataclass(frozen=True)
