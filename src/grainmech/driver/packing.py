@@ -84,7 +84,7 @@ class PackingOptions:
     """
 
     rtol: float = 1e-8
-    rtol_accept: float = 1e-6
+    rtol_accept: float = 1e-5
     max_iter: int = 25
     max_depth: int = 6
     max_backtracks: int = 8
@@ -636,7 +636,18 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         sref = sref or est
         fref = fref or est * V / max(kin.n_contacts, 1) / float(np.mean(np.linalg.norm(kin.l, axis=1)))
     Rg = point.radii
-    rmean = float(Rg.mean())
+    # trust limit of one update: a grain moves (or its surface turns) by at most half the
+    # mean approach of the closed contacts (not a fraction of the radius: Hertz overlaps
+    # are ~1e-4 R, and a move of 1e-2 R opens or crushes every contact of a grain)
+    # or by twice the affine displacement of the step's largest strain increment over a
+    # mean branch, whichever is larger (the fluctuations of a step are of that order)
+    closed0 = point.state.approach > 0
+    move = 0.5 * float(np.mean(point.state.approach[closed0] / point.scale[closed0])) if closed0.any() \
+        else 0.01 * float(Rg.mean())
+    lmean = float(np.mean(np.linalg.norm(kin.l, axis=1)))
+    de_max = max(float(np.abs(de_E).max()), float(np.abs(np.where(S, target - point.stress, 0.0)).max())
+                 * V / max(float(np.abs(prec.A0).max()), 1e-300))
+    move = max(move, 2.0 * de_max * lmean)
     tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
     tole = opts.rtol * sref * V
     Dq, De = prec.dq, prec.de[S]
@@ -753,10 +764,9 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
             dxq, dxe = prec.apply(-rq, -re, S)
             slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
-        # trust limit: no grain moves more than 1 % of the mean radius (or turns 0.01 rad) in one update
+        # trust limit on the grain moves of one update (see `move` above)
         mv = kin.full(dxq)
-        big = max(float(np.max(np.linalg.norm(mv[:, :3], axis=1))) / (0.01 * rmean),
-                  float(np.max(np.linalg.norm(mv[:, 3:], axis=1))) / 0.01, 1.0)
+        big = _trust(mv, Rg, move)
         lam = 1.0 / big
         for nb in range(opts.max_backtracks + 1):
             if nb == 2 and accept(rq, re):  # stalling at a kink, already below rtol_accept
@@ -782,8 +792,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                                    f"{100 * sl:.0f}% of closed contacts sliding, {int(closed.sum())} closed)")
             dxq, dxe = prec.apply(-rq, -re, S)
             mv = kin.full(dxq)
-            lam = 1.0 / max(float(np.max(np.linalg.norm(mv[:, :3], axis=1))) / (0.01 * rmean),
-                            float(np.max(np.linalg.norm(mv[:, 3:], axis=1))) / 0.01, 1.0)
+            lam = 1.0 / _trust(mv, Rg, move)
             trial = residual(xq + lam * dxq, xe + lam * dxe)
             mt = merit(trial)
             stiff_steps += 1
@@ -794,6 +803,14 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         return done(cur, opts.max_iter + 1)
     raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (largest force residual "
                        f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
+
+
+def _trust(mv: np.ndarray, R: np.ndarray, move: float) -> float:
+    """Factor by which a grain update ``mv`` (P, 6) exceeds the trust limit ``move``
+    [length] on a translation or on the surface displacement ``R |theta|`` (>= 1)."""
+    t = float(np.max(np.linalg.norm(mv[:, :3], axis=1)))
+    r = float(np.max(R * np.linalg.norm(mv[:, 3:], axis=1)))
+    return max(t / move, r / move, 1.0)
 
 
 def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
