@@ -30,7 +30,7 @@ def register(sub: Any) -> None:
 def main(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
     from grainmech.io.reports import write_run_outputs
-    from grainmech.io.results import ensure_dir
+    from grainmech.io.outdir import output_folder
     from grainmech.jobs import CyclicOutcome, compute_run
 
     def say(msg: str) -> None:
@@ -43,12 +43,13 @@ def main(args: argparse.Namespace) -> int:
     else:
         cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
         source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
-    ensure_dir(args.outdir)
-    say(f"grainmech run: {source}")
-    out = compute_run(cfg, progress=say)
-    for w in out.warnings:
-        print(f"grainmech: warning: {w}", file=sys.stderr)
-    summary = write_run_outputs(out, args.outdir, cfg, source)
+    with output_folder(args.outdir, "run") as folder:  # checked and locked before the work
+        say(f"grainmech run: {source}")
+        out = compute_run(cfg, progress=say)
+        for w in out.warnings:
+            print(f"grainmech: warning: {w}", file=sys.stderr)
+        summary = write_run_outputs(out, folder.staging, cfg, source)
+        folder.commit(success=out.success)
     if isinstance(out, CyclicOutcome) and len(out.G):
         say(f"Gmax = {out.G_max:.4g} Pa")
         emp = out.empirical_G_max
