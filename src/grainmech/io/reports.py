@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.io.results import driver_table, ensure_dir, write_csv, write_figure, write_json, write_text
+from grainmech.io.results import (driver_table, ensure_dir, soil_path_table, write_csv, write_figure, write_json,
+                                  write_text)
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
            "write_dem_outputs", "CONTACT_COLUMNS"]
@@ -31,21 +32,43 @@ def default_outdir(command: str) -> str:
 
 # ----------------------------------------------------------------------------------- run
 def _reference_curves(out: Any) -> dict:
-    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress."""
+    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
+    the strain range of the model's amplitudes.
+
+    Both are empirical end to end: neither reference strain uses the model's Gmax.
+    Darendeli's ``gamma_r`` comes from his correlation (mean stress, PI, OCR; Table 8.12);
+    Hardin-Drnevich's ``gamma_r = tau_max / Gmax`` takes ``tau_max = p sin(phi')`` and the
+    Gmax of Hardin's correlation for angular grains at the run's void ratio and mean stress
+    (Hardin & Richart 1963, the form Hardin & Drnevich 1972 use), so a model that is too
+    stiff shows as a curve shifted away from both references instead of moving one of
+    them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
+    the only one available and is used (``hd_gmax_source`` says which)."""
     from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
 
     amps = np.asarray(out.amplitudes)
     ref = out.reference
-    gam = np.logspace(np.log10(min(amps.min(), 1e-6)), np.log10(max(amps.max(), 1e-2)), 60)
+    gam = np.logspace(np.log10(amps.min()), np.log10(amps.max()), 60)
     dar = darendeli(gam, out.pressure, pi=ref["pi"], ocr=ref["ocr"], n_cycles=ref["n_cycles"],
                     frequency=ref["frequency"])
-    hd = hardin_drnevich_reference(out.pressure, ref["phi"], out.G_max, ref["n_cycles"])
+    emp = getattr(out, "empirical_G_max", None)
+    if emp:
+        g_hd, source = float(emp["G_angular_Pa"]), "Hardin-Richart (1963) angular grains"
+    else:
+        g_hd, source = float(out.G_max), "the model's Gmax (no void ratio given)"
+    hd = hardin_drnevich_reference(out.pressure, ref["phi"], g_hd, ref["n_cycles"])
     hd_r, hd_d = hardin_drnevich(gam, hd.gamma_r, hd.d_max)
-    return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d}
+    return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d,
+            "hd_gmax": g_hd, "hd_gmax_source": source}
+
+
+def amplitude_csv_name(amplitude: float) -> str:
+    """File name of one amplitude's step table: ``cycles_gamma_1.0e-04.csv``."""
+    return f"cycles_gamma_{amplitude:.1e}.csv"
 
 
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
-    """Files of ``grainmech run``: a CSV per run, ``modulus_reduction.csv``,
+    """Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
+    or ``path.csv``, ``modulus_reduction.csv``,
     ``site_response_curves.csv``, PNG plots, ``config_used.json``, ``summary.json`` and
     ``index.html``. ``out`` is a :class:`grainmech.jobs.CyclicOutcome` or
     :class:`grainmech.jobs.PathOutcome`. Returns the summary (``files`` lists the names)."""
@@ -60,9 +83,13 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
     env = None if cyclic else out.envelope
     for i, r in enumerate(out.results):
         cols, rows = driver_table(r)
-        name = f"run_{i:02d}.csv" if cyclic else "path.csv"
+        name = amplitude_csv_name(out.amplitudes[i]) if cyclic else "path.csv"
+        if not cyclic:
+            scols, srows, axis = soil_path_table(r)
+            cols, rows = cols + scols, np.hstack([rows, srows])
+            summary["axial_direction"] = axis
         if env is not None:
-            cols = cols + ["stress_ratio_sigma1_sigma3", "beyond_sand_envelope"]
+            cols = cols + ["stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"]
             rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
         write_csv(d / name, cols, rows)
         summary["files"].append(name)
@@ -85,7 +112,8 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
         dar, hd = refs["darendeli"], refs["hardin_drnevich"]
         dp = out.mean_stress_change
         write_csv(d / "modulus_reduction.csv",
-                  ["amplitude", "G_Pa", "G_over_Gmax", "damping", "mean_stress_change"],
+                  ["shear_strain_amplitude [-]", "G [Pa]", "G_over_Gmax [-]", "damping [-]",
+                   "mean_stress_change [-]"],
                   zip(amps, G, ratio, Dm, dp))
         summary["mean_stress_change"] = dp
         summary["files"].append("modulus_reduction.csv")
@@ -99,6 +127,7 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
             summary["files"].append("site_response_curves.csv")
         fig, ax = plots.subplots(figsize=(6.4, 4.8))
         plots.loops(out.results[:len(G)], amps, ax=ax)
+        fig.tight_layout()
         write_figure(d / "loops.png", fig)
         fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
         gam = refs["gamma"]
@@ -111,10 +140,11 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
         summary["files"] += ["loops.png", "modulus_reduction.png"]
         summary.update(G_max_Pa=out.G_max, amplitudes=amps, G_Pa=G, G_over_Gmax=ratio, damping=Dm,
                        darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
-                       hardin_drnevich_d_max=hd.d_max)
+                       hardin_drnevich_d_max=hd.d_max, hardin_drnevich_G_max_Pa=refs["hd_gmax"],
+                       hardin_drnevich_G_max_source=refs["hd_gmax_source"])
     elif not cyclic:
-        fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
-        plots.path_histories(out.results[0], axes=axes)
+        fig, axes = plots.subplots(2, 2, figsize=(10, 8))
+        plots.soil_path_views(out.results[0], axes=axes.ravel())
         fig.tight_layout()
         write_figure(d / "path.png", fig)
         summary["files"].append("path.png")
@@ -144,7 +174,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                        f"<td>{100 * c:+.1f}</td></tr>"
                        for a, g, r, dd, c in zip(summary["amplitudes"], summary["G_Pa"], summary["G_over_Gmax"],
                                                  summary["damping"], summary["mean_stress_change"]))
-        table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
+        table = ("<table><tr><th>shear strain amplitude [decimal]</th><th>secant G [Pa]</th><th>G/Gmax</th>"
                  f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
         intro += (f"<p>Small-strain shear modulus Gmax = {summary['G_max_Pa']:.5g} Pa "
                   "(condensed tangent at the initial state); every G/Gmax below is normalised by "
@@ -160,16 +190,28 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
         intro += table
         sections.append(Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
                                 "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
-                                "amplitude, with Darendeli (2001) (reference strain "
-                                f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
-                                f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
-                                f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
+                                "amplitude (markers; strain as a decimal, 1e-3 = 0.1 %), with two empirical "
+                                "reference curves for a sand at the same mean stress over the same strain range. "
+                                "Both reference strains come from correlations, not from the model: Darendeli "
+                                f"(2001) gamma_r = {summary['darendeli_gamma_r']:.3g} "
+                                f"({100 * summary['darendeli_gamma_r']:.4f} %), and Hardin-Drnevich (1972) "
+                                f"gamma_r = tau_max/Gmax = {summary['hardin_drnevich_gamma_r']:.3g} "
+                                f"({100 * summary['hardin_drnevich_gamma_r']:.4f} %) with tau_max = p sin(phi') and "
+                                f"Gmax = {summary['hardin_drnevich_G_max_Pa']:.4g} Pa from "
+                                f"{summary['hardin_drnevich_G_max_source']}, "
+                                f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %. The model's G/Gmax is "
+                                "normalised by its own Gmax; a model that is too stiff shows against both "
+                                "references alike.",
                                 ("modulus_reduction.png", "modulus_reduction.csv")
                                 + (("site_response_curves.csv",)
                                    if "site_response_curves.csv" in summary["files"] else ())))
         sections.append(Section("loops", "Stress-strain loops", d / "loops.png",
-                                "Shear stress against normalised shear strain for every amplitude.",
-                                ("loops.png",)))
+                                "Every amplitude's loops on one scale: shear stress change divided by its "
+                                "largest value tau_a against shear strain divided by its amplitude gamma_a "
+                                "(legend: gamma_a as a decimal, tau_a in kPa). The step tables, one per "
+                                "amplitude, with units in every column header:",
+                                ("loops.png",) + tuple(f for f in summary["files"]
+                                                       if f.startswith("cycles_gamma_"))))
     for w in summary.get("warnings", []):
         intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
     env = summary.get("envelope")
@@ -177,8 +219,13 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
         warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
         intro += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of path.csv).</p>"
     if "path.png" in summary["files"]:
-        sections.append(Section("path", "Strain and stress along the path", d / "path.png",
-                                "Every component, compression positive, engineering shear strain.",
+        ax_ = summary.get("axial_direction", "zz")
+        sections.append(Section("path", "Stress and strain along the path", d / "path.png",
+                                f"Soil-mechanics views (compression positive, strains decimal from the initial "
+                                f"state, axial = {ax_}): deviator stress q = sqrt(3 J2) and volumetric strain "
+                                "against axial strain, stress ratio q/p, and the p-q stress path. path.csv has "
+                                "every tensor component, these quantities and the tangent constants, with "
+                                "units in every column header.",
                                 ("path.png", "path.csv")))
     sections.append(Section("inputs", "Inputs used", None, "The configuration exactly as read.",
                             ("config_used.json", "summary.json"),
