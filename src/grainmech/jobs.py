@@ -59,9 +59,10 @@ def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> Stiffnes
 
     root = Section(cfg, "")
     density = build_fabric(root.section("fabric", {}))
-    packing = build_packing(root.section("packing"), density)
-    contacts = build_law(root.section("contacts"), packing.radius)
     stress = build_stress(root.section("stress", {}), density.dim)
+    mean = None if stress is None else float(stress if np.ndim(stress) == 0 else np.trace(stress) / density.dim)
+    packing = build_packing(root.section("packing"), density, mean)
+    contacts = build_law(root.section("contacts"), packing.radius)
     root.finish()
     return StiffnessSpec(density, packing, contacts, stress)
 
@@ -214,10 +215,10 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     density = build_fabric(root.section("fabric", {}))
     if density.dim != 3:
         raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
-    packing = build_packing(root.section("packing"), density)
-    law = build_law(root.section("contacts"), packing.radius)
     ini = root.section("initial")
     pressure = build_pressure(ini)
+    packing = build_packing(root.section("packing"), density, pressure)
+    law = build_law(root.section("contacts"), packing.radius)
     quad = root.section("quadrature", {})
     degree = quad.integer("degree", 23, min=4)
     MAX_SPHERE_DEGREE = max(LEBEDEV_ORDERS)

@@ -32,7 +32,7 @@ import numpy as np
 from grainmech.errors import ConfigError
 from grainmech.io.config import Section
 
-__all__ = ["build_fabric", "build_packing", "build_law", "build_stress", "build_pressure", "LAWS",
+__all__ = ["build_fabric", "build_packing", "coordination_relation", "build_law", "build_stress", "build_pressure", "LAWS",
            "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial", "ContactSegment"]
 
 SEED_3D = ("a20", "a22", "b22")
@@ -76,8 +76,36 @@ def build_fabric(sec: Section) -> Any:
     return cls.from_seed(**vals)
 
 
-def build_packing(sec: Section, density: Any) -> Any:
-    """Packing from ``[packing]`` and a density."""
+def coordination_relation(sec: Section, void_ratio: float, pressure: float | None) -> float:
+    """Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
+    ``packing.coordination``: ``m = (a - b e) (p / p_ref)^n`` at the mean stress ``p`` [Pa].
+
+    ``n = 0``, ``a = 23``, ``b = 25`` is seed Eq. 6.4 (``m = 23 - 25 e``); ``n > 0`` is the
+    phenomenological pressure dependence ``grainmech calibrate`` can fit
+    (``docs/calibrate.md``). ``sec`` is the ``[packing]`` section; raises
+    :class:`ConfigError` naming the key for a missing mean stress or ``m <= 0``.
+    """
+    coord = sec.raw("coordination")
+    cs = sec.section("coordination")
+    a = cs.number("a", None)
+    b = cs.number("b", None, 0.0)
+    n = cs.number("n", None, 0.0)
+    p_ref = cs.number("p_ref", "Pa", 101325.0, min=0, min_inclusive=False)
+    cs.finish()
+    if n != 0.0 and pressure is None:
+        raise ConfigError(sec.key("coordination"), coord, "a relation with n != 0 needs the mean stress: "
+                          "give [stress] pressure (stiffness) or [initial] pressure (run)")
+    m = (a - b * void_ratio) * ((pressure / p_ref) ** n if n != 0.0 else 1.0)
+    if not np.isfinite(m) or m <= 0:
+        raise ConfigError(sec.key("coordination"), coord, f"gives coordination m = {m:.4g} at void ratio "
+                          f"{void_ratio:g}" + ("" if pressure is None else f" and mean stress {pressure:.4g} Pa")
+                          + " (must be > 0)")
+    return float(m)
+
+
+def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
+    """Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
+    coordination relation (:func:`coordination_relation`) is evaluated at."""
     from grainmech.fabric import CORRELATIONS, coordination_number
     from grainmech.material import Packing
 
@@ -92,6 +120,8 @@ def build_packing(sec: Section, density: Any) -> Any:
     name = coord.strip().lower() if isinstance(coord, str) else None
     if name is not None and name in CORRELATIONS:
         m = float(coordination_number(e, name))
+    elif isinstance(coord, dict):
+        m = coordination_relation(sec, e, pressure)
     else:
         try:
             m = sec.number("coordination", None, min=0, min_inclusive=False)
