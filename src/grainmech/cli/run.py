@@ -38,7 +38,11 @@ def main(args: argparse.Namespace) -> int:
             print(msg, file=sys.stderr, flush=True)
 
     if args.config:
-        cfg = load_toml(args.config)
+        from pathlib import Path
+
+        from grainmech.io.config import resolve_file_keys
+
+        cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)
         source = args.config
     else:
         cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
