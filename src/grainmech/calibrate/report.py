@@ -196,7 +196,7 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         x = np.arange(len(data), dtype=float)
         xlabel = "row"
     n = len(pr.targets)
-    head = 0.12 * (len(pr.parameters) + 1)  # inches for the title lines
+    head = 0.13 * (len(pr.parameters) + 1)  # inches for the title lines
     height = 3.8 + head
     fig, axes = plots.subplots(1, n, figsize=(4.8 * n, height), squeeze=False)
     group = data["void_ratio"] if data.has("void_ratio") else np.zeros(len(data))
@@ -221,5 +221,5 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         ax.set_title(f"{t}: R^2 = {result.stats['r2'][t]:.4f}", fontsize=9)
         ax.legend(fontsize=7)
     fig.suptitle(f"grainmech calibrate ({pr.kind}):\n" + pr.describe(result.x).replace(", ", "\n"), fontsize=7)
-    fig.tight_layout(rect=(0, 0, 1, 1 - head / height))
+    fig.set_layout_engine("constrained")  # makes room for exactly the title lines
     return write_figure(Path(path), fig, dpi=110)

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from grainmech.errors import GrainmechError
-from grainmech.reproduce._base import FigureData
+from grainmech.reproduce._base import FigureData, reporting
 
 __all__ = ["FIGURES", "FigureData", "figure_ids", "normalize_id", "build", "reproduce"]
 
@@ -110,7 +110,8 @@ def reproduce(ids: Sequence[str] | None, outdir: str | Path, *,
             t0 = time.perf_counter()
             if log:
                 log(f"Fig. {fid} ({k}/{len(wanted)}): computing ...")
-            fig = build(fid)
+            with reporting(log):
+                fig = build(fid)
             header, rows = fig.rows()
             write_csv(out / f"{fig.stem}.csv", header, rows)
             plot(fig, out / f"{fig.stem}.png")
