@@ -16,7 +16,9 @@ Every command that writes a folder (``run``, ``contact``, ``dem``, ``reproduce``
    that no grainmech run listed (the user's own) are never touched;
 5. if the computation or the writing raises an error, what was staged is kept and a
    ``summary.json`` saying ``"success": false`` with the error is added unless the
-   command wrote its own -- the folder then describes the failed run, not an older one;
+   command wrote its own -- the folder then describes the failed run, not an older one.
+   An input error (:class:`GrainmechError`) raised before anything was written means the
+   run never started: OUTDIR stays as it was;
 6. on Ctrl-C (:class:`KeyboardInterrupt`) the staging folder is removed and OUTDIR is
    left exactly as it was (removed again if this run created it): no partial folder.
 
@@ -264,7 +266,11 @@ def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
                 if folder.success is None:
                     folder.commit()
                 raise
-            if folder.success is None:
+            if folder.success is None and isinstance(exc, GrainmechError) and not folder._staged():
+                # an input error found before anything was computed: the run never started,
+                # the previous results stay
+                folder.abandon()
+            elif folder.success is None:
                 try:
                     folder._write_failure_summary(exc)
                     folder.commit(success=False)
