@@ -44,15 +44,19 @@ def test_run_csv_columns_are_the_documented_ones(tmp_path, cli):
     cfg = tmp_path / "c.toml"
     cfg.write_text(TINY_RUN)
     assert cli("run", cfg, "-o", tmp_path / "o", "--quiet").rc == 0
-    header = (tmp_path / "o" / "run_00.csv").read_text().splitlines()[0].split(",")
+    files = sorted(p.name for p in (tmp_path / "o").glob("cycles_gamma_*.csv"))
+    assert files  # one per amplitude, named by it
+    header = (tmp_path / "o" / files[0]).read_text().splitlines()[0].split(",")
     comps = ("xx", "yy", "zz", "yz", "xz", "xy")
-    expected = (["step"] + [f"strain_{c}" for c in comps] + [f"stress_{c}" for c in comps]
-                + ["sliding_fraction", "open_fraction", "dissipated_energy", "work", "stored_energy"])
+    expected = (["step"] + [f"strain_{c} [-]" for c in comps] + [f"stress_{c} [Pa]" for c in comps]
+                + ["sliding_fraction [-]", "open_fraction [-]", "dissipated_energy [J/m^3]", "work [J/m^3]",
+                   "stored_energy [J/m^3]"])
     assert header == expected
     doc = (DOCS / "config.md").read_text()
-    para = doc[doc.index("`run_NN.csv`"):doc.index("`path.csv`", doc.index("`run_NN.csv`"))]
+    para = doc[doc.index("`cycles_gamma_<amplitude>.csv`"):doc.index("`path.csv`",
+                                                                       doc.index("`cycles_gamma_<amplitude>.csv`"))]
     assert "no\ntangent constants" in para or "no tangent constants" in para
-    for col in ("step", "sliding_fraction", "open_fraction", "dissipated_energy", "work", "stored_energy"):
+    for col in expected:
         assert f"`{col}`" in para
 
 

@@ -59,7 +59,7 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
     cfg.write_text(CYCLIC)
     out = tmp_path / "out"
     assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
-    for f in ("summary.json", "modulus_reduction.csv", "loops.png", "modulus_reduction.png", "run_00.csv",
+    for f in ("summary.json", "modulus_reduction.csv", "loops.png", "modulus_reduction.png", "cycles_gamma_1.0e-06.csv",
               "index.html"):
         assert (out / f).stat().st_size > 0
     page = (out / "index.html").read_text()
@@ -92,8 +92,8 @@ def test_constant_volume_cyclic_simple_shear(tmp_path):
     s = json.loads((out / "summary.json").read_text())
     assert s["G_over_Gmax"][0] == pytest.approx(1.0, abs=0.01)
     import csv
-    rows = list(csv.DictReader((out / "run_00.csv").open()))
-    assert max(abs(float(r["strain_zz"])) for r in rows) == 0.0
+    rows = list(csv.DictReader((out / "cycles_gamma_1.0e-06.csv").open()))
+    assert max(abs(float(r["strain_zz [-]"])) for r in rows) == 0.0
 
 
 def test_path_config_and_linear_law(tmp_path):
@@ -110,8 +110,22 @@ def test_path_config_and_linear_law(tmp_path):
     pk = material.Packing.from_grains(fabric.isotropic(3), void_ratio=0.65, coordination=6.75, radius=2.5e-4)
     C = stiffness(pk.contact_set(1e6, 5e5))
     E = 1 / np.linalg.inv(C)[2, 2]
-    assert float(rows[5]["stress_zz"]) - 1e5 == pytest.approx(E * 1e-4, rel=1e-8)
-    assert float(rows[5]["stress_xx"]) == pytest.approx(1e5, rel=1e-9)
+    assert float(rows[5]["stress_zz [Pa]"]) - 1e5 == pytest.approx(E * 1e-4, rel=1e-8)
+    assert float(rows[5]["stress_xx [Pa]"]) == pytest.approx(1e5, rel=1e-9)
+    # soil-mechanics columns on this drained triaxial path (sigma_xx = sigma_yy = p0):
+    # q = sigma_zz - p0, p = p0 + q/3, eps_v = trace of the strain, axial strain = eps_zz
+    r = rows[5]
+    q = float(r["stress_zz [Pa]"]) - 1e5
+    assert float(r["q [Pa]"]) == pytest.approx(q, rel=1e-9)
+    assert float(r["p [Pa]"]) == pytest.approx(1e5 + q / 3, rel=1e-9)
+    assert float(r["q_over_p [-]"]) == pytest.approx(q / (1e5 + q / 3), rel=1e-9)
+    assert float(r["axial_strain [-]"]) == pytest.approx(1e-4, rel=1e-9)
+    ev = sum(float(r[f"strain_{c} [-]"]) for c in ("xx", "yy", "zz"))
+    assert float(r["volumetric_strain [-]"]) == pytest.approx(ev, rel=1e-9, abs=1e-15)
+    # deviatoric strain 2/3 (eps_a - eps_r) on an axisymmetric path
+    ed = 2 / 3 * (float(r["strain_zz [-]"]) - float(r["strain_xx [-]"]))
+    assert float(r["deviatoric_strain [-]"]) == pytest.approx(abs(ed), rel=1e-9)
+    assert json.loads((out / "summary.json").read_text())["axial_direction"] == "zz"
 
 
 @pytest.mark.parametrize("edit, needle", [

@@ -57,7 +57,8 @@ def test_example_runs_and_writes_csv_and_png(tmp_path):
     assert data["step"][0] == 0 and np.all(np.diff(data["step"]) == 1)
     png = (out / "contact.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
-    assert not [f for f in out.iterdir() if f.name.startswith(".")]      # no temp files left
+    # no temp files left (the manifest of the run is the only hidden file)
+    assert [f.name for f in out.iterdir() if f.name.startswith(".")] == [".grainmech-manifest.json"]
     # dissipation never decreases; |T| <= mu N
     assert np.all(np.diff(data["dissipated_energy"]) >= 0)
     assert np.all(np.abs(data["tangential_force"]) <= 0.5 * data["normal_force"] * (1 + 1e-9))

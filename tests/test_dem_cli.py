@@ -49,7 +49,8 @@ def test_cli_dem_lattice_json_and_files(tmp_path, capsys):
     for name in ("summary.json", "stiffness_affine.csv", "stiffness_relaxed.csv", "engineering.csv", "rose.png",
                  "normal_density.png"):
         assert (out / name).stat().st_size > 0
-    assert not [f for f in out.iterdir() if f.name.startswith(".")]  # no temp files left
+    # no temp files left (the manifest of the run is the only hidden file)
+    assert [f.name for f in out.iterdir() if f.name.startswith(".")] == [".grainmech-manifest.json"]
     row = (out / "stiffness_affine.csv").read_text().splitlines()[1].split(",")
     assert row[0] == "xx" and float(row[1]) == pytest.approx(kn / d, rel=1e-9)
 

@@ -70,7 +70,7 @@ def test_triaxial_path_output_flags_the_envelope(tmp_path, capsys):
     assert first is not None and summ["envelope"]["max_ratio"] > 7.55
     head = (tmp_path / "path.csv").read_text().splitlines()
     cols = head[0].split(",")
-    k = cols.index("beyond_sand_envelope")
+    k = cols.index("beyond_sand_envelope [0/1]")
     flags = [float(r.split(",")[k]) for r in head[1:]]
     assert flags[first] == 1.0 and not any(flags[:first])
     assert "Warning:" in (tmp_path / "index.html").read_text()
@@ -118,7 +118,8 @@ def test_mean_stress_change_per_amplitude(tmp_path):
     assert main(["run", str(tmp_path / "c.toml"), "-o", str(tmp_path / "o"), "--quiet"]) == 0
     rows = list(csv.DictReader(open(tmp_path / "o" / "modulus_reduction.csv")))
     for i, row in enumerate(rows):
-        run = list(csv.DictReader(open(tmp_path / "o" / f"run_{i:02d}.csv")))
-        p = [np.mean([float(r[f"stress_{c}"]) for c in ("xx", "yy", "zz")]) for r in (run[0], run[-1])]
-        assert float(row["mean_stress_change"]) == pytest.approx(p[1] / p[0] - 1, abs=1e-8)  # CSV: 10 digits
-    assert abs(float(rows[1]["mean_stress_change"])) > 1e-3  # sigma_zz held, sigma_xx, sigma_yy free
+        amp = float(row["shear_strain_amplitude [-]"])
+        run = list(csv.DictReader(open(tmp_path / "o" / f"cycles_gamma_{amp:.1e}.csv")))
+        p = [np.mean([float(r[f"stress_{c} [Pa]"]) for c in ("xx", "yy", "zz")]) for r in (run[0], run[-1])]
+        assert float(row["mean_stress_change [-]"]) == pytest.approx(p[1] / p[0] - 1, abs=1e-8)  # CSV: 10 digits
+    assert abs(float(rows[1]["mean_stress_change [-]"])) > 1e-3  # sigma_zz held, sigma_xx, sigma_yy free

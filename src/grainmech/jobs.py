@@ -56,6 +56,7 @@ class StiffnessSpec:
     packing: Any
     contacts: Any
     stress: Any
+    fabric_fit: dict | None = None
 
 
 def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> StiffnessSpec:
@@ -64,12 +65,14 @@ def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> Stiffnes
     from grainmech.io.schema import build_fabric, build_law, build_packing, build_stress
 
     root = Section(cfg, "")
-    density = build_fabric(root.section("fabric", {}))
-    packing = build_packing(root.section("packing"), density)
-    contacts = build_law(root.section("contacts"), packing.radius)
+    fit: dict = {}
+    density = build_fabric(root.section("fabric", {}), fit)
     stress = build_stress(root.section("stress", {}), density.dim)
+    mean = None if stress is None else float(stress if np.ndim(stress) == 0 else np.trace(stress) / density.dim)
+    packing = build_packing(root.section("packing"), density, mean)
+    contacts = build_law(root.section("contacts"), packing.radius)
     root.finish()
-    return StiffnessSpec(density, packing, contacts, stress)
+    return StiffnessSpec(density, packing, contacts, stress, fit or None)
 
 
 @dataclass
@@ -93,6 +96,7 @@ class StiffnessOutcome:
     symmetry: Any
     packing: Any
     dim: int
+    fabric_fit: dict | None = None  # the fit of a [fabric] normals file (io.schema.build_fabric)
 
     @property
     def mean_stress(self) -> float:
@@ -107,7 +111,7 @@ def execute_stiffness(spec: StiffnessSpec) -> StiffnessOutcome:
 
     res = packing_stiffness(spec.packing, spec.contacts, spec.stress)
     return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.packing,
-                            spec.density.dim)
+                            spec.density.dim, spec.fabric_fit)
 
 
 def compute_stiffness(cfg: dict) -> StiffnessOutcome:
@@ -308,11 +312,14 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         if grains is None and model.has(k):
             raise ConfigError(model.key(k), model.raw(k), "names the packing of method = 'packing', "
                               f"which this config does not use (method = {list(methods)})")
-    density = build_fabric(root.section("fabric", {}))
+    fit: dict = {}
+    density = build_fabric(root.section("fabric", {}), fit)
     if density.dim != 3:
         raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
+    ini = root.section("initial")
+    pressure = build_pressure(ini)
     if "affine" in methods:
-        packing = build_packing(root.section("packing"), density)
+        packing = build_packing(root.section("packing"), density, pressure)
         law = build_law(root.section("contacts"), packing.radius)
     else:
         if root.has("packing"):
@@ -333,8 +340,6 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
         # own radius is only a reference
         packing_law = law
-    ini = root.section("initial")
-    pressure = build_pressure(ini)
     quad = root.section("quadrature", {})
     degree = quad.integer("degree", 23, min=4)
     MAX_SPHERE_DEGREE = max(LEBEDEV_ORDERS)
@@ -354,6 +359,9 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
     spec.friction = float(getattr(law, "friction", float("inf")))
     spec.warnings = input_warnings(cfg)
+    if fit and ((fit["p_value"] is not None and fit["p_value"] < 0.01) or fit["shrink_factor"] < 1):
+        spec.warnings.append(fit["summary"] + ": the fitted order does not describe the measured normals "
+                             "well (raise fabric.fit_order, or check the file)")
     if kind == "cyclic-simple-shear":
         amps = test.raw("amplitudes")
         if not isinstance(amps, list) or not amps:

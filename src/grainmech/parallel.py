@@ -100,14 +100,55 @@ def open_client(scheduler: str | None = None,
         dashboard_address=None, silence_logs=logging.CRITICAL,
         # no dashboard; the scheduler's small HTTP server (health, metrics) on a free port
         scheduler_kwargs={"dashboard_address": ":0"}, **extra)
+    interrupted = False
     try:
         client = distributed.Client(cluster, set_as_default=False)
         try:
             yield client
+        except KeyboardInterrupt:
+            # Ctrl-C: stop the worker processes now (a task cannot be interrupted; a
+            # graceful close would wait for the running ones)
+            interrupted = True
+            _kill_workers(cluster)
+            raise
         finally:
-            client.close()
+            _close(client, interrupted)
     finally:
-        cluster.close()
+        _close(cluster, interrupted)
+
+
+#: seconds granted to the client and to the cluster to close after Ctrl-C
+_FAST_CLOSE = 0.5
+
+
+def _close(obj: Any, interrupted: bool) -> None:
+    """Close a client or cluster; after Ctrl-C within :data:`_FAST_CLOSE` seconds, and
+    without waiting for an in-process worker's running task (its thread is a daemon
+    thread: it ends with the process)."""
+    if not interrupted:
+        obj.close()
+        return
+    try:
+        obj.close(timeout=_FAST_CLOSE)
+    except Exception:  # noqa: BLE001 (a timeout or a closed comm: we are leaving anyway)
+        # an in-process worker still runs its task: do not let distributed's exit hook
+        # wait for it again (the process ends, and the task's thread with it)
+        if hasattr(obj, "shutdown_on_close"):
+            obj.shutdown_on_close = False
+
+
+def _kill_workers(cluster: Any) -> None:
+    """SIGKILL the worker processes of a local cluster (nothing for in-process workers)."""
+    import os
+    import signal
+
+    for w in list(getattr(cluster, "workers", {}).values()):
+        pid = getattr(w, "pid", None)
+        if isinstance(pid, int) and pid > 0:
+            try:
+                os.kill(pid, getattr(signal, "SIGKILL", signal.SIGTERM))
+            except OSError:
+                pass
 
 
 def _call(fn: Callable[[Any], Any], item: Any) -> Any:

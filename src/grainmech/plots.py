@@ -23,7 +23,7 @@ import numpy as np
 from grainmech.errors import GrainmechError
 
 __all__ = ["figure", "subplots", "loops", "modulus_reduction", "damping", "path_histories",
-           "contact_loops"]
+           "soil_path_views", "contact_loops"]
 
 
 def _matplotlib() -> Any:
@@ -61,7 +61,12 @@ def _axes(ax: Any) -> Any:
 
 def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None, component: int = 4,
           label: str = "xz") -> Any:
-    """Stress-strain loops of cyclic runs: ``tau - tau_0`` [Pa] against ``gamma / amplitude``.
+    """Stress-strain loops of cyclic runs, every amplitude on one scale: ``(tau - tau_0) /
+    tau_a`` against ``gamma / gamma_a``.
+
+    ``tau_a`` is the largest ``|tau - tau_0|`` of the amplitude's run, ``gamma_a`` its
+    strain amplitude; both are given in the legend (``gamma_a`` decimal, ``tau_a`` in kPa)
+    so that loops of amplitudes decades apart are all readable.
 
     Parameters
     ----------
@@ -82,18 +87,20 @@ def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None
     ax = _axes(ax)
     for r, a in zip(results, amplitudes):
         g = r.strain[:, component] / a
-        ax.plot(g, r.stress[:, component] - r.stress[0, component], lw=1, label=f"{a:.1e}")
-    ax.set_xlabel(f"gamma_{label} / amplitude [-]")
-    ax.set_ylabel(f"tau_{label} - tau_0 [Pa]")
-    ax.set_title("Cyclic simple shear loops (normalised strain)")
-    ax.legend(title="amplitude", fontsize=7)
+        t = r.stress[:, component] - r.stress[0, component]
+        ta = float(np.max(np.abs(t))) or 1.0
+        ax.plot(g, t / ta, lw=1, label=f"{a:.1e}  ({ta / 1e3:.3g} kPa)")
+    ax.set_xlabel(f"shear strain / amplitude, gamma_{label} / gamma_a [-]")
+    ax.set_ylabel(f"shear stress / its amplitude, (tau_{label} - tau_0) / tau_a [-]")
+    ax.set_title("Cyclic simple shear loops (normalised)")
+    ax.legend(title="gamma_a (tau_a)", fontsize=7, title_fontsize=7)
     ax.grid(alpha=0.3)
     return ax
 
 
 def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
                       references: dict[str, tuple[Any, Any]] | None = None,
-                      label: str = "grainmech", style: str = "ko-") -> Any:
+                      label: str = "grainmech", style: str = "ko") -> Any:
     """G/Gmax against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, G/Gmax)``; call again on the same Axes (another ``label`` and
     ``style``, no references) to add a model. Returns the Axes."""
@@ -101,7 +108,7 @@ def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
     ax.semilogx(amplitude, G_ratio, style, label=label)
     for name, (g, r) in (references or {}).items():
         ax.semilogx(g, r, "--", label=name)
-    ax.set_xlabel("shear strain amplitude [-]")
+    ax.set_xlabel("shear strain amplitude [decimal]")
     ax.set_ylabel("G / Gmax [-]")
     ax.set_ylim(0, 1.05)
     ax.grid(alpha=0.3, which="both")
@@ -111,7 +118,7 @@ def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
 
 def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
             references: dict[str, tuple[Any, Any]] | None = None, label: str = "grainmech",
-            style: str = "ko-") -> Any:
+            style: str = "ko") -> Any:
     """Damping ratio [%] against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, D)`` (D decimal); call again on the same Axes to add a model.
     Returns the Axes."""
@@ -119,7 +126,7 @@ def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
     ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), style, label=label)
     for name, (g, d) in (references or {}).items():
         ax.semilogx(g, 100 * np.asarray(d), "--", label=name)
-    ax.set_xlabel("shear strain amplitude [-]")
+    ax.set_xlabel("shear strain amplitude [decimal]")
     ax.set_ylabel("damping ratio [%]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
@@ -148,6 +155,42 @@ def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequenc
         a.grid(alpha=0.3)
         a.legend(fontsize=7)
     return a1, a2
+
+
+def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequence[Any]:
+    """The usual soil-mechanics views of a driver path in four Axes: deviator stress ``q``
+    and volumetric strain against axial strain, stress ratio ``q/p`` against axial strain,
+    and the ``p``-``q`` stress path (quantities of
+    :func:`grainmech.io.results.soil_path_table`; strains decimal, compression positive,
+    stresses in kPa). Returns the four Axes."""
+    from grainmech.io.results import soil_path_table
+
+    if axes is None:
+        _matplotlib()
+        import matplotlib.pyplot as plt
+
+        _, axs = plt.subplots(2, 2, figsize=(10, 8))
+        axes = axs.ravel()
+    a1, a2, a3, a4 = axes
+    cols, t, axis = soil_path_table(result)
+    p, q, ratio, ea, ev = t[:, 0] / 1e3, t[:, 1] / 1e3, t[:, 2], t[:, 3], t[:, 4]
+    xa = f"axial strain eps_{axis} [decimal]"
+    a1.plot(ea, q, "-", lw=1.2)
+    a1.set_ylabel("deviator stress q [kPa]")
+    a2.plot(ea, ev, "-", lw=1.2, color="C1")
+    a2.set_ylabel("volumetric strain eps_v [decimal]\n(compression positive)")
+    a3.plot(ea, ratio, "-", lw=1.2, color="C2")
+    a3.set_ylabel("stress ratio q/p [-]")
+    for a in (a1, a2, a3):
+        a.set_xlabel(xa)
+    a4.plot(p, q, "-", lw=1.2, color="C3")
+    a4.plot(p[:1], q[:1], "ko", ms=4, label="start")
+    a4.set_xlabel("mean stress p [kPa]")
+    a4.set_ylabel("deviator stress q [kPa]")
+    a4.legend(fontsize=7)
+    for a in axes:
+        a.grid(alpha=0.3)
+    return a1, a2, a3, a4
 
 
 def contact_loops(columns: dict[str, Any], *, axes: Sequence[Any] | None = None,

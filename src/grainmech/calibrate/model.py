@@ -142,37 +142,13 @@ def _sections(cfg: dict, allowed: tuple[str, ...]):
     return root
 
 
-def _coordination_value(sec: Any, pressure: float) -> None:
-    """Replace a coordination table by its number m = (a - b e)(p/p_ref)^n (in place)."""
-    data = sec.data
-    coord = data.get("coordination")
-    if not isinstance(coord, dict):
-        return
-    from grainmech.io.config import Section
-
-    cs = Section(coord, sec.key("coordination"))
-    a = cs.number("a", None)
-    b = cs.number("b", None, 0.0)
-    n = cs.number("n", None, 0.0)
-    p_ref = cs.number("p_ref", "Pa", 101325.0, min=0, min_inclusive=False)
-    cs.finish()
-    e = sec.number("void_ratio", None, min=0, min_inclusive=False)
-    m = (a - b * e) * (pressure / p_ref) ** n
-    if not np.isfinite(m) or m <= 0:
-        raise ConfigError(sec.key("coordination"), coord, f"gives coordination m = {m:.4g} at void ratio {e:g} "
-                          f"and pressure {pressure:.4g} Pa (must be > 0)")
-    data["coordination"] = float(m)
-
-
 def _packing(root: Any, density: Any, pressure: float) -> Any:
     from grainmech.io.schema import build_packing
 
     sec = root.section("packing")
-    sec.data = dict(sec.data)
-    _coordination_value(sec, pressure)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # correlation range warnings: the fit explores
-        return build_packing(sec, density)
+        return build_packing(sec, density, pressure)
 
 
 def _eng_name(name: str, dim: int) -> str:

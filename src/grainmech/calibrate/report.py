@@ -8,7 +8,11 @@
 * ``residuals.csv`` - one row per data point and fitted column;
 * ``correlation.csv`` - the correlation matrix (empty cells: not identifiable);
 * ``starts.csv`` - every start (with ``--starts N``);
-* ``fit.png`` - data and fitted model against the data's abscissa (matplotlib, lazily).
+* ``fit.png`` - data and fitted model against the data's abscissa (matplotlib, lazily);
+* ``calibrated.toml`` - the model config with the fitted values (in the units of the
+  calibration file), completed to a config ``grainmech stiffness`` (kinds
+  ``modulus-pressure``, ``directional``) or ``grainmech run`` (``modulus-reduction``,
+  ``stress-strain``) runs as it is; see :func:`calibrated_config`.
 """
 
 from __future__ import annotations
@@ -20,7 +24,11 @@ from typing import Any
 import numpy as np
 
 
-__all__ = ["summary", "write_report", "plot_fit"]
+__all__ = ["summary", "write_report", "plot_fit", "calibrated_config"]
+
+#: the command a calibrated config of each data kind is made for
+CONFIG_COMMAND = {"modulus-pressure": "stiffness", "directional": "stiffness",
+                  "modulus-reduction": "run", "stress-strain": "run"}
 
 
 def _fmt_unit(p: Any) -> str:
@@ -106,7 +114,65 @@ def write_report(result: Any, outdir: str | Path, *, plot: bool = True) -> list[
     if plot:
         plot_fit(result, d / "fit.png")
         files.append("fit.png")
+    text = calibrated_config(result)
+    if text is not None:
+        from grainmech.io.results import write_text
+
+        write_text(d / "calibrated.toml", text)
+        files.append("calibrated.toml")
     return files
+
+
+def calibrated_config(result: Any) -> str | None:
+    """TOML text of the calibrated model: the calibration's ``[model]`` with every fitted
+    parameter set to its best value (in the unit the calibration file gave), completed so
+    that ``grainmech stiffness`` or ``grainmech run`` (:data:`CONFIG_COMMAND`) runs it:
+
+    * ``modulus-pressure``: ``[stress] pressure`` = the median pressure of the data (the
+      stiffness at any other pressure: edit it); the model's own ``void_ratio`` is kept;
+    * ``modulus-reduction``: ``[test]`` cyclic simple shear at the data's strain amplitudes
+      with the calibration's cycles and steps;
+    * ``stress-strain``: the default cyclic simple shear ``[test]`` of ``grainmech run``.
+
+    ``rod-strains`` has no such command: None (no file). A coordination relation
+    ``{a, b, n, p_ref}`` stays a relation (both commands evaluate it at their mean stress).
+    Requires ``tomli-w``.
+    """
+    import copy
+    import tomllib
+    from importlib import resources
+
+    from grainmech.calibrate.model import set_path
+
+    pr = result.problem
+    command = CONFIG_COMMAND.get(pr.kind)
+    if command is None:
+        return None
+    try:
+        import tomli_w
+    except ImportError:  # pragma: no cover - depends on environment
+        from grainmech.errors import GrainmechError
+
+        raise GrainmechError("writing calibrated.toml needs tomli-w (pip install 'grainmech[cli]')") from None
+    cfg = copy.deepcopy(pr.model)
+    for p, v in zip(pr.parameters, result.x):
+        val = float(v) / p.unit_factor
+        set_path(cfg, p.path, f"{val:.10g} {p.unit}" if p.unit else val)
+    if pr.kind == "modulus-pressure":
+        cfg["stress"] = {"pressure": f"{float(np.median(pr.data['pressure'])):.6g} Pa"}
+    elif pr.kind == "modulus-reduction":
+        st = pr.settings
+        cfg["test"] = {"kind": "cyclic-simple-shear", "amplitudes": sorted(float(a) for a in pr.data["strain"]),
+                       "n_cycles": int(st["n_cycles"]), "steps_per_cycle": int(st["steps_per_cycle"]),
+                       "waveform": st["waveform"]}
+    elif pr.kind == "stress-strain":
+        default = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
+        cfg["test"] = default["test"]
+    head = (f"# Calibrated by grainmech calibrate ({pr.kind}) from {pr.source} and {pr.data_source}:\n"
+            + "".join(f"#   {p.path} = {float(v) / p.unit_factor:.6g} {p.unit or p.si_unit or ''}".rstrip() + "\n"
+                      for p, v in zip(pr.parameters, result.x))
+            + f"# Run it with: grainmech {command} calibrated.toml\n")
+    return head + "\n" + tomli_w.dumps(cfg)
 
 
 def plot_fit(result: Any, path: str | Path) -> Path:
@@ -130,7 +196,7 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         x = np.arange(len(data), dtype=float)
         xlabel = "row"
     n = len(pr.targets)
-    head = 0.12 * (len(pr.parameters) + 1)  # inches for the title lines
+    head = 0.13 * (len(pr.parameters) + 1)  # inches for the title lines
     height = 3.8 + head
     fig, axes = plots.subplots(1, n, figsize=(4.8 * n, height), squeeze=False)
     group = data["void_ratio"] if data.has("void_ratio") else np.zeros(len(data))
@@ -155,5 +221,5 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         ax.set_title(f"{t}: R^2 = {result.stats['r2'][t]:.4f}", fontsize=9)
         ax.legend(fontsize=7)
     fig.suptitle(f"grainmech calibrate ({pr.kind}):\n" + pr.describe(result.x).replace(", ", "\n"), fontsize=7)
-    fig.tight_layout(rect=(0, 0, 1, 1 - head / height))
+    fig.set_layout_engine("constrained")  # makes room for exactly the title lines
     return write_figure(Path(path), fig, dpi=110)

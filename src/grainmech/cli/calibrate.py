@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
 
@@ -37,14 +36,17 @@ def main(args: argparse.Namespace) -> int:
     from grainmech.calibrate import fit, load_problem
     from grainmech.calibrate.report import write_report
     from grainmech.errors import ConfigError
+    from grainmech.io.outdir import output_folder
 
     if args.starts is not None and args.starts < 1:
         raise ConfigError("--starts", args.starts, "must be >= 1")
     if args.workers is not None and args.workers < 1:
         raise ConfigError("--workers", args.workers, "must be >= 1")
     problem = load_problem(args.config, args.data, starts=args.starts, seed=args.seed)
-    result = fit(problem, scheduler=args.scheduler, workers=args.workers)
-    files = write_report(result, Path(args.outdir), plot=not args.no_plot)
+    with output_folder(args.outdir, "calibrate") as folder:  # checked and locked before the fit
+        result = fit(problem, scheduler=args.scheduler, workers=args.workers)
+        files = write_report(result, folder.staging, plot=not args.no_plot)
+        folder.commit(success=result.success)
     if not args.quiet:
         w = sys.stderr.write
         st = result.stats

@@ -69,13 +69,14 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
     from grainmech.io.reports import write_contact_outputs
-    from grainmech.io.results import ensure_dir
+    from grainmech.io.outdir import output_folder
     from grainmech.jobs import compute_contact
 
     cfg = load_toml(args.config)
-    ensure_dir(args.outdir)
-    out = compute_contact(cfg)
-    files = write_contact_outputs(out, args.outdir, plot=not args.no_plot)
+    with output_folder(args.outdir, "contact") as folder:  # checked and locked before the work
+        out = compute_contact(cfg)
+        staged = write_contact_outputs(out, folder.staging, plot=not args.no_plot)
+    files = [folder.path / f.name for f in staged]
     print(f"wrote {files[0]} ({len(out.columns['step'])} rows)"
           + "".join(f" and {f}" for f in files[1:]))
     return 0

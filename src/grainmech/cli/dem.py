@@ -79,14 +79,14 @@ def _config(args: argparse.Namespace) -> dict:
 
 def run(args: argparse.Namespace) -> int:
     from grainmech.io.reports import write_dem_outputs
-    from grainmech.io.results import ensure_dir
+    from grainmech.io.outdir import output_folder
     from grainmech.jobs import compute_dem
 
     cfg = _config(args)
-    ensure_dir(args.outdir)
-    out = compute_dem(cfg)
-    rep = out.report
-    write_dem_outputs(out, args.outdir, plot=not args.no_plots)
+    with output_folder(args.outdir, "dem") as folder:  # checked and locked before the work
+        out = compute_dem(cfg)
+        rep = out.report
+        write_dem_outputs(out, folder.staging, plot=not args.no_plots)
     if args.json:
         json.dump(rep, sys.stdout, indent=2)
         sys.stdout.write("\n")

@@ -30,7 +30,7 @@ def register(sub: Any) -> None:
 def main(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
     from grainmech.io.reports import write_run_outputs
-    from grainmech.io.results import ensure_dir
+    from grainmech.io.outdir import output_folder
     from grainmech.jobs import CyclicOutcome, RunComparison, compute_run
 
     def say(msg: str) -> None:
@@ -38,17 +38,22 @@ def main(args: argparse.Namespace) -> int:
             print(msg, file=sys.stderr, flush=True)
 
     if args.config:
-        cfg = load_toml(args.config)
+        from pathlib import Path
+
+        from grainmech.io.config import resolve_file_keys
+
+        cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)
         source = args.config
     else:
         cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
         source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
-    ensure_dir(args.outdir)
-    say(f"grainmech run: {source}")
-    out = compute_run(cfg, progress=say)
-    for w in out.warnings:
-        print(f"grainmech: warning: {w}", file=sys.stderr)
-    summary = write_run_outputs(out, args.outdir, cfg, source)
+    with output_folder(args.outdir, "run") as folder:  # checked and locked before the work
+        say(f"grainmech run: {source}")
+        out = compute_run(cfg, progress=say)
+        for w in out.warnings:
+            print(f"grainmech: warning: {w}", file=sys.stderr)
+        summary = write_run_outputs(out, folder.staging, cfg, source)
+        folder.commit(success=out.success)
     outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
     for o in outs:
         m = summary["models"][o.method] if "models" in summary else summary

@@ -36,10 +36,12 @@ def _matrix(C: np.ndarray, order: str, dim: int) -> tuple[np.ndarray, tuple[str,
 
 
 def run(args: argparse.Namespace) -> int:
-    from grainmech.io.config import load_toml
+    from pathlib import Path
+
+    from grainmech.io.config import load_toml, resolve_file_keys
 
     if args.config:
-        cfg = load_toml(args.config)
+        cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)
         source = args.config
     else:
         text = resources.files("grainmech.data").joinpath("default_stiffness.toml").read_text()
@@ -66,12 +68,17 @@ def run(args: argparse.Namespace) -> int:
             "convention": out.packing.convention,
             "source": source,
         }
+        if out.fabric_fit:
+            obj["fabric_fit"] = {k: v for k, v in out.fabric_fit.items() if k != "summary"}
         json.dump(obj, sys.stdout, indent=2)
         sys.stdout.write("\n")
         return 0
     w = sys.stdout.write
     w(f"grainmech stiffness: {source}\n")
-    w(f"counting convention: {out.packing.convention}; mean stress {mean_stress:.6g} Pa\n\n")
+    w(f"counting convention: {out.packing.convention}; mean stress {mean_stress:.6g} Pa\n")
+    if out.fabric_fit:
+        w(out.fabric_fit["summary"] + "\n")
+    w("\n")
     w(f"stiffness ({'Mandel' if args.order == 'mandel' else 'Voigt'}, order {args.order}), Pa:\n")
     w("      " + "".join(f"{lab:>13}" for lab in labels) + "\n")
     for lab, row in zip(labels, M):

@@ -154,3 +154,21 @@ class Section:
             raise ConfigError(self.key(k), self.data[k], f"unknown key {k!r}"
                               + (f" (did you mean {close[0]!r}?)" if close else "")
                               + (f" (other unknown keys: {', '.join(unknown[1:])})" if len(unknown) > 1 else ""))
+
+
+#: config keys holding a file path, read relative to the config file's folder
+FILE_KEYS = (("fabric", "normals"),)
+
+
+def resolve_file_keys(cfg: dict, base_dir: str | Path) -> dict:
+    """A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
+    to ``base_dir`` (the folder of the config file) instead of the working directory."""
+    import copy
+
+    out = copy.deepcopy(cfg)
+    for table, key in FILE_KEYS:
+        sec = out.get(table)
+        if isinstance(sec, dict) and isinstance(sec.get(key), str) and not Path(sec[key]).is_absolute():
+            sec[key] = str(Path(base_dir) / sec[key])
+    return out
+

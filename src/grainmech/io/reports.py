@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.io.results import driver_table, ensure_dir, write_csv, write_figure, write_json, write_text
+from grainmech.io.results import (driver_table, ensure_dir, soil_path_table, write_csv, write_figure, write_json,
+                                  write_text)
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
            "write_dem_outputs", "CONTACT_COLUMNS"]
@@ -31,33 +32,55 @@ def default_outdir(command: str) -> str:
 
 # ----------------------------------------------------------------------------------- run
 def _reference_curves(out: Any) -> dict:
-    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress."""
+    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
+    the strain range of the model's amplitudes.
+
+    Both are empirical end to end: neither reference strain uses the model's Gmax.
+    Darendeli's ``gamma_r`` comes from his correlation (mean stress, PI, OCR; Table 8.12);
+    Hardin-Drnevich's ``gamma_r = tau_max / Gmax`` takes ``tau_max = p sin(phi')`` and the
+    Gmax of Hardin's correlation for angular grains at the run's void ratio and mean stress
+    (Hardin & Richart 1963, the form Hardin & Drnevich 1972 use), so a model that is too
+    stiff shows as a curve shifted away from both references instead of moving one of
+    them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
+    the only one available and is used (``hd_gmax_source`` says which)."""
     from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
 
     amps = np.asarray(out.amplitudes)
     ref = out.reference
-    gam = np.logspace(np.log10(min(amps.min(), 1e-6)), np.log10(max(amps.max(), 1e-2)), 60)
+    gam = np.logspace(np.log10(amps.min()), np.log10(amps.max()), 60)
     dar = darendeli(gam, out.pressure, pi=ref["pi"], ocr=ref["ocr"], n_cycles=ref["n_cycles"],
                     frequency=ref["frequency"])
-    hd = hardin_drnevich_reference(out.pressure, ref["phi"], out.G_max, ref["n_cycles"])
+    emp = getattr(out, "empirical_G_max", None)
+    if emp:
+        g_hd, source = float(emp["G_angular_Pa"]), "Hardin-Richart (1963) angular grains"
+    else:
+        g_hd, source = float(out.G_max), "the model's Gmax (no void ratio given)"
+    hd = hardin_drnevich_reference(out.pressure, ref["phi"], g_hd, ref["n_cycles"])
     hd_r, hd_d = hardin_drnevich(gam, hd.gamma_r, hd.d_max)
-    return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d}
+    return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d,
+            "hd_gmax": g_hd, "hd_gmax_source": source}
+
+
+def amplitude_csv_name(amplitude: float) -> str:
+    """File name of one amplitude's step table: ``cycles_gamma_1.0e-04.csv``."""
+    return f"cycles_gamma_{amplitude:.1e}.csv"
+
 
 
 #: how each kinematic model is drawn and named where the two are compared
-MODEL_STYLE = {"affine": ("ko-", "affine (seed: every contact follows the mean strain)"),
-               "packing": ("bs-", "packing (every grain in equilibrium)")}
+MODEL_STYLE = {"affine": ("ko", "affine (seed: every contact follows the mean strain)"),
+               "packing": ("bs", "packing (every grain in equilibrium)")}
 
 
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
-    """Files of ``grainmech run``: a CSV per run, ``modulus_reduction.csv``,
-    ``site_response_curves.csv``, PNG plots, ``config_used.json``, ``summary.json`` and
-    ``index.html``. ``out`` is a :class:`grainmech.jobs.CyclicOutcome` or
-    :class:`grainmech.jobs.PathOutcome` (one model), or a
-    :class:`grainmech.jobs.RunComparison` (several models: each model's files carry the
-    prefix ``<method>_``, the curves of all models share ``modulus_reduction.png``, and
-    ``summary.json`` has one entry per model under ``models``). Returns the summary
-    (``files`` lists the names)."""
+    """Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
+    or ``path.csv``, ``modulus_reduction.csv``, ``site_response_curves.csv``, PNG plots,
+    ``config_used.json``, ``summary.json`` and ``index.html``. ``out`` is a
+    :class:`grainmech.jobs.CyclicOutcome` or :class:`grainmech.jobs.PathOutcome` (one
+    model), or a :class:`grainmech.jobs.RunComparison` (several models: each model's files
+    carry the prefix ``<method>_``, the curves of all models share
+    ``modulus_reduction.png``, and ``summary.json`` has one entry per model under
+    ``models``). Returns the summary (``files`` lists the names)."""
     from grainmech.jobs import RunComparison
 
     d = ensure_dir(outdir)
@@ -100,12 +123,16 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         m["details"] = o.details
     for i, r in enumerate(o.results):
         cols, rows = driver_table(r)
-        name = prefix + (f"run_{i:02d}.csv" if cyclic else "path.csv")
+        name = prefix + (amplitude_csv_name(o.amplitudes[i]) if cyclic else "path.csv")
+        if not cyclic:
+            scols, srows, axis = soil_path_table(r)
+            cols, rows = cols + scols, np.hstack([rows, srows])
+            m["axial_direction"] = axis
         if getattr(r, "residual", None) is not None and len(r.residual) == len(rows):
-            cols = cols + ["equilibrium_residual"]
+            cols = cols + ["equilibrium_residual [-]"]
             rows = np.hstack([rows, np.asarray(r.residual, dtype=float)[:, None]])
         if env is not None:
-            cols = cols + ["stress_ratio_sigma1_sigma3", "beyond_sand_envelope"]
+            cols = cols + ["stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"]
             rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
         write_csv(d / name, cols, rows)
         files.append(name)
@@ -115,17 +142,16 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         first = env["first_step"]
         cannot_fail = (" the affine model (every contact follows the mean strain) cannot fail, so these "
                        "states are not predictions" if o.method == "affine" else
-                       " the grain friction of the packing does not hold such states for long: read them "
-                       "with the sliding fraction and the equilibrium residual")
+                       " read them with the sliding fraction and the equilibrium residual of the packing")
         m["envelope"] = {
             "limit_sigma1_over_sigma3": env["limit"], "friction_angle_deg": env["friction_angle_deg"],
             "first_step_beyond": first, "max_ratio": float(np.max(env["ratio"])),
-            "note": ((f"the stress ratio sigma1/sigma3 leaves the envelope sands sustain "
-                      f"(Mohr-Coulomb, phi = {env['friction_angle_deg']:g} deg: {env['limit']:.2f}) at step "
-                      f"{first} and reaches {float(np.max(env['ratio'])):.3g};" + cannot_fail)
+            "note": ((f"the stress ratio sigma1/sigma3 leaves the envelope sands sustain (Mohr-Coulomb, "
+                      f"phi = {env['friction_angle_deg']:g} deg: {env['limit']:.2f}) at step {first} and "
+                      f"reaches {float(np.max(env['ratio'])):.3g};" + cannot_fail)
                      if first is not None else "stress ratio within the envelope sands sustain")}
-        fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
-        plots.path_histories(o.results[0], axes=axes)
+        fig, axes = plots.subplots(2, 2, figsize=(10, 8))
+        plots.soil_path_views(o.results[0], axes=axes.ravel())
         fig.tight_layout()
         write_figure(d / f"{prefix}path.png", fig)
         files.append(f"{prefix}path.png")
@@ -133,7 +159,8 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         amps, G, Dm, ratio = np.asarray(o.amplitudes), np.asarray(o.G), np.asarray(o.damping), o.G_ratio
         dp = o.mean_stress_change
         write_csv(d / f"{prefix}modulus_reduction.csv",
-                  ["amplitude", "G_Pa", "G_over_Gmax", "damping", "mean_stress_change"],
+                  ["shear_strain_amplitude [-]", "G [Pa]", "G_over_Gmax [-]", "damping [-]",
+                   "mean_stress_change [-]"],
                   zip(amps, G, ratio, Dm, dp))
         files.append(f"{prefix}modulus_reduction.csv")
         # the same curves for site-response tools (strain and damping as decimals)
@@ -147,7 +174,9 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
             files.append(f"{prefix}site_response_curves.csv")
         fig, ax = plots.subplots(figsize=(6.4, 4.8))
         plots.loops(o.results[:len(G)], amps, ax=ax)
-        ax.set_title(MODEL_STYLE[o.method][1], fontsize=9)
+        if prefix:
+            ax.set_title(MODEL_STYLE[o.method][1], fontsize=9)
+        fig.tight_layout()
         write_figure(d / f"{prefix}loops.png", fig)
         files.append(f"{prefix}loops.png")
         m.update(G_max_Pa=o.G_max, amplitudes=amps, G_Pa=G, G_over_Gmax=ratio, damping=Dm,
@@ -157,7 +186,8 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
 
 def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
     """``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
-    and Hardin-Drnevich (1972) at the run's mean stress."""
+    and Hardin-Drnevich (1972) at the run's mean stress (:func:`_reference_curves` of the
+    first model: both references are empirical, neither depends on the model)."""
     from grainmech import plots
 
     first, _ = cyclic[0]
@@ -165,7 +195,7 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
     dar, hd, gam = refs["darendeli"], refs["hardin_drnevich"], refs["gamma"]
     fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
     for k, (o, m) in enumerate(cyclic):
-        style, name = MODEL_STYLE[o.method] if compare else ("ko-", "grainmech")
+        style, name = MODEL_STYLE[o.method] if compare else ("ko", "grainmech")
         last = k == len(cyclic) - 1
         plots.modulus_reduction(m["amplitudes"], m["G_over_Gmax"], ax=a1, label=name, style=style,
                                 references={"Darendeli (2001)": (gam, dar.G_ratio),
@@ -177,7 +207,8 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
     write_figure(d / "modulus_reduction.png", fig)
     summary["files"].append("modulus_reduction.png")
     summary.update(darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
-                   hardin_drnevich_d_max=hd.d_max)
+                   hardin_drnevich_d_max=hd.d_max, hardin_drnevich_G_max_Pa=refs["hd_gmax"],
+                   hardin_drnevich_G_max_source=refs["hd_gmax_source"])
 
 
 def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
@@ -202,7 +233,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
     for m in models:
         pre = f"{m['method']}_" if compare else ""
         head = f"<h3>{html.escape(m['method'])} model</h3>" if compare else ""
-        if not m["success"]:
+        if compare and not m["success"]:
             head += f"<p><b>Stopped:</b> {html.escape(str(m['message']))}</p>"
         det = m.get("details")
         if det:
@@ -216,7 +247,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                            f"<td>{100 * c:+.1f}</td></tr>"
                            for a, g, r, dd, c in zip(m["amplitudes"], m["G_Pa"], m["G_over_Gmax"],
                                                      m["damping"], m["mean_stress_change"]))
-            table = ("<table><tr><th>shear strain amplitude</th><th>secant G [Pa]</th><th>G/Gmax</th>"
+            table = ("<table><tr><th>shear strain amplitude [decimal]</th><th>secant G [Pa]</th><th>G/Gmax</th>"
                      f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
             head += (f"<p>Small-strain shear modulus Gmax = {m['G_max_Pa']:.5g} Pa "
                      "(condensed tangent at the initial state); every G/Gmax of this model is normalised by "
@@ -230,30 +261,47 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                          f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
                          f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
             head += table
-            sections.append(Section(f"{pre}loops", f"Stress-strain loops{' (' + m['method'] + ')' if compare else ''}",
+            sections.append(Section(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),
                                     d / f"{pre}loops.png",
-                                    "Shear stress against normalised shear strain for every amplitude.",
+                                    "Every amplitude's loops on one scale: shear stress change divided by its "
+                                    "largest value tau_a against shear strain divided by its amplitude gamma_a "
+                                    "(legend: gamma_a as a decimal, tau_a in kPa). The step tables, one per "
+                                    "amplitude, with units in every column header:",
                                     (f"{pre}loops.png", f"{pre}modulus_reduction.csv")
                                     + ((f"{pre}site_response_curves.csv",)
-                                       if f"{pre}site_response_curves.csv" in summary["files"] else ())))
+                                       if f"{pre}site_response_curves.csv" in summary["files"] else ())
+                                    + tuple(f for f in summary["files"] if f.startswith(f"{pre}cycles_gamma_"))))
         env = m.get("envelope")
         if env:
             warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
             head += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of {pre}path.csv).</p>"
         if f"{pre}path.png" in summary["files"]:
-            sections.append(Section(f"{pre}path", "Strain and stress along the path"
+            ax_ = m.get("axial_direction", "zz")
+            sections.append(Section(f"{pre}path", "Stress and strain along the path"
                                     + (f" ({m['method']})" if compare else ""), d / f"{pre}path.png",
-                                    "Every component, compression positive, engineering shear strain.",
+                                    f"Soil-mechanics views (compression positive, strains decimal from the initial "
+                                    f"state, axial = {ax_}): deviator stress q = sqrt(3 J2) and volumetric strain "
+                                    "against axial strain, stress ratio q/p, and the p-q stress path. path.csv has "
+                                    "every tensor component, these quantities and the tangent constants, with "
+                                    "units in every column header.",
                                     (f"{pre}path.png", f"{pre}path.csv")))
         intro += head
     if "darendeli_gamma_r" in summary:
         sections.insert(0, Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
                                    "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
                                    "amplitude" + (" for each model" if compare else "")
-                                   + ", with Darendeli (2001) (reference strain "
-                                   f"{100 * summary['darendeli_gamma_r']:.4f} %) and Hardin-Drnevich (1972) "
-                                   f"(gamma_r = tau_max/Gmax = {100 * summary['hardin_drnevich_gamma_r']:.4f} %, "
-                                   f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %) at the same mean stress.",
+                                   + " (markers; strain as a decimal, 1e-3 = 0.1 %), with two empirical "
+                                   "reference curves for a sand at the same mean stress over the same strain range. "
+                                   "Both reference strains come from correlations, not from the model: Darendeli "
+                                   f"(2001) gamma_r = {summary['darendeli_gamma_r']:.3g} "
+                                   f"({100 * summary['darendeli_gamma_r']:.4f} %), and Hardin-Drnevich (1972) "
+                                   f"gamma_r = tau_max/Gmax = {summary['hardin_drnevich_gamma_r']:.3g} "
+                                   f"({100 * summary['hardin_drnevich_gamma_r']:.4f} %) with tau_max = p sin(phi') and "
+                                   f"Gmax = {summary['hardin_drnevich_G_max_Pa']:.4g} Pa from "
+                                   f"{summary['hardin_drnevich_G_max_source']}, "
+                                   f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %. The model's G/Gmax is "
+                                   "normalised by its own Gmax; a model that is too stiff shows against both "
+                                   "references alike.",
                                    ("modulus_reduction.png",)))
     for w in summary.get("warnings", []):
         intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"

@@ -25,24 +25,83 @@ Angles must carry their unit (``"24 deg"``); a bare angle is an error.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.config import Section
 
-__all__ = ["build_fabric", "build_packing", "build_law", "build_stress", "build_pressure", "LAWS",
+__all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress", "build_pressure", "LAWS",
            "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial", "ContactSegment"]
 
 SEED_3D = ("a20", "a22", "b22")
 SEED_2D = ("a2", "b2", "a4", "b4")
 
 
-def build_fabric(sec: Section) -> Any:
-    """Density from ``[fabric]`` (seed parameters or a fabric tensor)."""
+def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
+    """Unit contact normals from a file: ``.npy`` (array ``(n, d)``) or text (CSV or
+    whitespace separated, ``d`` = 2 or 3 columns, ``#`` comments, an optional header
+    line). Rows are normalised to unit length; a zero row is an error naming the line."""
+    from grainmech.io.config import read_text_file
+
+    p = Path(path)
+    if p.suffix.lower() == ".npy":
+        try:
+            arr = np.load(p, allow_pickle=False)
+        except FileNotFoundError:
+            raise ConfigError(key, str(path), "file not found") from None
+        except (OSError, ValueError) as exc:
+            raise ConfigError(key, str(path), f"cannot read the .npy file ({exc})") from None
+        lines = np.arange(1, len(arr) + 1) if np.ndim(arr) == 2 else None
+    else:
+        try:
+            text = read_text_file(p, "normals")
+        except GrainmechError as exc:
+            raise ConfigError(key, str(path), str(exc)) from None
+        rows, lines = [], []
+        for i, line in enumerate(text.splitlines(), 1):
+            t = line.split("#", 1)[0].strip()
+            if not t:
+                continue
+            parts = [x for x in t.replace(",", " ").replace(";", " ").split()]
+            try:
+                rows.append([float(x) for x in parts])
+            except ValueError:
+                if not rows:  # a header line
+                    continue
+                raise ConfigError(key, str(path), f"line {i}: not a row of numbers: {line.strip()!r}") from None
+            lines.append(i)
+        if not rows:
+            raise ConfigError(key, str(path), "no normals in the file")
+        if len({len(r) for r in rows}) != 1:
+            raise ConfigError(key, str(path), "every row needs the same number of columns (2 or 3)")
+        arr = np.array(rows, dtype=float)
+        lines = np.array(lines)
+    if np.ndim(arr) != 2 or arr.shape[1] not in (2, 3):
+        raise ConfigError(key, str(path), f"needs 2 or 3 columns (components of each normal), got shape "
+                          f"{np.shape(arr)}")
+    arr = np.asarray(arr, dtype=float)
+    norm = np.linalg.norm(arr, axis=1)
+    bad = ~np.isfinite(norm) | (norm == 0)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ConfigError(key, str(path), f"normal on line {lines[i] if lines is not None else i + 1} is zero "
+                          "or not finite")
+    return arr / norm[:, None]
+
+
+def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
+    """Density from ``[fabric]``: seed parameters, a fabric tensor, or a file of measured
+    contact normals (``normals = "file.csv"``, ``fit_order = 2``) fitted by
+    :func:`grainmech.fabric.fit_density` (moment estimator, chi-square test of the fit;
+    a fitted series negative somewhere is shrunk towards isotropy until it is not, and
+    the factor is reported). ``fit_report``, if given, receives the fit's summary."""
     from grainmech import fabric
 
+    if sec.has("normals"):
+        return _fabric_from_normals(sec, fit_report)
     dim = sec.integer("dim", 3)
     if dim not in (2, 3):
         raise ConfigError(sec.key("dim"), dim, "must be 2 or 3")
@@ -76,8 +135,68 @@ def build_fabric(sec: Section) -> Any:
     return cls.from_seed(**vals)
 
 
-def build_packing(sec: Section, density: Any) -> Any:
-    """Packing from ``[packing]`` and a density."""
+def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
+    from grainmech.fabric import fit_density
+
+    raw = sec.raw("normals")
+    if not isinstance(raw, str) or not raw.strip():
+        raise ConfigError(sec.key("normals"), raw, "must be the path of a file of contact normals")
+    n = read_normals(raw, sec.key("normals"))
+    dim = sec.integer("dim", n.shape[1])
+    if dim != n.shape[1]:
+        raise ConfigError(sec.key("dim"), dim, f"but the normals in {raw} have {n.shape[1]} components")
+    order = sec.integer("fit_order", 2, min=2)
+    if order % 2:
+        raise ConfigError(sec.key("fit_order"), order, "must be even (the density of normals is centrosymmetric)")
+    for k in (SEED_3D + SEED_2D + ("tensor",)):
+        if sec.has(k):
+            raise ConfigError(sec.key(k), sec.data[k], "give either normals or the density's coefficients, not both")
+    fit = fit_density(n, order, on_negative="shrink")
+    if fit_report is not None:
+        fit_report.update(
+            source=raw, n_normals=fit.n_normals, order=order, dim=dim, chi2=fit.chi2, dof=fit.dof,
+            p_value=fit.p_value, n_bins=fit.n_bins, shrink_factor=fit.shrink_factor,
+            seed_coefficients={str(k): v for k, v in fit.seed_coefficients.items()},
+            seed_standard_errors={str(k): v for k, v in fit.seed_standard_errors.items()},
+            message=fit.message,
+            summary=(f"fabric fitted to {fit.n_normals} normals of {raw} (order {order}): "
+                     + (f"chi-square {fit.chi2:.4g} on {fit.dof} degrees of freedom, p = {fit.p_value:.3g}"
+                        if fit.p_value is not None else "too few normals for a chi-square test")
+                     + (f"; the fitted series was negative somewhere and its anisotropy is shrunk by "
+                        f"{fit.shrink_factor:.3g}" if fit.shrink_factor < 1 else "")))
+    return fit.density
+
+
+def coordination_relation(sec: Section, void_ratio: float, pressure: float | None) -> float:
+    """Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
+    ``packing.coordination``: ``m = (a - b e) (p / p_ref)^n`` at the mean stress ``p`` [Pa].
+
+    ``n = 0``, ``a = 23``, ``b = 25`` is seed Eq. 6.4 (``m = 23 - 25 e``); ``n > 0`` is the
+    phenomenological pressure dependence ``grainmech calibrate`` can fit
+    (``docs/calibrate.md``). ``sec`` is the ``[packing]`` section; raises
+    :class:`ConfigError` naming the key for a missing mean stress or ``m <= 0``.
+    """
+    coord = sec.raw("coordination")
+    cs = sec.section("coordination")
+    a = cs.number("a", None)
+    b = cs.number("b", None, 0.0)
+    n = cs.number("n", None, 0.0)
+    p_ref = cs.number("p_ref", "Pa", 101325.0, min=0, min_inclusive=False)
+    cs.finish()
+    if n != 0.0 and pressure is None:
+        raise ConfigError(sec.key("coordination"), coord, "a relation with n != 0 needs the mean stress: "
+                          "give [stress] pressure (stiffness) or [initial] pressure (run)")
+    m = (a - b * void_ratio) * ((pressure / p_ref) ** n if n != 0.0 else 1.0)
+    if not np.isfinite(m) or m <= 0:
+        raise ConfigError(sec.key("coordination"), coord, f"gives coordination m = {m:.4g} at void ratio "
+                          f"{void_ratio:g}" + ("" if pressure is None else f" and mean stress {pressure:.4g} Pa")
+                          + " (must be > 0)")
+    return float(m)
+
+
+def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
+    """Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
+    coordination relation (:func:`coordination_relation`) is evaluated at."""
     from grainmech.fabric import CORRELATIONS, coordination_number
     from grainmech.material import Packing
 
@@ -92,6 +211,8 @@ def build_packing(sec: Section, density: Any) -> Any:
     name = coord.strip().lower() if isinstance(coord, str) else None
     if name is not None and name in CORRELATIONS:
         m = float(coordination_number(e, name))
+    elif isinstance(coord, dict):
+        m = coordination_relation(sec, e, pressure)
     else:
         try:
             m = sec.number("coordination", None, min=0, min_inclusive=False)

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from grainmech.errors import GrainmechError
-from grainmech.reproduce._base import FigureData
+from grainmech.reproduce._base import FigureData, reporting
 
 __all__ = ["FIGURES", "FigureData", "figure_ids", "normalize_id", "build", "reproduce"]
 
@@ -94,31 +94,31 @@ def reproduce(ids: Sequence[str] | None, outdir: str | Path, *,
     -------
     list of FigureData, in report order.
     """
-    from grainmech.io.results import ensure_dir, write_csv
+    from grainmech.io.outdir import output_folder
+    from grainmech.io.results import write_csv
     from grainmech.reproduce.plotting import plot
     from grainmech.reproduce.report import write_index
 
     wanted = [normalize_id(i) for i in ids] if ids else list(FIGURES)
     wanted = [f for f in FIGURES if f in set(wanted)]
-    out = ensure_dir(outdir)
-    probe = out / ".grainmech-write-test"
-    try:
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as exc:
-        raise GrainmechError(f"cannot write in output directory {out}: {exc.strerror}") from None
     figs = []
     t_all = time.perf_counter()
-    for fid in wanted:
-        t0 = time.perf_counter()
-        fig = build(fid)
-        header, rows = fig.rows()
-        write_csv(out / f"{fig.stem}.csv", header, rows)
-        plot(fig, out / f"{fig.stem}.png")
-        figs.append(fig)
-        if log:
-            log(f"Fig. {fid}: {fig.stem}.png, {fig.stem}.csv ({time.perf_counter() - t0:.1f} s)")
-    write_index(figs, out, elapsed=time.perf_counter() - t_all)
+    # the folder is checked and locked before the work; files are staged and moved in at the end
+    with output_folder(outdir, "reproduce") as folder:
+        out = folder.staging
+        for k, fid in enumerate(wanted, 1):
+            t0 = time.perf_counter()
+            if log:
+                log(f"Fig. {fid} ({k}/{len(wanted)}): computing ...")
+            with reporting(log):
+                fig = build(fid)
+            header, rows = fig.rows()
+            write_csv(out / f"{fig.stem}.csv", header, rows)
+            plot(fig, out / f"{fig.stem}.png")
+            figs.append(fig)
+            if log:
+                log(f"Fig. {fid}: {fig.stem}.png, {fig.stem}.csv ({time.perf_counter() - t0:.1f} s)")
+        write_index(figs, out, elapsed=time.perf_counter() - t_all)
     if log:
-        log(f"index: {out / 'index.html'}")
+        log(f"index: {folder.path / 'index.html'}")
     return figs

@@ -2,12 +2,35 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
-__all__ = ["FigureData", "PSI", "INCH"]
+__all__ = ["FigureData", "PSI", "INCH", "progress", "reporting"]
+
+_LOG: list[Callable[[str], None]] = []
+
+
+def progress(message: str) -> None:
+    """A progress line from inside a long figure computation (to the logger installed by
+    :func:`reporting`; nothing without one)."""
+    if _LOG:
+        _LOG[-1](message)
+
+
+@contextlib.contextmanager
+def reporting(log: Callable[[str], None] | None) -> Iterator[None]:
+    """Send :func:`progress` lines to ``log`` within the block."""
+    if log is None:
+        yield
+        return
+    _LOG.append(log)
+    try:
+        yield
+    finally:
+        _LOG.pop()
 
 #: The seed's Chapter 4 and 6 numbers are in psi and inches; the figures are computed in
 #: that consistent unit system (lbf, in, psi) and say so in their labels.

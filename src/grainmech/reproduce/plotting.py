@@ -44,13 +44,20 @@ def _fig4_2(d: FigureData, path: Path) -> Path:
         ax.set_theta_zero_location("N")
         ax.set_theta_direction(-1)
         a, b = labels[plane]
-        ax.set_title(f"plane {plane}  (0 deg = {a}, 90 deg = {b})", fontsize=9)
-        ax.set_rlabel_position(135)
+        ax.set_title(f"plane {plane}  (0 deg = {a}, 90 deg = {b})", fontsize=9, pad=16)
+        # three radial ticks, small, on a white box: readable over the curves
+        from matplotlib.ticker import MaxNLocator
+
+        ax.yaxis.set_major_locator(MaxNLocator(3))
+        ax.set_rlabel_position(112.5)
+        ax.tick_params(axis="y", labelsize=7)
+        for lab in ax.get_yticklabels():
+            lab.set_bbox({"facecolor": "white", "edgecolor": "none", "alpha": 0.85, "pad": 1})
     handles, labels_ = axes[0].get_legend_handles_labels()
     fig.legend(handles, ["monoclinic (dotted; = orthotropic in x=0, y=0)" if lab == "monoclinic"
                          else lab for lab in labels_], loc="lower center", ncol=3, fontsize=8)
     fig.suptitle("Seed Fig. 4.2: 4 pi xi(n) in three sections")
-    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    fig.tight_layout(rect=(0, 0.1, 1, 0.93))
     from grainmech.io.results import write_figure
     return write_figure(path, fig)
 
@@ -160,7 +167,8 @@ def _fig6_9(d: FigureData, path: Path) -> Path:
         sel = sel_e & (t["sigma"] == s)
         c = f"C{i}"
         axes[0].plot(t["void_ratio"][sel], t["G_seed"][sel], "-", color=c, label=f"theory {s:g} psi")
-        axes[0].plot(t["void_ratio"][sel], t["G_physical"][sel], "-.", color=c, lw=0.8)
+        axes[0].plot(t["void_ratio"][sel], t["G_physical"][sel], "-.", color=c, lw=0.8,
+                     label=f"theory {s:g} psi, physical convention")
         axes[0].plot(t["void_ratio"][sel], t["G_hardin_black"][sel], "--", color=c,
                      label=f"Hardin-Black {s:g} psi")
     axes[0].set_xlabel("void ratio e")

@@ -20,7 +20,7 @@ from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, fig610_path, fig610_stress, geometry, run
 from grainmech.fabric import coordination_number, isotropic
 from grainmech.material import Packing
-from grainmech.reproduce._base import FigureData, long_table
+from grainmech.reproduce._base import FigureData, long_table, progress
 from grainmech.elasticity import engineering_constants
 
 __all__ = ["PATHS", "INPUTS", "critical_ratio", "compute", "fig6_10", "fig6_11", "fig6_12"]
@@ -78,7 +78,8 @@ def compute(ratios: tuple[float, ...] = RATIOS, n_steps: int = 36,
     cs, law, _ = _setup(extra_degree)
     p0 = INPUTS["p0"]
     blocks = []
-    for kind in PATHS:
+    for j, kind in enumerate(PATHS, 1):
+        progress(f"  path {kind} ({j}/{len(PATHS)}): state estimate at {len(ratios)} stress ratios ...")
         rows = []
         for R in ratios:
             s1, s3 = fig610_stress(kind, p0, R)
@@ -88,6 +89,7 @@ def compute(ratios: tuple[float, ...] = RATIOS, n_steps: int = 36,
                          *(ec[k] for k in _KEYS), pt.fractions()[0]])
         a = np.array(rows)
         blocks.append(_block("state estimate", kind, a))
+        progress(f"  path {kind} ({j}/{len(PATHS)}): following the path in {n_steps} steps ...")
         pt0 = MaterialPoint.isotropic(cs, law, p0)
         res = run(pt0, fig610_path(kind, p0, max(ratios), n_steps), engineering=True)
         ratio = res.stress[:, 2] / res.stress[:, 0]

@@ -196,12 +196,27 @@ def run_sweep(sweep: Sweep, outdir: str | Path, *, client: Any = None, scheduler
         The summary (also written to ``summary.json``): ``n_points``, ``succeeded``,
         ``failed``, ``reused``, ``ran``, ``seconds``, ``files`` ...
     """
+    from grainmech.io.outdir import output_folder
+
+    # checked and locked before the work; the table, plot and summary are staged and moved
+    # in at the end, the finished points persist in OUTDIR/points as they arrive (resume)
+    with output_folder(outdir, "sweep") as folder:
+        summary = _run_in(folder, sweep, client=client, scheduler=scheduler, workers=workers,
+                          retry_failed=retry_failed, quiet=quiet, plots=plots, on_record=on_record)
+        folder.commit(success=summary["failed"] == 0)
+    return summary
+
+
+def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, workers: int | None,
+            retry_failed: bool, quiet: bool, plots: bool,
+            on_record: Callable[[dict], None] | None) -> dict:
+    """The body of :func:`run_sweep` in an opened :class:`grainmech.io.outdir.OutputFolder`."""
     from grainmech.io.results import ensure_dir, write_json
 
     t0 = time.perf_counter()
-    out = ensure_dir(outdir)
+    out, stage = folder.path, folder.staging
     pdir = ensure_dir(out / "points")
-    write_json(out / "sweep.json", sweep.describe())
+    write_json(stage / "sweep.json", sweep.describe())
     records: dict[str, dict] = {}
     todo: list[Point] = []
     for pt in sweep.points:
@@ -237,7 +252,7 @@ def run_sweep(sweep: Sweep, outdir: str | Path, *, client: Any = None, scheduler
             with open_client(scheduler, workers) as cl:
                 consume(cl)
     header, rows = table_rows(sweep, records)
-    files = write_table(out, header, rows)
+    files = write_table(stage, header, rows)
     n_ok = sum(records[pt.id]["status"] == "ok" for pt in sweep.points)
     summary = {"source": sweep.source, "kind": sweep.kind, "design": sweep.design,
                "n_points": len(sweep.points), "succeeded": n_ok, "failed": len(sweep.points) - n_ok,
@@ -247,8 +262,8 @@ def run_sweep(sweep: Sweep, outdir: str | Path, *, client: Any = None, scheduler
     if plots and n_ok:
         from grainmech.sweep.report import summary_plot
 
-        if summary_plot(sweep, header, rows, out / "summary.png"):
+        if summary_plot(sweep, header, rows, stage / "summary.png"):
             summary["files"].append("summary.png")
     summary["files"].append("summary.json")
-    write_json(out / "summary.json", summary)
+    write_json(stage / "summary.json", summary)
     return summary

@@ -1,0 +1,98 @@
+"""What a run's folder shows: reference curves with one stated choice, readable loops,
+units in headers, every file linked from index.html."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from grainmech.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+CFG = (ROOT / "src" / "grainmech" / "data" / "default_run.toml").read_text().replace(
+    "amplitudes = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3]", "amplitudes = [1e-6, 1e-4, 1e-3]")
+
+
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory):
+    d = tmp_path_factory.mktemp("run")
+    (d / "c.toml").write_text(CFG)
+    assert main(["run", str(d / "c.toml"), "-o", str(d / "o"), "--quiet"]) == 0
+    return d / "o"
+
+
+def test_hardin_drnevich_reference_strain_is_empirical(default_run):
+    """Hardin & Drnevich (1972): gamma_r = tau_max / Gmax with tau_max = p sin(phi')
+    (default phi' = 33 deg) and Gmax from Hardin's angular-grain correlation
+    G = 3230 (2.97 - e)^2 / (1 + e) sqrt(p) [kPa] (1230 psi form, Hardin & Richart 1963),
+    e = 0.65, p = 100 kPa -- not the model's Gmax, which is ~4x larger."""
+    s = json.loads((default_run / "summary.json").read_text())
+    e, p_kpa = 0.65, 100.0
+    g_emp = 3230.0 * (2.97 - e) ** 2 / (1 + e) * math.sqrt(p_kpa) * 1e3
+    assert s["hardin_drnevich_G_max_Pa"] == pytest.approx(g_emp, rel=1e-9)
+    assert s["hardin_drnevich_gamma_r"] == pytest.approx(1e5 * math.sin(math.radians(33)) / g_emp, rel=1e-9)
+    assert s["hardin_drnevich_gamma_r"] > 3 * 1e5 * math.sin(math.radians(33)) / s["G_max_Pa"]
+    # Darendeli (2001) Table 8.12, PI = 0, OCR = 1: gamma_r [%] = 0.0352 (p/1 atm)^0.3483
+    assert s["darendeli_gamma_r"] == pytest.approx(0.0352e-2 * (1e5 / 101325) ** 0.3483, rel=1e-9)
+    page = (default_run / "index.html").read_text()
+    assert "Both reference strains come from correlations, not from the model" in page
+    assert "Hardin-Richart (1963) angular grains" in page
+
+
+def test_every_file_is_linked_and_named_by_what_it_holds(default_run):
+    s = json.loads((default_run / "summary.json").read_text())
+    assert {f for f in s["files"] if f.startswith("cycles_gamma_")} == {
+        "cycles_gamma_1.0e-06.csv", "cycles_gamma_1.0e-04.csv", "cycles_gamma_1.0e-03.csv"}
+    page = (default_run / "index.html").read_text()
+    links = set(re.findall(r"href='([^']+)'", page))
+    on_disk = {p.name for p in default_run.iterdir() if not p.name.startswith(".")}
+    assert on_disk - {"index.html"} <= links
+
+
+def test_every_csv_header_has_a_unit(default_run):
+    for f in default_run.glob("*.csv"):
+        if f.name == "site_response_curves.csv":  # the site-response tools' own format
+            continue
+        head = f.read_text().splitlines()[0].split(",")
+        assert all(c == "step" or re.search(r"\[[^]]+\]$", c) for c in head), (f.name, head)
+
+
+def test_loops_are_normalised_per_amplitude():
+    """Each amplitude's loop spans -1..1 in both axes, however small its stresses."""
+    from grainmech import plots
+
+    class R:  # a minimal driver result: two loops decades apart in stress
+        def __init__(self, a, tau):
+            t = np.linspace(0, 2 * np.pi, 50)
+            self.strain = np.zeros((50, 6))
+            self.stress = np.zeros((50, 6))
+            self.strain[:, 4] = a * np.sin(t)
+            self.stress[:, 4] = 7.0 + tau * np.sin(t - 0.1)
+
+    fig, ax = plots.subplots()
+    plots.loops([R(1e-6, 10.0), R(1e-3, 1e5)], [1e-6, 1e-3], ax=ax)
+    for line in ax.get_lines():
+        x, y = line.get_data()
+        assert np.max(np.abs(x)) == pytest.approx(1.0, rel=1e-3)
+        assert np.max(np.abs(y)) == pytest.approx(1.0)
+    assert ax.get_ylabel() and "[-]" in ax.get_ylabel() and "[-]" in ax.get_xlabel()
+    assert "kPa" in ax.get_legend().get_texts()[0].get_text()
+
+
+def test_reference_curves_cover_the_model_strain_range(default_run):
+    from grainmech.io.reports import _reference_curves
+
+    class Out:
+        amplitudes = [1e-5, 3e-4]
+        reference = dict(pi=0.0, ocr=1.0, n_cycles=10.0, frequency=1.0, phi=math.radians(33))
+        pressure, G_max = 1e5, 4e8
+        empirical_G_max = None
+
+    r = _reference_curves(Out())
+    assert r["gamma"][0] == pytest.approx(1e-5) and r["gamma"][-1] == pytest.approx(3e-4)
+    assert r["hd_gmax"] == 4e8 and "model" in r["hd_gmax_source"]  # no void ratio: said so
