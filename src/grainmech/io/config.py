@@ -157,7 +157,7 @@ class Section:
 
 
 #: config keys holding a file path, read relative to the config file's folder
-FILE_KEYS = (("fabric", "normals"),)
+FILE_KEYS = (("fabric", "normals"), ("model", "network"), ("model", "particles"))
 
 
 def resolve_file_keys(cfg: dict, base_dir: str | Path) -> dict:
