@@ -158,16 +158,17 @@ def calibrated_config(result: Any) -> str | None:
     for p, v in zip(pr.parameters, result.x):
         val = float(v) / p.unit_factor
         set_path(cfg, p.path, f"{val:.10g} {p.unit}" if p.unit else val)
+    # the default run's [test] is cyclic simple shear
+    default_test = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())["test"]
     if pr.kind == "modulus-pressure":
         cfg["stress"] = {"pressure": f"{float(np.median(pr.data['pressure'])):.6g} Pa"}
     elif pr.kind == "modulus-reduction":
         st = pr.settings
-        cfg["test"] = {"kind": "cyclic-simple-shear", "amplitudes": sorted(float(a) for a in pr.data["strain"]),
+        cfg["test"] = {**default_test, "amplitudes": sorted(float(a) for a in pr.data["strain"]),
                        "n_cycles": int(st["n_cycles"]), "steps_per_cycle": int(st["steps_per_cycle"]),
                        "waveform": st["waveform"]}
     elif pr.kind == "stress-strain":
-        default = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
-        cfg["test"] = default["test"]
+        cfg["test"] = default_test
     head = (f"# Calibrated by grainmech calibrate ({pr.kind}) from {pr.source} and {pr.data_source}:\n"
             + "".join(f"#   {p.path} = {float(v) / p.unit_factor:.6g} {p.unit or p.si_unit or ''}".rstrip() + "\n"
                       for p, v in zip(pr.parameters, result.x))
