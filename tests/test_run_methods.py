@@ -239,3 +239,34 @@ def test_unstable_packing_file_is_refused(network_files, tmp_path):
     cfg["model"]["network"] = (tmp_path / "contacts.npz").as_posix()
     with pytest.raises(GrainmechError, match="not mechanically stable: unbalanced force ratio"):
         compute_run(cfg)
+
+
+def test_cli_reads_the_network_relative_to_the_config(network_files, cli, tmp_path):
+    """`grainmech run CONFIG` with model.network relative to the config's folder (not the
+    working directory); both models on one page, exit 0."""
+    import shutil
+
+    d, net = network_files
+    cdir = tmp_path / "study"
+    (cdir / "grains").mkdir(parents=True)
+    for f in ("contacts.npz", "particles.npz"):
+        shutil.copy(d / f, cdir / "grains" / f)
+    text = (MATERIAL + f"""
+[model]
+method = ["affine", "packing"]
+network = "grains/contacts.npz"
+particles = "grains/particles.npz"
+[initial]
+pressure = "{_packing_pressure(net)!r} Pa"
+[quadrature]
+degree = 11
+[test]
+kind = "cyclic-simple-shear"
+amplitudes = [1e-6, 1e-5]
+steps_per_cycle = 16
+""")
+    (cdir / "run.toml").write_text(text)
+    r = cli("run", cdir / "run.toml", "-o", tmp_path / "out")
+    assert r.rc == 0, r.err
+    assert "affine model (completed)" in r.err and "packing model (completed)" in r.err
+    assert (tmp_path / "out" / "packing_modulus_reduction.csv").exists()
