@@ -63,6 +63,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    if not getattr(args, "quiet", False):
+        _announce_compilation()
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
@@ -78,6 +80,36 @@ def main(argv: Sequence[str] | None = None) -> int:
         msg = str(exc) if not isinstance(exc, OSError) else f"{exc.strerror}: {exc.filename}"
         print(f"grainmech: error: {msg}", file=sys.stderr)
         return 2
+
+
+#: printed once, when numba starts compiling (not when it loads a cached kernel)
+COMPILE_NOTICE = ("grainmech: compiling the contact-law kernels with numba (first run after installing or "
+                  "upgrading, about 20 s; later runs load them from the cache)")
+
+
+def _announce_compilation() -> object | None:
+    """Say on stderr, once per process, that numba is compiling: the first run of a
+    command after installing spends most of its time there, silently otherwise. Uses
+    numba's compile events, which fire for a compilation and not for a cache load."""
+    try:
+        from numba.core import event
+    except ImportError:  # no numba: the NumPy reference paths, nothing to compile
+        return None
+
+    class _Notice(event.Listener):
+        said = False
+
+        def on_start(self, ev: object) -> None:
+            if not self.said:
+                self.said = True
+                print(COMPILE_NOTICE, file=sys.stderr, flush=True)
+
+        def on_end(self, ev: object) -> None:
+            pass
+
+    listener = _Notice()
+    event.register("numba:compile", listener)
+    return listener
 
 
 if __name__ == "__main__":  # pragma: no cover
