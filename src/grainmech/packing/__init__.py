@@ -17,8 +17,9 @@ from __future__ import annotations
 
 from grainmech.packing.grading import D50Cu, Sample, SieveCurve, UniformRadius
 from grainmech.packing.prepare import (GLASS, MATERIALS, QUARTZ, GrainMaterial, PackResult, PackSettings,
+                                       PreparationError,
                                        packing_summary, prepare_packing, unbalanced_ratio)
 
 __all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "GrainMaterial", "QUARTZ", "GLASS",
-           "MATERIALS", "PackSettings", "PackResult", "prepare_packing", "packing_summary",
+           "MATERIALS", "PackSettings", "PackResult", "PreparationError", "prepare_packing", "packing_summary",
            "unbalanced_ratio"]

@@ -24,7 +24,9 @@ Procedure (``docs/packing.md``):
 
 Quasi-static tricks (they change the path, not the equilibrium reached): a global
 viscous drag ``fix viscous`` proportional to the grain mass times a fraction of the
-contact frequency, strong contact damping (restitution 0.1 by default), and the capped
+contact frequency (and in the relaxation a rotational drag ``fix viscous/sphere``, which
+stops rattlers spinning from the frictionless stage that would otherwise drive their
+neighbours through friction), strong contact damping (restitution 0.1 by default), and the capped
 servo. The time step is 0.2 over the highest contact frequency expected at the target
 stress (:func:`critical_time_step`).
 """
@@ -41,11 +43,22 @@ import numpy as np
 from grainmech.errors import GrainmechError
 from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
 
-__all__ = ["GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
+__all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
            "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
            "setup_lammps", "packing_summary"]
 
 Progress = Callable[[str], None]
+
+
+class PreparationError(GrainmechError):
+    """The preparation ran but did not reach its target (servo or relaxation).
+
+    ``network`` holds the state reached (a :class:`ContactNetwork`), for inspection.
+    """
+
+    def __init__(self, message: str, network: ContactNetwork | None = None) -> None:
+        super().__init__(message)
+        self.network = network
 
 
 @dataclass(frozen=True)
@@ -140,6 +153,11 @@ class PackSettings:
     viscous : float
         Global damping rate as a fraction of the contact frequency ``sqrt(kn/m)`` at the
         target stress.
+    viscous_relax : float
+        The same during the relaxation with the grain friction.
+    relax_safety : float
+        Time step of the relaxation as a fraction of :func:`critical_time_step` (0.2 during
+        the compression).
     threads : int or None
         OpenMP threads (default: all cores).
     """
@@ -154,6 +172,8 @@ class PackSettings:
     max_steps: int = 2_000_000
     chunk: int = 200
     viscous: float = 0.05
+    viscous_relax: float = 0.01
+    relax_safety: float = 0.07
     inertial_number: float = 1e-2
     gain: float = 0.3
     threads: int | None = None
@@ -427,8 +447,13 @@ def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool
 
 # --------------------------------------------------------------------------- preparation
 
-def _principal(lmp: Any) -> np.ndarray:
-    return lmp.vector("press")[:3]
+def _stress6(lmp: Any) -> np.ndarray:
+    """LAMMPS virial pressure tensor ``pxx pyy pzz pxy pxz pyz``: the stress, compression positive."""
+    return lmp.vector("press")[:6]
+
+
+#: fix deform keywords in the order of :func:`_stress6`
+_DEFORM_KEYS = ("x", "y", "z", "xy", "xz", "yz")
 
 
 def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSettings,
@@ -459,8 +484,8 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
         raise GrainmechError(f"n_grains = {n}: at least 50 grains are needed for a periodic packing")
     rng = np.random.default_rng(settings.seed)
     pos, L = place_gas(radii, settings.initial_solid_fraction, rng)
-    target = np.asarray(settings.stress)
-    tmean = float(target.mean())
+    target = np.concatenate([settings.stress, np.zeros(3)])
+    tmean = float(np.mean(settings.stress))
     vs = float(np.sum(4.0 / 3.0 * np.pi * radii ** 3))
     # strain scale of the contacts at the target: delta/(2R) ~ (p/E*)^(2/3) (Hertz, seed Eq. 3.6)
     eps_t = float((tmean / mat.e_star) ** (2.0 / 3.0))
@@ -484,27 +509,29 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
         steps = 0
         stage = 1
         mu_now = settings.prep_friction
-        held_chunks = 0
         while True:
             if steps >= settings.max_steps:
-                p = _principal(lmp)
-                raise GrainmechError(
+                p = _stress6(lmp)
+                last_net = network_from_lammps(lmp)
+                raise PreparationError(
                     f"preparation did not converge in max_steps = {settings.max_steps} time steps "
-                    f"(stage {'compression' if stage == 1 else 'relaxation'}: stress {p.mean():.4g} Pa "
-                    f"for target {tmean:.4g} Pa, void ratio {_cell(lmp)[0].diagonal().prod() / vs - 1:.3f})")
-            p = _principal(lmp)
-            err = (p - target) / tmean  # > 0: too much stress -> expand
+                    f"(stage {'compression' if stage == 1 else 'relaxation'}: mean stress {p[:3].mean():.4g} Pa "
+                    f"for target {tmean:.4g} Pa, void ratio {_cell(lmp)[0].diagonal().prod() / vs - 1:.3f})", last_net)
+            p = _stress6(lmp)
+            # > 0: too much compression (or too much shear stress) -> expand (or shear back)
+            err = (p - target) / tmean
             cell = _cell(lmp)[0]
             e_now = float(np.prod(np.diag(cell)) / vs - 1.0)
-            pm = float(p.mean())
+            pm = float(p[:3].mean())
             # servo strain increment per chunk (module notes): capped by the inertial number
             # I = rate d sqrt(rho / p) (GDR MiDi 2004) at the current stress
             p_ref = max(pm, 0.01 * tmean)
             i_max = settings.inertial_number * (1.0 if stage == 1 else 0.1)
             cap = i_max / (2.0 * rbar * math.sqrt(mat.density / p_ref)) * chunk * dt
             if pm < 1e-3 * tmean:  # gas: compress at I = 10 inertial_number at the target stress
-                de = np.full(3, -10 * settings.inertial_number / (2.0 * rbar * math.sqrt(mat.density / tmean))
-                             * chunk * dt)
+                de = np.zeros(6)
+                de[:3] = -(10 * settings.inertial_number / (2.0 * rbar * math.sqrt(mat.density / tmean))
+                           * chunk * dt)
             else:
                 de = np.clip(settings.gain * eps_t * err, -cap, cap)
             within = bool(np.all(np.abs(err) < settings.stress_tol))
@@ -516,21 +543,28 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                 if ub < settings.unbalanced_tol:
                     break
             if stage == 1 and bool(np.all(np.abs(err) < settings.switch_tol)):
-                ke = 0.0
                 stage = 2
                 if mat.friction != mu_now:
                     lmp.command(_pair_coeff(mat, mat.friction))
                     mu_now = mat.friction
-                # frictionless grains spin freely: stop them before friction acts
-                lmp.commands(["velocity all set 0 0 0", "set group all omega 0 0 0"])
+                # frictionless grains spin freely: stop them before friction acts; a lighter
+                # drag lets grains that slide find their place instead of creeping
+                g_rel = settings.viscous_relax * omega * m_bar
+                # a smaller time step for the relaxation: a grain held by several stiff contacts
+                # with its rotations vibrates faster than one contact (integration noise
+                # would keep the unbalanced force near 1e-2)
+                dt = critical_time_step(radii, mat, tmean, settings.relax_safety)
+                lmp.commands(["velocity all set 0 0 0", "set group all omega 0 0 0", "unfix drag",
+                              f"timestep {dt:.10g}",
+                              f"fix drag all viscous {g_rel:.10g}",
+                              f"fix spin all viscous/sphere {g_rel * rbar ** 2:.10g}"])
                 say(f"  stage 2 (grain friction {mat.friction:g}) at step {steps}, void ratio {e_now:.4f}")
             if stage == 2 and within:
-                de = np.zeros(3)  # hold the cell: relax
-                held_chunks += 1
+                de = np.zeros(6)  # hold the cell: relax
             rate = de / (chunk * dt)
             if np.any(de != 0):
                 lmp.command("fix servo all deform 1 " + " ".join(
-                    f"{ax} erate {rt:.10g}" for ax, rt in zip("xyz", rate)) + " remap x")
+                    f"{ax} erate {rt:.10g}" for ax, rt in zip(_DEFORM_KEYS, rate)) + " remap x")
                 lmp.command(f"run {chunk} post no")
                 lmp.command("unfix servo")
             else:
@@ -550,7 +584,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
     summary.update({
         "unbalanced_force_ratio": ub,
         "unbalanced_force_ratio_lever_radius": unbalanced_ratio(net, lever="radius"), "target_stress_Pa": list(target),
-        "lammps_stress_Pa": [float(v) for v in p_l[:3]],
+        "lammps_stress_Pa": {k: float(v) for k, v in zip(("xx", "yy", "zz", "xy", "xz", "yz"), p_l[:6])},
         "prep_friction": settings.prep_friction, "seed": settings.seed, "time_steps": steps,
         "time_step_s": dt, "wall_time_s": time.perf_counter() - t0,
         "model": "LAMMPS pair_style granular hertz/material + tangential mindlin (no-slip "
