@@ -132,6 +132,14 @@ class Lammps:
             raise GrainmechError(f"LAMMPS has no per-atom array {name!r}")
         return np.array(a[:n], copy=True)
 
+    def atom_view(self, name: str) -> np.ndarray:
+        """The live per-atom array (owned atoms), for writing (``v``, ``omega``, ``radius``)."""
+        n = int(self._lmp.extract_setting("nlocal"))
+        a = self._lmp.numpy.extract_atom(name)
+        if a is None:
+            raise GrainmechError(f"LAMMPS has no per-atom array {name!r}")
+        return a[:n]
+
     def local(self, compute_id: str) -> np.ndarray:
         """A copy of a local compute's array (rows = pairs), after the last run."""
         lib = require_lammps()
