@@ -240,14 +240,17 @@ class CyclicResult:
 
 
 def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Sequence[float], *,
-                        n_cycles: int = 1, points_per_cycle: int = 16, tol: float = 1e-4,
-                        ramp_steps: int = 1000, max_relax_steps: int = 200_000, viscous: float = 0.01,
+                        n_cycles: int = 1, points_per_cycle: int = 16, tol: float = 1e-5,
+                        settle: float = 1e-3, ramp_steps: int = 1000, max_relax_steps: int = 200_000,
+                        viscous: float = 0.01,
                         threads: int | None = None, progress: Progress | None = None) -> CyclicResult:
     """Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (cell lengths held).
 
     For each amplitude (in increasing order, on the same packing, as in a laboratory
     staged test): ``n_cycles`` cycles ``0 -> +a -> -a -> +a`` of ``points_per_cycle``
-    equal increments, each ramped over ``ramp_steps`` and relaxed to ``tol``. The last
+    equal increments, each ramped over ``ramp_steps`` and relaxed to ``tol`` (and until the
+    stress settles, as in :func:`strain_probes`, to ``settle`` times the increment's stress
+    change). The last
     cycle gives the secant modulus and the damping ratio (:func:`grainmech.analysis.loop_properties`,
     seed/Kramer definitions) from the equilibrium shear stresses ``tau_xy`` (compression
     positive convention: ``tau = sigma_xy`` for ``gamma = gamma_xy``).
@@ -264,7 +267,7 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
     G, D, loops = [], [], []
     with Lammps(threads) as lmp:
         s = load_network(lmp, net, mat, viscous=viscous)
-        ref, ub, n = relax(s, min(tol, 1e-5), max_relax_steps)
+        ref, ub, n = relax(s, tol, max_relax_steps)
         say(f"  reference state relaxed in {n} steps (unbalanced {ub:.2e})")
         tau0 = float(np.asarray(network_stress(ref).stress)[0, 1])
         g_now = 0.0
@@ -274,12 +277,14 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
             for _ in range(n_cycles):
                 path += list(np.linspace(a, -a, 2 * q + 1)[1:]) + list(np.linspace(-a, a, 2 * q + 1)[1:])
             gam, tau = [], []
+            base = _voigt(np.asarray(network_stress(ref).stress))
             for k, g in enumerate(path):
                 de = np.zeros(6)
                 de[5] = g - g_now
                 _ramp(s, de, ramp_steps)
                 g_now = g
-                nk, ub, n = relax(s, tol, max_relax_steps)
+                nk, ub, n = relax(s, tol, max_relax_steps, settle=(base, settle))
+                base = _voigt(np.asarray(network_stress(nk).stress))
                 gam.append(g)
                 tau.append(float(np.asarray(network_stress(nk).stress)[0, 1]) - tau0)
             last = slice(len(path) - 4 * q - 1, len(path))
@@ -289,6 +294,7 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
             loops.append((np.array(gam), np.array(tau)))
             say(f"  amplitude {a:.3g}: G = {lp.secant_modulus:.5g} Pa, damping {lp.damping:.4f} "
                 f"({time.perf_counter() - t0:.0f} s)")
-    settings = {"n_cycles": n_cycles, "points_per_cycle": points_per_cycle, "tol": tol, "ramp_steps": ramp_steps,
+    settings = {"n_cycles": n_cycles, "points_per_cycle": points_per_cycle, "tol": tol, "settle": settle,
+                "ramp_steps": ramp_steps,
                 "viscous": viscous, "time_step_s": s.dt, "restitution": mat.restitution}
     return CyclicResult(amps, np.array(G), np.array(D), loops, ref, settings, time.perf_counter() - t0)

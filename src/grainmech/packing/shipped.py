@@ -51,5 +51,5 @@ def packing_info(name: str) -> dict:
     """The summary of the shipped packing ``name`` (void ratio, coordination, stress,
     unbalanced force ratio, grading, preparation), as written by ``grainmech pack``."""
     _check(name)
-    f = resources.files("grainmech.data").joinpath("packings", f"{name}-summary.json")
+    f = resources.files("grainmech.data").joinpath("packings").joinpath(f"{name}-summary.json")
     return json.loads(f.read_text())
