@@ -1,11 +1,12 @@
 """DEM reference runs (LAMMPS) on a shipped packing, stored for the tests that run without
 LAMMPS (``tests/data/dem_reference/``).
 
-Usage: ``python scripts/dem_reference.py [probes|cyclic] [PACKING] [--small]``
+Usage: ``python scripts/dem_reference.py [probes|cyclic|cyclic-stress] [PACKING]``
 (needs ``grainmech[dem]``). ``probes``: strain probes of the six components (strain 1e-6);
 ``cyclic``: quasi-static cyclic simple shear at constant volume, amplitudes 1e-5 and 1e-4,
 one cycle each after the first quarter, run three times (reference settings, ramp rate
-halved, drag doubled) to show the answer does not depend on them. See docs/packing.md.
+halved, drag doubled) to show the answer does not depend on them; ``cyclic-stress``: the
+same at constant normal stress (reference settings only). See docs/packing.md.
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ def main(argv: list[str]) -> int:
         write_table(r.network, OUT / f"{name}-probes-contacts.npz", OUT / f"{name}-probes-particles.npz")
         return 0
     runs = {"reference": {}, "half_rate": {"ramp_steps": 2000}, "double_drag": {"viscous": 0.02}}
+    suffix = "cyclic"
+    if what == "cyclic-stress":
+        runs = {"reference": {"constant": "stress"}}
+        suffix = "cyclic-stress"
     amps = [1e-5, 1e-4]
     out = {**base, "amplitudes": amps, "runs": {}}
     for label, kw in runs.items():
@@ -50,7 +55,7 @@ def main(argv: list[str]) -> int:
         out["runs"][label] = {"G_Pa": r.G.tolist(), "damping": r.damping.tolist(), "settings": r.settings,
                               "seconds": r.seconds,
                               "loops": [{"gamma": g.tolist(), "tau_Pa": t.tolist()} for g, t in r.loops]}
-        write_json(OUT / f"{name}-cyclic.json", out)
+        write_json(OUT / f"{name}-{suffix}.json", out)
     return 0
 
 

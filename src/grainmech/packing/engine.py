@@ -116,6 +116,14 @@ class Lammps:
             if c and not c.startswith("#"):
                 self.command(c)
 
+    def create_atoms(self, ids: np.ndarray, types: np.ndarray, x: np.ndarray) -> None:
+        """Create atoms with the given ids, types and positions (n, 3)."""
+        try:
+            self._lmp.create_atoms(len(ids), [int(v) for v in ids], [int(v) for v in types],
+                                   np.asarray(x, float).ravel().tolist())
+        except Exception as exc:
+            raise GrainmechError(f"LAMMPS could not create {len(ids)} atoms: {exc}") from None
+
     def has_package(self, name: str) -> bool:
         return bool(self._lmp.has_package(name))
 

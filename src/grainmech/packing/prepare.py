@@ -201,6 +201,8 @@ class PackResult:
     network: ContactNetwork
     summary: dict
     history: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 6)))
+    #: the grading the radii were drawn from (set by ``grainmech.jobs.pack_job``)
+    grading: Any = None
     #: columns of ``history``
     history_columns: tuple[str, ...] = ("step", "time_s", "mean_stress_Pa", "void_ratio",
                                         "unbalanced", "stage")
@@ -308,16 +310,14 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
         f"region cell prism 0 {lx:.17g} 0 {ly:.17g} 0 {lz:.17g} {xy:.17g} {xz:.17g} {yz:.17g}",
         "create_box 1 cell"])
     tags = np.arange(1, n + 1) if ids is None else np.asarray(ids, int)
-    lmp._lmp.create_atoms(n, tags.tolist(), [1] * n, np.asarray(positions, float).ravel().tolist())
+    lmp.create_atoms(tags, np.ones(n, int), positions)
     if lmp.natoms() != n:
         raise GrainmechError(f"LAMMPS created {lmp.natoms()} of {n} grains (positions outside the cell?)")
     tag = lmp.atom("id")
     rowof = {int(t): k for k, t in enumerate(tags)}
     rows = np.array([rowof[int(t)] for t in tag])
-    rad = lmp._lmp.numpy.extract_atom("radius")
-    rad[:n] = radii[rows]
-    rm = lmp._lmp.numpy.extract_atom("rmass")
-    rm[:n] = mat.density * 4.0 / 3.0 * np.pi * radii[rows] ** 3
+    lmp.atom_view("radius")[:] = radii[rows]
+    lmp.atom_view("rmass")[:] = mat.density * 4.0 / 3.0 * np.pi * radii[rows] ** 3
     dt = critical_time_step(radii, mat, stress)
     lmp.commands([
         "pair_style granular", _pair_coeff(mat, mu),

@@ -242,9 +242,14 @@ class CyclicResult:
 def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Sequence[float], *,
                         n_cycles: int = 1, points_per_cycle: int = 16, tol: float = 1e-5,
                         settle: float = 1e-3, ramp_steps: int = 1000, max_relax_steps: int = 200_000,
-                        viscous: float = 0.01,
+                        viscous: float = 0.01, constant: str = "volume", normal_tol: float = 0.05,
                         threads: int | None = None, progress: Progress | None = None) -> CyclicResult:
-    """Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (cell lengths held).
+    """Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (``constant =
+    "volume"``: cell lengths held) or constant normal stress (``"stress"``: ``sigma_yy``
+    held at its initial value by changing the cell length ``ly`` after each increment,
+    until its error is below ``normal_tol`` times the increment's shear-stress change; the
+    normal stiffness for these corrections is measured once with a ``1e-6`` probe; ``lx``
+    and ``lz`` held).
 
     For each amplitude (in increasing order, on the same packing, as in a laboratory
     staged test): ``n_cycles`` cycles ``0 -> +a -> -a -> +a`` of ``points_per_cycle``
@@ -264,12 +269,25 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
         raise GrainmechError(f"amplitudes = {amplitudes!r}: positive values expected")
     if points_per_cycle % 4:
         raise GrainmechError(f"points_per_cycle = {points_per_cycle}: must be a multiple of 4")
-    G, D, loops = [], [], []
+    if constant not in ("volume", "stress"):
+        raise GrainmechError(f"constant = {constant!r}: must be 'volume' or 'stress'")
+    G, D, loops, vol = [], [], [], []
     with Lammps(threads) as lmp:
         s = load_network(lmp, net, mat, viscous=viscous)
         ref, ub, n = relax(s, tol, max_relax_steps)
         say(f"  reference state relaxed in {n} steps (unbalanced {ub:.2e})")
         tau0 = float(np.asarray(network_stress(ref).stress)[0, 1])
+        syy0 = float(np.asarray(network_stress(ref).stress)[1, 1])
+        V0 = ref.volume
+        M = 0.0
+        if constant == "stress":  # normal stiffness d sigma_yy / d eps_yy, measured
+            de = np.zeros(6)
+            de[1] = 1e-6
+            _ramp(s, de, ramp_steps)
+            n1, _, _ = relax(s, tol, max_relax_steps, settle=(_voigt(np.asarray(network_stress(ref).stress)), settle))
+            M = (float(np.asarray(network_stress(n1).stress)[1, 1]) - syy0) / 1e-6
+            _ramp(s, -de, ramp_steps)
+            relax(s, tol, max_relax_steps)
         g_now = 0.0
         for a in amps:
             q = points_per_cycle // 4
@@ -284,7 +302,21 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
                 _ramp(s, de, ramp_steps)
                 g_now = g
                 nk, ub, n = relax(s, tol, max_relax_steps, settle=(base, settle))
+                if constant == "stress":
+                    scale = abs(float(np.asarray(network_stress(nk).stress)[0, 1]) - base[5])
+                    for _ in range(20):
+                        err = float(np.asarray(network_stress(nk).stress)[1, 1]) - syy0
+                        if abs(err) <= normal_tol * max(scale, 1e-12 * syy0):
+                            break
+                        dn = np.zeros(6)
+                        dn[1] = -err / M
+                        _ramp(s, dn, ramp_steps)
+                        nk, ub, n = relax(s, tol, max_relax_steps, settle=(base, settle))
+                    else:
+                        raise GrainmechError(f"constant normal stress: sigma_yy not held at gamma = {g:.3g} "
+                                             f"(error {err:.3g} Pa after 20 corrections)")
                 base = _voigt(np.asarray(network_stress(nk).stress))
+                vol.append(nk.volume / V0 - 1.0)
                 gam.append(g)
                 tau.append(float(np.asarray(network_stress(nk).stress)[0, 1]) - tau0)
             last = slice(len(path) - 4 * q - 1, len(path))
@@ -295,6 +327,7 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
             say(f"  amplitude {a:.3g}: G = {lp.secant_modulus:.5g} Pa, damping {lp.damping:.4f} "
                 f"({time.perf_counter() - t0:.0f} s)")
     settings = {"n_cycles": n_cycles, "points_per_cycle": points_per_cycle, "tol": tol, "settle": settle,
-                "ramp_steps": ramp_steps,
+                "ramp_steps": ramp_steps, "constant": constant, "normal_stiffness_Pa": M,
+                "volume_change_max": float(np.abs(vol).max()) if vol else 0.0,
                 "viscous": viscous, "time_step_s": s.dt, "restitution": mat.restitution}
     return CyclicResult(amps, np.array(G), np.array(D), loops, ref, settings, time.perf_counter() - t0)
