@@ -80,3 +80,12 @@ def test_loops_are_closed_cycles(cyclic):
         g = np.array(loop["gamma"])
         assert g.max() == pytest.approx(a) and g.min() == pytest.approx(-a)
         assert g[-1] == pytest.approx(a)
+
+
+def test_constant_normal_stress_close_to_constant_volume_at_small_strain(cyclic):
+    """Below the volumetric threshold strain (~1e-4) dilatancy is negligible: constant
+    normal stress and constant volume give the same secant G (within 1 %)."""
+    cs = json.loads((REF / "dense-cyclic-stress.json").read_text())["runs"]["reference"]
+    assert cs["settings"]["constant"] == "stress"
+    assert cs["G_Pa"] == pytest.approx(cyclic["runs"]["reference"]["G_Pa"], rel=0.01)
+    assert cs["settings"]["volume_change_max"] > 0
