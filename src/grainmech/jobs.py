@@ -578,12 +578,19 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
     t0 = time.perf_counter()
     say(f"[packing] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, "
         f"void ratio {src.void_ratio:.3f}; equilibrium check and elastic factorisation")
-    pt = PackingPoint.from_network(net, spec.packing_law, options=opts)
-    p0 = float(np.mean(pt.stress[:3]))
-    if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
-        say(f"[packing] bringing the packing from p = {p0:.4g} Pa to {spec.pressure:.4g} Pa "
-            "(stress-controlled, every grain in equilibrium)")
-        pt = PackingPoint.at_stress(net, spec.packing_law, spec.pressure, options=opts)
+    try:
+        pt = PackingPoint.from_network(net, spec.packing_law, options=opts)
+        p0 = float(np.mean(pt.stress[:3]))
+        if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
+            say(f"[packing] bringing the packing from p = {p0:.4g} Pa to {spec.pressure:.4g} Pa "
+                "(stress-controlled, every grain in equilibrium)")
+            pt = PackingPoint.at_stress(net, spec.packing_law, spec.pressure, options=opts)
+    except GrainmechError as exc:  # the other models' results still get written
+        cls = CyclicOutcome if spec.kind == "cyclic-simple-shear" else PathOutcome
+        return cls(kind=spec.kind, pressure=spec.pressure, results=[], success=False,
+                   message=f"preparing the packing failed: {exc}", seconds=time.perf_counter() - t0,
+                   point=None, method="packing",
+                   details={"packing": src.label, "void_ratio": src.void_ratio})
     details = {"packing": src.label, "grains": int(pt.n_grains), "rattlers": int(pt.n_rattlers),
                "contacts_tracked": int(pt.n_contacts), "contacts_closed": int(np.sum(pt.initially_closed)),
                "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),

@@ -87,10 +87,16 @@ COMPILE_NOTICE = ("grainmech: compiling the contact-law kernels with numba (firs
                   "upgrading, about 20 s; later runs load them from the cache)")
 
 
+_NOTICE: list = []  # the one listener of this process
+
+
 def _announce_compilation() -> object | None:
     """Say on stderr, once per process, that numba is compiling: the first run of a
     command after installing spends most of its time there, silently otherwise. Uses
-    numba's compile events, which fire for a compilation and not for a cache load."""
+    numba's compile events, which fire for a compilation and not for a cache load.
+    Registers one listener per process (returned; ``None`` without numba)."""
+    if _NOTICE:
+        return _NOTICE[0]
     try:
         from numba.core import event
     except ImportError:  # no numba: the NumPy reference paths, nothing to compile
@@ -109,6 +115,7 @@ def _announce_compilation() -> object | None:
 
     listener = _Notice()
     event.register("numba:compile", listener)
+    _NOTICE.append(listener)
     return listener
 
 

@@ -60,7 +60,7 @@ def main(args: argparse.Namespace) -> int:
         if len(outs) > 1:
             say(f"{o.method} model ({'completed' if o.success else 'STOPPED: ' + o.message}):")
         det = o.details
-        if det:
+        if det and "grains" in det:
             say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
                 f"{det['void_ratio']:.3f}; largest out-of-balance force ratio {det.get('max_residual', float('nan')):.2g}")
         if isinstance(o, CyclicOutcome) and len(o.G):

@@ -236,7 +236,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
         if compare and not m["success"]:
             head += f"<p><b>Stopped:</b> {html.escape(str(m['message']))}</p>"
         det = m.get("details")
-        if det:
+        if det and "grains" in det:
             head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in equilibrium "
                      f"({det['rattlers']} rattlers left out), {det['contacts_closed']} contacts "
                      f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
