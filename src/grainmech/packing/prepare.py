@@ -35,8 +35,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
-from typing import Any, Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 
@@ -233,6 +233,7 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
     rmax = r.max()
     placed = 0
     tree = None
+    tree_pts, tree_r = np.zeros((0, 3)), np.zeros(0)  # grains in the tree (inside [0, L)^3)
     pending: list[int] = []
     for k, idx in enumerate(order):
         for _ in range(max_tries):
@@ -261,9 +262,8 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
         placed += 1
         if len(pending) >= 64:  # rebuild the periodic tree now and then
             done = order[:placed]
-            tree_pts, tree_r = pos[done], r[done]
-            tree = cKDTree(np.mod(tree_pts, L), boxsize=L)
-            tree_pts = np.mod(tree_pts, L)
+            tree_pts, tree_r = np.mod(pos[done], L), r[done]
+            tree = cKDTree(tree_pts, boxsize=L)
             pending = []
     return np.mod(pos, L), L
 
