@@ -542,7 +542,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                 ub = unbalanced_ratio(net)
                 if ub < settings.unbalanced_tol:
                     break
-            if stage == 1 and bool(np.all(np.abs(err) < settings.switch_tol)):
+            if stage == 1 and abs(pm - tmean) < settings.switch_tol * tmean:
                 stage = 2
                 if mat.friction != mu_now:
                     lmp.command(_pair_coeff(mat, mat.friction))
