@@ -135,8 +135,8 @@ class PackSettings:
     unbalanced_tol, stress_tol : float
         Stop criteria of the relaxation (unbalanced force ratio; relative stress error).
     switch_tol : float
-        Relative stress error at which the compression stage ends and the grain
-        friction is switched on (near the target a packing compressed with low friction
+        Relative error of the mean stress at which the compression stage ends and the
+        grain friction is switched on (near the target a packing compressed with low friction
         creeps, its stress fluctuating by a few percent).
     initial_solid_fraction : float
         Solid fraction of the gas.
