@@ -14,8 +14,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from grainmech.io.results import write_json
 from grainmech.packing import QUARTZ, load_packing, packing_info
 from grainmech.packing.reference import cyclic_simple_shear, strain_probes

