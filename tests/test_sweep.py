@@ -1,4 +1,4 @@
-"""Parameter sweeps on dask (grainmech.sweep, grainmech.parallel, `grainmech sweep`)."""
+"""SweepParameter sweeps on dask (grainmech.sweep, grainmech.parallel, `grainmech sweep`)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ pytest.importorskip("distributed")
 
 from grainmech import parallel  # noqa: E402
 from grainmech.sweep import load_sweep, run_sweep, sweep_from_dict  # noqa: E402
-from grainmech.sweep.design import Parameter, latin_hypercube, lhs_unit, monte_carlo  # noqa: E402
+from grainmech.sweep.design import SweepParameter, latin_hypercube, lhs_unit, monte_carlo  # noqa: E402
 
 BASE = {
     "packing": {"void_ratio": 0.62, "coordination": "yanagisawa", "radius": "0.2 mm"},
@@ -108,8 +108,8 @@ def test_angles_become_radians():
 
 @pytest.mark.parametrize("n", [1, 7, 50])
 def test_lhs_stratified_bounded_reproducible(n):
-    params = [Parameter("a", lo=2.0, hi=5.0), Parameter("b", lo=1e3, hi=1e6, scale="log"),
-              Parameter("c", values=("x", "y"))]
+    params = [SweepParameter("a", lo=2.0, hi=5.0), SweepParameter("b", lo=1e3, hi=1e6, scale="log"),
+              SweepParameter("c", values=("x", "y"))]
     pts = latin_hypercube(params, n, seed=11)
     a = np.array([p[0] for p in pts])
     b = np.array([p[1] for p in pts])
@@ -125,7 +125,7 @@ def test_lhs_stratified_bounded_reproducible(n):
 
 
 def test_monte_carlo_bounded_reproducible():
-    params = [Parameter("a", lo=-1.0, hi=1.0), Parameter("b", lo=1.0, hi=100.0, scale="log")]
+    params = [SweepParameter("a", lo=-1.0, hi=1.0), SweepParameter("b", lo=1.0, hi=100.0, scale="log")]
     pts = monte_carlo(params, 200, seed=3)
     a = np.array([p[0] for p in pts])
     b = np.array([p[1] for p in pts])

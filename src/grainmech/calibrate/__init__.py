@@ -13,7 +13,7 @@ See ``docs/calibrate.md``.
 from grainmech.calibrate.data import Dataset, read_csv
 from grainmech.calibrate.fit import (
     FitResult,
-    Parameter,
+    FitParameter,
     Problem,
     fit,
     latin_hypercube_starts,
@@ -21,7 +21,7 @@ from grainmech.calibrate.fit import (
     problem_from_config,
     uncertainty,
 )
-from grainmech.calibrate.model import KINDS
+from grainmech.calibrate.model import DATA_KINDS
 
-__all__ = ["Dataset", "FitResult", "KINDS", "Parameter", "Problem", "fit", "latin_hypercube_starts",
+__all__ = ["Dataset", "FitResult", "DATA_KINDS", "FitParameter", "Problem", "fit", "latin_hypercube_starts",
            "load_problem", "problem_from_config", "read_csv", "uncertainty"]

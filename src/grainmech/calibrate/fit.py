@@ -39,11 +39,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from grainmech.calibrate.data import Dataset, read_csv
-from grainmech.calibrate.model import KINDS, parse_settings, predict, set_path, targets_of, validate_data
+from grainmech.calibrate.model import DATA_KINDS, parse_settings, predict, set_path, targets_of, validate_data
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.units import ANGLE_UNITS, config_value
 
-__all__ = ["Parameter", "Problem", "FitResult", "load_problem", "problem_from_config", "fit",
+__all__ = ["FitParameter", "Problem", "FitResult", "load_problem", "problem_from_config", "fit",
            "uncertainty", "latin_hypercube_starts"]
 
 
@@ -86,7 +86,7 @@ _SI_NAMES = ("Pa", "N/m", "N", "m", "rad", "Hz", "s", "kg", "J", "1/m**2", "1/m*
 
 
 @dataclass(frozen=True)
-class Parameter:
+class FitParameter:
     """One fitted parameter: a dotted path into the model config, SI bounds and start.
 
     ``unit``/``unit_factor``: the display unit (the one written in ``start``) and the SI
@@ -121,7 +121,7 @@ class Parameter:
         return self.upper - self.lower
 
 
-def parse_parameter(sec: Any) -> Parameter:
+def parse_parameter(sec: Any) -> FitParameter:
     """A ``[[parameters]]`` table: ``path``, ``start``, ``lower``, ``upper``, ``log``, ``unit``."""
     path = sec.raw("path")
     if not isinstance(path, str):
@@ -154,7 +154,7 @@ def parse_parameter(sec: Any) -> Parameter:
 
         factor = to_float(f"1 {unit}", si_unit or None, sec.key("unit"))
     sec.finish()
-    return Parameter(path, start, lower, upper, log, str(unit), factor, si_unit)
+    return FitParameter(path, start, lower, upper, log, str(unit), factor, si_unit)
 
 
 # ------------------------------------------------------------------------- problem
@@ -169,7 +169,7 @@ class Problem:
     kind: str
     model: dict
     data: Dataset
-    parameters: list[Parameter]
+    parameters: list[FitParameter]
     settings: dict = field(default_factory=dict)
     error: str = "relative"
     max_evaluations: int = 200
@@ -184,8 +184,8 @@ class Problem:
     data_source: str = ""
 
     def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise ConfigError("data.kind", self.kind, f"must be one of {', '.join(map(repr, KINDS))}")
+        if self.kind not in DATA_KINDS:
+            raise ConfigError("data.kind", self.kind, f"must be one of {', '.join(map(repr, DATA_KINDS))}")
         if not self.parameters:
             raise ConfigError("parameters", None, "give at least one [[parameters]] table")
         paths = [p.path for p in self.parameters]
@@ -198,7 +198,7 @@ class Problem:
         self.targets = targets_of(self.kind, self.data, self.settings)
         if not self.targets:
             raise self.data.error(f"no column to fit for data kind {self.kind!r} "
-                                  f"(possible: {', '.join(KINDS[self.kind].targets)})")
+                                  f"(possible: {', '.join(DATA_KINDS[self.kind].targets)})")
         for t in self.targets:
             if self.error == "relative" and not self.data.has(f"sd_{t}"):
                 bad = np.flatnonzero(self.data[t] == 0)
@@ -206,7 +206,7 @@ class Problem:
                     raise self.data.error("is zero: relative residuals are undefined; use [fit] "
                                           "error = 'column-rms' or give a column sd_" + t, int(bad[0]), t)
         if self.diff_step is None:
-            self.diff_step = 1e-4 if KINDS[self.kind].slow else 1e-6
+            self.diff_step = 1e-4 if DATA_KINDS[self.kind].slow else 1e-6
         self.scales = self._scales()
         #: every fitted column has a per-row standard deviation (sd_ columns)
         self.known_sd = all(self.data.has(f"sd_{t}") for t in self.targets)
@@ -265,7 +265,7 @@ def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = 
 
     root = Section(cfg, "")
     dsec = root.section("data")
-    kind = dsec.choice("kind", tuple(KINDS))
+    kind = dsec.choice("kind", tuple(DATA_KINDS))
     settings = parse_settings(kind, dsec)
     model = root.raw("model")
     if not isinstance(model, dict):
@@ -288,7 +288,7 @@ def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = 
     if seed is not None:
         kw["seed"] = int(seed)
     if not isinstance(data, Dataset):
-        k = KINDS[kind]
+        k = DATA_KINDS[kind]
         allowed = k.inputs + k.targets
         data = read_csv(data, required=k.required, one_of=k.targets, allowed=allowed)
     prob = Problem(kind, model, data, params, settings, error, source=source, data_source=data.path, **kw)

@@ -69,7 +69,7 @@ import numpy as np
 from grainmech.calibrate.data import Dataset
 from grainmech.errors import ConfigError, GrainmechError
 
-__all__ = ["KINDS", "DataKind", "set_path", "get_path", "predict", "parse_settings"]
+__all__ = ["DATA_KINDS", "DataKind", "set_path", "get_path", "predict", "parse_settings"]
 
 _COMP = ("xx", "yy", "zz", "yz", "xz", "xy")
 _ENG_3D = ("E_xx", "E_yy", "E_zz", "G_yz", "G_xz", "G_xy", "nu_xy", "nu_yx", "nu_xz", "nu_zx",
@@ -165,14 +165,14 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
     from grainmech.material import packing_stiffness
     from grainmech.elasticity import engineering_constants
 
-    targets = [t for t in KINDS["modulus-pressure"].targets if data.has(t)]
+    targets = [t for t in DATA_KINDS["modulus-pressure"].targets if data.has(t)]
     out = {t: np.empty(len(data)) for t in targets}
     density = None
     for i in range(len(data)):
         cfg = copy.deepcopy(model)
         if data.has("void_ratio"):
             cfg.setdefault("packing", {})["void_ratio"] = float(data["void_ratio"][i])
-        root = _sections(cfg, KINDS["modulus-pressure"].model_keys)
+        root = _sections(cfg, DATA_KINDS["modulus-pressure"].model_keys)
         if density is None:  # the fabric does not change from row to row
             density = build_fabric(root.section("fabric", {}))
         p = float(data["pressure"][i])
@@ -219,7 +219,7 @@ def _predict_directional(model: dict, data: Dataset, settings: dict, validate: b
     from grainmech.analysis import apparent_moduli
     from grainmech.elasticity import directional_poisson, directional_young
 
-    C, dim = _stiffness_at_stress(model, KINDS["directional"].model_keys, validate)
+    C, dim = _stiffness_at_stress(model, DATA_KINDS["directional"].model_keys, validate)
     alpha = data["alpha"]
     plane = settings["plane"] or ("xz" if dim == 3 else "xy")
     if dim == 3:
@@ -266,7 +266,7 @@ def _predict_stress_strain(model: dict, data: Dataset, settings: dict, validate:
     """Driver path through the rows (seed Ch. 2 kinematics, driver docs/driver.md)."""
     from grainmech.driver import run, segment, concatenate
 
-    point = _point(model, KINDS["stress-strain"].model_keys, validate)
+    point = _point(model, DATA_KINDS["stress-strain"].model_keys, validate)
     mask = settings["control"]
     sub = settings["substeps"]
     ctrl = "".join("S" if m else "E" for m in mask)
@@ -295,7 +295,7 @@ def _predict_modulus_reduction(model: dict, data: Dataset, settings: dict, valid
     """Secant G/Gmax and damping D = dW/(4 pi W) of the last cycle (analysis.modulus_reduction)."""
     from grainmech.analysis import modulus_reduction
 
-    point = _point(model, KINDS["modulus-reduction"].model_keys, validate)
+    point = _point(model, DATA_KINDS["modulus-reduction"].model_keys, validate)
     mr = modulus_reduction(point, data["strain"], n_cycles=settings["n_cycles"],
                            steps_per_cycle=settings["steps_per_cycle"], waveform=settings["waveform"])
     out = {}
@@ -341,7 +341,7 @@ def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: b
 
 _PACK = ("packing", "fabric", "contacts")
 _ENG_COLS = ("G", "E", "K", "nu") + tuple(dict.fromkeys(_ENG_3D + _ENG_2D))
-KINDS: dict[str, DataKind] = {
+DATA_KINDS: dict[str, DataKind] = {
     "modulus-pressure": DataKind("modulus-pressure", ("pressure", "void_ratio"), _ENG_COLS, ("pressure",),
                                  _PACK, "pressure", _predict_modulus_pressure),
     "directional": DataKind("directional", ("alpha",), ("E", "nu"), ("alpha",), _PACK + ("stress",), "alpha",
@@ -387,7 +387,7 @@ def parse_settings(kind: str, sec: Any) -> dict:
 
 def targets_of(kind: str, data: Dataset, settings: dict) -> list[str]:
     """The fitted columns present in ``data`` (uncontrolled ones for stress-strain)."""
-    k = KINDS[kind]
+    k = DATA_KINDS[kind]
     if kind == "stress-strain":
         mask = settings["control"]
         out = [f"strain_{c}" for m, c in zip(mask, _COMP) if m and data.has(f"strain_{c}")]
@@ -422,4 +422,4 @@ def validate_data(kind: str, data: Dataset, settings: dict) -> None:
 
 def predict(kind: str, model: dict, data: Dataset, settings: dict, *, validate: bool = False) -> dict:
     """Predicted target columns (SI) for the model config ``model``."""
-    return KINDS[kind].predict(model, data, settings, validate)
+    return DATA_KINDS[kind].predict(model, data, settings, validate)

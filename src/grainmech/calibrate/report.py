@@ -179,11 +179,11 @@ def calibrated_config(result: Any) -> str | None:
 def plot_fit(result: Any, path: str | Path) -> Path:
     """Data (markers) and model (line) for each fitted column against the abscissa."""
     from grainmech import plots
-    from grainmech.calibrate.model import KINDS
+    from grainmech.calibrate.model import DATA_KINDS
     from grainmech.io.results import write_figure
 
     pr = result.problem
-    xname = KINDS[pr.kind].x
+    xname = DATA_KINDS[pr.kind].x
     data = pr.data
     if xname and data.has(xname):
         x = data[xname]

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
-__all__ = ["Section", "write_page"]
+__all__ = ["PageSection", "write_page"]
 
 _STYLE = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}
 figure{margin:2em 0;border-top:1px solid #ccc;padding-top:1em}
@@ -18,7 +18,7 @@ code,pre{background:#f4f4f4}pre{padding:0.5em;overflow-x:auto}"""
 
 
 @dataclass(frozen=True)
-class Section:
+class PageSection:
     """One block of a page: heading, optional PNG (embedded), caption text and file links."""
 
     anchor: str
@@ -29,7 +29,7 @@ class Section:
     raw_html: str = ""
 
 
-def write_page(path: str | Path, title: str, intro: str, sections: Sequence[Section], *,
+def write_page(path: str | Path, title: str, intro: str, sections: Sequence[PageSection], *,
                toc: bool = True) -> Path:
     """Write an HTML page; ``intro`` and ``raw_html`` are HTML, everything else is escaped."""
     from grainmech.io.results import write_text

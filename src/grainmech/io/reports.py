@@ -214,7 +214,7 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
 def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
     """``index.html``: key numbers, the plots and the exact inputs used."""
     from grainmech import __version__
-    from grainmech.io.html import Section, write_page
+    from grainmech.io.html import PageSection, write_page
 
     status = "completed" if summary["success"] else f"STOPPED: {summary['message']}"
     intro = (f"<p>grainmech {html.escape(__version__)} &mdash; {html.escape(str(summary['source']))}; "
@@ -261,7 +261,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                          f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
                          f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
             head += table
-            sections.append(Section(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),
+            sections.append(PageSection(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),
                                     d / f"{pre}loops.png",
                                     "Every amplitude's loops on one scale: shear stress change divided by its "
                                     "largest value tau_a against shear strain divided by its amplitude gamma_a "
@@ -277,7 +277,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
             head += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of {pre}path.csv).</p>"
         if f"{pre}path.png" in summary["files"]:
             ax_ = m.get("axial_direction", "zz")
-            sections.append(Section(f"{pre}path", "Stress and strain along the path"
+            sections.append(PageSection(f"{pre}path", "Stress and strain along the path"
                                     + (f" ({m['method']})" if compare else ""), d / f"{pre}path.png",
                                     f"Soil-mechanics views (compression positive, strains decimal from the initial "
                                     f"state, axial = {ax_}): deviator stress q = sqrt(3 J2) and volumetric strain "
@@ -287,7 +287,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                                     (f"{pre}path.png", f"{pre}path.csv")))
         intro += head
     if "darendeli_gamma_r" in summary:
-        sections.insert(0, Section("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
+        sections.insert(0, PageSection("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
                                    "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
                                    "amplitude" + (" for each model" if compare else "")
                                    + " (markers; strain as a decimal, 1e-3 = 0.1 %), with two empirical "
@@ -305,7 +305,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                                    ("modulus_reduction.png",)))
     for w in summary.get("warnings", []):
         intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
-    sections.append(Section("inputs", "Inputs used", None, "The configuration exactly as read.",
+    sections.append(PageSection("inputs", "Inputs used", None, "The configuration exactly as read.",
                             ("config_used.json", "summary.json"),
                             raw_html=f"<pre>{html.escape(cfg_text)}</pre>"))
     write_page(d / "index.html", "grainmech run", intro, sections)

@@ -16,7 +16,7 @@ def write_index(figs: Sequence[FigureData], outdir: str | Path, *, elapsed: floa
 
     The PNGs and CSVs must already be in ``outdir`` (``figX_Y.png``, ``figX_Y.csv``).
     """
-    from grainmech.io.html import Section, write_page
+    from grainmech.io.html import PageSection, write_page
 
     out = Path(outdir)
     intro = ("<p>Chang (1988), Ch. 4 and 6, recomputed with grainmech "
@@ -26,6 +26,6 @@ def write_index(figs: Sequence[FigureData], outdir: str | Path, *, elapsed: floa
              "Units: psi, inch, lbf. Details: <code>docs/reproduce.md</code>.</p>")
     if elapsed is not None:
         intro += f"<p>Computed in {elapsed:.1f} s.</p>"
-    sections = [Section(f.stem, f"Fig. {f.fig_id}: {f.title}", out / f"{f.stem}.png", f.caption,
+    sections = [PageSection(f.stem, f"Fig. {f.fig_id}: {f.title}", out / f"{f.stem}.png", f.caption,
                         (f"{f.stem}.png", f"{f.stem}.csv")) for f in figs]
     return write_page(out / "index.html", "Reproduction of the seed report's figures", intro, sections)

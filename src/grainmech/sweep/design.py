@@ -1,6 +1,6 @@
 """Parameters of a sweep and the designs that sample them: grid, Latin hypercube, Monte Carlo.
 
-A :class:`Parameter` is one config key (a dotted path such as ``"packing.void_ratio"``)
+A :class:`SweepParameter` is one config key (a dotted path such as ``"packing.void_ratio"``)
 with either an explicit list of ``values`` or a range ``[lo, hi]`` on a linear or log
 scale. Quantities with units (``"50 kPa"``, ``"24 deg"``) are converted to SI at the
 edge; the column of the sweep table then names the SI unit (``"stress.pressure [Pa]"``).
@@ -31,7 +31,7 @@ import numpy as np
 from grainmech.errors import ConfigError
 from grainmech.io.units import ANGLE_UNITS as _ANGLES
 
-__all__ = ["Parameter", "parse_parameter", "grid", "latin_hypercube", "monte_carlo", "make_design",
+__all__ = ["SweepParameter", "parse_parameter", "grid", "latin_hypercube", "monte_carlo", "make_design",
            "DESIGNS", "si_value"]
 
 DESIGNS = ("grid", "latin-hypercube", "monte-carlo")
@@ -104,7 +104,7 @@ def si_value(value: Any, key: str, unit: str | None = None) -> tuple[float, str]
 
 
 @dataclass(frozen=True)
-class Parameter:
+class SweepParameter:
     """One swept config key.
 
     Attributes
@@ -166,8 +166,8 @@ class Parameter:
         return [float(x) for x in self.lo + u * (self.hi - self.lo)]
 
 
-def parse_parameter(key: str, sec: Any, design: str) -> Parameter:
-    """A :class:`Parameter` from the table ``[parameters."<key>"]`` (a config Section)."""
+def parse_parameter(key: str, sec: Any, design: str) -> SweepParameter:
+    """A :class:`SweepParameter` from the table ``[parameters."<key>"]`` (a config Section)."""
     from grainmech.sweep.spec import parse_path
 
     parse_path(key, sec.name)
@@ -212,7 +212,7 @@ def parse_parameter(key: str, sec: Any, design: str) -> Parameter:
                 raise ConfigError(sec.key("values"), raw, f"value {v!r} is repeated")
             seen.add(v)
         lab = unit if unit is not None else (labels.pop() if labels else "")
-        return Parameter(key, lab, tuple(vals))
+        return SweepParameter(key, lab, tuple(vals))
     if not (sec.has("min") and sec.has("max")):
         missing = "min" if not sec.has("min") else "max"
         raise ConfigError(sec.key(missing), None, "required: give values = [...] or both min and max")
@@ -234,15 +234,15 @@ def parse_parameter(key: str, sec: Any, design: str) -> Parameter:
         raise ConfigError(sec.key("num"), sec.data["num"], f"only for design = 'grid' (this sweep is {design!r}; "
                                                           "the number of points is sweep.samples)")
     lab = unit if unit is not None else (strs[0] if strs else "")
-    return Parameter(key, lab, None, lo, hi, scale, num)
+    return SweepParameter(key, lab, None, lo, hi, scale, num)
 
 
-def grid(params: Sequence[Parameter]) -> list[tuple]:
+def grid(params: Sequence[SweepParameter]) -> list[tuple]:
     """Cartesian product of the parameters' values, last parameter fastest."""
     return [tuple(p) for p in itertools.product(*(q.grid_values() for q in params))]
 
 
-def _from_cube(params: Sequence[Parameter], u: np.ndarray) -> list[tuple]:
+def _from_cube(params: Sequence[SweepParameter], u: np.ndarray) -> list[tuple]:
     cols = [p.from_unit(u[:, j]) for j, p in enumerate(params)]
     return [tuple(c[i] for c in cols) for i in range(u.shape[0])]
 
@@ -254,17 +254,17 @@ def lhs_unit(n: int, d: int, seed: int) -> np.ndarray:
     return qmc.LatinHypercube(d, rng=np.random.default_rng(seed)).random(n)
 
 
-def latin_hypercube(params: Sequence[Parameter], n: int, seed: int) -> list[tuple]:
+def latin_hypercube(params: Sequence[SweepParameter], n: int, seed: int) -> list[tuple]:
     """``n`` points of a seeded Latin hypercube design."""
     return _from_cube(params, lhs_unit(n, len(params), seed))
 
 
-def monte_carlo(params: Sequence[Parameter], n: int, seed: int) -> list[tuple]:
+def monte_carlo(params: Sequence[SweepParameter], n: int, seed: int) -> list[tuple]:
     """``n`` independent uniform (log-uniform) points, seeded."""
     return _from_cube(params, np.random.default_rng(seed).random((n, len(params))))
 
 
-def make_design(design: str, params: Sequence[Parameter], samples: int | None = None,
+def make_design(design: str, params: Sequence[SweepParameter], samples: int | None = None,
                 seed: int = 0) -> list[tuple]:
     """Points (one tuple of values per point, in parameter order) of a design."""
     if design == "grid":

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-__all__ = ["Kind", "KINDS", "run_point", "stiffness_point", "run_kind_point", "dem_point"]
+__all__ = ["Kind", "SWEEP_KINDS", "run_point", "stiffness_point", "run_kind_point", "dem_point"]
 
 
 def stiffness_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
@@ -54,7 +54,7 @@ class Kind:
     headline: tuple[str, ...]
 
 
-KINDS: dict[str, Kind] = {
+SWEEP_KINDS: dict[str, Kind] = {
     "stiffness": Kind("stiffness", _prepare("stiffness"), stiffness_point, ("K_hill [Pa]", "G_hill [Pa]")),
     "run": Kind("run", _prepare("run"), run_kind_point, ("G_max [Pa]", "gamma_r", "p [Pa]", "q [Pa]")),
     "dem": Kind("dem", _prepare("dem"), dem_point, ("z", "p [Pa]", "K_hill_relaxed [Pa]", "G_hill_relaxed [Pa]")),
@@ -64,4 +64,4 @@ KINDS: dict[str, Kind] = {
 def run_point(task: tuple[str, dict, str | None]) -> dict[str, Any]:
     """Worker entry point: ``(kind, config, base_dir) -> scalar outputs``."""
     kind, cfg, base_dir = task
-    return KINDS[kind].evaluate(cfg, base_dir)
+    return SWEEP_KINDS[kind].evaluate(cfg, base_dir)

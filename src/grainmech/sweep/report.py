@@ -17,11 +17,11 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
     """Scatter every headline output of the run kind (e.g. ``G_max`` and ``gamma_r`` for
     ``run``) against every numeric swept input, coloured by the next input. Only
     successful points are drawn. Returns False (no file) if there is nothing to draw."""
-    from grainmech.sweep.kinds import KINDS
+    from grainmech.sweep.kinds import SWEEP_KINDS
 
     ok = [r for r in rows if r[header.index("status")] == "ok"]
     inputs = [p for p in sweep.parameters if p.numeric]
-    outputs = [c for c in KINDS[sweep.kind].headline
+    outputs = [c for c in SWEEP_KINDS[sweep.kind].headline
                if c in header and any(_finite(r[header.index(c)]) for r in ok)]
     if not ok or not inputs or not outputs:
         return False

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from grainmech.errors import ConfigError, GrainmechError
-from grainmech.sweep.design import DESIGNS, Parameter, make_design, parse_parameter
+from grainmech.sweep.design import DESIGNS, SweepParameter, make_design, parse_parameter
 
 __all__ = ["Sweep", "Point", "load_sweep", "sweep_from_dict", "parse_path", "set_path", "point_id"]
 
@@ -115,7 +115,7 @@ class Sweep:
     source: str
     base_source: str
     design: str
-    parameters: list[Parameter]
+    parameters: list[SweepParameter]
     points: list[Point]
     samples: int | None = None
     seed: int | None = None
@@ -151,12 +151,12 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     """
     from grainmech.io.config import Section, load_toml
     from grainmech.io.units import config_value
-    from grainmech.sweep.kinds import KINDS
+    from grainmech.sweep.kinds import SWEEP_KINDS
 
     sweep_dir = Path(sweep_dir)
     root = Section(data, "")
     sw = root.section("sweep")
-    kind = sw.choice("kind", tuple(KINDS))
+    kind = sw.choice("kind", tuple(SWEEP_KINDS))
     design = sw.choice("design", DESIGNS, "grid")
     if design == "grid":
         for k in ("samples", "seed"):
@@ -229,9 +229,9 @@ def check_sweep(sweep: Sweep) -> None:
     (a broken base config), or when no point at all has a valid config. A bad *value* of
     a swept key in some points is left to those points, which are recorded as failed.
     """
-    from grainmech.sweep.kinds import KINDS
+    from grainmech.sweep.kinds import SWEEP_KINDS
 
-    kind = KINDS[sweep.kind]
+    kind = SWEEP_KINDS[sweep.kind]
     swept = {p.key for p in sweep.parameters}
     first: GrainmechError | None = None
     for pt in sweep.points:
