@@ -75,7 +75,7 @@ def test_loads_into_packing_driver(shipped):
     _, net, _ = shipped
     law = MindlinDeresiewicz(QUARTZ.shear_modulus, QUARTZ.poisson, float(net.radii.mean()),
                              friction=QUARTZ.friction)
-    pt = PackingPoint.from_network(net, law, equilibrate=False)
+    pt = PackingPoint.from_network(net, law, imbalance="none")
     assert unbalanced_force_ratio(pt) < 1e-4
 
 

@@ -220,6 +220,9 @@ class PackingPoint:
     initially_closed : bool array (C,)
         Contacts carrying force in the input state.
     notes : tuple of str
+    load : array (n_free,) or None
+        Constant external grain loads (force, moment) that balance the input's
+        out-of-balance forces (``imbalance="hold"`` of :meth:`from_network`); ``None``: none.
     """
 
     network: ContactNetwork
@@ -241,12 +244,13 @@ class PackingPoint:
     notes: tuple = ()
     law_backend: str | None = "numpy"
     factorization: str = "auto"
+    load: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ constructor
     @classmethod
     def from_network(cls, net: ContactNetwork, params: Any, *, forces: str = "auto", gap: float = 0.05,
-                     max_unbalanced: float = 1e-2, equilibrate: bool = True,
+                     max_unbalanced: float = 1e-2, imbalance: str = "hold",
                      options: PackingOptions | None = None) -> "PackingPoint":
         """Packing point from a contact network and a contact law.
 
@@ -270,10 +274,15 @@ class PackingPoint:
             Largest accepted :func:`unbalanced_force_ratio` of the input (mean-based);
             above it the packing is not mechanically stable and a
             :class:`~grainmech.errors.GrainmechError` says so.
-        equilibrate : bool
-            Remove the remaining imbalance with one strain-controlled step of zero
-            increment (the stress changes by about the unbalanced ratio; the change is in
-            ``notes``).
+        imbalance : {"hold", "relax", "none"}
+            What to do with the input's remaining out-of-balance forces and moments (a DEM
+            packing at rest keeps a small imbalance, its unbalanced force ratio).
+            ``"hold"``: the input is the equilibrium state, its out-of-balance forces are
+            held as constant external loads on the grains (:attr:`load`), so the stress and
+            the contact states are exactly the input's; ``"relax"``: remove them with one
+            strain-controlled step of zero increment (the grains move; contacts at the
+            Coulomb limit may slide; the stress change is in ``notes``); ``"none"``: keep
+            them in the residual (the first step removes them).
 
         Raises
         ------
@@ -291,6 +300,8 @@ class PackingPoint:
         if not net.box.periodic.all():
             raise ConfigError("network.box.periodic", net.box.periodic.tolist(),
                               "must be periodic in x, y and z (walls are not modelled)")
+        if imbalance not in ("hold", "relax", "none"):
+            raise ConfigError("imbalance", imbalance, "must be 'hold', 'relax' or 'none'")
         if forces not in ("auto", "stored", "overlap"):
             raise ConfigError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
         if not (gap >= 0 and math.isfinite(gap)):
@@ -379,7 +390,11 @@ class PackingPoint:
                 "grain over the mean contact force). Equilibrate it first (DEM, or "
                 "grainmech.driver.packing.equilibrate_network)")
         pt = replace(pt, notes=pt.notes + (f"input unbalanced force ratio {ufr:.3g}",))
-        if equilibrate:
+        if imbalance == "hold":
+            pt = replace(pt, load=kin.balance(f), notes=pt.notes + (
+                "the input's out-of-balance forces and moments are held as constant external grain loads "
+                "(the input is the equilibrium state)",))
+        elif imbalance == "relax":
             res = run_packing(pt, LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6))),
                               options=replace(opts, tangent="none"))
             if not res.success:
@@ -528,7 +543,8 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     of ``|F_p|``, ``|M_p|/R_p`` over the same mean (the driver's convergence measure).
     Returns 0 for a packing without contact forces.
     """
-    g = point.kinematics.full(point.kinematics.balance(point.forces))
+    b = point.kinematics.balance(point.forces)
+    g = point.kinematics.full(b if point.load is None else b - point.load)
     fm = np.linalg.norm(point.forces, axis=1)
     fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
     if fmean == 0.0:
@@ -589,6 +605,8 @@ class _Context:
     krylov: int = 0
     accepted: int = 0
     last: tuple | None = None  # (v, S, xq, xe) of the last (sub)step: predictor of the next
+    mu_max: float = 0.0  # largest pseudo-time shift used
+    ptc: int = 0  # Newton iterations that switched to pseudo-transient continuation
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
     energy: bool = False  # line search on the potential energy (frictionless laws only)
 
@@ -616,6 +634,17 @@ def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
     if isinstance(point.params, LinearSpring):
         return N * N / (2 * point.params.kn)
     return 0.4 * N * np.maximum(st.approach, 0.0) / point.scale
+
+
+#: pseudo-time shift of the Newton system (Jacobi-scaled: 1 ~ the stiffest grain's own
+#: elastic stiffness): first value after a failed update, growth and shrink factors, floor
+_MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
+#: retries with a larger shift when an update grows the residual more than _PTC_GROWTH times
+_MU_GROWTHS, _PTC_GROWTH = 6, 3.0
+#: an update lowering the residual by less than this factor is a stall
+#: shift of every Newton system: keeps a free grain (no closed contact) where it is
+_MU_FLOOR = 1e-9
+_PTC_STALL = 0.9
 
 
 def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
@@ -656,7 +685,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         de = de_E.copy()
         de[S] = xe
         st, resp, f = _evaluate(point, xq, de)
-        rq = kin.balance(f)
+        rq = kin.balance(f) if point.load is None else kin.balance(f) - point.load
         vs = voigt_of(f, kin.l)
         re = vs[S] - V * target[S]
         return st, resp, f, rq, re, vs, de
@@ -675,8 +704,12 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
 
     def accept(rq: np.ndarray, re: np.ndarray) -> bool:
-        f = opts.rtol_accept / opts.rtol
-        return bool(np.all(np.abs(rq) <= f * tolq) and (ms == 0 or np.all(np.abs(re) <= f * tole)))
+        # the out-of-balance forces and moments left make the Love-Weber stress uncertain
+        # by at most sum_p (|F_p| R_p + |M_p|) / V (the stress of a grain out of balance
+        # depends on the point its moments are taken about); accept when that is below
+        # rtol_accept times the stress scale
+        return bool(_stress_ambiguity(kin, rq, Rg) <= opts.rtol_accept * sref * V
+                    and (ms == 0 or np.all(np.abs(re) <= opts.rtol_accept / opts.rtol * tole)))
 
     def done(cur: tuple, it: int) -> PackingPoint:
         st, resp, f, rq, re, vs, de = cur
@@ -700,13 +733,26 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         if vv > 0:
             fac = float(np.dot(v, vl)) / vv
             xq, xe = fac * ctx.last[2], fac * ctx.last[3]
-    stiff_steps = 0
     # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
     stiff_first = not ctx.energy and (ctx.stiff_ok or fac < 0)
     cur = residual(xq, xe)
     m = merit(cur)
+    # pseudo-transient continuation (Kelley & Keyes 1998): each update solves
+    # (J + mu I) dx = -r in the Jacobi-scaled unknowns. mu = 0 is Newton; a large mu is an
+    # implicit step of overdamped grain dynamics (dx ~ -r / mu), which moves the grains
+    # along their out-of-balance forces as a quasi-static DEM relaxation does and stays
+    # bounded on a mechanism (a grain rolling or sliding on its neighbours, whose Newton
+    # step is singular). mu grows when an update fails to lower the residual (a branch of
+    # the contact law switching: a reversal, a contact reaching or leaving the Coulomb
+    # limit) and shrinks after each success, so Newton's convergence comes back.
+    mu = 0.0
+    dbg = _debug()
+    jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
     for it in range(1, opts.max_iter + 1):
         st, resp, f, rq, re, vs, de = cur
+        if dbg:
+            dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
+                f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
         if converged(rq, re):
             return done(cur, it)
         if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
@@ -721,81 +767,130 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         # consistent tangent of the trial state
         r_s = point.scale
         closed = ~np.asarray(resp.open, bool)
+        ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
+        if jenkins:
+            ksp = ksp * _slip_rotation(point, resp, kin, xq, de)
         K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
-                            np.where(closed, resp.ks_perp, 0.0) * r_s, np.where(closed, resp.ktn, 0.0) * r_s,
-                            resp.axis)
+                            ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
         Kb = block_diagonal(K)
-
-        def matvec(y: np.ndarray) -> np.ndarray:
-            vq = Dq * y[:nq]
-            d6 = np.zeros(6)
-            d6[S] = De * y[nq:]
-            df = Kb @ kin.delta(vq, d6).reshape(-1)
-            return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]])
-
-        def psolve(z: np.ndarray) -> np.ndarray:
-            yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
-            return np.concatenate([yq / Dq, ye / De])
-
         n = nq + ms
-        count = [0]
 
-        def cb(_r: Any) -> None:
-            count[0] += 1
+        def direction(shift: float) -> tuple:
+            """GMRES on (J + shift I) y = -r (scaled); the update, its slope and the
+            decrease of the scaled residual norm the linear model predicts."""
+            rhs = -np.concatenate([Dq * rq, De * re])
 
-        rhs = -np.concatenate([Dq * rq, De * re])
-        y, _info = spla.gmres(spla.LinearOperator((n, n), matvec=matvec, dtype=float), rhs,
-                              rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
-                              M=spla.LinearOperator((n, n), matvec=psolve, dtype=float),
-                              callback=cb, callback_type="pr_norm")
-        ctx.krylov += count[0]
-        if count[0] > opts.refactor_after:  # the elastic operator is stale: refactor at this state
-            ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
-            ctx.prec = prec = Preconditioner(kin, contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s,
-                                                                  ksp, ksp, np.zeros_like(ksp), resp.axis),
-                                             opts.factorization)
-            ctx.factorizations += 1
-            Dq, De = prec.dq, prec.de[S]
-            m = merit(cur)
-        if not np.all(np.isfinite(y)):
-            raise _StepFailure("linear solve not finite")
-        dxq, dxe = Dq * y[:nq], De * y[nq:]
-        slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
-        if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
-            dxq, dxe = prec.apply(-rq, -re, S)
-            slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
-        # trust limit on the grain moves of one update (see `move` above)
-        mv = kin.full(dxq)
-        big = _trust(mv, Rg, move)
-        lam = 1.0 / big
-        for nb in range(opts.max_backtracks + 1):
-            if nb == 2 and accept(rq, re):  # stalling at a kink, already below rtol_accept
+            def matvec(y: np.ndarray) -> np.ndarray:
+                vq = Dq * y[:nq]
+                d6 = np.zeros(6)
+                d6[S] = De * y[nq:]
+                df = Kb @ kin.delta(vq, d6).reshape(-1)
+                return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
+
+            def psolve(z: np.ndarray) -> np.ndarray:
+                yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
+                return np.concatenate([yq / Dq, ye / De])
+
+            count = [0]
+
+            def cb(_r: Any) -> None:
+                count[0] += 1
+
+            # right preconditioning: GMRES minimises the true (scaled) residual of the linear
+            # model, not the preconditioned one, which the near-singular directions of the
+            # elastic operator (mechanisms: grains that roll or slide freely) dominate
+            z, _info = spla.gmres(spla.LinearOperator((n, n), matvec=lambda v: matvec(psolve(v)), dtype=float),
+                                  rhs, rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
+                                  callback=cb, callback_type="pr_norm")
+            y = psolve(z)
+            ctx.krylov += count[0]
+            if not np.all(np.isfinite(y)):
+                raise _StepFailure("linear solve not finite")
+            dq_, de_ = Dq * y[:nq], De * y[nq:]
+            sl_ = float(np.dot(rq, dq_) + np.dot(re, de_))
+            if ctx.energy and not sl_ < 0:  # inexact Krylov step not downhill: preconditioned gradient
+                dq_, de_ = prec.apply(-rq, -re, S)
+                sl_ = float(np.dot(rq, dq_) + np.dot(re, de_))
+            pr_ = m - float(np.linalg.norm(matvec(y) - shift * y - rhs)) if not ctx.energy else 0.0
+            return dq_, de_, sl_, pr_, count[0]
+
+        if mu == 0.0:  # Newton with a backtracking line search
+            dxq, dxe, slope, pred, kr = direction(_MU_FLOOR)
+            # trust limit (see `move` above) on each grain by itself: a grain on a
+            # mechanism (free, rolling or sliding away) must not cut the others' update
+            lam = 1.0
+            if not ctx.energy:
+                dxq = _clip(kin, dxq, Rg, move)
+                dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+            else:
+                lam = 1.0 / _trust(kin, dxq, dxe, S, move)
+            ok = False
+            for _nb in range(opts.max_backtracks + 1):
+                trial = residual(xq + lam * dxq, xe + lam * dxe)
+                mt = merit(trial)
+                if ctx.energy:
+                    ok = mt <= m + 1e-4 * lam * slope or (mt <= m and rnorm(trial) <= (1.0 - 1e-4 * lam) * rnorm(cur))
+                else:
+                    ok = m - mt >= 1e-4 * lam * pred > 0
+                ok = ok or converged(trial[3], trial[4])
+                if dbg:
+                    dbg(f"   newton lam {lam:.3g} decrease {1 - mt / m:.3e} predicted {pred / m:.3e} krylov {kr}")
+                if ok:
+                    break
+                lam *= 0.5
+            if not ok:
+                if accept(rq, re):  # stalled at a kink of the law, already below rtol_accept
+                    ctx.accepted += 1
+                    return done(cur, it)
+                if ctx.energy:
+                    sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
+                    raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
+                                       f"{rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
+                                       f"{int(closed.sum())} closed)")
+                if kr > opts.refactor_after:  # the elastic operator is stale: refactor at this state
+                    ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
+                    ctx.prec = prec = Preconditioner(
+                        kin, contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, ksp, ksp,
+                                             np.zeros_like(ksp), resp.axis), opts.factorization)
+                    ctx.factorizations += 1
+                    Dq, De = prec.dq, prec.de[S]
+                    m = merit(cur)
+                mu = _MU_FIRST  # switch to pseudo-transient continuation
+                ctx.ptc += 1
+        if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
+            for _grow in range(_MU_GROWTHS + 1):
+                dxq, dxe, slope, pred, kr = direction(mu)
+                # each grain's move clipped to the trust limit by itself: a grain on a
+                # mechanism (sliding away, squeezed out) must not stall the others
+                dxq = _clip(kin, dxq, Rg, move)
+                dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+                lam = 1.0
+                try:
+                    trial = residual(xq + dxq, xe + dxe)
+                except _StepFailure:  # the law refuses the update (e.g. its memory is full): shorter
+                    mu *= _MU_GROW
+                    continue
+                mt = merit(trial)
+                if dbg:
+                    dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr}")
+                if mt <= _PTC_GROWTH * m:
+                    break
+                if accept(rq, re):
+                    ctx.accepted += 1
+                    return done(cur, it)
+                mu *= _MU_GROW
+            else:
+                raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
+                                   f"{rnorm(cur):.3g}, shift {mu:.3g}; "
+                                   f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
+                                   f"{int(closed.sum())} closed contacts sliding)")
+            if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
                 ctx.accepted += 1
                 return done(cur, it)
-            trial = residual(xq + lam * dxq, xe + lam * dxe)
-            mt = merit(trial)
-            ok = mt <= m + 1e-4 * lam * slope if ctx.energy else mt <= (1.0 - 1e-4 * lam) * m
-            ok = ok or (ctx.energy and mt <= m and rnorm(trial) <= (1.0 - 1e-4 * lam) * rnorm(cur))
-            if ok or converged(trial[3], trial[4]):
-                break
-            lam *= 0.5
-        else:
-            # non-smooth law (a branch switching inside the step, e.g. at a reversal): one
-            # initial-stiffness iteration, dx = -M^-1 r with the elastic operator M, which is
-            # stiffer than every branch of the law and so contracts (a modified Newton step)
-            if accept(rq, re):  # Newton stalled at a kink of the law, below rtol_accept: accept
-                ctx.accepted += 1
-                return done(cur, it)
-            if ctx.energy:
-                sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
-                raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual {rnorm(cur):.3g}; "
-                                   f"{100 * sl:.0f}% of closed contacts sliding, {int(closed.sum())} closed)")
-            dxq, dxe = prec.apply(-rq, -re, S)
-            mv = kin.full(dxq)
-            lam = 1.0 / _trust(mv, Rg, move)
-            trial = residual(xq + lam * dxq, xe + lam * dxe)
-            mt = merit(trial)
-            stiff_steps += 1
+            # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
+            mu = mu * mt / m
+            mu = 0.0 if mu < _MU_NEWTON else min(mu, _MU_MAX)
+            ctx.mu_max = max(ctx.mu_max, mu)
         xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
     rq, re = cur[3], cur[4]
     if accept(rq, re):
@@ -805,12 +900,66 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                        f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
 
 
-def _trust(mv: np.ndarray, R: np.ndarray, move: float) -> float:
-    """Factor by which a grain update ``mv`` (P, 6) exceeds the trust limit ``move``
-    [length] on a translation or on the surface displacement ``R |theta|`` (>= 1)."""
-    t = float(np.max(np.linalg.norm(mv[:, :3], axis=1)))
-    r = float(np.max(R * np.linalg.norm(mv[:, 3:], axis=1)))
-    return max(t / move, r / move, 1.0)
+def _trust(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
+    """Factor (>= 1) by which the largest contact relative displacement of an update
+    ``(dxq, dxe)`` exceeds the trust limit ``move`` [length].
+
+    Measured on the contacts, not on the grains: a grain rolling on its neighbours (a
+    mechanism) may move far without loading any contact, and is bounded by the
+    small-strain check of the step instead.
+    """
+    d6 = np.zeros(6)
+    d6[S] = dxe
+    d = kin.delta(dxq, d6)
+    return max(float(np.max(np.linalg.norm(d, axis=1), initial=0.0)) / move, 1.0)
+
+
+def _slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarray, de: np.ndarray) -> np.ndarray:
+    """Factor (C,) of the across-slip stiffness of a Coulomb-capped spring at the trial.
+
+    A sliding contact of a spring with a Coulomb cap (``HertzMindlin``, ``LinearSpring``:
+    radial return ``T = mu N T_trial / |T_trial|`` with ``T_trial = T_0 + k_t d_delta``)
+    turns its force with the slip direction: across it the consistent stiffness is
+    ``k_t mu N / |T_trial|`` (Simo & Hughes 1998, Sect. 2.3 for the radial return), not
+    ``k_t``. 1 for a contact that sticks. ``T_trial`` is estimated with the end-of-step
+    ``k_t`` (exact when the normal force does not grow); only the Newton matrix uses it.
+    """
+    sl = np.asarray(resp.sliding, bool) & ~np.asarray(resp.open, bool)
+    if not sl.any():
+        return np.ones(kin.n_contacts)
+    d = kin.delta(xq, de)
+    dt = d - np.einsum("ij,ij->i", d, kin.n)[:, None] * kin.n
+    trial = point.response.tangential_force + (resp.ks_perp * point.scale)[:, None] * dt
+    tn = np.linalg.norm(trial, axis=1)
+    cap = np.linalg.norm(resp.tangential_force, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(sl & (tn > cap), cap / np.where(tn > 0, tn, 1.0), 1.0)
+    return f
+
+
+def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
+    """``sum_p (|F_p| R_p + |M_p|)`` [force length] of out-of-balance forces and moments ``rq``."""
+    g = kin.full(rq)
+    return float(np.sum(np.linalg.norm(g[:, :3], axis=1) * R + np.linalg.norm(g[:, 3:], axis=1)))
+
+
+def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.ndarray:
+    """Grain update ``dxq`` (n_free,) with each grain's translation and surface rotation
+    ``R |theta|`` scaled down to at most ``move`` [length]."""
+    mv = kin.full(dxq)
+    big = np.maximum(np.linalg.norm(mv[:, :3], axis=1), R * np.linalg.norm(mv[:, 3:], axis=1))
+    c = move / np.maximum(big, move)
+    return (mv * c[:, None]).reshape(-1)[kin.free]
+
+
+def _debug() -> Callable[[str], None] | None:
+    """Trace printer of the step solver when ``GRAINMECH_PACKING_TRACE`` is set."""
+    import os
+    import sys
+
+    if not os.environ.get("GRAINMECH_PACKING_TRACE"):
+        return None
+    return lambda msg: print(f"[packing] {msg}", file=sys.stderr)
 
 
 def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
@@ -1093,7 +1242,7 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
     opts = options or PackingOptions(max_iter=200, max_depth=0, max_backtracks=30, tangent="none",
                                      max_fluctuation=0.2, max_strain=0.05)
     pt = PackingPoint.from_network(net, prep, forces="overlap", gap=gap, max_unbalanced=math.inf,
-                                   equilibrate=False, options=opts)
+                                   imbalance="none", options=opts)
     if pressure is None:
         path = LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6)))
     else:
