@@ -19,7 +19,7 @@ length, which for equal spheres is exactly twice the seed's value.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, asdict
+from dataclasses import asdict, dataclass
 
 import numpy as np
 

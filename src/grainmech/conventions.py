@@ -22,7 +22,7 @@ See ``docs/conventions.md`` for the prose version. In short:
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

@@ -75,7 +75,7 @@ class Packing:
 
     @classmethod
     def from_grains(cls, density: Any, *, void_ratio: float, coordination: float, radius: float,
-                    convention: str = "physical") -> "Packing":
+                    convention: str = "physical") -> Packing:
         """Equal grains of radius ``radius`` at void ratio e with coordination m (Eq. 4.1)."""
         from grainmech.closed_form import packing_scale
 

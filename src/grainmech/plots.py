@@ -16,7 +16,8 @@ Example
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -36,7 +37,8 @@ def _matplotlib() -> Any:
 
 def figure(**kw: Any) -> Any:
     """A ``matplotlib.figure.Figure`` detached from pyplot (``figsize``, ``dpi``...): it
-    needs no display and is freed when dropped (``fig.savefig`` writes it)."""
+    needs no display and is freed when dropped (``fig.savefig`` writes it).
+    """
     _matplotlib()
     from matplotlib.figure import Figure
 
@@ -103,7 +105,8 @@ def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
                       label: str = "grainmech", style: str = "ko") -> Any:
     """G/Gmax against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, G/Gmax)``; call again on the same Axes (another ``label`` and
-    ``style``, no references) to add a model. Returns the Axes."""
+    ``style``, no references) to add a model. Returns the Axes.
+    """
     ax = _axes(ax)
     ax.semilogx(amplitude, G_ratio, style, label=label)
     for name, (g, r) in (references or {}).items():
@@ -121,7 +124,8 @@ def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
             style: str = "ko") -> Any:
     """Damping ratio [%] against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, D)`` (D decimal); call again on the same Axes to add a model.
-    Returns the Axes."""
+    Returns the Axes.
+    """
     ax = _axes(ax)
     ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), style, label=label)
     for name, (g, d) in (references or {}).items():
@@ -135,7 +139,8 @@ def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
 
 def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequence[Any]:
     """Strain (engineering shear) and stress [Pa] components against step number of a
-    driver run, in two Axes (given, or two new ones side by side). Returns the two Axes."""
+    driver run, in two Axes (given, or two new ones side by side). Returns the two Axes.
+    """
     from grainmech.conventions import ORDER_3D
 
     if axes is None:
@@ -162,7 +167,8 @@ def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequen
     and volumetric strain against axial strain, stress ratio ``q/p`` against axial strain,
     and the ``p``-``q`` stress path (quantities of
     :func:`grainmech.io.results.soil_path_table`; strains decimal, compression positive,
-    stresses in kPa). Returns the four Axes."""
+    stresses in kPa). Returns the four Axes.
+    """
     from grainmech.io.results import soil_path_table
 
     if axes is None:
@@ -196,7 +202,8 @@ def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequen
 def contact_loops(columns: dict[str, Any], *, axes: Sequence[Any] | None = None,
                   force_unit: str = "N") -> Sequence[Any]:
     """One contact's tangential force-displacement loop and normal force-approach curve
-    (the columns of :class:`grainmech.jobs.ContactOutcome`). Returns the two Axes."""
+    (the columns of :class:`grainmech.jobs.ContactOutcome`). Returns the two Axes.
+    """
     if axes is None:
         _matplotlib()
         import matplotlib.pyplot as plt

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.conventions import vector_to_strain, stress_to_vector
+from grainmech.conventions import stress_to_vector, vector_to_strain
 from grainmech.errors import ConfigError
 
 __all__ = ["apparent_moduli"]

@@ -265,7 +265,8 @@ SAND_PEAK_FRICTION_DEG = 50.0
 def mohr_coulomb_ratio(friction_angle: float) -> float:
     """Largest principal stress ratio ``sigma1/sigma3 = (1 + sin phi)/(1 - sin phi)``
     on a Mohr-Coulomb envelope of friction angle ``phi`` [rad] without cohesion
-    (e.g. 7.55 for 50 deg, 2.62 for the contact angle atan 0.5 = 26.6 deg)."""
+    (e.g. 7.55 for 50 deg, 2.62 for the contact angle atan 0.5 = 26.6 deg).
+    """
     if not (np.isfinite(friction_angle) and 0 <= friction_angle < np.pi / 2):
         raise ConfigError("friction_angle", friction_angle, "must lie in [0, pi/2) rad")
     sn = np.sin(friction_angle)

@@ -12,8 +12,9 @@ For one closed stress-strain loop ``(gamma, tau)`` (engineering shear strain):
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 

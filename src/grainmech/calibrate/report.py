@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-
 __all__ = ["summary", "write_report", "plot_fit", "calibrated_config"]
 
 #: the command a calibrated config of each data kind is made for

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from typing import Sequence
+from collections.abc import Sequence
 
 from grainmech import __version__
 from grainmech.errors import GrainmechError
@@ -94,7 +94,8 @@ def _announce_compilation() -> object | None:
     """Say on stderr, once per process, that numba is compiling: the first run of a
     command after installing spends most of its time there, silently otherwise. Uses
     numba's compile events, which fire for a compilation and not for a cache load.
-    Registers one listener per process (returned; ``None`` without numba)."""
+    Registers one listener per process (returned; ``None`` without numba).
+    """
     if _NOTICE:
         return _NOTICE[0]
     try:

@@ -68,8 +68,8 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
-    from grainmech.io.reports import write_contact_outputs
     from grainmech.io.outdir import output_folder
+    from grainmech.io.reports import write_contact_outputs
     from grainmech.jobs import compute_contact
 
     cfg = load_toml(args.config)

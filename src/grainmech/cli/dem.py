@@ -61,7 +61,8 @@ def register(sub: Any) -> None:
 
 def _config(args: argparse.Namespace) -> dict:
     """The dem job config: the ``--material`` tables plus a ``[network]`` table from the
-    command-line arguments (the form a sweep's ``dem`` config has)."""
+    command-line arguments (the form a sweep's ``dem`` config has).
+    """
     from grainmech.errors import ConfigError
     from grainmech.io.config import load_toml
 
@@ -78,8 +79,8 @@ def _config(args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grainmech.io.reports import write_dem_outputs
     from grainmech.io.outdir import output_folder
+    from grainmech.io.reports import write_dem_outputs
     from grainmech.jobs import compute_dem
 
     cfg = _config(args)

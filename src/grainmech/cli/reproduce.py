@@ -16,7 +16,6 @@ __all__ = ["register", "run"]
 
 def register(sub: Any) -> None:
     from grainmech.io.reports import default_outdir
-
     from grainmech.reproduce import figure_ids
 
     p = sub.add_parser(

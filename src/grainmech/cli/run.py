@@ -29,8 +29,8 @@ def register(sub: Any) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
-    from grainmech.io.reports import write_run_outputs
     from grainmech.io.outdir import output_folder
+    from grainmech.io.reports import write_run_outputs
     from grainmech.jobs import CyclicOutcome, RunComparison, compute_run
 
     def say(msg: str) -> None:

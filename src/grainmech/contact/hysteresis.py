@@ -9,7 +9,6 @@ implements the same algorithm and is held to this one by tests.
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from grainmech.contact._errors import ReversalMemoryError
@@ -323,7 +322,8 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
 
     def reverse(mask: np.ndarray, new_dir: np.ndarray, muN: np.ndarray) -> None:
         """Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN
-        (``Q``, ``s``, ``k`` are modified in place)."""
+        (``Q``, ``s``, ``k`` are modified in place).
+        """
         idx = np.nonzero(mask)[0]
         if idx.size == 0:
             return

@@ -27,8 +27,7 @@ import numpy as np
 
 from grainmech.contact import geometry as geo
 from grainmech.contact.forms import law_forms
-from grainmech.contact.law import (ContactResponse, ContactState, compiled_kernel, update,
-                                   state_from_normal_force)
+from grainmech.contact.law import ContactResponse, ContactState, compiled_kernel, state_from_normal_force, update
 
 __all__ = ["ContactLawProtocol", "ContactLaw", "make_law", "coulomb_limit", "contact_tangent"]
 

@@ -59,14 +59,12 @@ and ``2`` on a Masing branch.
 from __future__ import annotations
 
 import math
-
 from typing import NamedTuple
 
 import numpy as np
 from numba import get_num_threads, njit, prange
 
 from grainmech.contact import law as _law
-
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 
 __all__ = ["update_kernel", "rows", "constants", "KernelConstants", "KernelState", "KernelIncrement",
@@ -136,7 +134,8 @@ class KernelState(NamedTuple):
     """State arrays of ``n`` contacts (the fields of :class:`~grainmech.contact.ContactState`
     without ``sliding``): approach (n,), normal_force (n,), tangential_force (n, dim),
     axis (n, dim), direction int8 (n,), depth int32 (n,), reversals (n, max_reversals),
-    dissipated_energy (n,)."""
+    dissipated_energy (n,).
+    """
 
     approach: np.ndarray
     normal_force: np.ndarray
@@ -151,7 +150,8 @@ class KernelState(NamedTuple):
 class KernelIncrement(NamedTuple):
     """One step: ``d_normal`` (n,), ``d_tangential`` (n, dim), the normal force at its end
     ``N1`` (n,) (seed Eq. 3.6 or ``kn alpha``) and the Hertz contact radii ``rad0``,
-    ``rad1`` (n,) at its start and end (seed Eq. 3.2; any values for linear springs)."""
+    ``rad1`` (n,) at its start and end (seed Eq. 3.2; any values for linear springs).
+    """
 
     d_normal: np.ndarray
     d_tangential: np.ndarray
@@ -163,7 +163,8 @@ class KernelIncrement(NamedTuple):
 class KernelOutput(NamedTuple):
     """Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
     excepted) and the response (``sliding``, ``dissipation`` of the step, ``ks``,
-    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals)."""
+    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals).
+    """
 
     approach: np.ndarray
     normal_force: np.ndarray
@@ -183,7 +184,8 @@ class KernelOutput(NamedTuple):
 
 class KernelScratch(NamedTuple):
     """Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
-    1/2 reversal memory full on a rising / constant or falling N; 3 no termination)."""
+    1/2 reversal memory full on a rising / constant or falling N; 3 no termination).
+    """
 
     tp: np.ndarray
     dp: np.ndarray
@@ -271,7 +273,8 @@ def _kt0(N, linear, E, R, Gs, ks_lin):
 @njit(**_JIT)
 def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
     """Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
-    ``kt1 = kt0(N1)`` if the approach does not change."""
+    ``kt1 = kt0(N1)`` if the approach does not change.
+    """
     if linear:
         return ks_lin if (N0 > 0.0 or N1 > 0.0) else 0.0
     da = a1 - a0

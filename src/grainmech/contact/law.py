@@ -102,11 +102,32 @@ __all__ = [
     "max_reversals",
     "compiled_kernel",
 ]
-from grainmech.contact.hysteresis import (_EPS, _GL_W, _GL_X, _MERGE_TOL, _REV_TOL, _LawOut,  # noqa: F401
-                                          _g_series, _h_series, _md_update, _secant_kt)
-from grainmech.contact.state import (ContactResponse, ContactState, _dot, _empty_state, _norm,  # noqa: F401
-                                     initial_state, law_kind, max_reversals, reversal_forces,
-                                     state_from_approach, state_from_forces, state_from_normal_force)
+from grainmech.contact.hysteresis import (  # noqa: F401
+    _EPS,
+    _GL_W,
+    _GL_X,
+    _MERGE_TOL,
+    _REV_TOL,
+    _g_series,
+    _h_series,
+    _LawOut,
+    _md_update,
+    _secant_kt,
+)
+from grainmech.contact.state import (  # noqa: F401
+    ContactResponse,
+    ContactState,
+    _dot,
+    _empty_state,
+    _norm,
+    initial_state,
+    law_kind,
+    max_reversals,
+    reversal_forces,
+    state_from_approach,
+    state_from_forces,
+    state_from_normal_force,
+)
 
 
 def _check_increments(state: ContactState, d_normal: ArrayLike,

@@ -65,7 +65,7 @@ class ContactState(NamedTuple):
         """Contacts without compression (``alpha <= 0``)."""
         return self.approach <= 0.0
 
-    def take(self, index: ArrayLike) -> "ContactState":
+    def take(self, index: ArrayLike) -> ContactState:
         """Sub-state of the contacts ``index`` (copies)."""
         idx = np.asarray(index)
         return ContactState(*(np.array(f[idx]) for f in self))

@@ -16,8 +16,8 @@ Readable masks such as ``"EESEEE"`` (E = strain, S = stress) are parsed only by
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -66,11 +66,11 @@ class Control:
         return np.array(self.stress, dtype=bool)
 
     @classmethod
-    def all_strain(cls) -> "Control":
+    def all_strain(cls) -> Control:
         return cls((False,) * 6)
 
     @classmethod
-    def all_stress(cls) -> "Control":
+    def all_stress(cls) -> Control:
         return cls((True,) * 6)
 
     def __str__(self) -> str:
@@ -116,7 +116,7 @@ class LoadPath:
     def __len__(self) -> int:
         return int(self.increment.shape[0])
 
-    def __add__(self, other: "LoadPath") -> "LoadPath":
+    def __add__(self, other: LoadPath) -> LoadPath:
         return concatenate([self, other])
 
 

@@ -1,18 +1,27 @@
 """Engineering constants, Voigt/Reuss/Hill averages, isotropic constants and the
-constructors of isotropic, transversely isotropic and orthotropic stiffnesses."""
+constructors of isotropic, transversely isotropic and orthotropic stiffnesses.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
-from typing import Mapping, Sequence
 
 import numpy as np
 
 from grainmech.conventions import ORDER_2D, ORDER_3D, voigt_to_mandel
+from grainmech.elasticity.conversions import (
+    _as_voigt,
+    _check_finite_symmetric,
+    _dim,
+    _frame_from_axis,
+    _unit,
+    check_stiffness,
+    compliance,
+    rotate_stiffness,
+)
 from grainmech.errors import GrainmechError
-from grainmech.elasticity.conversions import (_as_voigt, _check_finite_symmetric, _dim, _frame_from_axis,
-                                              _unit, check_stiffness, compliance, rotate_stiffness)
 
 
 def _couplings(S: np.ndarray, order: Sequence[str], rtol: float) -> dict[str, float]:
@@ -71,7 +80,8 @@ class EngineeringConstants:
 
     def as_dict(self) -> dict[str, float]:
         """Constants under the attribute names ``E_xx, E_yy, E_zz, nu_xy, ..., G_xy`` +
-        the couplings."""
+        the couplings.
+        """
         return _as_dict(self)
 
 
@@ -105,7 +115,8 @@ class PlaneEngineeringConstants:
 
     def as_dict(self) -> dict[str, float]:
         """Constants under the attribute names ``E_xx, E_yy, nu_xy, nu_yx, G_xy`` + the
-        couplings."""
+        couplings.
+        """
         return _as_dict(self)
 
 

@@ -1,17 +1,24 @@
 """Stiffness input handling, checks, compliance, Kelvin moduli and rotations
-(library Voigt order; Mandel form internally, see :mod:`grainmech.elasticity`)."""
+(library Voigt order; Mandel form internally, see :mod:`grainmech.elasticity`).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import lru_cache
-from typing import Sequence
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from grainmech.conventions import ORDER_2D, ORDER_3D, mandel_to_voigt, matrix_to_tensor4, tensor4_to_matrix, voigt_to_mandel
+from grainmech.conventions import (
+    ORDER_2D,
+    ORDER_3D,
+    mandel_to_voigt,
+    matrix_to_tensor4,
+    tensor4_to_matrix,
+    voigt_to_mandel,
+)
 from grainmech.errors import GrainmechError
-
 
 _SQ2 = float(np.sqrt(2.0))
 
@@ -173,7 +180,8 @@ def _unit(v: np.ndarray, dim: int, name: str) -> np.ndarray:
 
 def _frame_from_axis(a: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
     """Right-handed frame (rows x', y', a) with x' the projection of ``ref`` (default e_x,
-    else e_y) onto the plane normal to ``a``."""
+    else e_y) onto the plane normal to ``a``.
+    """
     a = a / np.linalg.norm(a)
     cands = [ref] if ref is not None else []
     cands += [np.array([1.0, 0, 0]), np.array([0, 1.0, 0])]

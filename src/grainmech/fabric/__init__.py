@@ -15,6 +15,7 @@ Main entry points
 
 from __future__ import annotations
 
+from grainmech.fabric import _checks
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
 from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
 from grainmech.fabric.fourier import FourierDensity
@@ -62,7 +63,6 @@ from grainmech.fabric.tensors import (
     symmetrize,
     trace,
 )
-from grainmech.fabric import _checks
 
 
 def isotropic(dim: int, order: int = 0) -> SphericalDensity | FourierDensity:

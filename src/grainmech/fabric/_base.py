@@ -13,8 +13,9 @@ A subclass stores its coefficients and implements
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
@@ -22,8 +23,8 @@ from scipy.optimize import minimize, minimize_scalar
 from grainmech.conventions import seed_angles, seed_theta
 from grainmech.errors import ConfigError, NegativeDensityError
 from grainmech.fabric import _checks
-from grainmech.fabric.quadrature import unit_rule
 from grainmech.fabric import tensors as _t
+from grainmech.fabric.quadrature import unit_rule
 
 #: A density whose normalised value ``|S| xi`` is below ``-NEGATIVE_TOL`` somewhere is
 #: rejected as negative (``|S| xi = 1`` for the isotropic density).
@@ -159,7 +160,7 @@ class DensityBase:
         if rank > _t.MAX_RANK:
             raise ConfigError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
         pts, wts = self.directions(rank)
-        return ((wts @ _t.outer_power(pts, rank))).reshape((self.dim,) * rank)
+        return (wts @ _t.outer_power(pts, rank)).reshape((self.dim,) * rank)
 
     def coefficient_tensors(self) -> dict[int, np.ndarray]:
         """Kanatani's traceless coefficient tensors ``{k: phi_(k)}`` (seed Eq. 4.10).
@@ -179,21 +180,21 @@ class DensityBase:
     # ---- constructors shared by both dimensions --------------------------------------
     @classmethod
     def _project(cls, func: Callable[[np.ndarray], np.ndarray], order: int, degree: int,
-                 allow_negative: bool) -> "DensityBase":
+                 allow_negative: bool) -> DensityBase:
         pts, w = unit_rule(cls.dim, order + degree)
         vals = np.asarray(func(np.array(pts)), dtype=float)
         kw = cls._coefficients_from_values(pts, w, vals, order)
         return cls(order=order, allow_negative=allow_negative, **kw)  # type: ignore[call-arg]
 
     @classmethod
-    def isotropic(cls, order: int = 0) -> "DensityBase":
+    def isotropic(cls, order: int = 0) -> DensityBase:
         """The uniform density ``1/|S|`` (all coefficients zero)."""
         order = _checks.as_even_order(order)
         return cls._project(lambda p: np.ones(len(p)), order, 0, False)
 
     @classmethod
     def from_coefficient_tensors(cls, phis: Mapping[int, object],
-                                 allow_negative: bool = False, tol: float = 1e-8) -> "DensityBase":
+                                 allow_negative: bool = False, tol: float = 1e-8) -> DensityBase:
         """Density ``(1/|S|)[1 + sum_k phi_(k) . n^k]`` (seed Eq. 4.10, 4.16, 4.35).
 
         Parameters
@@ -215,7 +216,7 @@ class DensityBase:
 
     @classmethod
     def from_fabric_tensor(cls, N: object, allow_negative: bool = False,
-                           tol: float = 1e-8) -> "DensityBase":
+                           tol: float = 1e-8) -> DensityBase:
         """Density of order ``L`` with the given rank-``L`` fabric tensor (seed Eq. 4.11).
 
         ``N`` fixes all lower fabric tensors by traces, hence all ``phi_(k)`` for
@@ -228,7 +229,7 @@ class DensityBase:
     @classmethod
     def from_function(cls, func: Callable[[np.ndarray], np.ndarray], order: int,
                       degree: int | None = None, normalise: bool = False,
-                      allow_negative: bool = False) -> "DensityBase":
+                      allow_negative: bool = False) -> DensityBase:
         """Project a function of the normal onto the harmonics up to ``order``.
 
         Parameters
@@ -263,7 +264,7 @@ class DensityBase:
                             / (integral if normalise else 1.0), order, deg, allow_negative)
 
     # ---- transformations ---------------------------------------------------------------
-    def rotated(self, R: object) -> "DensityBase":
+    def rotated(self, R: object) -> DensityBase:
         """Density of the rotated normals ``n' = R n``: ``xi'(n') = xi(R^T n')``.
 
         Exact: ``xi o R^T`` is again a polynomial of degree ``order``, projected with a
@@ -274,7 +275,7 @@ class DensityBase:
         return self._project(lambda p: self._normalised(p @ Rm), self.order, self.order,
                              bool(getattr(self, "allow_negative", False)))
 
-    def shrunk(self, factor: float) -> "DensityBase":
+    def shrunk(self, factor: float) -> DensityBase:
         """``(1/|S|)[1 + factor (|S| xi - 1)]``: scale all anisotropic coefficients."""
         f = _checks.as_scalar(factor, "factor")
         return self._project(lambda p: 1.0 + f * (self._normalised(p) - 1.0), self.order,
@@ -378,7 +379,7 @@ class DensityBase:
         return self.minimum().normalised >= -NEGATIVE_TOL
 
     # ---- sampling -----------------------------------------------------------------------
-    def sample(self, size: int, rng: "np.random.Generator | int | None" = None) -> np.ndarray:
+    def sample(self, size: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
         """Random unit normals distributed with density ``xi`` (rejection sampling).
 
         Parameters
@@ -411,6 +412,6 @@ class DensityBase:
             have += int(keep.sum())
         return np.concatenate(out)[:size]
 
-    def anisotropy(self) -> "_t.Anisotropy":
+    def anisotropy(self) -> _t.Anisotropy:
         """Anisotropy measures of the second-order fabric tensor (see :func:`anisotropy`)."""
         return _t.anisotropy(self.fabric_tensor(2))

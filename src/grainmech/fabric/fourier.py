@@ -26,8 +26,8 @@ Moment property: ``a_k = 2 E[cos k theta]``, ``b_k = 2 E[sin k theta]``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
@@ -102,7 +102,7 @@ class FourierDensity(DensityBase):
     # ---- seed convention ------------------------------------------------------------------
     @classmethod
     def from_seed(cls, a2: float = 0.0, b2: float = 0.0, a4: float = 0.0, b4: float = 0.0,
-                  allow_negative: bool = False) -> "FourierDensity":
+                  allow_negative: bool = False) -> FourierDensity:
         """Density of seed Eq. 4.34: ``(1/2 pi)[1 + a2 cos 2t + b2 sin 2t + a4 cos 4t + b4 sin 4t]``.
 
         The order is 4 if ``a4`` or ``b4`` is non-zero, else 2.
@@ -117,7 +117,7 @@ class FourierDensity(DensityBase):
     @classmethod
     def from_seed_coefficients(cls, coeffs: Mapping[int, tuple[float, float]],
                                order: int | None = None,
-                               allow_negative: bool = False) -> "FourierDensity":
+                               allow_negative: bool = False) -> FourierDensity:
         """Density from ``{k: (a_k, b_k)}`` (Eq. 4.9), ``k`` even >= 2; missing entries 0.
 
         ``order`` defaults to the largest ``k`` given.
@@ -161,10 +161,11 @@ class FourierDensity(DensityBase):
     @property
     def coefficients(self) -> np.ndarray:
         """Orthonormal coefficients ``integral xi f_k dtheta`` on ``cos(k t)/sqrt(pi)``,
-        ``sin(k t)/sqrt(pi)``, interleaved ``[c2, s2, c4, s4, ...]`` (= a_k / (2 sqrt(pi)))."""
+        ``sin(k t)/sqrt(pi)``, interleaved ``[c2, s2, c4, s4, ...]`` (= a_k / (2 sqrt(pi))).
+        """
         return (np.stack([self.a, self.b], axis=-1).reshape(-1) / (2.0 * np.sqrt(np.pi)))
 
-    def truncated(self, order: int) -> "FourierDensity":
+    def truncated(self, order: int) -> FourierDensity:
         """Keep the terms with ``k <= order`` (or zero-pad to a higher order)."""
         L = _checks.as_even_order(order)
         a = np.zeros(L // 2)

@@ -26,8 +26,8 @@ The coefficient vector is ordered by degree ``k = 2, 4, ..., L`` and, within a d
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 
@@ -131,7 +131,7 @@ class SphericalDensity(DensityBase):
     # ---- seed convention -------------------------------------------------------------------
     @classmethod
     def from_seed(cls, a20: float = 0.0, a22: float = 0.0, b22: float = 0.0,
-                  allow_negative: bool = False) -> "SphericalDensity":
+                  allow_negative: bool = False) -> SphericalDensity:
         """Second-order density of seed Eq. 4.15 (equivalently Eq. 4.16-4.17).
 
         ``xi = (1/4 pi)[1 + a20 P2(cos gamma) + 3 sin^2 gamma (a22 cos 2 beta + b22 sin 2 beta)]``;
@@ -155,7 +155,7 @@ class SphericalDensity(DensityBase):
     @classmethod
     def from_seed_coefficients(cls, coeffs: Mapping[tuple[int, int], tuple[float, float]],
                                order: int | None = None,
-                               allow_negative: bool = False) -> "SphericalDensity":
+                               allow_negative: bool = False) -> SphericalDensity:
         """Density from the seed's coefficients ``{(k, m): (a_km, b_km)}`` (Eq. 4.7, 4.13).
 
         Parameters
@@ -233,7 +233,7 @@ class SphericalDensity(DensityBase):
         return {"a20": sc[(2, 0)][0], "a22": sc[(2, 2)][0], "b22": sc[(2, 2)][1],
                 "a21": sc[(2, 1)][0], "b21": sc[(2, 1)][1]}
 
-    def truncated(self, order: int) -> "SphericalDensity":
+    def truncated(self, order: int) -> SphericalDensity:
         """Keep the harmonics of degree ``<= order`` (or zero-pad to a higher order)."""
         L = _checks.as_even_order(order)
         c = np.zeros(n_coefficients_3d(L))

@@ -28,7 +28,7 @@ result exceeds 12 (the kissing number of equal spheres).  Porosity ``n = e / (1 
 from __future__ import annotations
 
 import warnings
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -39,9 +39,9 @@ All functions here work for ``d = 2`` and ``d = 3`` and any even rank (memory gr
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from math import factorial, prod
-from typing import Mapping
 
 import numpy as np
 

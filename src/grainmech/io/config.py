@@ -11,8 +11,9 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.units import to_float
@@ -24,7 +25,8 @@ _MISSING = object()
 
 def read_text_file(path: str | Path, what: str) -> str:
     """The text of a UTF-8 file; a missing file, a directory or bad encoding is a
-    GrainmechError naming the path (``what`` names the kind of file: "config", "data")."""
+    GrainmechError naming the path (``what`` names the kind of file: "config", "data").
+    """
     p = Path(path)
     if not p.exists():
         raise GrainmechError(f"{what} file not found: {p}")
@@ -137,7 +139,7 @@ class Section:
             raise ConfigError(self.key(k), v, "expected true or false")
         return v
 
-    def section(self, k: str, default: Any = _MISSING) -> "Section":
+    def section(self, k: str, default: Any = _MISSING) -> Section:
         v = self.raw(k, default)
         child = Section(v, self.key(k))
         self._children.append(child)
@@ -162,7 +164,8 @@ FILE_KEYS = (("fabric", "normals"), ("model", "network"), ("model", "particles")
 
 def resolve_file_keys(cfg: dict, base_dir: str | Path) -> dict:
     """A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
-    to ``base_dir`` (the folder of the config file) instead of the working directory."""
+    to ``base_dir`` (the folder of the config file) instead of the working directory.
+    """
     import copy
 
     out = copy.deepcopy(cfg)

@@ -33,8 +33,8 @@ import os
 import shutil
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
 
 from grainmech.errors import GrainmechError
 
@@ -62,7 +62,8 @@ def _pid_alive(pid: int) -> bool:
 class _Lock:
     """An exclusive lock on ``path``: ``flock`` (released by the kernel if the process
     dies), else an ``O_EXCL`` file holding the pid (a stale one of a dead pid is taken
-    over)."""
+    over).
+    """
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -169,7 +170,8 @@ class OutputFolder:
 
     def commit(self, success: bool = True) -> list[str]:
         """Move the staged files into :attr:`path`, remove the previous run's files that
-        this run did not write, write the manifest. Returns the files (relative paths)."""
+        this run did not write, write the manifest. Returns the files (relative paths).
+        """
         from grainmech.io.results import write_json
 
         files = self._staged()

@@ -1,6 +1,7 @@
 """Files of ``grainmech pack``: the network (grainmech's generic NPZ tables, read by
 ``grainmech dem`` and :func:`grainmech.io.dem.read_network`), a JSON summary, the
-preparation history (CSV) and a PNG."""
+preparation history (CSV) and a PNG.
+"""
 
 from __future__ import annotations
 

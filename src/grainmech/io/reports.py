@@ -14,8 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.io.results import (driver_table, ensure_dir, soil_path_table, write_csv, write_figure, write_json,
-                                  write_text)
+from grainmech.io.results import (
+    driver_table,
+    ensure_dir,
+    soil_path_table,
+    write_csv,
+    write_figure,
+    write_json,
+    write_text,
+)
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
            "write_dem_outputs", "CONTACT_COLUMNS"]
@@ -26,7 +33,8 @@ DEFAULT_OUTPUT_ROOT = "grainmech-out"
 
 def default_outdir(command: str) -> str:
     """The default output folder of a command: ``grainmech-out/<command>`` (relative to
-    the working directory; one rule for every command, listed in ``.gitignore``)."""
+    the working directory; one rule for every command, listed in ``.gitignore``).
+    """
     return f"{DEFAULT_OUTPUT_ROOT}/{command}"
 
 
@@ -42,7 +50,8 @@ def _reference_curves(out: Any) -> dict:
     (Hardin & Richart 1963, the form Hardin & Drnevich 1972 use), so a model that is too
     stiff shows as a curve shifted away from both references instead of moving one of
     them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
-    the only one available and is used (``hd_gmax_source`` says which)."""
+    the only one available and is used (``hd_gmax_source`` says which).
+    """
     from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
 
     amps = np.asarray(out.amplitudes)
@@ -80,7 +89,8 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
     model), or a :class:`grainmech.jobs.RunComparison` (several models: each model's files
     carry the prefix ``<method>_``, the curves of all models share
     ``modulus_reduction.png``, and ``summary.json`` has one entry per model under
-    ``models``). Returns the summary (``files`` lists the names)."""
+    ``models``). Returns the summary (``files`` lists the names).
+    """
     from grainmech.jobs import RunComparison
 
     d = ensure_dir(outdir)
@@ -187,7 +197,8 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
 def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
     """``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
     and Hardin-Drnevich (1972) at the run's mean stress (:func:`_reference_curves` of the
-    first model: both references are empirical, neither depends on the model)."""
+    first model: both references are empirical, neither depends on the model).
+    """
     from grainmech import plots
 
     first, _ = cyclic[0]
@@ -320,7 +331,8 @@ CONTACT_COLUMNS = ("step", "segment", "normal_displacement", "tangential_displac
 
 def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
     """``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
-    :class:`grainmech.jobs.ContactOutcome`. Returns the paths written."""
+    :class:`grainmech.jobs.ContactOutcome`. Returns the paths written.
+    """
     from grainmech.io.results import atomic_write
 
     d = ensure_dir(outdir)
@@ -355,7 +367,8 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
 # ----------------------------------------------------------------------------------- dem
 def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
     """``summary.json``, the stiffness matrices and engineering constants as CSV, and the
-    rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`."""
+    rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`.
+    """
     from grainmech.io.results import atomic_write
 
     d = ensure_dir(outdir)

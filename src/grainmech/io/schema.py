@@ -43,7 +43,8 @@ SEED_2D = ("a2", "b2", "a4", "b4")
 def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
     """Unit contact normals from a file: ``.npy`` (array ``(n, d)``) or text (CSV or
     whitespace separated, ``d`` = 2 or 3 columns, ``#`` comments, an optional header
-    line). Rows are normalised to unit length; a zero row is an error naming the line."""
+    line). Rows are normalised to unit length; a zero row is an error naming the line.
+    """
     from grainmech.io.config import read_text_file
 
     p = Path(path)
@@ -97,7 +98,8 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
     contact normals (``normals = "file.csv"``, ``fit_order = 2``) fitted by
     :func:`grainmech.fabric.fit_density` (moment estimator, chi-square test of the fit;
     a fitted series negative somewhere is shrunk towards isotropy until it is not, and
-    the factor is reported). ``fit_report``, if given, receives the fit's summary."""
+    the factor is reported). ``fit_report``, if given, receives the fit's summary.
+    """
     from grainmech import fabric
 
     if sec.has("normals"):
@@ -196,7 +198,8 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
 
 def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
     """Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
-    coordination relation (:func:`coordination_relation`) is evaluated at."""
+    coordination relation (:func:`coordination_relation`) is evaluated at.
+    """
     from grainmech.fabric import CORRELATIONS, coordination_number
     from grainmech.material import Packing
 
@@ -376,7 +379,8 @@ class ContactInitial:
 @dataclass(frozen=True)
 class ContactSegment:
     """One ramp of a contact path: per channel a mode (``"force"``, ``"disp"`` or ``None``
-    = hold) and an absolute target; ``index`` is the ``[[path]]`` entry it came from."""
+    = hold) and an absolute target; ``index`` is the ``[[path]]`` entry it came from.
+    """
 
     steps: int
     index: int
@@ -405,7 +409,8 @@ def _channel(sec: Section, fkey: str, dkey: str, fu: str, du: str) -> tuple[str 
 
 def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list[ContactSegment]]:
     """``[initial]`` and ``[[path]]`` of a ``grainmech contact`` config (cycles expanded
-    into ramps: ``+A`` in ``steps/2`` steps, then ``count`` times ``-A``, ``+A``)."""
+    into ramps: ``+A`` in ``steps/2`` steps, then ``count`` times ``-A``, ``+A``).
+    """
     fu, du = contact_units(params)
     ini = root.section("initial", {})
     if ini.has("normal_force") and ini.has("approach"):
@@ -484,7 +489,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
     from dataclasses import replace
 
     from grainmech.io.units import to_float
-    from grainmech.packing import D50Cu, MATERIALS, PackSettings, SieveCurve, UniformRadius
+    from grainmech.packing import MATERIALS, D50Cu, PackSettings, SieveCurve, UniformRadius
 
     root = Section(cfg, "")
     g = root.section("grains")

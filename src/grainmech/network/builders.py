@@ -1,5 +1,6 @@
 """Synthetic periodic contact networks (lattices, disordered packings) for tests and
-benchmarks."""
+benchmarks.
+"""
 
 from __future__ import annotations
 

@@ -1,10 +1,11 @@
 """Contact-network data: the simulation cell (:class:`Box`) and the contacts
-(:class:`ContactNetwork`) in grainmech's counting convention (``docs/conventions.md``)."""
+(:class:`ContactNetwork`) in grainmech's counting convention (``docs/conventions.md``).
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -50,7 +51,7 @@ class Box:
 
     @classmethod
     def orthogonal(cls, lo: Sequence[float], hi: Sequence[float],
-                   periodic: Sequence[bool] | bool = True) -> "Box":
+                   periodic: Sequence[bool] | bool = True) -> Box:
         """Axis-aligned box from its bounds."""
         lo_ = np.asarray(lo, dtype=float)
         hi_ = np.asarray(hi, dtype=float)
@@ -192,7 +193,7 @@ class ContactNetwork:
         """Normal force ``N = f . n`` (compression positive), (C,)."""
         return np.einsum("ij,ij->i", self.force, self.normals)
 
-    def subset(self, contacts: np.ndarray) -> "ContactNetwork":
+    def subset(self, contacts: np.ndarray) -> ContactNetwork:
         """The same particles with only the selected contacts (bool mask or indices)."""
         sel = np.asarray(contacts)
         pick = (lambda a: None if a is None else a[sel])

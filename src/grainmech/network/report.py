@@ -1,5 +1,6 @@
 """All measures of a network in one result (:func:`network_report`) and its JSON form
-(:meth:`NetworkReport.to_json`, :func:`network_report_json`)."""
+(:meth:`NetworkReport.to_json`, :func:`network_report_json`).
+"""
 
 from __future__ import annotations
 
@@ -12,8 +13,15 @@ import numpy as np
 from grainmech.assembly import StressResult
 from grainmech.errors import GrainmechError
 from grainmech.network.data import Box, ContactNetwork
-from grainmech.network.measures import (CoordinationResult, FabricResult, contact_stiffnesses, coordination,
-                                        network_fabric, network_stress, rattler_threshold)
+from grainmech.network.measures import (
+    CoordinationResult,
+    FabricResult,
+    contact_stiffnesses,
+    coordination,
+    network_fabric,
+    network_stress,
+    rattler_threshold,
+)
 from grainmech.network.relaxed import RelaxedResult, relaxed_stiffness
 from grainmech.network.stiffness import affine_stiffness
 
@@ -22,7 +30,8 @@ __all__ = ["NetworkReport", "network_report", "network_report_json", "closed_for
 
 def to_json(x: Any) -> Any:
     """``x`` with NumPy arrays and scalars as lists and Python numbers (non-finite -> None),
-    mapping keys as strings (tuples joined by commas): ready for :func:`json.dump`."""
+    mapping keys as strings (tuples joined by commas): ready for :func:`json.dump`.
+    """
     if isinstance(x, dict):
         return {",".join(map(str, k)) if isinstance(k, tuple) else str(k): to_json(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):

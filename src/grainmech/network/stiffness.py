@@ -24,7 +24,8 @@ def effective_ks(net: ContactNetwork, ks: np.ndarray, geometric: bool) -> np.nda
 
 def contact_matrix(n: np.ndarray, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
     """Contact stiffness ``K = kn n (x) n + ks (I - n (x) n)`` (seed Eq. 2.20 with the full
-    tangential projector), (C, d, d) [force/length]."""
+    tangential projector), (C, d, d) [force/length].
+    """
     d = n.shape[1]
     nn = n[:, :, None] * n[:, None, :]
     return (kn - ks)[:, None, None] * nn + ks[:, None, None] * np.eye(d)[None]

@@ -15,8 +15,9 @@ from __future__ import annotations
 import ctypes
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -133,7 +134,8 @@ class Lammps:
 
     def atom(self, name: str) -> np.ndarray:
         """A copy of a per-atom array (``x``, ``f``, ``radius``, ``id``, ``omega``, ``torque``),
-        owned atoms only."""
+        owned atoms only.
+        """
         n = int(self._lmp.extract_setting("nlocal"))
         a = self._lmp.numpy.extract_atom(name)
         if a is None:
@@ -178,7 +180,7 @@ class Lammps:
             finally:
                 self._lmp = None
 
-    def __enter__(self) -> "Lammps":
+    def __enter__(self) -> Lammps:
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -30,8 +30,8 @@ of the real sand is lower than the packing's by the volume of the fines).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy.stats import norm
@@ -80,7 +80,8 @@ class GradingBase:
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0,
                pool: int = 20) -> Sample:
         """``n`` radii with the number distribution of this mass curve, truncated to
-        ``[D_max / max_ratio, D_max]`` (module notes)."""
+        ``[D_max / max_ratio, D_max]`` (module notes).
+        """
         if n < 1:
             raise ValueError(f"n = {n}: need at least one grain")
         if not max_ratio > 1:
@@ -136,7 +137,8 @@ class SieveCurve(GradingBase):
 
 class D50Cu(GradingBase):
     """Median diameter ``d50`` [m] and coefficient of uniformity ``cu = D60/D10 >= 1``
-    as a log-normal mass distribution (module notes); ``cu = 1`` is one size."""
+    as a log-normal mass distribution (module notes); ``cu = 1`` is one size.
+    """
 
     def __init__(self, d50: float, cu: float, *, key: str = "grading") -> None:
         if not d50 > 0:
@@ -167,7 +169,8 @@ class D50Cu(GradingBase):
 
 class UniformRadius:
     """Radius ``radius`` [m] with a uniform spread ``spread`` in ``[0, 1)``: ``R`` uniform
-    (by number) in ``[radius (1 - spread), radius (1 + spread)]``; nothing is cut."""
+    (by number) in ``[radius (1 - spread), radius (1 + spread)]``; nothing is cut.
+    """
 
     def __init__(self, radius: float, spread: float = 0.0, *, key: str = "grading") -> None:
         if not radius > 0:

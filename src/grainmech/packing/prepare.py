@@ -35,8 +35,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -298,7 +299,8 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
                  mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None) -> dict:
     """Create the periodic triclinic cell and the grains, the granular model, integrator,
     pressure and contact computes. ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``,
-    ``c = (xz,yz,lz)`` with the origin at 0. Returns the numerical constants used."""
+    ``c = (xz,yz,lz)`` with the origin at 0. Returns the numerical constants used.
+    """
     n = len(radii)
     a, b, c = cell
     lx, ly, lz = a[0], b[1], c[2]

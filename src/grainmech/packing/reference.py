@@ -23,16 +23,22 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from grainmech.analysis.loops import loop_properties
 from grainmech.errors import GrainmechError
 from grainmech.network import ContactNetwork, network_stress
-from grainmech.packing.prepare import (GrainMaterial, critical_time_step, network_from_lammps, setup_lammps,
-                                       unbalanced_ratio)
+from grainmech.packing.prepare import (
+    GrainMaterial,
+    critical_time_step,
+    network_from_lammps,
+    setup_lammps,
+    unbalanced_ratio,
+)
 
 __all__ = ["ProbeResult", "CyclicResult", "load_network", "relax", "strain_probes", "cyclic_simple_shear",
            "VOIGT_DEFORM"]
@@ -67,7 +73,8 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     """Put a periodic network into LAMMPS with the granular model of
     :mod:`grainmech.packing.prepare` and the grain friction; set the time step
     (:func:`critical_time_step` times ``safety``) and the drags (``viscous`` times the contact
-    frequency at the packing's stress)."""
+    frequency at the packing's stress).
+    """
     if net.radii is None or not bool(np.all(net.box.periodic)):
         raise GrainmechError("a DEM reference run needs a periodic 3D packing with radii")
     c = net.box.cell
@@ -99,7 +106,8 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
     ``rtol`` times its distance ``max |sigma - base|`` from ``base``).
 
     Returns the network, its unbalanced force ratio and the steps used; raises
-    GrainmechError when ``max_steps`` pass without reaching ``tol``."""
+    GrainmechError when ``max_steps`` pass without reaching ``tol``.
+    """
     used = 0
     prev = None
     while True:
@@ -123,7 +131,8 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
 
 def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
     """Add ``sign`` times the affine velocity field of the cell strain rate ``rate``
-    (Voigt, LAMMPS tension positive, engineering shears) to every grain."""
+    (Voigt, LAMMPS tension positive, engineering shears) to every grain.
+    """
     x = s.lmp.atom("x")
     lo = s.lmp.box()[0]
     r = x - lo
@@ -143,7 +152,8 @@ def _ramp(s: _Session, de: np.ndarray, steps: int) -> None:
     the contacts' tangential springs of ``pair_style granular`` integrate the relative
     velocity, so an affine move of positions alone (``remap x``) would never load them.
     The drags are off during the ramp (they would resist the affine motion); the affine
-    field is removed at the end."""
+    field is removed at the end.
+    """
     rate = -np.asarray(de, float) / (steps * s.dt)  # LAMMPS: tension positive
     parts = [f"{key} erate {r:.12g}" for (key, _), r in zip(VOIGT_DEFORM, rate) if r != 0]
     if not parts:

@@ -35,7 +35,8 @@ def _check(name: str) -> None:
 def load_packing(name: str) -> ContactNetwork:
     """The shipped packing ``name`` (``"dense"``, ``"medium"``, ``"loose"``) as a
     :class:`~grainmech.network.ContactNetwork` (SI units, forces by A on B, compression
-    positive), e.g. for ``grainmech.driver.packing.PackingPoint.from_network``."""
+    positive), e.g. for ``grainmech.driver.packing.PackingPoint.from_network``.
+    """
     from grainmech.io.dem import read_table
 
     _check(name)
@@ -49,7 +50,8 @@ def load_packing(name: str) -> ContactNetwork:
 
 def packing_info(name: str) -> dict:
     """The summary of the shipped packing ``name`` (void ratio, coordination, stress,
-    unbalanced force ratio, grading, preparation), as written by ``grainmech pack``."""
+    unbalanced force ratio, grading, preparation), as written by ``grainmech pack``.
+    """
     _check(name)
     f = resources.files("grainmech.data").joinpath("packings").joinpath(f"{name}-summary.json")
     return json.loads(f.read_text())

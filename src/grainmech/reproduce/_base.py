@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -15,7 +16,8 @@ _LOG: list[Callable[[str], None]] = []
 
 def progress(message: str) -> None:
     """A progress line from inside a long figure computation (to the logger installed by
-    :func:`reporting`; nothing without one)."""
+    :func:`reporting`; nothing without one).
+    """
     if _LOG:
         _LOG[-1](message)
 

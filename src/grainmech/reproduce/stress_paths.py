@@ -18,10 +18,10 @@ import numpy as np
 
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, fig610_path, fig610_stress, geometry, run
+from grainmech.elasticity import engineering_constants
 from grainmech.fabric import coordination_number, isotropic
 from grainmech.material import Packing
 from grainmech.reproduce._base import FigureData, long_table, progress
-from grainmech.elasticity import engineering_constants
 
 __all__ = ["PATHS", "INPUTS", "critical_ratio", "compute", "fig6_10", "fig6_11", "fig6_12"]
 

@@ -64,7 +64,7 @@ class RodContactSet(ContactSet):
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
-    def with_stiffness(self, kn: Any, ks: Any) -> "RodContactSet":
+    def with_stiffness(self, kn: Any, ks: Any) -> RodContactSet:
         """Same geometry and rods with new contact stiffnesses."""
         return RodContactSet(self.normals, self.branch, self.weights, kn, ks, self.convention,
                              radius1=self.radius1, radius2=self.radius2, particles=self.particles,
@@ -261,7 +261,8 @@ _ALIASES = {"square": "A", "hexagonal": "B", "mixed": "C", "kagome": "D",
 
 def packing_geometry(kind: str) -> PeriodicRods:
     """Regular packing ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
-    ``two-size-E``, ``two-size-F``), lengths in inches (seed Sec. 5.2)."""
+    ``two-size-E``, ``two-size-F``), lengths in inches (seed Sec. 5.2).
+    """
     key = _ALIASES.get(str(kind).lower(), str(kind).upper())
     if key not in PACKINGS:
         raise GrainmechError(f"packing must be one of A-F or {', '.join(_ALIASES)}; got {kind!r}")

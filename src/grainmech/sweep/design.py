@@ -23,8 +23,9 @@ from __future__ import annotations
 import itertools
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -155,7 +156,8 @@ class SweepParameter:
 
     def from_unit(self, u: np.ndarray) -> list:
         """Map samples ``u`` in [0, 1) to values (inverse CDF of the uniform / log-uniform
-        distribution, or a discrete uniform choice among ``values``)."""
+        distribution, or a discrete uniform choice among ``values``).
+        """
         u = np.asarray(u, dtype=float)
         if self.values is not None:
             idx = np.minimum((u * len(self.values)).astype(int), len(self.values) - 1)
