@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import apparent_moduli
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.elasticity import (directional_poisson, directional_young, isotropic_stiffness,
                                transversely_isotropic_stiffness)
 
@@ -27,5 +27,5 @@ def test_transversely_isotropic_against_directional_functions():
 
 
 def test_plane_error():
-    with pytest.raises(ConfigError, match="plane"):
+    with pytest.raises(ParameterError, match="plane"):
         apparent_moduli(isotropic_stiffness(E=1.0, nu=0.2), [0.0], plane="xx")

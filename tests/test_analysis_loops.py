@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import condensed_modulus, loop_properties, masing_damping_hyperbolic
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.elasticity import isotropic_stiffness
 
 
@@ -46,5 +46,5 @@ def test_condensed_modulus_isotropic():
 
 
 def test_loop_errors():
-    with pytest.raises(ConfigError, match="gamma"):
+    with pytest.raises(ParameterError, match="gamma"):
         loop_properties([0, 0, 0, 0], [1, 2, 3, 4])

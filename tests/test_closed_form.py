@@ -174,7 +174,7 @@ def test_bad_packing_inputs(kwargs, match):
 def test_bad_material_inputs():
     with pytest.raises(GrainmechError, match="poisson must lie in"):
         cf.isotropic_hertz_mindlin(1e9, 0.5, 1e5, void_ratio=0.6, coordination=8, radius=1e-3)
-    with pytest.raises(GrainmechError, match="pressure must be > 0"):
+    with pytest.raises(GrainmechError, match="pressure.*must be > 0"):
         cf.isotropic_hertz_mindlin(1e9, 0.2, -1, void_ratio=0.6, coordination=8, radius=1e-3)
     with pytest.raises(GrainmechError, match="porosity"):
         cf.walton(1e9, 0.2, 1e5, porosity=1.2, coordination=8)

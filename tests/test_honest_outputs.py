@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import hardin_richart, mohr_coulomb_ratio
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.jobs import empirical_gmax_check, envelope_check
 
 EX = Path(__file__).resolve().parents[1] / "examples"
@@ -29,9 +29,9 @@ def test_hardin_richart_against_the_psi_forms():
     hr = hardin_richart(0.65, 1e5)
     assert hr.G_round == pytest.approx(96.7e6, rel=2e-3) and hr.G_angular == pytest.approx(105.4e6, rel=2e-3)
     assert hr.in_range_round and hr.in_range_angular
-    with pytest.raises(ConfigError, match="void_ratio"):
+    with pytest.raises(ParameterError, match="void_ratio"):
         hardin_richart(2.5, 1e5)
-    with pytest.raises(ConfigError, match="mean_stress"):
+    with pytest.raises(ParameterError, match="mean_stress"):
         hardin_richart(0.6, -1.0)
 
 

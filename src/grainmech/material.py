@@ -17,7 +17,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness
-from grainmech.errors import GrainmechError
+from grainmech.errors import GrainmechError, ParameterError
 
 __all__ = [
     "Packing",
@@ -62,9 +62,9 @@ class Packing:
         for name in ("contacts_per_volume", "branch_length"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
-                raise GrainmechError(f"{name} must be > 0, got {v!r}")
+                raise ParameterError(name, v, "must be > 0")
         if self.convention not in ("physical", "seed"):
-            raise GrainmechError(f"convention must be 'physical' or 'seed', got {self.convention!r}")
+            raise ParameterError("convention", self.convention, "must be 'physical' or 'seed'")
         if self.radius is None:
             r = self.branch_length / 2 if self.convention == "physical" else self.branch_length
             object.__setattr__(self, "radius", r)
@@ -212,7 +212,7 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
         sigma = np.asarray(stress, dtype=float)
         if sigma.ndim == 0:
             if not np.isfinite(sigma) or sigma <= 0:
-                raise GrainmechError(f"pressure must be > 0, got {float(sigma)!r}")
+                raise ParameterError("pressure", float(sigma), "must be > 0")
             sigma = float(sigma) * np.eye(d)
     # constant stiffness or uniform forces: a degree-4 integrand is exact
     isotropic_fabric = packing.density.order == 0 and np.allclose(sigma, sigma[0, 0] * np.eye(d))

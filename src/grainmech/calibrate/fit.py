@@ -41,7 +41,7 @@ import numpy as np
 
 from grainmech.calibrate.data import Dataset, read_csv
 from grainmech.calibrate.model import DATA_KINDS, parse_settings, predict, set_path, targets_of, validate_data
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.units import ANGLE_UNITS, config_value
 
 __all__ = ["FitParameter", "Problem", "FitResult", "load_problem", "problem_from_config", "fit",
@@ -514,7 +514,7 @@ def fit(problem: Problem, *, starts: int | None = None, seed: int | None = None,
     t_start = time.perf_counter()
     n_starts = problem.starts if starts is None else int(starts)
     if n_starts < 1:
-        raise ConfigError("starts", n_starts, "must be >= 1")
+        raise ParameterError("starts", n_starts, "must be >= 1")
     T0 = latin_hypercube_starts(problem, n_starts, problem.seed if seed is None else seed)
     items = [(problem, T0[i], i) for i in range(len(T0))]
     use_dask = len(items) > 1 and parallel is not False

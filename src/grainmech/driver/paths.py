@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = [
     "Control",
@@ -58,7 +58,7 @@ class Control:
     def __post_init__(self) -> None:
         s = tuple(bool(x) for x in self.stress)
         if len(s) != 6:
-            raise ConfigError("control", self.stress, "must have 6 entries (xx, yy, zz, yz, xz, xy)")
+            raise ParameterError("control", self.stress, "must have 6 entries (xx, yy, zz, yz, xz, xy)")
         object.__setattr__(self, "stress", s)
 
     @property
@@ -81,7 +81,7 @@ def parse_mask(text: str) -> Control:
     """Parse a readable mask, e.g. ``"EESEEE"`` (E strain, S stress; order xx..xy)."""
     t = str(text).strip().upper()
     if len(t) != 6 or any(c not in "ES" for c in t):
-        raise ConfigError("control", text, "must be 6 letters E (strain) or S (stress) in order xx,yy,zz,yz,xz,xy")
+        raise ParameterError("control", text, "must be 6 letters E (strain) or S (stress) in order xx,yy,zz,yz,xz,xy")
     return Control(tuple(c == "S" for c in t))  # type: ignore[arg-type]
 
 
@@ -105,9 +105,9 @@ class LoadPath:
         sc = np.asarray(self.stress_control, dtype=bool)
         inc = np.asarray(self.increment, dtype=float)
         if sc.ndim != 2 or sc.shape[1] != 6 or inc.shape != sc.shape:
-            raise ConfigError("path", (sc.shape, inc.shape), "stress_control and increment must both be (m, 6)")
+            raise ParameterError("path", (sc.shape, inc.shape), "stress_control and increment must both be (m, 6)")
         if not np.all(np.isfinite(inc)):
-            raise ConfigError("path.increment", "non-finite", "increments must be finite")
+            raise ParameterError("path.increment", "non-finite", "increments must be finite")
         sc.setflags(write=False)
         inc.setflags(write=False)
         object.__setattr__(self, "stress_control", sc)
@@ -126,7 +126,7 @@ def _control(c: Control | str) -> Control:
 
 def _nsteps(n: int, name: str = "n_steps") -> int:
     if int(n) != n or int(n) < 1:
-        raise ConfigError(name, n, "must be a positive integer")
+        raise ParameterError(name, n, "must be a positive integer")
     return int(n)
 
 
@@ -136,17 +136,17 @@ def segment(control: Control | str, change: Sequence[float], n_steps: int) -> Lo
     n = _nsteps(n_steps)
     ch = np.asarray(change, dtype=float)
     if ch.shape != (6,):
-        raise ConfigError("change", ch.shape, "must have 6 components")
+        raise ParameterError("change", ch.shape, "must have 6 components")
     return LoadPath(np.tile(c.array, (n, 1)), np.tile(ch / n, (n, 1)))
 
 
 def _wave(n_cycles: int, steps_per_cycle: int, waveform: str) -> np.ndarray:
     """Values of a unit-amplitude wave at the end of each step, shape (n_cycles*steps,)."""
     if waveform not in ("triangle", "sine"):
-        raise ConfigError("waveform", waveform, "must be 'triangle' or 'sine'")
+        raise ParameterError("waveform", waveform, "must be 'triangle' or 'sine'")
     spc = _nsteps(steps_per_cycle, "steps_per_cycle")
     if waveform == "triangle" and spc % 4:
-        raise ConfigError("steps_per_cycle", steps_per_cycle, "must be a multiple of 4 for a triangle wave")
+        raise ParameterError("steps_per_cycle", steps_per_cycle, "must be a multiple of 4 for a triangle wave")
     t = np.arange(1, _nsteps(n_cycles, "n_cycles") * spc + 1) / spc
     if waveform == "sine":
         return np.sin(2 * np.pi * t)
@@ -172,9 +172,9 @@ def cycles(control: Control | str, direction: Sequence[float], amplitude: float,
     c = _control(control)
     d = np.asarray(direction, dtype=float)
     if d.shape != (6,):
-        raise ConfigError("direction", d.shape, "must have 6 components")
+        raise ParameterError("direction", d.shape, "must have 6 components")
     if not np.isfinite(amplitude):
-        raise ConfigError("amplitude", amplitude, "must be finite")
+        raise ParameterError("amplitude", amplitude, "must be finite")
     v = amplitude * _wave(n_cycles, steps_per_cycle, waveform)
     dv = np.diff(np.concatenate([[0.0], v]))
     dv[-1] -= v[-1]  # end exactly at the start value (wave returns to 0)
@@ -184,7 +184,7 @@ def cycles(control: Control | str, direction: Sequence[float], amplitude: float,
 def concatenate(paths: Sequence[LoadPath]) -> LoadPath:
     """Join paths step after step."""
     if not paths:
-        raise ConfigError("paths", paths, "must not be empty")
+        raise ParameterError("paths", paths, "must not be empty")
     return LoadPath(np.concatenate([p.stress_control for p in paths]),
                     np.concatenate([p.increment for p in paths]))
 
@@ -226,7 +226,7 @@ def fig610_path(kind: str, p0: float, ratio: float, n_steps: int) -> LoadPath:
 def fig610_stress(kind: str, p0: float, ratio: float) -> tuple[float, float]:
     """(sigma1, sigma3) on a Fig. 6.10 path at stress ratio ``ratio`` (see :func:`fig610_path`)."""
     if not ratio >= 1:
-        raise ConfigError("ratio", ratio, "sigma1/sigma3 must be >= 1")
+        raise ParameterError("ratio", ratio, "sigma1/sigma3 must be >= 1")
     if kind == "compression":
         return ratio * p0, p0
     if kind == "constant-mean":
@@ -234,7 +234,7 @@ def fig610_stress(kind: str, p0: float, ratio: float) -> tuple[float, float]:
         return ratio * s3, s3
     if kind == "reduced-compression":
         return p0, p0 / ratio
-    raise ConfigError("kind", kind, "must be 'compression', 'constant-mean' or 'reduced-compression'")
+    raise ParameterError("kind", kind, "must be 'compression', 'constant-mean' or 'reduced-compression'")
 
 
 def simple_shear(gamma: float, n_steps: int) -> LoadPath:
@@ -257,7 +257,7 @@ def cyclic_simple_shear(amplitude: float, n_cycles: int, steps_per_cycle: int,
     elif constant == "volume":
         mask = parse_mask("EEEEEE")
     else:
-        raise ConfigError("constant", constant, "must be 'stress' or 'volume'")
+        raise ParameterError("constant", constant, "must be 'stress' or 'volume'")
     return cycles(mask, _E[4], amplitude, n_cycles, steps_per_cycle, waveform)
 
 
@@ -272,4 +272,4 @@ def cyclic_triaxial(amplitude: float, n_cycles: int, steps_per_cycle: int, *,
         return cycles(parse_mask("SSESSS"), _E[2], amplitude, n_cycles, steps_per_cycle, waveform)
     if control == "stress":
         return cycles(Control.all_stress(), _E[2], amplitude, n_cycles, steps_per_cycle, waveform)
-    raise ConfigError("control", control, "must be 'strain' or 'stress'")
+    raise ParameterError("control", control, "must be 'strain' or 'stress'")

@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from grainmech.conventions import seed_angles, seed_theta
-from grainmech.errors import ConfigError, NegativeDensityError
+from grainmech.errors import ParameterError, NegativeDensityError
 from grainmech.fabric import _checks
 from grainmech.fabric import tensors as _t
 from grainmech.fabric.quadrature import unit_rule
@@ -158,7 +158,7 @@ class DensityBase:
         """
         rank = _checks.as_int(rank, "rank", 0)
         if rank > _t.MAX_RANK:
-            raise ConfigError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
+            raise ParameterError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
         pts, wts = self.directions(rank)
         return (wts @ _t.outer_power(pts, rank)).reshape((self.dim,) * rank)
 
@@ -206,7 +206,7 @@ class DensityBase:
         """
         ph, d = _t._check_phis(phis, cls.dim, tol)
         if d != cls.dim:
-            raise ConfigError("phis", f"{d}D tensors", f"{cls.__name__} needs {cls.dim}D tensors")
+            raise ParameterError("phis", f"{d}D tensors", f"{cls.__name__} needs {cls.dim}D tensors")
         order = max(ph, default=0)
 
         def f(p: np.ndarray) -> np.ndarray:
@@ -249,16 +249,16 @@ class DensityBase:
         pts, w = unit_rule(cls.dim, order + deg)
         vals = _checks.as_finite_array(func(np.array(pts)), "func(normals)")
         if vals.shape != (len(w),):
-            raise ConfigError("func(normals)", f"array of shape {vals.shape}",
+            raise ParameterError("func(normals)", f"array of shape {vals.shape}",
                               f"must return one value per normal, shape ({len(w)},)")
         total = 4.0 * np.pi if cls.dim == 3 else 2.0 * np.pi
         integral = total * float(w @ vals)
         if normalise:
             if not integral > 0:
-                raise ConfigError("func", integral, "integral must be positive to normalise")
+                raise ParameterError("func", integral, "integral must be positive to normalise")
             vals = vals / integral
         elif abs(integral - 1.0) > 1e-8:
-            raise ConfigError("func", f"integral {integral:.12g}",
+            raise ParameterError("func", f"integral {integral:.12g}",
                               "a density must integrate to 1 (seed Eq. 4.8); pass normalise=True")
         return cls._project(lambda p: total * np.asarray(func(p), dtype=float)
                             / (integral if normalise else 1.0), order, deg, allow_negative)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from grainmech.conventions import seed_theta
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import DensityBase
 
@@ -67,7 +67,7 @@ class FourierDensity(DensityBase):
         for name in ("a", "b"):
             v = _checks.as_finite_array(getattr(self, name), name).reshape(-1).copy()
             if v.shape != (L // 2,):
-                raise ConfigError(name, f"array of shape {np.shape(getattr(self, name))}",
+                raise ParameterError(name, f"array of shape {np.shape(getattr(self, name))}",
                                   f"order {L} needs {L // 2} coefficients (k = 2, 4, ..., {L})")
             v.setflags(write=False)
             arrs[name] = v
@@ -123,23 +123,23 @@ class FourierDensity(DensityBase):
         ``order`` defaults to the largest ``k`` given.
         """
         if not isinstance(coeffs, Mapping):
-            raise ConfigError("coeffs", type(coeffs).__name__, "must be a mapping {k: (a_k, b_k)}")
+            raise ParameterError("coeffs", type(coeffs).__name__, "must be a mapping {k: (a_k, b_k)}")
         parsed: dict[int, tuple[float, float]] = {}
         for key, val in coeffs.items():
             k = _checks.as_even_order(key, "k")
             if k < 2:
-                raise ConfigError("k", key, "must be >= 2 (k = 0 is fixed by normalisation)")
+                raise ParameterError("k", key, "must be >= 2 (k = 0 is fixed by normalisation)")
             try:
                 a, b = (float(x) for x in val)
             except (TypeError, ValueError):
-                raise ConfigError(f"coeffs[{key}]", val, "must be a pair (a_k, b_k)") from None
+                raise ParameterError(f"coeffs[{key}]", val, "must be a pair (a_k, b_k)") from None
             if not (np.isfinite(a) and np.isfinite(b)):
-                raise ConfigError(f"coeffs[{key}]", val, "must be finite")
+                raise ParameterError(f"coeffs[{key}]", val, "must be finite")
             parsed[k] = (a, b)
         kmax = max(parsed, default=0)
         L = kmax if order is None else _checks.as_even_order(order)
         if L < kmax:
-            raise ConfigError("order", order, f"smaller than the highest degree given ({kmax})")
+            raise ParameterError("order", order, f"smaller than the highest degree given ({kmax})")
         a = np.zeros(L // 2)
         b = np.zeros(L // 2)
         for k, (ak, bk) in parsed.items():

@@ -11,11 +11,12 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.units import to_float
 
 __all__ = ["load_toml", "read_text_file", "Section"]
@@ -144,6 +145,29 @@ class Section:
         child = Section(v, self.key(k))
         self._children.append(child)
         return child
+
+    @contextmanager
+    def checked(self, rename: Mapping[str, str] | None = None) -> Iterator[None]:
+        """Report the library's checks of values read from this section by their keys.
+
+        A :class:`~grainmech.errors.ParameterError` raised inside the ``with`` block is
+        re-raised as a :class:`~grainmech.errors.ConfigError`: an argument that is a key
+        of this section (after ``rename``, library name -> config key) is named by its
+        dotted key, any other by this section's name followed by the library's message.
+
+        Parameters
+        ----------
+        rename : mapping of str to str, optional
+            Library argument names that the config spells differently.
+        """
+        try:
+            yield
+        except ParameterError as exc:
+            name = (rename or {}).get(exc.name, exc.name)
+            if self.has(name):
+                raise ConfigError(self.key(name), exc.value, exc.problem) from None
+            where = self.name or "config"
+            raise ConfigError(where, None, str(exc)) from None
 
     def finish(self) -> None:
         """Raise for keys that were never read (unknown or misspelt keys), here and in sub-tables."""

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.config import Section
 
 __all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress", "build_pressure", "LAWS",
@@ -126,7 +126,8 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
             raise ConfigError(sec.key("tensor"), raw, "must be symmetric with trace 1 (N_ij = <n_i n_j>)")
         if np.allclose(N, np.eye(dim) / dim, rtol=0, atol=1e-12):
             return fabric.isotropic(dim)
-        return fabric.density_from_fabric_tensor(N)
+        with sec.checked({"N": "tensor"}):
+            return fabric.density_from_fabric_tensor(N)
     vals = {k: sec.number(k, None, 0.0) for k in names}
     if not any(vals.values()):
         # the isotropic density has order 0: quadrature rules are chosen by the order of
@@ -134,7 +135,8 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
         # a rule two degrees higher (770 instead of 14 directions for a stiffness)
         return fabric.isotropic(dim)
     cls = fabric.SphericalDensity if dim == 3 else fabric.FourierDensity
-    return cls.from_seed(**vals)
+    with sec.checked():
+        return cls.from_seed(**vals)
 
 
 def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
@@ -153,7 +155,8 @@ def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
     for k in (SEED_3D + SEED_2D + ("tensor",)):
         if sec.has(k):
             raise ConfigError(sec.key(k), sec.data[k], "give either normals or the density's coefficients, not both")
-    fit = fit_density(n, order, on_negative="shrink")
+    with sec.checked({"order": "fit_order"}):
+        fit = fit_density(n, order, on_negative="shrink")
     if fit_report is not None:
         fit_report.update(
             source=raw, n_normals=fit.n_normals, order=order, dim=dim, chi2=fit.chi2, dof=fit.dof,
@@ -208,12 +211,14 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
         nv = sec.number("contacts_per_volume", f"1/m**{density.dim}", min=0, min_inclusive=False)
         bl = sec.number("branch_length", "m", min=0, min_inclusive=False)
         radius = sec.number("radius", "m", None, min=0, min_inclusive=False)
-        return Packing(density, nv, bl, convention, radius)
+        with sec.checked():
+            return Packing(density, nv, bl, convention, radius)
     e = sec.number("void_ratio", None, min=0, min_inclusive=False)
     coord = sec.raw("coordination")
     name = coord.strip().lower() if isinstance(coord, str) else None
     if name is not None and name in CORRELATIONS:
-        m = float(coordination_number(e, name))
+        with sec.checked():
+            m = float(coordination_number(e, name))
     elif isinstance(coord, dict):
         m = coordination_relation(sec, e, pressure)
     else:
@@ -225,7 +230,8 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
                                   f"{', '.join(map(repr, sorted(CORRELATIONS)))}") from None
             raise
     radius = sec.number("radius", "m", min=0, min_inclusive=False)
-    return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
+    with sec.checked():
+        return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
 
 
 #: Stresses a config may give [Pa]: 1 uPa to 1 TPa. Far outside every granular material
@@ -331,11 +337,8 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
                           "the grain radius of a packing is packing.radius, not a contact-law key")
 
     def make(cls: Any, *args: Any, **kw: Any) -> Any:
-        try:
+        with sec.checked(RENAMED):  # the parameter classes name their fields: use the file's keys
             return cls(*args, **kw)
-        except ConfigError as exc:  # the parameter classes name their fields: use the file's keys
-            key = RENAMED.get(exc.key, exc.key)
-            raise ConfigError(sec.key(key), exc.value, exc.problem) from None
 
     if law == "linear":
         kn = sec.number("kn", "N/m", min=0, min_inclusive=False)
@@ -502,7 +505,10 @@ def build_pack_config(cfg: dict) -> PackConfig:
                 raise ConfigError(g.key(k), v, "expected a list of at least two values")
         d = [to_float(v, "m", f"{g.key('sizes')}[{i}]") for i, v in enumerate(sizes)]
         p = [to_float(v, None, f"{g.key('passing')}[{i}]") for i, v in enumerate(passing)]
-        grading: Any = SieveCurve(d, p, key=g.name)
+        try:
+            grading: Any = SieveCurve(d, p, key=g.name)
+        except ParameterError as exc:  # the grading names its keys as g.key(...)
+            raise ConfigError(exc.name, exc.value, exc.problem) from None
     elif kind == "d50-cu":
         grading = D50Cu(g.number("d50", "m", min=0, min_inclusive=False), g.number("cu", None, min=1),
                         key=g.name)

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import norm
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "GradingBase"]
 
@@ -103,22 +103,22 @@ class SieveCurve(GradingBase):
 
     The curve is linear in ``log D`` between sieves (the usual semi-log plot). The first
     percent passing must be 0 and the last 100 (the range of sizes present); a curve
-    that is not is not extended by guessing: a ConfigError names the key.
+    that is not is not extended by guessing: a ParameterError names the key.
     """
 
     def __init__(self, sizes: Sequence[float], passing: Sequence[float], *, key: str = "grading") -> None:
         d = np.asarray(sizes, float)
         p = np.asarray(passing, float)
         if d.ndim != 1 or d.size < 2 or d.shape != p.shape:
-            raise ConfigError(f"{key}.sizes", list(sizes), "sizes and passing need the same length >= 2")
+            raise ParameterError(f"{key}.sizes", list(sizes), "sizes and passing need the same length >= 2")
         if not np.all(d > 0):
-            raise ConfigError(f"{key}.sizes", list(sizes), "sizes must be positive")
+            raise ParameterError(f"{key}.sizes", list(sizes), "sizes must be positive")
         if np.any(np.diff(d) <= 0):
-            raise ConfigError(f"{key}.sizes", list(sizes), "sieve sizes must increase")
+            raise ParameterError(f"{key}.sizes", list(sizes), "sieve sizes must increase")
         if np.any(np.diff(p) < 0) or p[-1] <= p[0]:
-            raise ConfigError(f"{key}.passing", list(passing), "percent passing must increase with size")
+            raise ParameterError(f"{key}.passing", list(passing), "percent passing must increase with size")
         if abs(p[0]) > 1e-9 or abs(p[-1] - 100) > 1e-9:
-            raise ConfigError(f"{key}.passing", list(passing),
+            raise ParameterError(f"{key}.passing", list(passing),
                               "must start at 0 and end at 100 (percent passing at the smallest and "
                               "largest size present)")
         self.sizes, self.passing = d, p / 100.0
@@ -142,9 +142,9 @@ class D50Cu(GradingBase):
 
     def __init__(self, d50: float, cu: float, *, key: str = "grading") -> None:
         if not d50 > 0:
-            raise ConfigError(f"{key}.d50", d50, "must be > 0")
+            raise ParameterError(f"{key}.d50", d50, "must be > 0")
         if not cu >= 1:
-            raise ConfigError(f"{key}.cu", cu, "the coefficient of uniformity D60/D10 must be >= 1")
+            raise ParameterError(f"{key}.cu", cu, "the coefficient of uniformity D60/D10 must be >= 1")
         self.d50, self.cu = float(d50), float(cu)
         self.s = float(np.log(cu) / (_Z60 - _Z10))
 
@@ -174,9 +174,9 @@ class UniformRadius:
 
     def __init__(self, radius: float, spread: float = 0.0, *, key: str = "grading") -> None:
         if not radius > 0:
-            raise ConfigError(f"{key}.radius", radius, "must be > 0")
+            raise ParameterError(f"{key}.radius", radius, "must be > 0")
         if not 0 <= spread < 1:
-            raise ConfigError(f"{key}.spread", spread, "must lie in [0, 1)")
+            raise ParameterError(f"{key}.spread", spread, "must lie in [0, 1)")
         self.radius, self.spread = float(radius), float(spread)
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0, pool: int = 20) -> Sample:
