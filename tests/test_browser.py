@@ -1,7 +1,7 @@
-"""The output page opens in a real browser (issue 5: "index.html opens in a browser ...
-showing plots and numbers"): headless Chromium renders index.html of a small `grainmech run`
-via scripts/screenshot_index.sh; the screenshot must show a page with content (plots are
-embedded as data: URIs, so a broken image would leave large blank areas).
+"""The output page opens in a real browser and shows plots and numbers: headless Chromium
+renders index.html of a small `grainmech run` via scripts/screenshot_index.sh; the
+screenshot must show a page with content (plots are embedded as data: URIs, so a broken
+image would leave large blank areas).
 
 Skipped where Chromium is not installed (Debian: apt-get install chromium).
 """

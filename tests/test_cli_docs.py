@@ -1,4 +1,4 @@
-"""The docs say what the program does (issue 14, "Docs that match the program"), the CLI
+"""The docs say what the program does, the CLI
 is thin (parse -> jobs -> print) and `import grainmech` is a notebook-grade API."""
 
 from __future__ import annotations

@@ -67,7 +67,7 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
     s = json.loads((out / "summary.json").read_text())
     assert s["success"] and s["initial_pressure_Pa"] == pytest.approx(1e5)
     ratio = np.array(s["G_over_Gmax"])
-    # smallest amplitude: secant modulus equals the small-strain modulus within 1 % (issue 4)
+    # smallest amplitude: secant modulus equals the small-strain modulus within 1 %
     assert ratio[0] == pytest.approx(1.0, abs=0.01)
     assert np.all(np.diff(ratio) < 0) and np.all(np.diff(s["damping"]) > 0)
     # Gmax is the condensed tangent of the isotropic Hertz-Mindlin packing (closed form, Walton)
@@ -84,7 +84,7 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
 
 def test_constant_volume_cyclic_simple_shear(tmp_path):
     """test.constant = "volume": every strain but gamma_xz held; Gmax is plain C_55 and the
-    smallest amplitude's secant modulus equals it within 1 % (issue 4)."""
+    smallest amplitude's secant modulus equals it within 1 %."""
     cfg = tmp_path / "v.toml"
     cfg.write_text(CYCLIC.replace('kind = "cyclic-simple-shear"', 'kind = "cyclic-simple-shear"\nconstant = "volume"'))
     out = tmp_path / "v"

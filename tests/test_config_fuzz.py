@@ -1,4 +1,4 @@
-"""Hypothesis-generated bad config values: every bad file gives a clear error, never a crash (issue 5)."""
+"""Hypothesis-generated bad config values: every bad file gives a clear error, never a crash."""
 
 import json
 import math

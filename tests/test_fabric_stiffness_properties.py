@@ -1,4 +1,4 @@
-"""Fabric -> stiffness invariants (issue 2 property tests; seed Eq. 2.28-2.29, 2.41, 4.19)."""
+"""Fabric -> stiffness invariants (property tests; seed Eq. 2.28-2.29, 2.41, 4.19)."""
 
 import numpy as np
 from _hyp import given, settings, st

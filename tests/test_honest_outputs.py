@@ -1,5 +1,5 @@
 """What the main job says beside its numbers: the empirical small-strain modulus and the
-stress-ratio envelope of sands (issue: honest outputs)."""
+stress-ratio envelope of sands."""
 
 from __future__ import annotations
 
