@@ -4,9 +4,13 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import apparent_moduli
+from grainmech.elasticity import (
+    directional_poisson,
+    directional_young,
+    isotropic_stiffness,
+    transversely_isotropic_stiffness,
+)
 from grainmech.errors import ParameterError
-from grainmech.elasticity import (directional_poisson, directional_young, isotropic_stiffness,
-                               transversely_isotropic_stiffness)
 
 
 def test_isotropic_constant_in_every_direction():

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import condensed_modulus, loop_properties, masing_damping_hyperbolic
-from grainmech.errors import ParameterError
 from grainmech.elasticity import isotropic_stiffness
+from grainmech.errors import ParameterError
 
 
 def test_ellipse_loop():

@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 from scipy.integrate import lebedev_rule
 
+from _hyp import given, settings, st
 from grainmech import closed_form as cf
 from grainmech.assembly import ContactSet, stiffness
-from grainmech.conventions import seed_normal, seed_angles, seed_normal_2d, seed_theta
+from grainmech.conventions import seed_angles, seed_normal_2d
 from grainmech.errors import GrainmechError
 
 

@@ -9,16 +9,15 @@ import math
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 
+from _hyp import given, settings, st
 from grainmech.assembly import stiffness
 from grainmech.contact import LinearSpring
-from grainmech.driver import (Control, MaterialPoint, cyclic_simple_shear, parse_mask, run, segment,
-                              triaxial)
+from grainmech.driver import Control, MaterialPoint, cyclic_simple_shear, parse_mask, run, segment, triaxial
+from grainmech.elasticity import isotropic_constants
 from grainmech.errors import ParameterError
 from grainmech.fabric import isotropic
 from grainmech.material import Packing
-from grainmech.elasticity import isotropic_constants
 
 PK = Packing.from_grains(isotropic(3), void_ratio=0.6, coordination=8, radius=1e-3)
 P0 = 1e5

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 from scipy.integrate import quad
 
+from _hyp import given, settings, st
 from grainmech.conventions import seed_normal_2d
-from grainmech.errors import ParameterError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import FourierDensity, isotropic, rotate_tensor
 
 

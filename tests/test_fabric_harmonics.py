@@ -7,11 +7,11 @@ from math import factorial
 import numpy as np
 import pytest
 import sympy as sp
-from _hyp import given, settings, st
 from scipy.spatial.transform import Rotation
 
+from _hyp import given, settings, st
 from grainmech.conventions import seed_angles, seed_normal
-from grainmech.errors import ParameterError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import SphericalDensity, isotropic, rotate_tensor, sh_degrees_orders
 from grainmech.fabric._basis import real_sh
 

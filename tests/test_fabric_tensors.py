@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 
+from _hyp import given, settings, st
 from grainmech.errors import ParameterError
 from grainmech.fabric import (
     FourierDensity,
@@ -20,7 +20,6 @@ from grainmech.fabric import (
     symmetrize,
     trace,
 )
-
 from test_fabric_harmonics import product_rule
 
 

@@ -59,11 +59,10 @@ def test_envelope_check_marks_the_first_step_beyond():
     assert env["ratio"][1] == pytest.approx(5.0)
 
 
-def test_triaxial_path_output_flags_the_envelope(tmp_path, capsys):
-    from grainmech.cli import main
-
-    assert main(["run", str(EX / "run_triaxial_path.toml"), "-o", str(tmp_path)]) == 0
-    err = capsys.readouterr().err
+def test_triaxial_path_output_flags_the_envelope(tmp_path, cli):
+    res = cli("run", str(EX / "run_triaxial_path.toml"), "-o", str(tmp_path))
+    assert res.rc == 0
+    err = res.err
     assert "WARNING: the stress ratio sigma1/sigma3 leaves the envelope" in err
     summ = json.loads((tmp_path / "summary.json").read_text())
     first = summ["envelope"]["first_step_beyond"]
@@ -104,18 +103,17 @@ def test_input_warnings_name_value_and_reason():
     assert "above the grains' own shear modulus" in w
 
 
-def test_mean_stress_change_per_amplitude(tmp_path):
+def test_mean_stress_change_per_amplitude(tmp_path, cli):
     """modulus_reduction.csv reports p_end/p_0 - 1 of each amplitude's run (its run CSV)."""
     import csv
     import tomllib
 
-    from grainmech.cli import main
 
     cfg = (Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "default_run.toml").read_text()
     cfg = cfg.replace("amplitudes = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3]", "amplitudes = [1e-5, 1e-3]")
     assert tomllib.loads(cfg)["test"]["amplitudes"] == [1e-5, 1e-3]
     (tmp_path / "c.toml").write_text(cfg)
-    assert main(["run", str(tmp_path / "c.toml"), "-o", str(tmp_path / "o"), "--quiet"]) == 0
+    assert cli("run", str(tmp_path / "c.toml"), "-o", str(tmp_path / "o"), "--quiet").rc == 0
     rows = list(csv.DictReader(open(tmp_path / "o" / "modulus_reduction.csv")))
     for i, row in enumerate(rows):
         amp = float(row["shear_strain_amplitude [-]"])
