@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.contact import geometry as geo
-from grainmech.contact.params import Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
+from grainmech.contact.params import ContactParams, Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
 
 __all__ = ["LawForms", "law_forms", "LAW_KINDS"]
 
@@ -137,7 +137,7 @@ class _SpringForms(LawForms):
 _CACHE: dict = {}
 
 
-def law_forms(params: object) -> LawForms:
+def law_forms(params: ContactParams) -> LawForms:
     """The :class:`LawForms` of a parameter object (cached per object).
 
     Raises

@@ -13,6 +13,7 @@ import numpy as np
 
 from grainmech.contact._errors import ReversalMemoryError
 from grainmech.contact.forms import law_forms
+from grainmech.contact.params import ContactParams, Cylinder, LinearSpring, MindlinDeresiewicz
 from grainmech.contact.state import ContactState, _dot, _norm, max_reversals
 
 _EPS = 1e-12
@@ -46,7 +47,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
 _LawOut = tuple
 
 
-def _secant_kt(params: object, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
+def _secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
                a1: np.ndarray) -> np.ndarray:
     """Mean no-slip stiffness along a straight step: ``int kt0 dalpha / dalpha = dN / (r dalpha)``.
 
@@ -54,8 +55,8 @@ def _secant_kt(params: object, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
     ``kn = dN/dalpha``. Falls back to ``kt0(N1)`` when the approach does not change.
     """
     forms = law_forms(params)
-    if forms.linear:
-        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)  # type: ignore[attr-defined]
+    if isinstance(params, LinearSpring):  # forms.linear
+        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)
     r = forms.ratio
     da = a1 - a0
     dN = N1 - N0
@@ -178,7 +179,7 @@ def _g_of_y(y: np.ndarray, p: float) -> np.ndarray:
     return np.maximum(np.where(eps < 0.02, ser, direct), 0.0)
 
 
-def _md_update(params: object, state: ContactState, T0: np.ndarray, e0: np.ndarray, N0: np.ndarray,
+def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray, N0: np.ndarray,
                N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
                virgin_reset: np.ndarray) -> _LawOut:
     """Hysteretic law in 3D: scalar law along the memory axis, elastic across (module notes)."""
@@ -302,7 +303,7 @@ def _md_update(params: object, state: ContactState, T0: np.ndarray, e0: np.ndarr
     return T1, e, s, k, stack.P, slide, diss, ks, ks_perp, ktn
 
 
-def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev: int, stack: _Stack,
+def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float, maxrev: int, stack: _Stack,
              tau: np.ndarray, s: np.ndarray, k: np.ndarray, N0: np.ndarray, N1: np.ndarray,
              a0: np.ndarray, a1: np.ndarray, kbar: np.ndarray, kt1: np.ndarray, d: np.ndarray,
              rising: np.ndarray, falling: np.ndarray
@@ -432,7 +433,7 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
     return tau_new, s, k, diss, elastic & (N1 > 0.0)
 
 
-def _falling_n(params: object, mu: float, p: float, m_exp: float, stack: _Stack, Q: np.ndarray,
+def _falling_n(params: ContactParams, mu: float, p: float, m_exp: float, stack: _Stack, Q: np.ndarray,
                s: np.ndarray, k: np.ndarray, N0: np.ndarray, N1: np.ndarray, mask: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Exact integration of a fall of N (N0 -> N1 < N0) at fixed tangential displacement.

@@ -43,10 +43,15 @@ class ContactLawProtocol(Protocol):
         Coulomb coefficient ``mu`` (``inf`` for no sliding).
     """
 
-    params: Any
+    @property
+    def params(self) -> Any:
+        """The law's frozen parameter object."""
+        ...
 
     @property
-    def friction(self) -> float: ...
+    def friction(self) -> float:
+        """Coulomb coefficient ``mu`` (``inf`` for no sliding)."""
+        ...
 
     def initial_state(self, normal_force: np.ndarray,
                       tangential_force: np.ndarray | None = None) -> ContactState:

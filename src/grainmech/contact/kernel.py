@@ -59,13 +59,14 @@ and ``2`` on a Masing branch.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import get_num_threads, njit, prange
 
 from grainmech.contact import law as _law
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
+from grainmech.contact.params import ContactParams, Hertz, LinearSpring, MindlinDeresiewicz
 
 __all__ = ["update_kernel", "rows", "constants", "KernelConstants", "KernelState", "KernelIncrement",
            "KernelOutput", "KernelScratch", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS",
@@ -90,7 +91,7 @@ _EPS = 1e-12
 _REV_TOL = _law._REV_TOL
 _MERGE_TOL = _law._MERGE_TOL
 _CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
-_JIT = dict(cache=True, error_model="numpy", fastmath=False)
+_JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False}
 
 
 # ---------------------------------------------------------------------------------------
@@ -208,7 +209,7 @@ def new_scratch(n: int, dim: int) -> KernelScratch:
 _CONSTANTS: dict = {}
 
 
-def constants(params: object) -> KernelConstants:
+def constants(params: ContactParams) -> KernelConstants:
     """:class:`KernelConstants` of a contact parameter object (cached per object)."""
     try:
         return _CONSTANTS[params]
@@ -217,16 +218,18 @@ def constants(params: object) -> KernelConstants:
     kind = _law.law_kind(params)
     forms = _law.law_forms(params)
     linear = forms.linear
-    if linear:
+    if isinstance(params, LinearSpring):
         E = R = Gs = 1.0
-        kn_lin, ks_lin = float(params.kn), float(params.ks)  # type: ignore[attr-defined]
-    else:
-        E = float(params.effective_modulus)  # type: ignore[attr-defined]
-        R = float(params.effective_radius)  # type: ignore[attr-defined]
-        Gs = float(params.effective_shear_modulus)  # type: ignore[attr-defined]
+        kn_lin, ks_lin = float(params.kn), float(params.ks)
+    elif isinstance(params, Hertz):
+        E = float(params.effective_modulus)
+        R = float(params.effective_radius)
+        Gs = float(params.effective_shear_modulus)
         kn_lin = ks_lin = 0.0
-    mu = float(params.friction)  # type: ignore[attr-defined]
-    p = float(params.stick_exponent) if kind == "md" else 1.0 / 3.0  # type: ignore[attr-defined]
+    else:
+        raise TypeError(f"no compiled kernel for {type(params).__name__} (rods use the NumPy law)")
+    mu = float(params.friction)
+    p = float(params.stick_exponent) if isinstance(params, MindlinDeresiewicz) else 1.0 / 3.0
     m_exp = 1.0 / (1.0 - p)
     kc = KernelConstants(
         {"md": LAW_MD, "jenkins": LAW_JENKINS, "frictionless": LAW_FRICTIONLESS}[kind], linear,

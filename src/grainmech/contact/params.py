@@ -141,6 +141,7 @@ class Hertz:
                                _positive("shear_modulus2", self.shear_modulus2))
         if self.poisson2 is not None:
             object.__setattr__(self, "poisson2", _poisson("poisson2", self.poisson2))
+        derived: tuple[float, ...]
         try:
             derived = (self.effective_modulus, self.effective_shear_modulus, self.effective_radius)
         except (ZeroDivisionError, OverflowError):

@@ -4,6 +4,7 @@ constructors of isotropic, transversely isotropic and orthotropic stiffnesses.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
@@ -357,7 +358,8 @@ def _pair_to_KG(given: dict[str, float], dim: int) -> tuple[float, float]:
     """Closed-form (K, G) from any two of E, nu, G, K, lam (3D or 2D relations)."""
     g = given
     keys = frozenset(g)
-    E, nu, G, K, lam = (g.get(k) for k in ("E", "nu", "G", "K", "lam"))
+    # a constant not given is NaN: only the two given are used by the branch that matches
+    E, nu, G, K, lam = (g.get(k, math.nan) for k in ("E", "nu", "G", "K", "lam"))
     if dim == 3:
         if keys == {"E", "nu"}:
             return E / (3 * (1 - 2 * nu)), E / (2 * (1 + nu))

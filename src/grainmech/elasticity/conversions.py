@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from functools import lru_cache
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import (
@@ -168,8 +169,8 @@ def contracted_tensors(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.einsum("ijkk->ij", T), np.einsum("ikjk->ij", T)
 
 
-def _unit(v: np.ndarray, dim: int, name: str) -> np.ndarray:
-    v = np.asarray(v, dtype=float)
+def _unit(vec: ArrayLike, dim: int, name: str) -> np.ndarray:
+    v = np.asarray(vec, dtype=float)
     if v.shape[-1:] != (dim,):
         raise GrainmechError(f"{name} must have trailing dimension {dim}; got shape {v.shape}")
     nrm = np.linalg.norm(v, axis=-1, keepdims=True)
