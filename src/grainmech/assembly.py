@@ -191,8 +191,8 @@ class ContactSet:
         if not np.isfinite(branch_length) or branch_length <= 0:
             raise GrainmechError(f"branch_length must be > 0, got {branch_length!r}")
         normals, w = density.directions(extra_degree)
-        kn_v = kn(normals) if callable(kn) else kn
-        ks_v = ks(normals) if callable(ks) else ks
+        kn_v = np.asarray(kn(normals) if callable(kn) else kn, dtype=float)
+        ks_v = np.asarray(ks(normals) if callable(ks) else ks, dtype=float)
         return cls(normals, branch_length * normals, contacts_per_volume * np.asarray(w),
                    kn_v, ks_v, convention)
 

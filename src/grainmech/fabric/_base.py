@@ -78,6 +78,8 @@ class DensityBase:
     """Common API of :class:`SphericalDensity` and :class:`FourierDensity`."""
 
     dim: ClassVar[int] = 0
+    #: expansion order (a dataclass field of each subclass)
+    order: int
 
     # ---- hooks (subclasses also define the dataclass field ``order: int``) -----------
     def _normalised(self, n: np.ndarray) -> np.ndarray:  # pragma: no cover

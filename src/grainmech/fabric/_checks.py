@@ -38,7 +38,7 @@ def as_even_order(value: object, name: str = "order") -> int:
 def as_dim(value: object, name: str = "dim") -> int:
     if isinstance(value, (bool, np.bool_)) or value not in (2, 3):
         raise ParameterError(name, value, "must be 2 or 3")
-    return int(value)  # type: ignore[arg-type]
+    return int(value)
 
 
 def as_finite_array(value: object, name: str) -> np.ndarray:

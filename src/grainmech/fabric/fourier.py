@@ -27,7 +27,7 @@ Moment property: ``a_k = 2 E[cos k theta]``, ``b_k = 2 E[sin k theta]``.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -59,7 +59,8 @@ class FourierDensity(DensityBase):
     b: np.ndarray
     allow_negative: bool = False
 
-    dim = 2  # type: ignore[misc]
+    dim = 2
+    _k: np.ndarray = field(init=False, repr=False, compare=False)  # degrees 2, 4, ..., order
 
     def __post_init__(self) -> None:
         L = _checks.as_even_order(self.order)
@@ -140,12 +141,12 @@ class FourierDensity(DensityBase):
         L = kmax if order is None else _checks.as_even_order(order)
         if L < kmax:
             raise ParameterError("order", order, f"smaller than the highest degree given ({kmax})")
-        a = np.zeros(L // 2)
-        b = np.zeros(L // 2)
+        a_k = np.zeros(L // 2)
+        b_k = np.zeros(L // 2)
         for k, (ak, bk) in parsed.items():
-            a[k // 2 - 1] = ak
-            b[k // 2 - 1] = bk
-        return cls(order=L, a=a, b=b, allow_negative=allow_negative)
+            a_k[k // 2 - 1] = ak
+            b_k[k // 2 - 1] = bk
+        return cls(order=L, a=a_k, b=b_k, allow_negative=allow_negative)
 
     def seed_coefficients(self) -> dict[int, tuple[float, float]]:
         """``{k: (a_k, b_k)}`` for ``k = 2, 4, ..., order`` (Eq. 4.9)."""

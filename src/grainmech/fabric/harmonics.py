@@ -27,7 +27,7 @@ The coefficient vector is ordered by degree ``k = 2, 4, ..., L`` and, within a d
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -91,7 +91,9 @@ class SphericalDensity(DensityBase):
     coefficients: np.ndarray
     allow_negative: bool = False
 
-    dim = 3  # type: ignore[misc]
+    dim = 3
+    _ks: np.ndarray = field(init=False, repr=False, compare=False)  # degree of each coefficient
+    _ms: np.ndarray = field(init=False, repr=False, compare=False)  # order of each coefficient
 
     def __post_init__(self) -> None:
         L = _checks.as_even_order(self.order)

@@ -162,7 +162,10 @@ def symmetrize(T: object) -> np.ndarray:
         return A.copy()
     from itertools import permutations
     perms = set(permutations(range(k)))
-    return sum(np.transpose(A, p) for p in perms) / len(perms)
+    total = np.zeros_like(A)
+    for p in perms:
+        total = total + np.transpose(A, p)
+    return total / len(perms)
 
 
 def trace(T: object, times: int = 1) -> np.ndarray:
