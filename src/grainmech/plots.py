@@ -61,7 +61,7 @@ def _axes(ax: Any) -> Any:
     return plt.gca()
 
 
-def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None, component: int = 4,
+def loops(results: Sequence[Any], amplitudes: Sequence[float] | np.ndarray, *, ax: Any = None, component: int = 4,
           label: str = "xz") -> Any:
     """Stress-strain loops of cyclic runs, every amplitude on one scale: ``(tau - tau_0) /
     tau_a`` against ``gamma / gamma_a``.

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from grainmech.errors import ParameterError
 
@@ -105,7 +106,7 @@ class ModulusReduction:
         return self.G / self.G_max
 
 
-def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
+def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
                       steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
                       progress: Callable[[int, float, Any], None] | None = None,
                       raise_on_failure: bool = True, **run_options: Any) -> ModulusReduction:

@@ -232,16 +232,16 @@ class Problem:
     def m(self) -> int:
         return len(self.targets) * len(self.data)
 
-    def config_at(self, x: Sequence[float]) -> dict:
+    def config_at(self, x: Sequence[float] | np.ndarray) -> dict:
         cfg = copy.deepcopy(self.model)
         for p, v in zip(self.parameters, x):
             set_path(cfg, p.path, config_value(v, p.si_unit))
         return cfg
 
-    def predict(self, x: Sequence[float], validate: bool = False) -> dict[str, np.ndarray]:
+    def predict(self, x: Sequence[float] | np.ndarray, validate: bool = False) -> dict[str, np.ndarray]:
         return predict(self.kind, self.config_at(x), self.data, self.settings, validate=validate)
 
-    def residuals(self, x: Sequence[float], validate: bool = False) -> np.ndarray:
+    def residuals(self, x: Sequence[float] | np.ndarray, validate: bool = False) -> np.ndarray:
         pred = self.predict(x, validate)
         r = np.concatenate([(pred[t] - self.data[t]) / self.scales[t] for t in self.targets])
         if not np.all(np.isfinite(r)):
@@ -254,7 +254,7 @@ class Problem:
     def t_of(self, x: np.ndarray) -> np.ndarray:
         return np.array([p.to_internal(xi) for p, xi in zip(self.parameters, x)], dtype=float)
 
-    def describe(self, x: Sequence[float]) -> str:
+    def describe(self, x: Sequence[float] | np.ndarray) -> str:
         return ", ".join(f"{p.path} = {v / p.unit_factor:.6g}{(' ' + p.unit) if p.unit else ''}"
                          for p, v in zip(self.parameters, x))
 
@@ -277,7 +277,7 @@ def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = 
     params = [parse_parameter(Section(p, f"parameters[{i}]")) for i, p in enumerate(raw_params)]
     fsec = root.section("fit", {})
     error = fsec.choice("error", ERRORS, "relative")
-    kw = dict(max_evaluations=fsec.integer("max_evaluations", 200, min=1),
+    kw: dict[str, Any] = dict(max_evaluations=fsec.integer("max_evaluations", 200, min=1),
               ftol=fsec.number("ftol", None, 1e-10, min=0), xtol=fsec.number("xtol", None, 1e-10, min=0),
               gtol=fsec.number("gtol", None, 1e-10, min=0),
               diff_step=fsec.number("diff_step", None, None, min=0, min_inclusive=False),
@@ -439,7 +439,7 @@ def uncertainty(J: np.ndarray, r: np.ndarray, names: Sequence[str], rcond: float
     norms = np.linalg.norm(J, axis=0)
     ident = norms > 0
     combos: list[dict] = []
-    for j in np.flatnonzero(~ident):
+    for j in np.flatnonzero(~ident).tolist():
         combos.append({names[j]: 1.0})
         notes.append(f"{names[j]} does not change the predictions at all: not identifiable from these data")
     Js = J[:, ident] / norms[ident]
@@ -479,8 +479,9 @@ def uncertainty(J: np.ndarray, r: np.ndarray, names: Sequence[str], rcond: float
     corr = np.full((n, n), math.nan)
     for a in range(n):
         for b in range(n):
-            if se[a] and se[b]:
-                corr[a, b] = cov[a, b] / (se[a] * se[b])
+            sa, sb = se[a], se[b]
+            if sa and sb:
+                corr[a, b] = cov[a, b] / (sa * sb)
     return dict(rss=rss, dof=dof, s2=s2, cov=cov, std_error=se, std_error_unscaled=se_unscaled, correlation=corr,
                 identifiable=[bool(v) for v in ident], singular_values=sv_out, unidentified=combos, notes=notes)
 

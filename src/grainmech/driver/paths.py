@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from grainmech.errors import ParameterError
 
@@ -130,7 +131,7 @@ def _nsteps(n: int, name: str = "n_steps") -> int:
     return int(n)
 
 
-def segment(control: Control | str, change: Sequence[float], n_steps: int) -> LoadPath:
+def segment(control: Control | str, change: ArrayLike, n_steps: int) -> LoadPath:
     """Linear segment: the controlled components change by ``change`` (6,) in ``n_steps`` equal steps."""
     c = _control(control)
     n = _nsteps(n_steps)
@@ -154,7 +155,7 @@ def _wave(n_cycles: int, steps_per_cycle: int, waveform: str) -> np.ndarray:
     return np.where(ph <= 0.25, 4 * ph, np.where(ph <= 0.75, 2 - 4 * ph, 4 * ph - 4))
 
 
-def cycles(control: Control | str, direction: Sequence[float], amplitude: float, n_cycles: int,
+def cycles(control: Control | str, direction: ArrayLike, amplitude: float, n_cycles: int,
            steps_per_cycle: int, waveform: str = "triangle") -> LoadPath:
     """Symmetric cycles ``x(t) = x0 + amplitude * wave(t) * direction`` starting at the current value.
 

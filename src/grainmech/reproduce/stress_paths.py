@@ -56,7 +56,7 @@ def _setup(extra_degree: int):
 
 @lru_cache(maxsize=8)
 def compute(ratios: tuple[float, ...] = RATIOS, n_steps: int = 36,
-            extra_degree: int = INPUTS["extra_degree"]) -> dict[str, np.ndarray]:
+            extra_degree: int = int(INPUTS["extra_degree"])) -> dict[str, np.ndarray]:
     """Moduli and sliding fractions on the three paths, by both methods (long table).
 
     Parameters

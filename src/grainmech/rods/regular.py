@@ -86,7 +86,9 @@ def _pairs_by_images(lattice: np.ndarray, pos: np.ndarray, cutoff: float
                         continue  # self, and each self-image pair once
                     l_ = pos[j] + shift - pos[i]
                     if np.linalg.norm(l_) <= cutoff:
-                        I.append(i), J.append(j), L.append(l_)
+                        I.append(i)
+                        J.append(j)
+                        L.append(l_)
     return np.array(I, dtype=int), np.array(J, dtype=int), np.array(L, dtype=float).reshape(-1, 2)
 
 
@@ -192,7 +194,8 @@ class PeriodicRods:
             raise GrainmechError(f"packing {self.name}: no contacts")
         r = np.asarray(self.diameters, dtype=float) / 2
         n = l_ / np.linalg.norm(l_, axis=1)[:, None]
-        return RodContactSet(n, scale * l_, 1.0 / (scale ** 2 * self.cell_area), 0.0, 0.0,
+        w = np.asarray(1.0 / (scale ** 2 * self.cell_area))  # one weight for every contact (0-d: broadcast)
+        return RodContactSet(n, scale * l_, w, np.zeros(len(i)), np.zeros(len(i)),
                              "physical", radius1=scale * r[i], radius2=scale * r[j],
                              particles=len(r), cell_area=scale ** 2 * self.cell_area,
                              solid_area=scale ** 2 * self.solid_area)
