@@ -35,6 +35,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from types import ModuleType
 
 from grainmech.errors import GrainmechError
 
@@ -81,6 +82,7 @@ class _Lock:
             "wait for it to finish or choose another folder with -o")
 
     def acquire(self) -> None:
+        fcntl: ModuleType | None
         try:
             import fcntl
         except ImportError:  # pragma: no cover (not POSIX)

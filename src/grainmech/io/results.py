@@ -13,7 +13,7 @@ import os
 import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
@@ -53,8 +53,9 @@ def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool =
     p = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     try:
-        with os.fdopen(fd, "wb" if binary else "w",
-                       **({} if binary else {"newline": newline, "encoding": "utf-8"})) as fh:
+        fh: IO[Any] = (os.fdopen(fd, "wb") if binary
+                       else os.fdopen(fd, "w", newline=newline, encoding="utf-8"))
+        with fh:
             writer(fh)
         _chmod_default(tmp)
         os.replace(tmp, p)

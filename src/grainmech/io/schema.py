@@ -55,13 +55,14 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
             raise ConfigError(key, str(path), "file not found") from None
         except (OSError, ValueError) as exc:
             raise ConfigError(key, str(path), f"cannot read the .npy file ({exc})") from None
-        lines = np.arange(1, len(arr) + 1) if np.ndim(arr) == 2 else None
+        lines: list[int] | None = list(range(1, len(arr) + 1)) if np.ndim(arr) == 2 else None
     else:
         try:
             text = read_text_file(p, "normals")
         except GrainmechError as exc:
             raise ConfigError(key, str(path), str(exc)) from None
-        rows, lines = [], []
+        rows: list[list[float]] = []
+        lines = []
         for i, line in enumerate(text.splitlines(), 1):
             t = line.split("#", 1)[0].strip()
             if not t:
@@ -79,7 +80,6 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
         if len({len(r) for r in rows}) != 1:
             raise ConfigError(key, str(path), "every row needs the same number of columns (2 or 3)")
         arr = np.array(rows, dtype=float)
-        lines = np.array(lines)
     if np.ndim(arr) != 2 or arr.shape[1] not in (2, 3):
         raise ConfigError(key, str(path), f"needs 2 or 3 columns (components of each normal), got shape "
                           f"{np.shape(arr)}")
@@ -128,7 +128,7 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
             return fabric.isotropic(dim)
         with sec.checked({"N": "tensor"}):
             return fabric.density_from_fabric_tensor(N)
-    vals = {k: sec.number(k, None, 0.0) for k in names}
+    vals: dict[str, Any] = {k: sec.number(k, None, 0.0) for k in names}
     if not any(vals.values()):
         # the isotropic density has order 0: quadrature rules are chosen by the order of
         # density x integrand, so an order-2 density with zero coefficients would cost
@@ -188,10 +188,13 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
     n = cs.number("n", None, 0.0)
     p_ref = cs.number("p_ref", "Pa", 101325.0, min=0, min_inclusive=False)
     cs.finish()
-    if n != 0.0 and pressure is None:
+    if n == 0.0:
+        m = a - b * void_ratio
+    elif pressure is None:
         raise ConfigError(sec.key("coordination"), coord, "a relation with n != 0 needs the mean stress: "
                           "give [stress] pressure (stiffness) or [initial] pressure (run)")
-    m = (a - b * void_ratio) * ((pressure / p_ref) ** n if n != 0.0 else 1.0)
+    else:
+        m = (a - b * void_ratio) * (pressure / p_ref) ** n
     if not np.isfinite(m) or m <= 0:
         raise ConfigError(sec.key("coordination"), coord, f"gives coordination m = {m:.4g} at void ratio "
                           f"{void_ratio:g}" + ("" if pressure is None else f" and mean stress {pressure:.4g} Pa")
@@ -356,7 +359,7 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
     nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
     if radius is None:
         R1 = sec.number("radius", "m", min=0, min_inclusive=False)
-        second = (sec.number("radius2", "m", None, min=0, min_inclusive=False),
+        second: tuple[float | None, float | None, float | None] = (sec.number("radius2", "m", None, min=0, min_inclusive=False),
                   sec.number("shear_modulus2", "Pa", None, min=0, min_inclusive=False),
                   sec.number("poisson2", None, None, min=-1, max=0.5, min_inclusive=False,
                              max_inclusive=False))
@@ -520,7 +523,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
 
     m = root.section("material", {})
     mat = MATERIALS[m.choice("name", tuple(MATERIALS), "quartz")]
-    fields = {}
+    fields: dict[str, Any] = {}
     for k, unit, lo, hi in (("shear_modulus", "Pa", 0, None), ("poisson", None, -1, 0.5),
                             ("density", "kg/m^3", 0, None), ("friction", None, 0, None),
                             ("restitution", None, 0, 1)):
@@ -537,9 +540,11 @@ def build_pack_config(cfg: dict) -> PackConfig:
     if isinstance(raw, list):
         if len(raw) != 3:
             raise ConfigError(pr.key("stress"), raw, "give one stress or three principal stresses (x, y, z)")
-        stress = tuple(to_float(v, "Pa", f"{pr.key('stress')}[{i}]") for i, v in enumerate(raw))
+        sx, sy, sz = (to_float(v, "Pa", f"{pr.key('stress')}[{i}]") for i, v in enumerate(raw))
+        stress = (sx, sy, sz)
     else:
-        stress = (to_float(raw, "Pa", pr.key("stress")),) * 3
+        s0 = to_float(raw, "Pa", pr.key("stress"))
+        stress = (s0, s0, s0)
     if not all(s > 0 for s in stress):
         raise ConfigError(pr.key("stress"), raw, "must be positive (compression positive)")
     kw: dict[str, Any] = {}

@@ -188,6 +188,23 @@ class ContactNetwork:
             self._cache["n"] = self.branch / self.branch_length[:, None]
         return self._cache["n"]
 
+    def require_radii(self, what: str) -> np.ndarray:
+        """Particle radii (P,) [length], or an error saying that ``what`` needs them.
+
+        Parameters
+        ----------
+        what : str
+            The computation that needs the radii, for the message.
+
+        Raises
+        ------
+        GrainmechError
+            If the network has no radii (e.g. a contact file read without particles).
+        """
+        if self.radii is None:
+            raise GrainmechError(f"{what} needs the particle radii, which this network ({self.source}) lacks")
+        return self.radii
+
     @property
     def normal_force(self) -> np.ndarray:
         """Normal force ``N = f . n`` (compression positive), (C,)."""

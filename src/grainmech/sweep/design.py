@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ConfigError, ParameterError
 from grainmech.io.units import ANGLE_UNITS as _ANGLES
 
 __all__ = ["SweepParameter", "parse_parameter", "grid", "latin_hypercube", "monte_carlo", "make_design",
@@ -144,7 +144,9 @@ class SweepParameter:
     def grid_values(self) -> list:
         if self.values is not None:
             return list(self.values)
-        n = int(self.num)  # checked by parse_parameter
+        if self.num is None:
+            raise ParameterError("num", None, f"parameter {self.key!r}: a min/max range needs num (points)")
+        n = int(self.num)
         if n == 1:
             return [self.lo]
         if self.scale == "log":
@@ -269,10 +271,12 @@ def monte_carlo(params: Sequence[SweepParameter], n: int, seed: int) -> list[tup
 def make_design(design: str, params: Sequence[SweepParameter], samples: int | None = None,
                 seed: int = 0) -> list[tuple]:
     """Points (one tuple of values per point, in parameter order) of a design."""
+    if design not in DESIGNS:
+        raise ConfigError("sweep.design", design, f"must be one of {', '.join(map(repr, DESIGNS))}")
     if design == "grid":
         return grid(params)
+    if samples is None:
+        raise ParameterError("samples", None, f"design {design!r} needs the number of samples")
     if design == "latin-hypercube":
         return latin_hypercube(params, int(samples), seed)
-    if design == "monte-carlo":
-        return monte_carlo(params, int(samples), seed)
-    raise ConfigError("sweep.design", design, f"must be one of {', '.join(map(repr, DESIGNS))}")
+    return monte_carlo(params, int(samples), seed)
