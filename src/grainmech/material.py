@@ -22,7 +22,7 @@ from grainmech.errors import GrainmechError, ParameterError
 __all__ = [
     "Packing",
     "ContactStiffness",
-    "HertzMindlinStiffness",
+    "HertzMindlinStiffness",  # noqa: F822 - resolved lazily by the module's __getattr__
     "normal_forces_for_stress",
     "StiffnessResult",
     "packing_stiffness",
@@ -225,7 +225,8 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         raise GrainmechError(
-            f"contact stiffness is not finite (kn = {float(np.asarray(kn)[i]):.4g}, ks = {float(np.asarray(ks)[i]):.4g} "
+            f"contact stiffness is not finite (kn = {float(np.asarray(kn)[i]):.4g}, "
+            f"ks = {float(np.asarray(ks)[i]):.4g} "
             f"at normal force {N[i]:.4g}): the inputs overflow; check radius ({packing.radius:.4g}), "
             "void_ratio, coordination, shear_modulus, poisson and the pressure for a consistent unit system")
     cs = geom.with_stiffness(kn, ks)

@@ -180,7 +180,8 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
             try:
                 v = float(c)
             except ValueError:
-                raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r} is not a number") from None
+                raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r} "
+                                     "is not a number") from None
             if not math.isfinite(v):
                 raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r} is not finite")
             if h.startswith("sd_") and v <= 0:

@@ -62,7 +62,8 @@ def main(args: argparse.Namespace) -> int:
         det = o.details
         if det and "grains" in det:
             say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
-                f"{det['void_ratio']:.3f}; largest out-of-balance force ratio {det.get('max_residual', float('nan')):.2g}")
+                f"{det['void_ratio']:.3f}; largest out-of-balance force ratio "
+                f"{det.get('max_residual', float('nan')):.2g}")
         if isinstance(o, CyclicOutcome) and len(o.G):
             say(f"  Gmax = {o.G_max:.4g} Pa")
             emp = o.empirical_G_max

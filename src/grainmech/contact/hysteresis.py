@@ -9,6 +9,8 @@ implements the same algorithm and is held to this one by tests.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from grainmech.contact._errors import ReversalMemoryError
@@ -179,8 +181,8 @@ def _g_of_y(y: np.ndarray, p: float) -> np.ndarray:
     return np.maximum(np.where(eps < 0.02, ser, direct), 0.0)
 
 
-def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray, N0: np.ndarray,
-               N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
+def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray,
+               N0: np.ndarray, N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
                virgin_reset: np.ndarray) -> _LawOut:
     """Hysteretic law in 3D: scalar law along the memory axis, elastic across (module notes)."""
     n, dim = T0.shape
@@ -474,12 +476,14 @@ def _falling_n(params: ContactParams, mu: float, p: float, m_exp: float, stack: 
         n_slide = np.where(sliding_now, na, n_slide)
         n_erase = np.where((kk > 0) & (z0 > 0.5), na * np.clip(2.0 * z0 - 1.0, 0.0, 1.0) ** m_exp, 0.0)
 
-        def zfun(Nv: np.ndarray, sel=slice(None)) -> np.ndarray:
+        # this pass's arrays are bound as defaults: the functions belong to this pass
+        def zfun(Nv: np.ndarray, sel: Any = slice(None), na: np.ndarray = na, c: np.ndarray = c,
+                 z0: np.ndarray = z0) -> np.ndarray:
             with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
                 ratio = (na[sel] / np.maximum(Nv, 1e-300)) ** q
             return np.clip(1.0 / c[sel] + (z0[sel] - 1.0 / c[sel]) * ratio, 0.0, 1.0)
 
-        def Qfun(Nv: np.ndarray, sel=slice(None)) -> np.ndarray:
+        def Qfun(Nv: np.ndarray, sel: Any = slice(None), c: np.ndarray = c, Pt: np.ndarray = Pt) -> np.ndarray:
             return c[sel] * mu * Nv * zfun(Nv, sel) ** m_exp - Pt[sel]
 
         # Masing target reached while N falls (Q decreases monotonically with N): bisection

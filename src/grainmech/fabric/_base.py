@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from grainmech.conventions import seed_angles, seed_theta
-from grainmech.errors import ParameterError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric import tensors as _t
 from grainmech.fabric.quadrature import unit_rule

@@ -44,7 +44,7 @@ from typing import Literal
 import numpy as np
 from scipy.stats import chi2 as _chi2
 
-from grainmech.errors import ParameterError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric import tensors as _t
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum

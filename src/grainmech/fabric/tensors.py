@@ -372,7 +372,7 @@ def fabric_from_phi(phis: Mapping[int, object], rank: int, dim: int | None = Non
     top = max(ph, default=0)
     pts, w = unit_rule(d, rank + top)
     f = np.ones(len(w))
-    for k, A in ph.items():
+    for A in ph.values():
         f = f + contract_normals(A, pts)
     N = (w * f) @ outer_power(pts, rank)
     return N.reshape((d,) * rank)

@@ -33,8 +33,9 @@ import numpy as np
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.config import Section
 
-__all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress", "build_pressure", "LAWS",
-           "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial", "ContactSegment"]
+__all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress",
+           "build_pressure", "LAWS", "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial",
+           "ContactSegment"]
 
 SEED_3D = ("a20", "a22", "b22")
 SEED_2D = ("a2", "b2", "a4", "b4")
@@ -114,7 +115,8 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
             raise ConfigError(sec.key(k), sec.data[k], f"is a {'2D' if dim == 3 else '3D'} parameter but dim = {dim}")
     if sec.has("tensor"):
         if any(sec.has(k) for k in names):
-            raise ConfigError(sec.key("tensor"), sec.data["tensor"], f"give either tensor or {', '.join(names)}, not both")
+            raise ConfigError(sec.key("tensor"), sec.data["tensor"],
+                              f"give either tensor or {', '.join(names)}, not both")
         raw = sec.raw("tensor")
         try:
             N = np.asarray(raw, dtype=float)
@@ -359,7 +361,8 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
     nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
     if radius is None:
         R1 = sec.number("radius", "m", min=0, min_inclusive=False)
-        second: tuple[float | None, float | None, float | None] = (sec.number("radius2", "m", None, min=0, min_inclusive=False),
+        second: tuple[float | None, float | None, float | None]
+        second = (sec.number("radius2", "m", None, min=0, min_inclusive=False),
                   sec.number("shear_modulus2", "Pa", None, min=0, min_inclusive=False),
                   sec.number("poisson2", None, None, min=-1, max=0.5, min_inclusive=False,
                              max_inclusive=False))

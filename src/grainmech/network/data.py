@@ -213,7 +213,9 @@ class ContactNetwork:
     def subset(self, contacts: np.ndarray) -> ContactNetwork:
         """The same particles with only the selected contacts (bool mask or indices)."""
         sel = np.asarray(contacts)
-        pick = (lambda a: None if a is None else a[sel])
+        def pick(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else a[sel]
+
         return ContactNetwork(self.ids, self.positions, self.radii, self.box, self.i[sel], self.j[sel],
                               self.force[sel], self.branch[sel], pick(self.overlap),
                               pick(self.contact_point), pick(self.kn), pick(self.ks), self.source)

@@ -219,7 +219,8 @@ def network_report(net: ContactNetwork, *, shear_modulus: float | None = None, p
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fit = fit_density(net.normals, fit_order, on_negative="allow")
-    base: dict[str, Any] = dict(source=net.source, n_particles=net.n_particles, n_contacts=net.n_contacts, volume=net.volume,
+    base: dict[str, Any] = dict(source=net.source, n_particles=net.n_particles, n_contacts=net.n_contacts,
+                                volume=net.volume,
                 box=net.box, stress=st, fabric=fab, fit=fit, fit_order=fit_order, coordination=co,
                 order=tuple(order_for(d)), min_contacts=int(min_contacts))
     have_law = (shear_modulus is not None and poisson is not None) or kn is not None or \

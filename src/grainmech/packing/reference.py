@@ -306,7 +306,7 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
                 path += list(np.linspace(a, -a, 2 * q + 1)[1:]) + list(np.linspace(-a, a, 2 * q + 1)[1:])
             gam, tau = [], []
             base = _voigt(np.asarray(network_stress(ref).stress))
-            for k, g in enumerate(path):
+            for g in path:
                 de = np.zeros(6)
                 de[5] = g - g_now
                 _ramp(s, de, ramp_steps)
