@@ -226,6 +226,7 @@ class HertzMindlinIsotropic:
     convention: str
 
     def as_dict(self) -> dict:
+        """The fields as a plain dict."""
         return asdict(self)
 
 

@@ -71,6 +71,7 @@ class Packing:
 
     @property
     def dim(self) -> int:
+        """Space dimension of the fabric (2 or 3)."""
         return int(self.density.dim)
 
     @classmethod
@@ -98,7 +99,9 @@ class Packing:
 class ContactStiffness(Protocol):
     """Anything giving tangent contact stiffnesses from normal forces (array -> (kn, ks))."""
 
-    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tangent stiffnesses ``(kn, ks)`` [N/m], each shaped like ``normal_force`` [N]."""
+        ...
 
 
 def __getattr__(name: str) -> Any:

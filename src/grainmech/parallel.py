@@ -33,9 +33,7 @@ _ONE_THREAD = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREAD
 
 
 def import_distributed() -> Any:
-    """Import and return :mod:`distributed`, or raise a :class:`GrainmechError` telling
-    the user how to install it.
-    """
+    """Import and return :mod:`distributed`, or raise a :class:`GrainmechError` telling the user how to install it."""
     try:
         import distributed  # noqa: PLC0415 (optional dependency, imported lazily)
     except ImportError as exc:

@@ -103,6 +103,7 @@ class ModulusReduction:
 
     @property
     def G_ratio(self) -> np.ndarray:
+        """Secant modulus ratio ``G / G_max`` [-] per amplitude, shape (n_amplitudes,)."""
         return self.G / self.G_max
 
 

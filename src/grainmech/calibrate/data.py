@@ -80,6 +80,7 @@ class Dataset:
         return int(self.lines.size)
 
     def has(self, name: str) -> bool:
+        """Whether the table has the column ``name``."""
         return name in self.columns
 
     def __getitem__(self, name: str) -> np.ndarray:

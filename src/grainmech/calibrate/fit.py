@@ -104,12 +104,14 @@ class FitParameter:
     si_unit: str = ""
 
     def to_internal(self, x: np.ndarray | float) -> np.ndarray:
+        """Map values ``x`` (SI) to the optimiser's coordinate ``t`` in [0, 1] (linear or log scale)."""
         x = np.asarray(x, dtype=float)
         if self.log:
             return (np.log(x) - math.log(self.lower)) / (math.log(self.upper) - math.log(self.lower))
         return (x - self.lower) / (self.upper - self.lower)
 
     def from_internal(self, t: np.ndarray | float) -> np.ndarray:
+        """Map the optimiser's coordinate ``t`` in [0, 1] back to values (SI); inverse of :meth:`to_internal`."""
         t = np.asarray(t, dtype=float)
         if self.log:
             return np.exp(math.log(self.lower) + t * (math.log(self.upper) - math.log(self.lower)))
@@ -230,18 +232,28 @@ class Problem:
 
     @property
     def m(self) -> int:
+        """Number of residuals: targets x data rows."""
         return len(self.targets) * len(self.data)
 
     def config_at(self, x: Sequence[float] | np.ndarray) -> dict:
+        """The model config with the parameter values ``x`` (SI, parameter order) written at their paths."""
         cfg = copy.deepcopy(self.model)
         for p, v in zip(self.parameters, x):
             set_path(cfg, p.path, config_value(v, p.si_unit))
         return cfg
 
     def predict(self, x: Sequence[float] | np.ndarray, validate: bool = False) -> dict[str, np.ndarray]:
+        """Model predictions ``{target: array (rows,)}`` at parameter values ``x`` (SI)."""
         return predict(self.kind, self.config_at(x), self.data, self.settings, validate=validate)
 
     def residuals(self, x: Sequence[float] | np.ndarray, validate: bool = False) -> np.ndarray:
+        """Scaled residuals ``(prediction - data) / scale`` of every target, shape (m,).
+
+        Raises
+        ------
+        GrainmechError
+            If the model gives non-finite predictions at ``x``.
+        """
         pred = self.predict(x, validate)
         r = np.concatenate([(pred[t] - self.data[t]) / self.scales[t] for t in self.targets])
         if not np.all(np.isfinite(r)):
@@ -249,12 +261,15 @@ class Problem:
         return r
 
     def x_of(self, t: np.ndarray) -> np.ndarray:
+        """Parameter values (SI), shape (n,), from optimiser coordinates ``t`` (n,)."""
         return np.array([p.from_internal(ti) for p, ti in zip(self.parameters, t)], dtype=float)
 
     def t_of(self, x: np.ndarray) -> np.ndarray:
+        """Optimiser coordinates, shape (n,), from parameter values ``x`` (SI) (n,)."""
         return np.array([p.to_internal(xi) for p, xi in zip(self.parameters, x)], dtype=float)
 
     def describe(self, x: Sequence[float] | np.ndarray) -> str:
+        """``"path = value unit, ..."`` of the parameter values ``x`` in their display units."""
         return ", ".join(f"{p.path} = {v / p.unit_factor:.6g}{(' ' + p.unit) if p.unit else ''}"
                          for p, v in zip(self.parameters, x))
 
@@ -378,12 +393,15 @@ class FitResult:
 
     @property
     def success(self) -> bool:
+        """Whether the least-squares solver reported convergence (``status > 0``)."""
         return self.status > 0
 
     def value(self, path: str) -> float:
+        """Fitted value (SI) of the parameter at config path ``path``."""
         return float(self.x[[p.path for p in self.problem.parameters].index(path)])
 
     def std_error(self, path: str) -> float | None:
+        """Standard error (SI) of the parameter at ``path``, or None where it is not identifiable."""
         return self.stats["std_error"][[p.path for p in self.problem.parameters].index(path)]
 
 

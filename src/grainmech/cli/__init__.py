@@ -24,6 +24,7 @@ _COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibr
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``grainmech`` argument parser with every sub-command registered."""
     parser = argparse.ArgumentParser(
         prog="grainmech",
         description="Stiffness, fabric and cyclic behaviour of granular materials from "
@@ -58,6 +59,14 @@ def _quiet_broken_pipe() -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv`` (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status: 0 success, 2 input error (one line on stderr, no traceback
+        unless ``--debug``), 130 interrupted.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

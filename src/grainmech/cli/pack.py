@@ -17,6 +17,7 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech pack`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser("pack", help="prepare a periodic sphere packing at a target stress (LAMMPS)",
@@ -29,6 +30,14 @@ def register(sub: Any) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run ``grainmech pack`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.io.config import load_toml, read_text_file
     from grainmech.io.packing import write_pack_outputs
     from grainmech.jobs import pack_job

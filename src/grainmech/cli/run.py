@@ -17,6 +17,7 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech run`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser("run", help="drive a material point along a loading path (default: cyclic simple shear)",
@@ -28,6 +29,14 @@ def register(sub: Any) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run ``grainmech run`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.io.config import load_toml
     from grainmech.io.outdir import output_folder
     from grainmech.io.reports import write_run_outputs

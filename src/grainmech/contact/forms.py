@@ -59,15 +59,19 @@ class LawForms:
         return float(self.params.stiffness_ratio)
 
     def normal_force(self, alpha: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Normal force [N] (rods: [N/m]) at approach ``alpha`` [m], same shape."""
         raise NotImplementedError
 
     def approach_from_force(self, N: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Approach [m] at normal force ``N`` [N] (rods: [N/m]); inverse of :meth:`normal_force`."""
         raise NotImplementedError
 
     def kn(self, N: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Normal tangent stiffness ``dN/dalpha`` [N/m] at normal force ``N``, same shape."""
         raise NotImplementedError
 
     def kt0(self, N: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """No-slip tangential stiffness ``kt0`` [N/m] at normal force ``N``, same shape."""
         raise NotImplementedError
 
     def normal_energy(self, N: np.ndarray, alpha: np.ndarray) -> np.ndarray:

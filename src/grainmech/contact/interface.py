@@ -119,6 +119,7 @@ class ContactLaw:
 
     @property
     def friction(self) -> float:
+        """Coulomb coefficient ``mu`` of the law (``inf`` for no sliding)."""
         return float(self.params.friction)
 
     @property

@@ -55,10 +55,12 @@ class ContactState(NamedTuple):
 
     @property
     def n_contacts(self) -> int:
+        """Number of contacts ``n``."""
         return int(self.approach.shape[0])
 
     @property
     def dim(self) -> int:
+        """Dimension of the tangential vectors (2 or 3)."""
         return int(self.tangential_force.shape[1])
 
     @property

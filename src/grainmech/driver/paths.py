@@ -64,14 +64,17 @@ class Control:
 
     @property
     def array(self) -> np.ndarray:
+        """The mask as a bool array, shape (6,) (True: stress-controlled)."""
         return np.array(self.stress, dtype=bool)
 
     @classmethod
     def all_strain(cls) -> Control:
+        """Every component strain-controlled."""
         return cls((False,) * 6)
 
     @classmethod
     def all_stress(cls) -> Control:
+        """Every component stress-controlled."""
         return cls((True,) * 6)
 
     def __str__(self) -> str:

@@ -80,9 +80,7 @@ class EngineeringConstants:
         _floats(self)
 
     def as_dict(self) -> dict[str, float]:
-        """Constants under the attribute names ``E_xx, E_yy, E_zz, nu_xy, ..., G_xy`` +
-        the couplings.
-        """
+        """Constants under the attribute names ``E_xx, E_yy, E_zz, nu_xy, ..., G_xy`` + the couplings."""
         return _as_dict(self)
 
 
@@ -115,9 +113,7 @@ class PlaneEngineeringConstants:
         _floats(self)
 
     def as_dict(self) -> dict[str, float]:
-        """Constants under the attribute names ``E_xx, E_yy, nu_xy, nu_yx, G_xy`` + the
-        couplings.
-        """
+        """Constants under the attribute names ``E_xx, E_yy, nu_xy, nu_yx, G_xy`` + the couplings."""
         return _as_dict(self)
 
 

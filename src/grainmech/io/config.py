@@ -60,12 +60,21 @@ class Section:
         self._children: list[Section] = []
 
     def key(self, k: str) -> str:
+        """Dotted key of ``k`` in this section, for messages (``section.k``)."""
         return f"{self.name}.{k}" if self.name else k
 
     def has(self, k: str) -> bool:
+        """Whether the section has the key ``k``."""
         return k in self.data
 
     def raw(self, k: str, default: Any = _MISSING) -> Any:
+        """The value of ``k`` as written (no conversion), or ``default``; marks ``k`` as read.
+
+        Raises
+        ------
+        ConfigError
+            If ``k`` is missing and there is no default (naming a likely misspelling).
+        """
         self._used.add(k)
         if k not in self.data:
             if default is _MISSING:
@@ -118,6 +127,7 @@ class Section:
         return x
 
     def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None) -> int:
+        """The integer at ``k`` (``>= min`` if given), or ``default``; a ConfigError names the key otherwise."""
         v = self.raw(k, default)
         if v is default and default is not _MISSING:
             return v
@@ -128,6 +138,7 @@ class Section:
         return v
 
     def choice(self, k: str, options: Iterable[str], default: Any = _MISSING) -> str:
+        """The value at ``k``, one of ``options``, or ``default``; a ConfigError lists the options otherwise."""
         opts = tuple(options)
         v = self.raw(k, default)
         if v not in opts:
@@ -135,12 +146,14 @@ class Section:
         return v
 
     def boolean(self, k: str, default: Any = _MISSING) -> bool:
+        """The boolean at ``k`` (TOML true/false), or ``default``."""
         v = self.raw(k, default)
         if not isinstance(v, bool):
             raise ConfigError(self.key(k), v, "expected true or false")
         return v
 
     def section(self, k: str, default: Any = _MISSING) -> Section:
+        """The sub-table at ``k`` as a :class:`Section` (its keys are checked by :meth:`finish`)."""
         v = self.raw(k, default)
         child = Section(v, self.key(k))
         self._children.append(child)

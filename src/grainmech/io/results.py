@@ -25,6 +25,7 @@ __all__ = ["atomic_write", "write_text", "write_json", "write_csv", "write_npz",
 
 
 def ensure_dir(path: str | Path) -> Path:
+    """Create the folder ``path`` (and parents) if needed; an existing non-folder is an error."""
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise GrainmechError(f"output path exists and is not a directory: {p}")
@@ -69,6 +70,7 @@ def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool =
 
 
 def write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically (:func:`atomic_write`)."""
     return atomic_write(path, lambda fh: fh.write(text))
 
 
@@ -95,6 +97,7 @@ def write_json(path: str | Path, obj: Any) -> Path:
 
 
 def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> Path:
+    """Write a CSV file (one ``header`` row, then ``rows``) atomically."""
     def w(fh: Any) -> None:
         wr = csv.writer(fh)
         wr.writerow(header)
@@ -114,6 +117,7 @@ def write_figure(path: str | Path, fig: Any, dpi: int = 120) -> Path:
 
 
 def write_npz(path: str | Path, **arrays: Any) -> Path:
+    """Write ``arrays`` to a compressed ``.npz`` file atomically."""
     def w(fh: Any) -> None:
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)

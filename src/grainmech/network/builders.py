@@ -1,6 +1,4 @@
-"""Synthetic periodic contact networks (lattices, disordered packings) for tests and
-benchmarks.
-"""
+"""Synthetic periodic contact networks (lattices, disordered packings) for tests and benchmarks."""
 
 from __future__ import annotations
 

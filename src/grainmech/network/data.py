@@ -60,6 +60,7 @@ class Box:
 
     @property
     def dim(self) -> int:
+        """Space dimension (2 or 3)."""
         return int(self.origin.shape[0])
 
     @property
@@ -161,22 +162,27 @@ class ContactNetwork:
 
     @property
     def dim(self) -> int:
+        """Space dimension (2 or 3)."""
         return self.box.dim
 
     @property
     def volume(self) -> float:
+        """Volume (3D) or area (2D) of the cell [length^d]."""
         return self.box.volume
 
     @property
     def n_particles(self) -> int:
+        """Number of particles ``P``."""
         return int(len(self.ids))
 
     @property
     def n_contacts(self) -> int:
+        """Number of contacts ``C``."""
         return int(len(self.i))
 
     @property
     def branch_length(self) -> np.ndarray:
+        """Length of each branch vector, shape (C,) [length]."""
         if "L" not in self._cache:
             self._cache["L"] = np.linalg.norm(self.branch, axis=1)
         return self._cache["L"]

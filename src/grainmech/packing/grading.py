@@ -69,12 +69,15 @@ class GradingBase:
     """Common sampling of mass-based distributions (see module notes)."""
 
     def mass_cdf(self, d: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Mass fraction finer than diameter ``d`` [m] (0-1), same shape."""
         raise NotImplementedError
 
     def mass_quantile(self, q: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Diameter [m] at mass fraction ``q`` (0-1) finer; inverse of :meth:`mass_cdf`."""
         raise NotImplementedError
 
     def upper(self) -> float:  # pragma: no cover - abstract
+        """Largest diameter [m] of the distribution (a high quantile for open-ended ones)."""
         raise NotImplementedError
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0,
@@ -124,14 +127,17 @@ class SieveCurve(GradingBase):
         self.sizes, self.passing = d, p / 100.0
 
     def mass_cdf(self, d: np.ndarray) -> np.ndarray:
+        """Mass fraction finer than ``d`` [m], linear in ``log d`` between sieves."""
         return np.interp(np.log(d), np.log(self.sizes), self.passing)
 
     def mass_quantile(self, q: np.ndarray) -> np.ndarray:
         # strictly increasing part only (flat steps carry no mass)
+        """Diameter [m] at mass fraction ``q`` finer (log-linear between sieves, flat steps skipped)."""
         keep = np.concatenate([[True], np.diff(self.passing) > 0])
         return np.exp(np.interp(q, self.passing[keep], np.log(self.sizes[keep])))
 
     def upper(self) -> float:
+        """Largest sieve size [m]."""
         return float(self.sizes[-1])
 
 
@@ -149,19 +155,23 @@ class D50Cu(GradingBase):
         self.s = float(np.log(cu) / (_Z60 - _Z10))
 
     def mass_cdf(self, d: np.ndarray) -> np.ndarray:
+        """Mass fraction finer than ``d`` [m] of the log-normal mass distribution (a step for ``cu = 1``)."""
         if self.s == 0:
             return (np.asarray(d) >= self.d50).astype(float)
         return norm.cdf((np.log(d) - np.log(self.d50)) / self.s)
 
     def mass_quantile(self, q: np.ndarray) -> np.ndarray:
+        """Diameter [m] at mass fraction ``q`` finer (log-normal quantile; ``d50`` for ``cu = 1``)."""
         if self.s == 0:
             return np.full(np.shape(q), self.d50)
         return self.d50 * np.exp(self.s * norm.ppf(np.clip(q, 1e-12, 1 - 1e-12)))
 
     def upper(self) -> float:
+        """The 99.9 % mass quantile [m] (the log-normal has no largest size)."""
         return float(self.mass_quantile(np.array([0.999]))[0])
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0, pool: int = 20) -> Sample:
+        """``n`` radii [m] (one size for ``cu = 1``, else :meth:`GradingBase.sample`)."""
         if self.s == 0:
             return Sample(np.full(n, 0.5 * self.d50), self.d50, self.d50, 0.0, 0.0)
         return super().sample(n, rng, max_ratio=max_ratio, pool=pool)
@@ -180,6 +190,7 @@ class UniformRadius:
         self.radius, self.spread = float(radius), float(spread)
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0, pool: int = 20) -> Sample:
+        """``n`` radii [m], uniform by number in ``[radius (1 - spread), radius (1 + spread)]``."""
         lo, hi = self.radius * (1 - self.spread), self.radius * (1 + self.spread)
         r = rng.uniform(lo, hi, n) if self.spread > 0 else np.full(n, self.radius)
         return Sample(r, 2 * lo, 2 * hi, 0.0, 0.0)

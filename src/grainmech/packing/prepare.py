@@ -297,9 +297,10 @@ def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, saf
 
 def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.ndarray,
                  mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None) -> dict:
-    """Create the periodic triclinic cell and the grains, the granular model, integrator,
-    pressure and contact computes. ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``,
-    ``c = (xz,yz,lz)`` with the origin at 0. Returns the numerical constants used.
+    """Create the periodic triclinic cell and the grains, the granular model, integrator, pressure and contact computes.
+
+    ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``, ``c = (xz,yz,lz)`` with the origin at
+    0. Returns the numerical constants used.
     """
     n = len(radii)
     a, b, c = cell

@@ -144,8 +144,7 @@ def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
 
 
 def _ramp(s: _Session, de: np.ndarray, steps: int) -> None:
-    """Apply the grainmech strain increment ``de`` (Voigt, engineering, compression positive)
-    over ``steps`` time steps.
+    """Apply the grainmech strain increment ``de`` (Voigt, engineering, compression positive) over ``steps`` time steps.
 
     The grains get the affine velocity field of the strain rate and the cell follows with
     ``fix deform ... remap v`` (grains crossing a periodic face take the face's velocity):

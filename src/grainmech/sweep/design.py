@@ -139,9 +139,11 @@ class SweepParameter:
 
     @property
     def numeric(self) -> bool:
+        """Whether every value is a number (a range, or a list of numbers)."""
         return self.values is None or all(isinstance(v, float) for v in self.values)
 
     def grid_values(self) -> list:
+        """The values of a grid: the given list, or ``num`` points from ``min`` to ``max`` (linear or log)."""
         if self.values is not None:
             return list(self.values)
         if self.num is None:
