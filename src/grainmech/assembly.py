@@ -379,7 +379,9 @@ def _moments_to_matrices(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def moments_to_voigt(a: np.ndarray) -> np.ndarray:
-    """Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``add_moments3``
+    """Voigt stiffness (6, 6) [stress] from the 27 moments of ``add_moments3``.
+
+    Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``add_moments3``
     (seed Eq. 2.26 with the full tangential projector, symmetrised as :func:`stiffness`).
     """
     A, M = _moments_to_matrices(a)

@@ -122,7 +122,9 @@ _FAST_CLOSE = 0.5
 
 
 def _close(obj: Any, interrupted: bool) -> None:
-    """Close a client or cluster; after Ctrl-C within :data:`_FAST_CLOSE` seconds, and
+    """Close a Dask client or cluster.
+
+    Close a client or cluster; after Ctrl-C within :data:`_FAST_CLOSE` seconds, and
     without waiting for an in-process worker's running task (its thread is a daemon
     thread: it ends with the process).
     """

@@ -1,4 +1,6 @@
-"""Alias of :mod:`grainmech.elasticity` under its former name (``from grainmech.tensors
+"""Alias of :mod:`grainmech.elasticity`.
+
+Alias of :mod:`grainmech.elasticity` under its former name (``from grainmech.tensors
 import ...`` keeps working); new code imports :mod:`grainmech.elasticity`.
 """
 

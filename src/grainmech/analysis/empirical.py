@@ -263,7 +263,9 @@ SAND_PEAK_FRICTION_DEG = 50.0
 
 
 def mohr_coulomb_ratio(friction_angle: float) -> float:
-    """Largest principal stress ratio ``sigma1/sigma3 = (1 + sin phi)/(1 - sin phi)``
+    """Largest principal stress ratio on a cohesionless Mohr-Coulomb envelope.
+
+    Largest principal stress ratio ``sigma1/sigma3 = (1 + sin phi)/(1 - sin phi)``
     on a Mohr-Coulomb envelope of friction angle ``phi`` [rad] without cohesion
     (e.g. 7.55 for 50 deg, 2.62 for the contact angle atan 0.5 = 26.6 deg).
     """

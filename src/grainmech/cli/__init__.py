@@ -100,7 +100,9 @@ _NOTICE: list = []  # the one listener of this process
 
 
 def _announce_compilation() -> object | None:
-    """Say on stderr, once per process, that numba is compiling: the first run of a
+    """Say on stderr, once per process, that numba is compiling.
+
+    Say on stderr, once per process, that numba is compiling: the first run of a
     command after installing spends most of its time there, silently otherwise. Uses
     numba's compile events, which fire for a compilation and not for a cache load.
     Registers one listener per process (returned; ``None`` without numba).

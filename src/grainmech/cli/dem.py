@@ -61,7 +61,9 @@ def register(sub: Any) -> None:
 
 
 def _config(args: argparse.Namespace) -> dict:
-    """The dem job config: the ``--material`` tables plus a ``[network]`` table from the
+    """The dem job config built from the command-line arguments.
+
+    The dem job config: the ``--material`` tables plus a ``[network]`` table from the
     command-line arguments (the form a sweep's ``dem`` config has).
     """
     from grainmech.errors import ConfigError

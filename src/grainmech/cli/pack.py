@@ -1,4 +1,6 @@
-"""``grainmech pack CONFIG.toml [-o OUTDIR] [--quiet] [--no-plot]``: a periodic, mechanically
+"""``grainmech pack``: prepare a periodic sphere packing at a target stress (LAMMPS).
+
+``grainmech pack CONFIG.toml [-o OUTDIR] [--quiet] [--no-plot]``: a periodic, mechanically
 stable sphere packing at a target stress, prepared with LAMMPS (extra ``grainmech[dem]``).
 
 Writes ``contacts.npz`` and ``particles.npz`` (read by ``grainmech dem``), ``summary.json``

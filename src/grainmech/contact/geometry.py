@@ -81,7 +81,9 @@ def hertz_kn(a, E):
 
 @_jitable
 def mindlin_kt0(a, G):
-    """No-slip tangential stiffness ``kt0 = 8 G* a`` (Mindlin 1949; seed Eq. 3.11 with theta = 1,
+    """No-slip tangential stiffness ``kt0 = 8 G* a`` [N/m] (Mindlin 1949; seed Eq. 3.11-3.12).
+
+    No-slip tangential stiffness ``kt0 = 8 G* a`` (Mindlin 1949; seed Eq. 3.11 with theta = 1,
     ``G*`` of Eq. 3.12), 0 for ``a <= 0`` [N/m].
     """
     return 8.0 * G * np.maximum(a, 0.0)

@@ -324,7 +324,9 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
     k = k.copy()
 
     def reverse(mask: np.ndarray, new_dir: np.ndarray, muN: np.ndarray) -> None:
-        """Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN
+        """Start a loading branch in direction ``new_dir`` for the contacts in ``mask``.
+
+        Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN
         (``Q``, ``s``, ``k`` are modified in place).
         """
         idx = np.nonzero(mask)[0]

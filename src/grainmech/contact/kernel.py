@@ -132,7 +132,9 @@ class KernelConstants(NamedTuple):
 
 
 class KernelState(NamedTuple):
-    """State arrays of ``n`` contacts (the fields of :class:`~grainmech.contact.ContactState`
+    """State arrays of ``n`` contacts passed to the compiled kernel.
+
+    State arrays of ``n`` contacts (the fields of :class:`~grainmech.contact.ContactState`
     without ``sliding``): approach (n,), normal_force (n,), tangential_force (n, dim),
     axis (n, dim), direction int8 (n,), depth int32 (n,), reversals (n, max_reversals),
     dissipated_energy (n,).
@@ -149,7 +151,9 @@ class KernelState(NamedTuple):
 
 
 class KernelIncrement(NamedTuple):
-    """One step: ``d_normal`` (n,), ``d_tangential`` (n, dim), the normal force at its end
+    """One increment of ``n`` contacts passed to the compiled kernel.
+
+    One step: ``d_normal`` (n,), ``d_tangential`` (n, dim), the normal force at its end
     ``N1`` (n,) (seed Eq. 3.6 or ``kn alpha``) and the Hertz contact radii ``rad0``,
     ``rad1`` (n,) at its start and end (seed Eq. 3.2; any values for linear springs).
     """
@@ -162,7 +166,9 @@ class KernelIncrement(NamedTuple):
 
 
 class KernelOutput(NamedTuple):
-    """Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
+    """Arrays the compiled kernel writes: the new state and the response.
+
+    Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
     excepted) and the response (``sliding``, ``dissipation`` of the step, ``ks``,
     ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals).
     """
@@ -184,7 +190,9 @@ class KernelOutput(NamedTuple):
 
 
 class KernelScratch(NamedTuple):
-    """Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
+    """Work rows and per-contact status flags of the compiled kernel.
+
+    Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
     1/2 reversal memory full on a rising / constant or falling N; 3 no termination).
     """
 
@@ -275,7 +283,9 @@ def _kt0(N, linear, E, R, Gs, ks_lin):
 
 @njit(**_JIT)
 def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
-    """Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
+    """Mean no-slip tangential stiffness along a straight step [N/m].
+
+    Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
     ``kt1 = kt0(N1)`` if the approach does not change.
     """
     if linear:
@@ -322,7 +332,9 @@ def _pow_p(y, p, sph):
 # ---------------------------------------------------------------------------------------
 @njit(inline="always", **_JIT)
 def _H(z, m, hcoef, sph):
-    """``H(z) = int_z^1 g`` with ``g(z) = 1 + (m-1) z^m - m z^(m-1)``, ``m = 1/(1-p)``;
+    """``H(z) = int_z^1 g`` of the Mindlin-Deresiewicz branch integral.
+
+    ``H(z) = int_z^1 g`` with ``g(z) = 1 + (m-1) z^m - m z^(m-1)``, ``m = 1/(1-p)``;
     series in ``1 - z`` near 1 (``H ~ (1-z)^3``).
 
     ``sph`` (spheres, ``p = 1/3``, ``m = 3/2``): ``z^m = z sqrt(z)``, the same value to a

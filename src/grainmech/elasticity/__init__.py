@@ -1,4 +1,6 @@
-"""Elasticity of a stiffness tensor: checks, compliance, engineering constants, directional
+"""Elasticity of a stiffness tensor.
+
+Elasticity of a stiffness tensor: checks, compliance, engineering constants, directional
 moduli, averages, rotations and material-symmetry classification.
 
 Modules: :mod:`~grainmech.elasticity.conversions` (input handling, checks, compliance,

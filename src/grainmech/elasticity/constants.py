@@ -1,4 +1,6 @@
-"""Engineering constants, Voigt/Reuss/Hill averages, isotropic constants and the
+"""Engineering constants, averages and constructors of stiffness tensors.
+
+Engineering constants, Voigt/Reuss/Hill averages, isotropic constants and the
 constructors of isotropic, transversely isotropic and orthotropic stiffnesses.
 """
 

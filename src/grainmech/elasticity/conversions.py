@@ -1,4 +1,6 @@
-"""Stiffness input handling, checks, compliance, Kelvin moduli and rotations
+"""Stiffness input handling, checks, compliance, Kelvin moduli and rotations.
+
+Stiffness input handling, checks, compliance, Kelvin moduli and rotations
 (library Voigt order; Mandel form internally, see :mod:`grainmech.elasticity`).
 """
 
@@ -180,7 +182,9 @@ def _unit(vec: ArrayLike, dim: int, name: str) -> np.ndarray:
 
 
 def _frame_from_axis(a: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
-    """Right-handed frame (rows x', y', a) with x' the projection of ``ref`` (default e_x,
+    """Right-handed frame whose third axis is ``a``.
+
+    Right-handed frame (rows x', y', a) with x' the projection of ``ref`` (default e_x,
     else e_y) onto the plane normal to ``a``.
     """
     a = a / np.linalg.norm(a)

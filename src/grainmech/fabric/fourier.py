@@ -161,7 +161,9 @@ class FourierDensity(DensityBase):
 
     @property
     def coefficients(self) -> np.ndarray:
-        """Orthonormal coefficients ``integral xi f_k dtheta`` on ``cos(k t)/sqrt(pi)``,
+        """Orthonormal Fourier coefficients of the density, interleaved ``[c2, s2, c4, s4, ...]``.
+
+        Orthonormal coefficients ``integral xi f_k dtheta`` on ``cos(k t)/sqrt(pi)``,
         ``sin(k t)/sqrt(pi)``, interleaved ``[c2, s2, c4, s4, ...]`` (= a_k / (2 sqrt(pi))).
         """
         return (np.stack([self.a, self.b], axis=-1).reshape(-1) / (2.0 * np.sqrt(np.pi)))

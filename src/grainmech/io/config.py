@@ -25,7 +25,9 @@ _MISSING = object()
 
 
 def read_text_file(path: str | Path, what: str) -> str:
-    """The text of a UTF-8 file; a missing file, a directory or bad encoding is a
+    """The text of a UTF-8 file, or a GrainmechError naming the path.
+
+    The text of a UTF-8 file; a missing file, a directory or bad encoding is a
     GrainmechError naming the path (``what`` names the kind of file: "config", "data").
     """
     p = Path(path)
@@ -200,7 +202,9 @@ FILE_KEYS = (("fabric", "normals"), ("model", "network"), ("model", "particles")
 
 
 def resolve_file_keys(cfg: dict, base_dir: str | Path) -> dict:
-    """A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
+    """A copy of ``cfg`` with its relative file paths resolved against ``base_dir``.
+
+    A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
     to ``base_dir`` (the folder of the config file) instead of the working directory.
     """
     import copy

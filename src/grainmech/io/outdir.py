@@ -61,7 +61,9 @@ def _pid_alive(pid: int) -> bool:
 
 
 class _Lock:
-    """An exclusive lock on ``path``: ``flock`` (released by the kernel if the process
+    """An exclusive lock on ``path`` held by this process.
+
+    An exclusive lock on ``path``: ``flock`` (released by the kernel if the process
     dies), else an ``O_EXCL`` file holding the pid (a stale one of a dead pid is taken
     over).
     """
@@ -171,7 +173,9 @@ class OutputFolder:
             "files": self._staged() + ["summary.json"]})
 
     def commit(self, success: bool = True) -> list[str]:
-        """Move the staged files into :attr:`path`, remove the previous run's files that
+        """Move the staged files into :attr:`path` and write the manifest.
+
+        Move the staged files into :attr:`path`, remove the previous run's files that
         this run did not write, write the manifest. Returns the files (relative paths).
         """
         from grainmech.io.results import write_json

@@ -32,7 +32,9 @@ DEFAULT_OUTPUT_ROOT = "grainmech-out"
 
 
 def default_outdir(command: str) -> str:
-    """The default output folder of a command: ``grainmech-out/<command>`` (relative to
+    """The default output folder of a command, ``grainmech-out/<command>``.
+
+    The default output folder of a command: ``grainmech-out/<command>`` (relative to
     the working directory; one rule for every command, listed in ``.gitignore``).
     """
     return f"{DEFAULT_OUTPUT_ROOT}/{command}"
@@ -40,7 +42,9 @@ def default_outdir(command: str) -> str:
 
 # ----------------------------------------------------------------------------------- run
 def _reference_curves(out: Any) -> dict:
-    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
+    """Empirical reference curves (Darendeli 2001, Hardin-Drnevich 1972) for a run.
+
+    Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
     the strain range of the model's amplitudes.
 
     Both are empirical end to end: neither reference strain uses the model's Gmax.
@@ -82,7 +86,9 @@ MODEL_STYLE = {"affine": ("ko", "affine (seed: every contact follows the mean st
 
 
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
-    """Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
+    """Write the files of ``grainmech run``.
+
+    Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
     or ``path.csv``, ``modulus_reduction.csv``, ``site_response_curves.csv``, PNG plots,
     ``config_used.json``, ``summary.json`` and ``index.html``. ``out`` is a
     :class:`grainmech.jobs.CyclicOutcome` or :class:`grainmech.jobs.PathOutcome` (one
@@ -195,7 +201,9 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
 
 
 def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
-    """``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
+    """Write ``modulus_reduction.png``: G/Gmax and damping with empirical references.
+
+    ``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
     and Hardin-Drnevich (1972) at the run's mean stress (:func:`_reference_curves` of the
     first model: both references are empirical, neither depends on the model).
     """
@@ -330,7 +338,9 @@ CONTACT_COLUMNS = ("step", "segment", "normal_displacement", "tangential_displac
 
 
 def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
-    """``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
+    """Write ``contact.csv`` and ``contact.png`` of a contact run.
+
+    ``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
     :class:`grainmech.jobs.ContactOutcome`. Returns the paths written.
     """
     from grainmech.io.results import atomic_write
@@ -366,7 +376,9 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
 
 # ----------------------------------------------------------------------------------- dem
 def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
-    """``summary.json``, the stiffness matrices and engineering constants as CSV, and the
+    """Write the files of ``grainmech dem``.
+
+    ``summary.json``, the stiffness matrices and engineering constants as CSV, and the
     rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`.
     """
     from grainmech.io.results import atomic_write

@@ -42,7 +42,9 @@ SEED_2D = ("a2", "b2", "a4", "b4")
 
 
 def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
-    """Unit contact normals from a file: ``.npy`` (array ``(n, d)``) or text (CSV or
+    """Unit contact normals (n, d) read from a ``.npy`` or text file.
+
+    Unit contact normals from a file: ``.npy`` (array ``(n, d)``) or text (CSV or
     whitespace separated, ``d`` = 2 or 3 columns, ``#`` comments, an optional header
     line). Rows are normalised to unit length; a zero row is an error naming the line.
     """
@@ -95,7 +97,9 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
 
 
 def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
-    """Density from ``[fabric]``: seed parameters, a fabric tensor, or a file of measured
+    """Contact-normal density from the ``[fabric]`` table.
+
+    Density from ``[fabric]``: seed parameters, a fabric tensor, or a file of measured
     contact normals (``normals = "file.csv"``, ``fit_order = 2``) fitted by
     :func:`grainmech.fabric.fit_density` (moment estimator, chi-square test of the fit;
     a fitted series negative somewhere is shrunk towards isotropy until it is not, and
@@ -175,7 +179,9 @@ def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
 
 
 def coordination_relation(sec: Section, void_ratio: float, pressure: float | None) -> float:
-    """Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
+    """Coordination number from a relation table at ``packing.coordination``.
+
+    Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
     ``packing.coordination``: ``m = (a - b e) (p / p_ref)^n`` at the mean stress ``p`` [Pa].
 
     ``n = 0``, ``a = 23``, ``b = 25`` is seed Eq. 6.4 (``m = 23 - 25 e``); ``n > 0`` is the
@@ -205,7 +211,9 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
 
 
 def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
-    """Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
+    """Packing from the ``[packing]`` table and a density.
+
+    Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
     coordination relation (:func:`coordination_relation`) is evaluated at.
     """
     from grainmech.fabric import CORRELATIONS, coordination_number
@@ -387,7 +395,9 @@ class ContactInitial:
 
 @dataclass(frozen=True)
 class ContactSegment:
-    """One ramp of a contact path: per channel a mode (``"force"``, ``"disp"`` or ``None``
+    """One ramp of a contact path.
+
+    One ramp of a contact path: per channel a mode (``"force"``, ``"disp"`` or ``None``
     = hold) and an absolute target; ``index`` is the ``[[path]]`` entry it came from.
     """
 
@@ -417,7 +427,9 @@ def _channel(sec: Section, fkey: str, dkey: str, fu: str, du: str) -> tuple[str 
 
 
 def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list[ContactSegment]]:
-    """``[initial]`` and ``[[path]]`` of a ``grainmech contact`` config (cycles expanded
+    """Initial state and ramps of a ``grainmech contact`` config.
+
+    ``[initial]`` and ``[[path]]`` of a ``grainmech contact`` config (cycles expanded
     into ramps: ``+A`` in ``steps/2`` steps, then ``count`` times ``-A``, ``+A``).
     """
     fu, du = contact_units(params)
@@ -483,7 +495,9 @@ class PackConfig:
 
 
 def build_pack_config(cfg: dict) -> PackConfig:
-    """Read a ``grainmech pack`` config (``docs/packing.md``): tables ``[grains]``,
+    """Read a ``grainmech pack`` config (``docs/packing.md``).
+
+    Read a ``grainmech pack`` config (``docs/packing.md``): tables ``[grains]``,
     ``[material]``, ``[preparation]``; strict keys, quantities with units.
 
     ``[grains]``: ``count`` (>= 50), ``distribution`` = ``"sieve"`` (``sizes``, list of

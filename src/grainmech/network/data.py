@@ -1,4 +1,6 @@
-"""Contact-network data: the simulation cell (:class:`Box`) and the contacts
+"""Contact-network data: the simulation cell and the contacts.
+
+Contact-network data: the simulation cell (:class:`Box`) and the contacts
 (:class:`ContactNetwork`) in grainmech's counting convention (``docs/conventions.md``).
 """
 

@@ -1,4 +1,6 @@
-"""Measures of a contact network: Love-Weber stress, fabric tensors, rattlers,
+"""Measures of a contact network.
+
+Measures of a contact network: Love-Weber stress, fabric tensors, rattlers,
 coordination numbers and per-contact stiffnesses of the Hertz-Mindlin law.
 """
 

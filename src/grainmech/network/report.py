@@ -1,4 +1,6 @@
-"""All measures of a network in one result (:func:`network_report`) and its JSON form
+"""All measures of a network in one result, and its JSON form.
+
+All measures of a network in one result (:func:`network_report`) and its JSON form
 (:meth:`NetworkReport.to_json`, :func:`network_report_json`).
 """
 
@@ -29,7 +31,9 @@ __all__ = ["NetworkReport", "network_report", "network_report_json", "closed_for
 
 
 def to_json(x: Any) -> Any:
-    """``x`` with NumPy arrays and scalars as lists and Python numbers (non-finite -> None),
+    """``x`` converted for :func:`json.dump`.
+
+    ``x`` with NumPy arrays and scalars as lists and Python numbers (non-finite -> None),
     mapping keys as strings (tuples joined by commas): ready for :func:`json.dump`.
     """
     if isinstance(x, dict):
@@ -180,7 +184,9 @@ def network_report(net: ContactNetwork, *, shear_modulus: float | None = None, p
                    geometric: bool = False, relaxed: bool = True, solver: str = "auto",
                    remove_rattlers: bool = True, min_contacts: int | None = None,
                    fit_order: int = 2) -> NetworkReport:
-    """All measures of a network: stress, fabric, coordination, affine, closed-form and
+    """All measures of a network in one :class:`NetworkReport`.
+
+    All measures of a network: stress, fabric, coordination, affine, closed-form and
     relaxed stiffness and their engineering constants.
 
     Parameters

@@ -23,7 +23,9 @@ def effective_ks(net: ContactNetwork, ks: np.ndarray, geometric: bool) -> np.nda
 
 
 def contact_matrix(n: np.ndarray, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
-    """Contact stiffness ``K = kn n (x) n + ks (I - n (x) n)`` (seed Eq. 2.20 with the full
+    """Contact stiffness matrices ``K`` (C, d, d) [force/length] (seed Eq. 2.20).
+
+    Contact stiffness ``K = kn n (x) n + ks (I - n (x) n)`` (seed Eq. 2.20 with the full
     tangential projector), (C, d, d) [force/length].
     """
     d = n.shape[1]

@@ -1,4 +1,6 @@
-"""Making packings of spheres: grain-size distributions, preparation with LAMMPS, shipped
+"""Making packings of spheres.
+
+Making packings of spheres: grain-size distributions, preparation with LAMMPS, shipped
 packings and DEM reference runs (``docs/packing.md``).
 
 Only :mod:`grainmech.packing.engine` imports LAMMPS (extra ``grainmech[dem]``); the shipped

@@ -82,7 +82,9 @@ class GradingBase:
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0,
                pool: int = 20) -> Sample:
-        """``n`` radii with the number distribution of this mass curve, truncated to
+        """``n`` radii [m] drawn from this mass curve.
+
+        ``n`` radii with the number distribution of this mass curve, truncated to
         ``[D_max / max_ratio, D_max]`` (module notes).
         """
         if n < 1:
@@ -142,7 +144,9 @@ class SieveCurve(GradingBase):
 
 
 class D50Cu(GradingBase):
-    """Median diameter ``d50`` [m] and coefficient of uniformity ``cu = D60/D10 >= 1``
+    """Log-normal mass distribution from ``d50`` and the coefficient of uniformity.
+
+    Median diameter ``d50`` [m] and coefficient of uniformity ``cu = D60/D10 >= 1``
     as a log-normal mass distribution (module notes); ``cu = 1`` is one size.
     """
 
@@ -178,7 +182,9 @@ class D50Cu(GradingBase):
 
 
 class UniformRadius:
-    """Radius ``radius`` [m] with a uniform spread ``spread`` in ``[0, 1)``: ``R`` uniform
+    """Radii with a uniform spread about ``radius``.
+
+    Radius ``radius`` [m] with a uniform spread ``spread`` in ``[0, 1)``: ``R`` uniform
     (by number) in ``[radius (1 - spread), radius (1 + spread)]``; nothing is cut.
     """
 

@@ -1,4 +1,6 @@
-"""DEM reference runs with LAMMPS on a packing: strain probes (the measured tangent
+"""DEM reference runs with LAMMPS on a packing.
+
+DEM reference runs with LAMMPS on a packing: strain probes (the measured tangent
 tensor) and quasi-static cyclic simple shear (secant G and damping).
 
 Both start by loading the packing into LAMMPS (:func:`load_network`) and relaxing it at
@@ -70,7 +72,9 @@ class _Session:
 
 def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: float = 0.01,
                  safety: float = 0.07) -> _Session:
-    """Put a periodic network into LAMMPS with the granular model of
+    """Put a periodic network into LAMMPS with grainmech's granular model.
+
+    Put a periodic network into LAMMPS with the granular model of
     :mod:`grainmech.packing.prepare` and the grain friction; set the time step
     (:func:`critical_time_step` times ``safety``) and the drags (``viscous`` times the contact
     frequency at the packing's stress).
@@ -101,7 +105,9 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
 
 def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
           settle: tuple[np.ndarray, float] | None = None) -> tuple[ContactNetwork, float, int]:
-    """Hold the cell and run until the unbalanced force ratio is below ``tol`` (and, with
+    """Hold the cell and run LAMMPS until the packing is in equilibrium.
+
+    Hold the cell and run until the unbalanced force ratio is below ``tol`` (and, with
     ``settle = (base, rtol)``, until the Voigt stress changes over a chunk by less than
     ``rtol`` times its distance ``max |sigma - base|`` from ``base``).
 
@@ -130,7 +136,9 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
 
 
 def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
-    """Add ``sign`` times the affine velocity field of the cell strain rate ``rate``
+    """Add ``sign`` times the affine velocity field of a cell strain rate to every grain.
+
+    Add ``sign`` times the affine velocity field of the cell strain rate ``rate``
     (Voigt, LAMMPS tension positive, engineering shears) to every grain.
     """
     x = s.lmp.atom("x")
@@ -253,7 +261,9 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
                         settle: float = 1e-3, ramp_steps: int = 1000, max_relax_steps: int = 200_000,
                         viscous: float = 0.01, constant: str = "volume", normal_tol: float = 0.05,
                         threads: int | None = None, progress: Progress | None = None) -> CyclicResult:
-    """Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (``constant =
+    """Quasi-static cyclic simple shear of a packing with LAMMPS.
+
+    Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (``constant =
     "volume"``: cell lengths held) or constant normal stress (``"stress"``: ``sigma_yy``
     held at its initial value by changing the cell length ``ly`` after each increment,
     until its error is below ``normal_tol`` times the increment's shear-stress change; the

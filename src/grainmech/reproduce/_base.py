@@ -15,7 +15,9 @@ _LOG: list[Callable[[str], None]] = []
 
 
 def progress(message: str) -> None:
-    """A progress line from inside a long figure computation (to the logger installed by
+    """Report a progress line from inside a long figure computation.
+
+    A progress line from inside a long figure computation (to the logger installed by
     :func:`reporting`; nothing without one).
     """
     if _LOG:

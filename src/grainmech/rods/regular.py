@@ -1,4 +1,6 @@
-"""Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2): 2D arrays of parallel rods
+"""Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2).
+
+Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2): 2D arrays of parallel rods
 per unit rod length, their contacts found from the geometry, as contact sets.
 
 Packings A-F: A is square, B hexagonal; the seed's text does not contain Fig. 5.2 and
@@ -263,7 +265,9 @@ _ALIASES = {"square": "A", "hexagonal": "B", "mixed": "C", "kagome": "D",
 
 
 def packing_geometry(kind: str) -> PeriodicRods:
-    """Regular packing ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
+    """Regular rod packing by name, lengths in inches (seed Sec. 5.2).
+
+    Regular packing ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
     ``two-size-E``, ``two-size-F``), lengths in inches (seed Sec. 5.2).
     """
     key = _ALIASES.get(str(kind).lower(), str(kind).upper())

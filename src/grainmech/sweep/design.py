@@ -159,7 +159,9 @@ class SweepParameter:
         return [float(x) for x in v]
 
     def from_unit(self, u: np.ndarray) -> list:
-        """Map samples ``u`` in [0, 1) to values (inverse CDF of the uniform / log-uniform
+        """Map samples ``u`` in [0, 1) to parameter values.
+
+        Map samples ``u`` in [0, 1) to values (inverse CDF of the uniform / log-uniform
         distribution, or a discrete uniform choice among ``values``).
         """
         u = np.asarray(u, dtype=float)
