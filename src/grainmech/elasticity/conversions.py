@@ -6,7 +6,6 @@ Stiffness input handling, checks, compliance, Kelvin moduli and rotations
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from functools import lru_cache
 
 import numpy as np
@@ -198,7 +197,7 @@ def _frame_from_axis(a: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray
     return np.array([t, np.cross(a, t), a])
 
 
-def rotation_about(axis: Sequence[float], angle: float) -> np.ndarray:
+def rotation_about(axis: ArrayLike, angle: float) -> np.ndarray:
     """Proper rotation matrix by ``angle`` (radians, right-handed) about ``axis``."""
     a = _unit(axis, 3, "axis")
     return Rotation.from_rotvec(a * float(angle)).as_matrix()

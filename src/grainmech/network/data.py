@@ -6,10 +6,10 @@ Contact-network data: the simulation cell (:class:`Box`) and the contacts
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from grainmech.errors import GrainmechError
 
@@ -52,9 +52,8 @@ class Box:
         object.__setattr__(self, "periodic", p)
 
     @classmethod
-    def orthogonal(cls, lo: Sequence[float], hi: Sequence[float],
-                   periodic: Sequence[bool] | bool = True) -> Box:
-        """Axis-aligned box from its bounds."""
+    def orthogonal(cls, lo: ArrayLike, hi: ArrayLike, periodic: ArrayLike = True) -> Box:
+        """Axis-aligned box from its bounds ``lo``, ``hi`` (d,) and periodic flags (d,) or one for all."""
         lo_ = np.asarray(lo, dtype=float)
         hi_ = np.asarray(hi, dtype=float)
         per = np.broadcast_to(np.asarray(periodic, dtype=bool), lo_.shape)
