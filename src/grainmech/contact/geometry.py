@@ -45,7 +45,7 @@ __all__ = [
 try:  # one definition of the Hertz/Mindlin closed forms for NumPy and compiled code
     from numba.extending import register_jitable as _jitable
 except ImportError:  # pragma: no cover - numba is optional
-    def _jitable(fn):  # type: ignore[no-redef]
+    def _jitable(fn):  # type: ignore[no-redef]  # the NumPy stand-in for numba's decorator
         return fn
 
 

@@ -115,7 +115,7 @@ from grainmech.contact.hysteresis import (  # noqa: F401
     _md_update,
     _secant_kt,
 )
-from grainmech.contact.params import ContactParams, Cylinder, MindlinDeresiewicz
+from grainmech.contact.params import ContactParams, Cylinder, Hertz, MindlinDeresiewicz
 from grainmech.contact.state import (  # noqa: F401
     ContactResponse,
     ContactState,
@@ -360,12 +360,12 @@ def _update_compiled(kernel: ModuleType, params: ContactParams, state: ContactSt
     dn = c(dn, dtype=float)
     # the closed forms of the normal law, vectorised as in the reference path
     N1 = forms.normal_force(alpha0 + dn)
-    if forms.linear:
-        rad0 = rad1 = N1
-    else:
-        rad1 = geo.hertz_contact_radius_from_force(N1, params)  # type: ignore[arg-type]
+    if isinstance(params, Hertz):  # spheres (the compiled laws other than linear springs)
+        rad1 = geo.hertz_contact_radius_from_force(N1, params)
         rad0 = geo.hertz_contact_radius_from_force(
-            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)  # type: ignore[arg-type]
+            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)
+    else:  # linear springs: the kernel does not use the radii
+        rad0 = rad1 = N1
     st = K.KernelState(alpha0, c(state.normal_force, dtype=float), c(T0, dtype=float),
                        c(e0, dtype=float), c(state.direction, dtype=np.int8),
                        c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),

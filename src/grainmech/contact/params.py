@@ -415,6 +415,6 @@ class Cylinder:
 ContactParams = Hertz | HertzMindlin | MindlinDeresiewicz | LinearSpring | Cylinder
 
 
-def describe(params: object) -> dict[str, Any]:
+def describe(params: ContactParams) -> dict[str, Any]:
     """Field names and values of a parameter object (for logs and output headers)."""
-    return {f.name: getattr(params, f.name) for f in fields(params)}  # type: ignore[arg-type]
+    return {f.name: getattr(params, f.name) for f in fields(params)}

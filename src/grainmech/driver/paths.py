@@ -54,7 +54,7 @@ class Control:
     stress : tuple of 6 bool
     """
 
-    stress: tuple[bool, bool, bool, bool, bool, bool]
+    stress: tuple[bool, ...]  # six entries, checked in __post_init__
 
     def __post_init__(self) -> None:
         s = tuple(bool(x) for x in self.stress)
@@ -86,7 +86,7 @@ def parse_mask(text: str) -> Control:
     t = str(text).strip().upper()
     if len(t) != 6 or any(c not in "ES" for c in t):
         raise ParameterError("control", text, "must be 6 letters E (strain) or S (stress) in order xx,yy,zz,yz,xz,xy")
-    return Control(tuple(c == "S" for c in t))  # type: ignore[arg-type]
+    return Control(tuple(c == "S" for c in t))
 
 
 @dataclass(frozen=True)

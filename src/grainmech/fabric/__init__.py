@@ -76,7 +76,7 @@ def isotropic(dim: int, order: int = 0) -> SphericalDensity | FourierDensity:
     """
     dim = _checks.as_dim(dim)
     cls = SphericalDensity if dim == 3 else FourierDensity
-    return cls.isotropic(order)  # type: ignore[return-value]
+    return cls.isotropic(order)
 
 
 def density_from_fabric_tensor(N: object, allow_negative: bool = False
@@ -90,7 +90,7 @@ def density_from_fabric_tensor(N: object, allow_negative: bool = False
     if cls is None:
         from grainmech.errors import ParameterError
         raise ParameterError("N", f"array of shape {A.shape}", "must be (d, ..., d) with d = 2 or 3")
-    return cls.from_fabric_tensor(A, allow_negative=allow_negative)  # type: ignore[return-value]
+    return cls.from_fabric_tensor(A, allow_negative=allow_negative)
 
 
 __all__ = [

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
@@ -182,21 +182,22 @@ class DensityBase:
     # ---- constructors shared by both dimensions --------------------------------------
     @classmethod
     def _project(cls, func: Callable[[np.ndarray], np.ndarray], order: int, degree: int,
-                 allow_negative: bool) -> DensityBase:
+                 allow_negative: bool) -> Self:
         pts, w = unit_rule(cls.dim, order + degree)
         vals = np.asarray(func(np.array(pts)), dtype=float)
         kw = cls._coefficients_from_values(pts, w, vals, order)
+        # cls is one of the dataclass subclasses, whose fields these are
         return cls(order=order, allow_negative=allow_negative, **kw)  # type: ignore[call-arg]
 
     @classmethod
-    def isotropic(cls, order: int = 0) -> DensityBase:
+    def isotropic(cls, order: int = 0) -> Self:
         """The uniform density ``1/|S|`` (all coefficients zero)."""
         order = _checks.as_even_order(order)
         return cls._project(lambda p: np.ones(len(p)), order, 0, False)
 
     @classmethod
     def from_coefficient_tensors(cls, phis: Mapping[int, object],
-                                 allow_negative: bool = False, tol: float = 1e-8) -> DensityBase:
+                                 allow_negative: bool = False, tol: float = 1e-8) -> Self:
         """Density ``(1/|S|)[1 + sum_k phi_(k) . n^k]`` (seed Eq. 4.10, 4.16, 4.35).
 
         Parameters
@@ -218,7 +219,7 @@ class DensityBase:
 
     @classmethod
     def from_fabric_tensor(cls, N: object, allow_negative: bool = False,
-                           tol: float = 1e-8) -> DensityBase:
+                           tol: float = 1e-8) -> Self:
         """Density of order ``L`` with the given rank-``L`` fabric tensor (seed Eq. 4.11).
 
         ``N`` fixes all lower fabric tensors by traces, hence all ``phi_(k)`` for
@@ -231,7 +232,7 @@ class DensityBase:
     @classmethod
     def from_function(cls, func: Callable[[np.ndarray], np.ndarray], order: int,
                       degree: int | None = None, normalise: bool = False,
-                      allow_negative: bool = False) -> DensityBase:
+                      allow_negative: bool = False) -> Self:
         """Project a function of the normal onto the harmonics up to ``order``.
 
         Parameters
@@ -266,7 +267,7 @@ class DensityBase:
                             / (integral if normalise else 1.0), order, deg, allow_negative)
 
     # ---- transformations ---------------------------------------------------------------
-    def rotated(self, R: object) -> DensityBase:
+    def rotated(self, R: object) -> Self:
         """Density of the rotated normals ``n' = R n``: ``xi'(n') = xi(R^T n')``.
 
         Exact: ``xi o R^T`` is again a polynomial of degree ``order``, projected with a
@@ -277,7 +278,7 @@ class DensityBase:
         return self._project(lambda p: self._normalised(p @ Rm), self.order, self.order,
                              bool(getattr(self, "allow_negative", False)))
 
-    def shrunk(self, factor: float) -> DensityBase:
+    def shrunk(self, factor: float) -> Self:
         """``(1/|S|)[1 + factor (|S| xi - 1)]``: scale all anisotropic coefficients."""
         f = _checks.as_scalar(factor, "factor")
         return self._project(lambda p: 1.0 + f * (self._normalised(p) - 1.0), self.order,
