@@ -26,12 +26,19 @@ class CliRun:
 
 @pytest.fixture
 def cli(capsys) -> Callable[..., CliRun]:
-    """``cli("run", "-o", "x")`` -> :class:`CliRun` (``grainmech.cli.main`` in-process)."""
+    """``cli("run", "-o", out)`` -> :class:`CliRun` (``grainmech.cli.main`` in-process).
+
+    Arguments may be paths or numbers (converted with ``str``); ``--help`` and argparse's
+    usage errors give their exit status instead of raising ``SystemExit``.
+    """
     from grainmech.cli import main
 
-    def run(*args: str) -> CliRun:
+    def run(*args: object) -> CliRun:
         capsys.readouterr()
-        rc = main([str(a) for a in args])
+        try:
+            rc = main([str(a) for a in args])
+        except SystemExit as exc:  # argparse's --help and usage errors
+            rc = 0 if exc.code is None else exc.code if isinstance(exc.code, int) else 1
         cap = capsys.readouterr()
         return CliRun(rc, cap.out, cap.err)
 

@@ -4,9 +4,13 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import apparent_moduli
-from grainmech.errors import ConfigError
-from grainmech.elasticity import (directional_poisson, directional_young, isotropic_stiffness,
-                               transversely_isotropic_stiffness)
+from grainmech.elasticity import (
+    directional_poisson,
+    directional_young,
+    isotropic_stiffness,
+    transversely_isotropic_stiffness,
+)
+from grainmech.errors import ParameterError
 
 
 def test_isotropic_constant_in_every_direction():
@@ -27,5 +31,5 @@ def test_transversely_isotropic_against_directional_functions():
 
 
 def test_plane_error():
-    with pytest.raises(ConfigError, match="plane"):
+    with pytest.raises(ParameterError, match="plane"):
         apparent_moduli(isotropic_stiffness(E=1.0, nu=0.2), [0.0], plane="xx")

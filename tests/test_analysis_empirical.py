@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import P_ATM, darendeli, hardin_drnevich
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 
 def test_darendeli_reference_values_at_one_atmosphere():
@@ -45,7 +45,7 @@ def test_hardin_drnevich():
     r, d = hardin_drnevich([1e-4, 3e-4], 1e-4, 0.2)
     assert r[0] == pytest.approx(0.5) and d[0] == pytest.approx(0.1)
     assert r[1] == pytest.approx(0.25) and d[1] == pytest.approx(0.15)
-    with pytest.raises(ConfigError, match="gamma_r"):
+    with pytest.raises(ParameterError, match="gamma_r"):
         hardin_drnevich([1e-4], -1.0)
-    with pytest.raises(ConfigError, match="mean_stress"):
+    with pytest.raises(ParameterError, match="mean_stress"):
         darendeli([1e-4], 0.0)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from grainmech.analysis import condensed_modulus, loop_properties, masing_damping_hyperbolic
-from grainmech.errors import ConfigError
 from grainmech.elasticity import isotropic_stiffness
+from grainmech.errors import ParameterError
 
 
 def test_ellipse_loop():
@@ -46,5 +46,5 @@ def test_condensed_modulus_isotropic():
 
 
 def test_loop_errors():
-    with pytest.raises(ConfigError, match="gamma"):
+    with pytest.raises(ParameterError, match="gamma"):
         loop_properties([0, 0, 0, 0], [1, 2, 3, 4])

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 
+from _hyp import given, settings, st
 from grainmech import assembly
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness, stiffness_tensor
 from grainmech.conventions import tensor4_to_matrix

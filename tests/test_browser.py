@@ -1,7 +1,7 @@
-"""The output page opens in a real browser (issue 5: "index.html opens in a browser ...
-showing plots and numbers"): headless Chromium renders index.html of a small `grainmech run`
-via scripts/screenshot_index.sh; the screenshot must show a page with content (plots are
-embedded as data: URIs, so a broken image would leave large blank areas).
+"""The output page opens in a real browser and shows plots and numbers: headless Chromium
+renders index.html of a small `grainmech run` via scripts/screenshot_index.sh; the
+screenshot must show a page with content (plots are embedded as data: URIs, so a broken
+image would leave large blank areas).
 
 Skipped where Chromium is not installed (Debian: apt-get install chromium).
 """
@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grainmech.cli import main
 from test_cli_run import CYCLIC as CFG  # the small cyclic run of the CLI tests
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,11 +20,11 @@ BROWSER = shutil.which("chromium") or shutil.which("chromium-browser")
 
 
 @pytest.mark.skipif(BROWSER is None, reason="chromium not installed")
-def test_index_html_renders_in_headless_chromium(tmp_path):
+def test_index_html_renders_in_headless_chromium(tmp_path, cli):
     cfg = tmp_path / "c.toml"
     cfg.write_text(CFG)
     out = tmp_path / "out"
-    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    assert cli("run", str(cfg), "-o", str(out), "--quiet").rc == 0
     png = tmp_path / "shot.png"
     r = subprocess.run(["bash", str(ROOT / "scripts" / "screenshot_index.sh"), str(out), str(png)],
                        capture_output=True, text=True, timeout=120)

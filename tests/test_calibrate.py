@@ -23,7 +23,6 @@ import pytest
 from grainmech.calibrate import fit, load_problem, problem_from_config, uncertainty
 from grainmech.calibrate.data import from_arrays, read_csv
 from grainmech.calibrate.model import predict
-from grainmech.cli import main
 from grainmech.errors import ConfigError, GrainmechError
 
 EX = Path(__file__).resolve().parent.parent / "examples"
@@ -285,9 +284,9 @@ def test_multistart_dask_equals_serial():
 
 # ----------------------------------------------------------------- CLI and files
 
-def test_cli_writes_report(tmp_path):
+def test_cli_writes_report(tmp_path, cli):
     out = tmp_path / "out"
-    assert main(["calibrate", str(HB_TOML), str(HB_CSV), "-o", str(out), "--quiet"]) == 0
+    assert cli("calibrate", str(HB_TOML), str(HB_CSV), "-o", str(out), "--quiet").rc == 0
     for f in ("fit.json", "parameters.csv", "residuals.csv", "correlation.csv", "fit.png"):
         assert (out / f).stat().st_size > 0
     s = json.loads((out / "fit.json").read_text())
@@ -347,12 +346,13 @@ def test_bad_config_errors(edit, key, problem):
     assert ei.value.key == key and problem in ei.value.problem
 
 
-def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
+def test_cli_bad_input_one_line_exit_2(tmp_path, cli):
     p = _write(tmp_path, "bad.csv", "pressure [psi],G [psi]\n10,x\n")
-    assert main(["calibrate", str(HB_TOML), str(p), "-o", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err.strip()
+    res = cli("calibrate", str(HB_TOML), str(p), "-o", str(tmp_path / "o"))
+    assert res.rc == 2
+    err = res.err.strip()
     assert err.count("\n") == 0 and err.startswith("grainmech: error:") and "line 2, column 'G'" in err
-    assert main(["calibrate", str(tmp_path / "none.toml"), str(p)]) == 2
+    assert cli("calibrate", str(tmp_path / "none.toml"), str(p)).rc == 2
 
 
 # ----------------------------------------------------------------- example (a): random rods (seed Sec. 6.1.2)

@@ -1,5 +1,5 @@
-"""The first run after installing tells the user that numba is compiling (issue on what a
-user sees, section 3): once per process, on a compilation, not on a cache load."""
+"""The first run after installing tells the user that numba is compiling: once per process,
+on a compilation, not on a cache load."""
 
 from __future__ import annotations
 

@@ -5,8 +5,6 @@ import json
 import numpy as np
 import pytest
 
-from grainmech.cli import main
-
 CYCLIC = """
 [packing]
 void_ratio = 0.65
@@ -54,11 +52,12 @@ steps_per_cycle = 8
 """
 
 
-def test_cyclic_simple_shear_outputs(tmp_path, capsys):
+def test_cyclic_simple_shear_outputs(tmp_path, cli):
     cfg = tmp_path / "c.toml"
     cfg.write_text(CYCLIC)
     out = tmp_path / "out"
-    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    res = cli("run", str(cfg), "-o", str(out), "--quiet")
+    assert res.rc == 0
     for f in ("summary.json", "modulus_reduction.csv", "loops.png", "modulus_reduction.png", "cycles_gamma_1.0e-06.csv",
               "index.html"):
         assert (out / f).stat().st_size > 0
@@ -67,14 +66,14 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
     s = json.loads((out / "summary.json").read_text())
     assert s["success"] and s["initial_pressure_Pa"] == pytest.approx(1e5)
     ratio = np.array(s["G_over_Gmax"])
-    # smallest amplitude: secant modulus equals the small-strain modulus within 1 % (issue 4)
+    # smallest amplitude: secant modulus equals the small-strain modulus within 1 %
     assert ratio[0] == pytest.approx(1.0, abs=0.01)
     assert np.all(np.diff(ratio) < 0) and np.all(np.diff(s["damping"]) > 0)
     # Gmax is the condensed tangent of the isotropic Hertz-Mindlin packing (closed form, Walton)
     from grainmech.closed_form import walton
     _, G_w = walton(44e9, 0.08, 1e5, porosity=0.65 / 1.65, coordination=6.75)
     assert s["G_max_Pa"] == pytest.approx(G_w, rel=1e-6)
-    assert capsys.readouterr().err == ""
+    assert res.err == ""
     # site-response export: the same curves, strain and damping as decimals
     from grainmech.io.site_response import read_curves
     curves = read_curves(out / "site_response_curves.csv")
@@ -82,13 +81,13 @@ def test_cyclic_simple_shear_outputs(tmp_path, capsys):
     assert np.allclose(curves.damping, s["damping"])
 
 
-def test_constant_volume_cyclic_simple_shear(tmp_path):
+def test_constant_volume_cyclic_simple_shear(tmp_path, cli):
     """test.constant = "volume": every strain but gamma_xz held; Gmax is plain C_55 and the
-    smallest amplitude's secant modulus equals it within 1 % (issue 4)."""
+    smallest amplitude's secant modulus equals it within 1 %."""
     cfg = tmp_path / "v.toml"
     cfg.write_text(CYCLIC.replace('kind = "cyclic-simple-shear"', 'kind = "cyclic-simple-shear"\nconstant = "volume"'))
     out = tmp_path / "v"
-    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    assert cli("run", str(cfg), "-o", str(out), "--quiet").rc == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["G_over_Gmax"][0] == pytest.approx(1.0, abs=0.01)
     import csv
@@ -96,11 +95,11 @@ def test_constant_volume_cyclic_simple_shear(tmp_path):
     assert max(abs(float(r["strain_zz [-]"])) for r in rows) == 0.0
 
 
-def test_path_config_and_linear_law(tmp_path):
+def test_path_config_and_linear_law(tmp_path, cli):
     cfg = tmp_path / "p.toml"
     cfg.write_text(PATH)
     out = tmp_path / "o"
-    assert main(["run", str(cfg), "-o", str(out), "--quiet"]) == 0
+    assert cli("run", str(cfg), "-o", str(out), "--quiet").rc == 0
     import csv
     rows = list(csv.DictReader((out / "path.csv").open()))
     assert len(rows) == 1 + 5 + 8
@@ -135,9 +134,10 @@ def test_path_config_and_linear_law(tmp_path):
     (("pressure = \"100 kPa\"", "pressure = \"15 parsecs\""), "initial.pressure"),
     (("degree = 11", "degree = 11\nextra = 1"), "quadrature.extra"),
 ])
-def test_bad_run_configs(tmp_path, capsys, edit, needle):
+def test_bad_run_configs(tmp_path, edit, needle, cli):
     cfg = tmp_path / "c.toml"
     cfg.write_text(CYCLIC.replace(*edit))
-    assert main(["run", str(cfg), "-o", str(tmp_path / "o"), "--quiet"]) == 2
-    err = capsys.readouterr().err
+    res = cli("run", str(cfg), "-o", str(tmp_path / "o"), "--quiet")
+    assert res.rc == 2
+    err = res.err
     assert needle in err and "Traceback" not in err

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from grainmech import closed_form as cf
-from grainmech.cli import main
 
 
 def _write(tmp_path, text, name="c.toml"):
@@ -32,10 +31,11 @@ ks = "1900 lbf/in"
 """
 
 
-def test_json_matches_seed_closed_form(tmp_path, capsys):
+def test_json_matches_seed_closed_form(tmp_path, cli):
     """Monoclinic fabric of seed Fig. 4.2 with Eq. 4.21-4.33 (seed convention, order seed)."""
-    assert main(["stiffness", _write(tmp_path, LINEAR), "--json", "--order", "seed"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    res = cli("stiffness", _write(tmp_path, LINEAR), "--json", "--order", "seed")
+    assert res.rc == 0
+    out = json.loads(res.out)
     assert out["order"] == ["zz", "yy", "xx", "yz", "xz", "xy"]
     kn = 3800 * 4.4482216152605 / 0.0254
     r = 0.01 * 0.0254
@@ -49,9 +49,10 @@ def test_json_matches_seed_closed_form(tmp_path, capsys):
     assert set(out["engineering"]) >= {"E_xx", "E_yy", "E_zz", "G_yz", "G_xz", "G_xy", "nu_xy"}
 
 
-def test_default_run_is_isotropic_and_matches_walton(capsys):
-    assert main(["stiffness", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+def test_default_run_is_isotropic_and_matches_walton(cli):
+    res = cli("stiffness", "--json")
+    assert res.rc == 0
+    out = json.loads(res.out)
     assert out["symmetry"]["name"] == "isotropic"
     assert out["order"] == ["xx", "yy", "zz", "yz", "xz", "xy"]
     e = 0.65
@@ -62,15 +63,18 @@ def test_default_run_is_isotropic_and_matches_walton(capsys):
     assert out["mean_stress"] == pytest.approx(1e5, rel=1e-12)
 
 
-def test_text_output_and_orders(tmp_path, capsys):
+def test_text_output_and_orders(tmp_path, cli):
     path = _write(tmp_path, LINEAR)
-    assert main(["stiffness", path]) == 0
-    text = capsys.readouterr().out
+    res = cli("stiffness", path)
+    assert res.rc == 0
+    text = res.out
     assert "orthotropic" in text and "E_zz" in text
-    assert main(["stiffness", path, "--json", "--order", "mandel"]) == 0
-    mandel = np.array(json.loads(capsys.readouterr().out)["stiffness"])
-    assert main(["stiffness", path, "--json"]) == 0
-    voigt = np.array(json.loads(capsys.readouterr().out)["stiffness"])
+    res = cli("stiffness", path, "--json", "--order", "mandel")
+    assert res.rc == 0
+    mandel = np.array(json.loads(res.out)["stiffness"])
+    res = cli("stiffness", path, "--json")
+    assert res.rc == 0
+    voigt = np.array(json.loads(res.out)["stiffness"])
     assert mandel[3, 3] == pytest.approx(2 * voigt[3, 3])
 
 
@@ -83,16 +87,19 @@ def test_text_output_and_orders(tmp_path, capsys):
     (("a20 = 0.2", "a20 = 3.0"), "negative"),
     (("coordination = 9", "coordination = \"nonsense\""), "packing.coordination"),
 ])
-def test_bad_configs_give_one_line_and_exit_2(tmp_path, capsys, edit, needle):
+def test_bad_configs_give_one_line_and_exit_2(tmp_path, edit, needle, cli):
     path = _write(tmp_path, LINEAR.replace(*edit))
-    assert main(["stiffness", path]) == 2
-    err = capsys.readouterr().err
+    res = cli("stiffness", path)
+    assert res.rc == 2
+    err = res.err
     assert err.startswith("grainmech: error:") and needle in err
     assert "Traceback" not in err and err.count("\n") == 1
 
 
-def test_missing_file_and_bad_toml(tmp_path, capsys):
-    assert main(["stiffness", str(tmp_path / "nope.toml")]) == 2
-    assert "not found" in capsys.readouterr().err
-    assert main(["stiffness", _write(tmp_path, "[packing\nx=1")]) == 2
-    assert "invalid TOML" in capsys.readouterr().err
+def test_missing_file_and_bad_toml(tmp_path, cli):
+    res = cli("stiffness", str(tmp_path / "nope.toml"))
+    assert res.rc == 2
+    assert "not found" in res.err
+    res = cli("stiffness", _write(tmp_path, "[packing\nx=1"))
+    assert res.rc == 2
+    assert "invalid TOML" in res.err

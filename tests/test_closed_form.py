@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 from scipy.integrate import lebedev_rule
 
+from _hyp import given, settings, st
 from grainmech import closed_form as cf
 from grainmech.assembly import ContactSet, stiffness
-from grainmech.conventions import seed_normal, seed_angles, seed_normal_2d, seed_theta
+from grainmech.conventions import seed_angles, seed_normal_2d
 from grainmech.errors import GrainmechError
 
 
@@ -174,7 +174,7 @@ def test_bad_packing_inputs(kwargs, match):
 def test_bad_material_inputs():
     with pytest.raises(GrainmechError, match="poisson must lie in"):
         cf.isotropic_hertz_mindlin(1e9, 0.5, 1e5, void_ratio=0.6, coordination=8, radius=1e-3)
-    with pytest.raises(GrainmechError, match="pressure must be > 0"):
+    with pytest.raises(GrainmechError, match="pressure.*must be > 0"):
         cf.isotropic_hertz_mindlin(1e9, 0.2, -1, void_ratio=0.6, coordination=8, radius=1e-3)
     with pytest.raises(GrainmechError, match="porosity"):
         cf.walton(1e9, 0.2, 1e5, porosity=1.2, coordination=8)

@@ -62,20 +62,19 @@ def test_run_config(key):
     assert repr(a) == repr(b)
 
 
-def test_contact_config(tmp_path, capsys):
-    from grainmech.cli import main
-
+def test_contact_config(tmp_path, cli):
     text = (EX / "contact_cylinder_rods.toml").read_text()
     assert 'friction_angle = "15 deg"' in text
     bad = tmp_path / "bad.toml"
     bad.write_text(text.replace('friction_angle = "15 deg"', "friction_angle = 15"))
-    assert main(["contact", str(bad), "-o", str(tmp_path / "x")]) == 2
-    assert "friction_angle = 15: an angle needs its unit" in capsys.readouterr().err
+    res = cli("contact", str(bad), "-o", str(tmp_path / "x"))
+    assert res.rc == 2
+    assert "friction_angle = 15: an angle needs its unit" in res.err
     outs = []
     for i, v in enumerate(['"15 deg"', f'"{math.radians(15)!r} rad"']):
         cfg = tmp_path / f"c{i}.toml"
         cfg.write_text(text.replace('"15 deg"', v))
-        assert main(["contact", str(cfg), "-o", str(tmp_path / f"o{i}")]) == 0
+        assert cli("contact", str(cfg), "-o", str(tmp_path / f"o{i}")).rc == 0
         outs.append((tmp_path / f"o{i}" / "contact.csv").read_text())
     assert outs[0] == outs[1]
 

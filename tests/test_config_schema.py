@@ -121,9 +121,9 @@ def test_linear_spring_is_the_constant_stiffness_law():
     K = Nv l^2 kn / 9, G = Nv l^2 (2 kn + 3 ks) / 30."""
     import grainmech.material as material
     from grainmech.contact import LinearSpring
+    from grainmech.elasticity import bulk_modulus, shear_modulus
     from grainmech.fabric import isotropic
     from grainmech.material import Packing, packing_stiffness
-    from grainmech.elasticity import bulk_modulus, shear_modulus
 
     assert not hasattr(material, "ConstantStiffness")
     nv, l, kn, ks = 2.0e9, 5e-4, 3e6, 1e6

@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grainmech.cli import main
 from grainmech.contact import MindlinDeresiewicz, md_dissipation_per_cycle, md_loading_displacement
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -48,9 +47,9 @@ def _write(tmp_path: Path, text: str) -> Path:
     return p
 
 
-def test_example_runs_and_writes_csv_and_png(tmp_path):
+def test_example_runs_and_writes_csv_and_png(tmp_path, cli):
     out = tmp_path / "out"
-    assert main(["contact", str(EXAMPLES / "contact_md_growing_cycles.toml"), "-o", str(out)]) == 0
+    assert cli("contact", str(EXAMPLES / "contact_md_growing_cycles.toml"), "-o", str(out)).rc == 0
     data = _read(out / "contact.csv")
     for col in REQUIRED:
         assert col in data
@@ -71,9 +70,9 @@ def test_example_runs_and_writes_csv_and_png(tmp_path):
     assert W == pytest.approx(float(md_dissipation_per_cycle(4.0, 10.0, p)), rel=1e-8)
 
 
-def test_first_loading_matches_mindlin_curve(tmp_path):
+def test_first_loading_matches_mindlin_curve(tmp_path, cli):
     out = tmp_path / "o"
-    assert main(["contact", str(_write(tmp_path, BASE)), "-o", str(out), "--no-plot"]) == 0
+    assert cli("contact", str(_write(tmp_path, BASE)), "-o", str(out), "--no-plot").rc == 0
     assert not (out / "contact.png").exists()
     data = _read(out / "contact.csv")
     p = MindlinDeresiewicz(29e9, 0.22, 1e-3, friction=0.5)
@@ -84,12 +83,12 @@ def test_first_loading_matches_mindlin_curve(tmp_path):
     assert T[5] == pytest.approx(3.0, rel=1e-9)                  # steps/2 = 6 steps to +A
 
 
-def test_units_and_plain_si_numbers_agree(tmp_path):
+def test_units_and_plain_si_numbers_agree(tmp_path, cli):
     a, b = tmp_path / "a", tmp_path / "b"
-    main(["contact", str(_write(tmp_path, BASE)), "-o", str(a), "--no-plot"])
+    assert cli("contact", _write(tmp_path, BASE), "-o", a, "--no-plot").rc == 0
     si = BASE.replace('"29 GPa"', "29e9").replace('"1 mm"', "0.001").replace('"10 N"', "10.0") \
              .replace('"3 N"', "3.0")
-    main(["contact", str(_write(tmp_path, si)), "-o", str(b), "--no-plot"])
+    assert cli("contact", _write(tmp_path, si), "-o", b, "--no-plot").rc == 0
     da, db = _read(a / "contact.csv"), _read(b / "contact.csv")
     for k in REQUIRED:
         np.testing.assert_allclose(da[k], db[k], rtol=1e-12)
@@ -105,21 +104,21 @@ def test_units_and_plain_si_numbers_agree(tmp_path):
     (('tangential_force_amplitude = "3 N"', 'tangential_force_amplitude = "6 N"'), "friction limit"),
     (('law = "mindlin-deresiewicz"', 'law = "mindlin"'), "contact.law"),
 ])
-def test_user_errors_exit_2_with_one_line_naming_the_key(tmp_path, capsys, edit, key):
+def test_user_errors_exit_2_with_one_line_naming_the_key(tmp_path, edit, key, cli):
     cfg = BASE.replace(*edit)
-    rc = main(["contact", str(_write(tmp_path, cfg)), "-o", str(tmp_path / "o")])
-    assert rc == 2
-    err = capsys.readouterr().err
+    res = cli("contact", _write(tmp_path, cfg), "-o", tmp_path / "o")
+    assert res.rc == 2
+    err = res.err
     assert key in err and err.count("\n") == 1
 
 
-def test_missing_config_file_is_a_user_error(tmp_path, capsys):
-    assert main(["contact", str(tmp_path / "nope.toml"), "-o", str(tmp_path / "o")]) == 2
+def test_missing_config_file_is_a_user_error(tmp_path, cli):
+    assert cli("contact", str(tmp_path / "nope.toml"), "-o", str(tmp_path / "o")).rc == 2
 
 
-def test_cylinder_example_runs(tmp_path):
+def test_cylinder_example_runs(tmp_path, cli):
     out = tmp_path / "rods"
-    assert main(["contact", str(EXAMPLES / "contact_cylinder_rods.toml"), "-o", str(out), "--no-plot"]) == 0
+    assert cli("contact", str(EXAMPLES / "contact_cylinder_rods.toml"), "-o", str(out), "--no-plot").rc == 0
     data = _read(out / "contact.csv")
     assert np.all(np.isfinite(data["tangential_force"]))
     assert data["dissipated_energy"][-1] > 0
@@ -127,7 +126,7 @@ def test_cylinder_example_runs(tmp_path):
 
 @pytest.mark.parametrize("amplitude", ['tangential_force_amplitude = "3 N"',
                                        'tangential_displacement_amplitude = "0.3 um"'])
-def test_fifty_cycles_do_not_fill_the_reversal_memory(tmp_path, amplitude):
+def test_fifty_cycles_do_not_fill_the_reversal_memory(tmp_path, amplitude, cli):
     """50 symmetric cycles (force- or displacement-controlled, constant N) with
     ``max_reversals = 4``: Masing's rule erases every closed loop (Mindlin & Deresiewicz
     1953, seed Eq. 3.13-3.15), so the run completes and the last loop's dissipation equals
@@ -136,7 +135,7 @@ def test_fifty_cycles_do_not_fill_the_reversal_memory(tmp_path, amplitude):
     cfg.write_text(BASE.replace("friction = 0.5", "friction = 0.5\nmax_reversals = 4")
                    .replace("count = 1", "count = 50").replace("steps = 12", "steps = 16")
                    .replace('tangential_force_amplitude = "3 N"\n', "") + amplitude + "\n")
-    assert main(["contact", str(cfg), "-o", str(tmp_path / "out"), "--no-plot"]) == 0
+    assert cli("contact", str(cfg), "-o", str(tmp_path / "out"), "--no-plot").rc == 0
     c = _read(tmp_path / "out" / "contact.csv")
     assert len(c["step"]) == 1 + 8 + 50 * 2 * 16  # ramp to +A, then 50 cycles
     law = MindlinDeresiewicz(29e9, 0.22, 1e-3, friction=0.5)

@@ -21,10 +21,9 @@ import zlib
 
 import numpy as np
 import pytest
-from _hyp import HealthCheck, given, settings
-from _hyp import st
 
 import grainmech.contact.law as law_module
+from _hyp import HealthCheck, given, settings, st
 from grainmech.contact import (
     Cylinder,
     Hertz,

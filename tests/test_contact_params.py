@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from grainmech.contact import Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 GOOD = dict(shear_modulus=29e9, poisson=0.2, radius1=1e-3)
 
@@ -51,15 +51,15 @@ GOOD = dict(shear_modulus=29e9, poisson=0.2, radius1=1e-3)
 def test_bad_parameters_are_rejected_naming_the_field(cls, kwargs, field, value):
     kwargs = dict(kwargs)
     kwargs[field] = value
-    with pytest.raises(ConfigError) as info:
+    with pytest.raises(ParameterError) as info:
         cls(**kwargs)
-    assert info.value.key == field
+    assert info.value.name == field
     assert field in str(info.value)
     assert isinstance(info.value, ValueError)
 
 
 def test_mindlin_deresiewicz_requires_friction():
-    with pytest.raises(ConfigError, match="friction"):
+    with pytest.raises(ParameterError, match="friction"):
         MindlinDeresiewicz(**GOOD)
 
 

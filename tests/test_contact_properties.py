@@ -15,10 +15,9 @@ import math
 
 import numpy as np
 import pytest
-from _hyp import HealthCheck, given, settings
-from _hyp import st
 from scipy.spatial.transform import Rotation
 
+from _hyp import HealthCheck, given, settings, st
 from grainmech.contact import (
     Cylinder,
     HertzMindlin,

@@ -2,9 +2,8 @@
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
-from _hyp import arrays
 
+from _hyp import arrays, given, settings, st
 from grainmech import conventions as cv
 
 

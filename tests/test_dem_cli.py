@@ -7,7 +7,6 @@ import json
 import numpy as np
 import pytest
 
-from grainmech.cli import main
 from grainmech.io.dem import write_liggghts, write_table
 from grainmech.network import lattice_network, random_network
 
@@ -20,7 +19,7 @@ solver = "direct"
 """
 
 
-def test_cli_dem_lattice_json_and_files(tmp_path, capsys):
+def test_cli_dem_lattice_json_and_files(tmp_path, cli):
     R, dl, G, nu = 1.0, 2e-3, 29e9, 0.15
     net = lattice_network("sc", 3, R, dl, shear_modulus=G, poisson=nu)
     c, p = tmp_path / "c.dump", tmp_path / "p.dump"
@@ -28,9 +27,9 @@ def test_cli_dem_lattice_json_and_files(tmp_path, capsys):
     mat = tmp_path / "m.toml"
     mat.write_text(MATERIAL)
     out = tmp_path / "out"
-    rc = main(["dem", str(c), "--particles", str(p), "--material", str(mat), "--json", "-o", str(out)])
-    assert rc == 0
-    obj = json.loads(capsys.readouterr().out)
+    res = cli("dem", str(c), "--particles", str(p), "--material", str(mat), "--json", "-o", str(out))
+    assert res.rc == 0
+    obj = json.loads(res.out)
     for key in ("stress", "fabric", "coordination", "stiffness_affine", "stiffness_relaxed", "order"):
         assert key in obj
     assert obj["order"] == ["xx", "yy", "zz", "yz", "xz", "xy"]
@@ -55,22 +54,24 @@ def test_cli_dem_lattice_json_and_files(tmp_path, capsys):
     assert row[0] == "xx" and float(row[1]) == pytest.approx(kn / d, rel=1e-9)
 
 
-def test_cli_dem_table_text_output_no_material(tmp_path, capsys):
+def test_cli_dem_table_text_output_no_material(tmp_path, cli):
     net = random_network(60, seed=1)
     c, p = tmp_path / "c.csv", tmp_path / "p.csv"
     write_table(net, c, p)
-    assert main(["dem", str(c), "--particles", str(p)]) == 0
-    text = capsys.readouterr().out
+    res = cli("dem", str(c), "--particles", str(p))
+    assert res.rc == 0
+    text = res.out
     assert "coordination" in text and "no contact law" in text
 
 
-def test_cli_dem_errors_exit_2(tmp_path, capsys):
+def test_cli_dem_errors_exit_2(tmp_path, cli):
     c, p = tmp_path / "c.csv", tmp_path / "p.csv"
     p.write_text("id,x,y,z,radius\n1,0,0,0,1\n")
     c.write_text("id1,id2,fx,fy,fz\n1,2,1,0,0\n")
-    assert main(["dem", str(c), "--particles", str(p)]) == 2
-    err = capsys.readouterr().err
+    res = cli("dem", str(c), "--particles", str(p))
+    assert res.rc == 2
+    err = res.err
     assert err.count("\n") == 1 and "c.csv:2: particle id 2 (column id2)" in err
     mat = tmp_path / "m.toml"
     mat.write_text("[material]\nshear_modulus = 1e9\npoison = 0.2\n")
-    assert main(["dem", str(c), "--particles", str(p), "--material", str(mat)]) == 2
+    assert cli("dem", str(c), "--particles", str(p), "--material", str(mat)).rc == 2

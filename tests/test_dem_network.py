@@ -3,19 +3,16 @@
 from __future__ import annotations
 
 import itertools
-
 import json
 
 import numpy as np
 import pytest
-from _hyp import HealthCheck, assume, given, settings
-from _hyp import st
 
+from _hyp import HealthCheck, assume, given, settings, st
 from grainmech.errors import GrainmechError
 from grainmech.network import (
     Box,
     ContactNetwork,
-    rattler_threshold,
     affine_stiffness,
     contact_stiffnesses,
     coordination,
@@ -23,6 +20,7 @@ from grainmech.network import (
     network_fabric,
     network_stress,
     random_network,
+    rattler_threshold,
     rattlers,
     relaxed_stiffness,
 )
@@ -396,8 +394,7 @@ def test_rattler_rule_follows_the_contact_law_on_a_loose_frictional_network():
     """A loose frictional network (z = 4.2): the frictionless rule (fewer than d + 1 = 4
     contacts, removed iteratively) strips most grains, the frictional rule (2 contacts with
     rotations; Thornton 2000) keeps them, and the relaxed tensor is not zero."""
-    from grainmech.network import (contact_stiffnesses, random_network, rattler_threshold, rattlers,
-                                   relaxed_stiffness)
+    from grainmech.network import contact_stiffnesses, random_network, rattler_threshold, rattlers, relaxed_stiffness
 
     net = random_network(400, coordination=4.2, seed=3)
     assert rattler_threshold(3, frictional=True) == 2

@@ -1,6 +1,6 @@
 """Strain-controlled cyclic simple shear with the Mindlin-Deresiewicz law.
 
-Checks (issue 4, "done means"): loops close after the first cycle (Masing); G/Gmax falls
+Checks: loops close after the first cycle (Masing); G/Gmax falls
 and damping rises monotonically with amplitude; G at the smallest amplitude equals the
 small-strain modulus of the stiffness tensor (seed Eq. 2.26 with kt0 = 8 G* a) within 1 %;
 energy balance over cycles; step-halving stability (stated tolerances).

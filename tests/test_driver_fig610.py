@@ -16,9 +16,9 @@ from scipy.optimize import brentq
 from grainmech.assembly import static_contact_forces
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, fig610_path, fig610_stress, geometry, run
+from grainmech.elasticity import engineering_constants
 from grainmech.fabric import isotropic
 from grainmech.material import Packing
-from grainmech.elasticity import engineering_constants
 
 PHI = math.radians(24.0)
 R_STAR = (1 + math.sin(PHI)) / (1 - math.sin(PHI))

@@ -9,8 +9,7 @@ W = 9 mu^2 N^2 / (10 G* a) [1 - (1-x)^(5/3) - (5x/6)(1 + (1-x)^(2/3))], x = T*/(
 import numpy as np
 import pytest
 
-from grainmech.contact import MindlinDeresiewicz
-from grainmech.contact import ContactLaw, ContactLawProtocol, make_law
+from grainmech.contact import ContactLaw, ContactLawProtocol, MindlinDeresiewicz, make_law
 
 P = MindlinDeresiewicz(29e9, 0.15, 1e-3, friction=0.5)
 N = 1.0

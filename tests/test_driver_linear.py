@@ -9,16 +9,15 @@ import math
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 
+from _hyp import given, settings, st
 from grainmech.assembly import stiffness
 from grainmech.contact import LinearSpring
-from grainmech.driver import (Control, MaterialPoint, cyclic_simple_shear, parse_mask, run, segment,
-                              triaxial)
-from grainmech.errors import ConfigError
+from grainmech.driver import Control, MaterialPoint, cyclic_simple_shear, parse_mask, run, segment, triaxial
+from grainmech.elasticity import isotropic_constants
+from grainmech.errors import ParameterError
 from grainmech.fabric import isotropic
 from grainmech.material import Packing
-from grainmech.elasticity import isotropic_constants
 
 PK = Packing.from_grains(isotropic(3), void_ratio=0.6, coordination=8, radius=1e-3)
 P0 = 1e5
@@ -64,9 +63,9 @@ def test_mask_parsing_and_errors():
     """Readable masks are parsed at the edge only; bad ones name the field and value."""
     assert parse_mask("eesEEE") == Control((False, False, True, False, False, False))
     assert str(parse_mask("SSESSS")) == "SSESSS"
-    with pytest.raises(ConfigError, match="control"):
+    with pytest.raises(ParameterError, match="control"):
         parse_mask("EESEE")
-    with pytest.raises(ConfigError, match="steps_per_cycle"):
+    with pytest.raises(ParameterError, match="steps_per_cycle"):
         cyclic_simple_shear(1e-3, 1, 10)
 
 

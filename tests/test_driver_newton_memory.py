@@ -118,10 +118,9 @@ def test_fifty_cycles_keep_the_memory_bounded(constant):
         assert r.final.state.depth.max() <= LAW.max_reversals
 
 
-def test_contact_cli_fifty_cycles_with_a_varying_normal_force(tmp_path):
+def test_contact_cli_fifty_cycles_with_a_varying_normal_force(tmp_path, cli):
     """`grainmech contact`: 50 one-dimensional displacement cycles, N cycled too (Thornton-
     Randall rules move every reversal level), then 50 at constant N: the run completes."""
-    from grainmech.cli import main
 
     cfg = tmp_path / "c.toml"
     cfg.write_text(
@@ -131,7 +130,7 @@ def test_contact_cli_fifty_cycles_with_a_varying_normal_force(tmp_path):
                   f'tangential_displacement = "{0.4 * (-1) ** k} um"\nnormal_force = "{10 + (k % 3)} N"\n'
                   for k in range(100))
         + '[[path]]\nkind = "cycles"\ncount = 50\nsteps = 8\ntangential_displacement_amplitude = "0.3 um"\n')
-    assert main(["contact", str(cfg), "-o", str(tmp_path / "out")]) == 0
+    assert cli("contact", str(cfg), "-o", str(tmp_path / "out")).rc == 0
     rows = (tmp_path / "out" / "contact.csv").read_text().splitlines()
     assert len(rows) > 50 * 8 * 2
 

@@ -9,8 +9,18 @@ import numpy as np
 import pytest
 
 from grainmech.contact import MindlinDeresiewicz
-from grainmech.driver import (MaterialPoint, constant_mean_stress, cycles, cyclic_triaxial,
-                              fig610_path, isotropic_compression, run, segment, simple_shear, triaxial)
+from grainmech.driver import (
+    MaterialPoint,
+    constant_mean_stress,
+    cycles,
+    cyclic_triaxial,
+    fig610_path,
+    isotropic_compression,
+    run,
+    segment,
+    simple_shear,
+    triaxial,
+)
 from grainmech.fabric import isotropic
 from grainmech.material import Packing
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from grainmech.errors import ConfigError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import (
     FourierDensity,
     NegativeDensityWarning,
@@ -109,25 +109,25 @@ def test_on_negative_modes():
 
 def test_fit_input_errors():
     n = TRUE_3D.sample(100, rng=1)
-    with pytest.raises(ConfigError, match="order"):
+    with pytest.raises(ParameterError, match="order"):
         fit_density(n, 3)
-    with pytest.raises(ConfigError, match="unit"):
+    with pytest.raises(ParameterError, match="unit"):
         fit_density(n * 1.1, 2)
     bad = n.copy()
     bad[5, 1] = np.nan
-    with pytest.raises(ConfigError, match=r"non-finite.*\(5, 1\)"):
+    with pytest.raises(ParameterError, match=r"non-finite.*\(5, 1\)"):
         fit_density(bad, 2)
-    with pytest.raises(ConfigError, match="shape"):
+    with pytest.raises(ParameterError, match="shape"):
         fit_density(n[:, :1], 2)
-    with pytest.raises(ConfigError, match="weights"):
+    with pytest.raises(ParameterError, match="weights"):
         fit_density(n, 2, weights=np.ones(99))
-    with pytest.raises(ConfigError, match="weights"):
+    with pytest.raises(ParameterError, match="weights"):
         fit_density(n, 2, weights=-np.ones(100))
-    with pytest.raises(ConfigError, match="on_negative"):
+    with pytest.raises(ParameterError, match="on_negative"):
         fit_density(n, 2, on_negative="clip")
-    with pytest.raises(ConfigError, match="n_bins"):
+    with pytest.raises(ParameterError, match="n_bins"):
         fit_density(n, 2, n_bins=10)
-    with pytest.raises(ConfigError, match="rank"):
+    with pytest.raises(ParameterError, match="rank"):
         fabric_tensor(n, -1)
 
 

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 from scipy.integrate import quad
 
+from _hyp import given, settings, st
 from grainmech.conventions import seed_normal_2d
-from grainmech.errors import ConfigError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import FourierDensity, isotropic, rotate_tensor
 
 
@@ -112,14 +112,14 @@ def test_isotropic_and_errors():
     iso = isotropic(2)
     assert np.isclose(iso([1.0, 0.0]), 1 / (2 * np.pi))
     assert np.allclose(iso.fabric_tensor(2), np.eye(2) / 2)
-    with pytest.raises(ConfigError, match="dim"):
+    with pytest.raises(ParameterError, match="dim"):
         isotropic(4)
-    with pytest.raises(ConfigError, match="a"):
+    with pytest.raises(ParameterError, match="a"):
         FourierDensity(order=4, a=[0.1], b=[0.0, 0.0])
-    with pytest.raises(ConfigError, match="k"):
+    with pytest.raises(ParameterError, match="k"):
         FourierDensity.from_seed_coefficients({3: (0.1, 0.0)})
     d = FourierDensity.from_seed(0.1)
-    with pytest.raises(ConfigError, match="normals"):
+    with pytest.raises(ParameterError, match="normals"):
         d([0.0, 0.0, 1.0])
-    with pytest.raises(ConfigError, match="unit"):
+    with pytest.raises(ParameterError, match="unit"):
         d([0.5, 0.5])

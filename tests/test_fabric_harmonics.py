@@ -7,11 +7,11 @@ from math import factorial
 import numpy as np
 import pytest
 import sympy as sp
-from _hyp import given, settings, st
 from scipy.spatial.transform import Rotation
 
+from _hyp import given, settings, st
 from grainmech.conventions import seed_angles, seed_normal
-from grainmech.errors import ConfigError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import SphericalDensity, isotropic, rotate_tensor, sh_degrees_orders
 from grainmech.fabric._basis import real_sh
 
@@ -173,26 +173,26 @@ def test_isotropic_and_errors():
     iso = isotropic(3)
     assert iso.order == 0 and np.isclose(iso([0, 0, 1]), 1 / (4 * np.pi))
     assert np.allclose(iso.fabric_tensor(2), np.eye(3) / 3)
-    with pytest.raises(ConfigError, match="order"):
+    with pytest.raises(ParameterError, match="order"):
         SphericalDensity(order=3, coefficients=np.zeros(9))
-    with pytest.raises(ConfigError, match="coefficients"):
+    with pytest.raises(ParameterError, match="coefficients"):
         SphericalDensity(order=2, coefficients=np.zeros(4))
-    with pytest.raises(ConfigError, match="coefficients"):
+    with pytest.raises(ParameterError, match="coefficients"):
         SphericalDensity(order=2, coefficients=[np.nan, 0, 0, 0, 0])
     d = SphericalDensity.from_seed(0.3)
-    with pytest.raises(ConfigError, match="unit vectors"):
+    with pytest.raises(ParameterError, match="unit vectors"):
         d([1.0, 1.0, 0.0])
-    with pytest.raises(ConfigError, match="shape"):
+    with pytest.raises(ParameterError, match="shape"):
         d([1.0, 0.0])
-    with pytest.raises(ConfigError, match="non-finite"):
+    with pytest.raises(ParameterError, match="non-finite"):
         d([np.nan, 0.0, 1.0])
-    with pytest.raises(ConfigError, match="a20"):
+    with pytest.raises(ParameterError, match="a20"):
         SphericalDensity.from_seed(a20=float("nan"))
-    with pytest.raises(ConfigError, match="b_k0"):
+    with pytest.raises(ParameterError, match="b_k0"):
         SphericalDensity.from_seed_coefficients({(2, 0): (0.1, 0.2)})
-    with pytest.raises(ConfigError, match="even"):
+    with pytest.raises(ParameterError, match="even"):
         SphericalDensity.from_seed_coefficients({(3, 0): (0.1, 0.0)})
-    with pytest.raises(ConfigError, match="R"):
+    with pytest.raises(ParameterError, match="R"):
         d.rotated(np.ones((3, 3)))
 
 
@@ -264,7 +264,7 @@ def test_from_function_shrunk_truncated():
     d = SphericalDensity.from_seed_coefficients({(2, 0): (0.3, 0), (4, 1): (0.01, 0.02)})
     e = SphericalDensity.from_function(d, order=4)
     assert np.allclose(e.coefficients, d.coefficients, atol=1e-14)
-    with pytest.raises(ConfigError, match="integrate to 1"):
+    with pytest.raises(ParameterError, match="integrate to 1"):
         SphericalDensity.from_function(lambda p: 2 * d(p), order=4)
     f = SphericalDensity.from_function(lambda p: 2 * d(p), order=4, normalise=True)
     assert np.allclose(f.coefficients, d.coefficients, atol=1e-14)

@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import (
     CorrelationRangeWarning,
     contact_ends_per_volume,
@@ -74,26 +74,26 @@ def test_porosity_round_trip():
                                coordination_field, coordination_chang, porosity])
 @pytest.mark.parametrize("bad", [0.0, -0.2, float("nan"), float("inf")])
 def test_bad_void_ratio(f, bad):
-    with pytest.raises(ConfigError, match="void_ratio"):
+    with pytest.raises(ParameterError, match="void_ratio"):
         f(bad)
 
 
 def test_errors_and_warnings():
-    with pytest.raises(ConfigError, match="radius"):
+    with pytest.raises(ParameterError, match="radius"):
         contact_ends_per_volume(0.6, 9, 0.0)
-    with pytest.raises(ConfigError, match="coordination"):
+    with pytest.raises(ParameterError, match="coordination"):
         contacts_per_volume(0.6, -1, 0.1)
-    with pytest.raises(ConfigError, match="dim"):
+    with pytest.raises(ParameterError, match="dim"):
         particles_per_volume(0.6, 0.1, dim=1)
-    with pytest.raises(ConfigError, match="void_ratio"):
+    with pytest.raises(ParameterError, match="void_ratio"):
         coordination_smith(1.6)                  # gives m <= 0
-    with pytest.raises(ConfigError, match="void_ratio"):
+    with pytest.raises(ParameterError, match="void_ratio"):
         coordination_chang(0.95)                 # 23 - 25 e < 0
-    with pytest.raises(ConfigError, match="porosity"):
+    with pytest.raises(ParameterError, match="porosity"):
         void_ratio_from_porosity(1.0)
-    with pytest.raises(ConfigError, match="coordination"):
+    with pytest.raises(ParameterError, match="coordination"):
         void_ratio_chang(24.0)
-    with pytest.raises(ConfigError, match="correlation"):
+    with pytest.raises(ParameterError, match="correlation"):
         coordination_number(0.6, "oda")
     with pytest.warns(CorrelationRangeWarning, match="nominal"):
         coordination_field(1.2)
@@ -106,10 +106,10 @@ def test_errors_and_warnings():
 
 def test_particles_per_volume_out_of_float_range_is_a_clear_error():
     """A radius so small that 1/r^3 overflows (wrong length unit) names the radius."""
-    from grainmech.errors import ConfigError
+    from grainmech.errors import ParameterError
     from grainmech.fabric.packing import particles_per_volume
 
-    with pytest.raises(ConfigError, match="radius = 1e-120"):
+    with pytest.raises(ParameterError, match="radius = 1e-120"):
         particles_per_volume(0.6, 1e-120)
     # 3 / (4 pi r^3 (1 + e)) for r = 1 mm, e = 0.6
     assert particles_per_volume(0.6, 1e-3) == pytest.approx(3 / (4 * np.pi * 1e-9 * 1.6), rel=1e-14)

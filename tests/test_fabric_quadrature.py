@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.special import gamma as G
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import (
     LEBEDEV_NEGATIVE_WEIGHT_ORDERS,
     LEBEDEV_ORDERS,
@@ -88,7 +88,7 @@ def test_smallest_order_is_chosen_and_never_too_low():
 
 @pytest.mark.parametrize("bad", [-1, 132, 2.5, "4", None, True])
 def test_sphere_rule_bad_degree(bad):
-    with pytest.raises(ConfigError) as exc:
+    with pytest.raises(ParameterError) as exc:
         sphere_rule(bad)
     assert "degree" in str(exc.value)
 

@@ -1,8 +1,8 @@
-"""Fabric -> stiffness invariants (issue 2 property tests; seed Eq. 2.28-2.29, 2.41, 4.19)."""
+"""Fabric -> stiffness invariants (property tests; seed Eq. 2.28-2.29, 2.41, 4.19)."""
 
 import numpy as np
-from _hyp import given, settings, st
 
+from _hyp import given, settings, st
 from grainmech import fabric
 from grainmech.assembly import ContactSet, stiffness
 from grainmech.closed_form import spheres_second_order

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from _hyp import given, settings, st
 
-from grainmech.errors import ConfigError
+from _hyp import given, settings, st
+from grainmech.errors import ParameterError
 from grainmech.fabric import (
     FourierDensity,
     SphericalDensity,
@@ -20,7 +20,6 @@ from grainmech.fabric import (
     symmetrize,
     trace,
 )
-
 from test_fabric_harmonics import product_rule
 
 
@@ -164,17 +163,17 @@ def test_anisotropy_measures():
 
 
 def test_conversion_errors():
-    with pytest.raises(ConfigError, match="trace"):
+    with pytest.raises(ParameterError, match="trace"):
         phi_from_fabric(np.eye(3))                         # trace 3, not 1
-    with pytest.raises(ConfigError, match="symmetric"):
+    with pytest.raises(ParameterError, match="symmetric"):
         phi_from_fabric(np.array([[0.5, 0.1], [0.0, 0.5]]))
-    with pytest.raises(ConfigError, match="even"):
+    with pytest.raises(ParameterError, match="even"):
         phi_from_fabric(np.zeros((3, 3, 3)))
-    with pytest.raises(ConfigError, match="traceless"):
+    with pytest.raises(ParameterError, match="traceless"):
         SphericalDensity.from_coefficient_tensors({2: np.eye(3) * 0.1})
-    with pytest.raises(ConfigError, match="rank"):
+    with pytest.raises(ParameterError, match="rank"):
         SphericalDensity.from_coefficient_tensors({2: np.zeros((3, 3, 3, 3))})
-    with pytest.raises(ConfigError, match="shape"):
+    with pytest.raises(ParameterError, match="shape"):
         anisotropy(np.eye(4) / 4)
-    with pytest.raises(ConfigError, match="non-finite"):
+    with pytest.raises(ParameterError, match="non-finite"):
         deviatoric(np.full((3, 3), np.nan))

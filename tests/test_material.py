@@ -57,5 +57,5 @@ def test_pressure_needed_for_force_dependent_stiffness():
     hm = material.HertzMindlinStiffness.for_equal_spheres(30e9, 0.2, 2e-4)
     with pytest.raises(GrainmechError, match="stress"):
         material.packing_stiffness(iso, hm)
-    with pytest.raises(GrainmechError, match="pressure must be > 0"):
+    with pytest.raises(GrainmechError, match="pressure.*must be > 0"):
         material.packing_stiffness(iso, hm, -1.0)

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-from grainmech.cli import main
 from grainmech.errors import ConfigError
 from grainmech.jobs import compute_stiffness
 
@@ -62,10 +61,10 @@ def test_run_accepts_the_relation(tmp_path):
     assert rel.G_max == pytest.approx(num.G_max, rel=1e-12)
 
 
-def test_calibrate_writes_a_config_that_stiffness_runs(tmp_path, capsys):
+def test_calibrate_writes_a_config_that_stiffness_runs(tmp_path, cli):
     out = tmp_path / "cal"
-    assert main(["calibrate", str(EX / "calibrate_hardin_black.toml"), str(EX / "calibrate_hardin_black.csv"),
-                 "-o", str(out), "--quiet", "--no-plot"]) == 0
+    assert cli("calibrate", EX / "calibrate_hardin_black.toml", EX / "calibrate_hardin_black.csv",
+               "-o", out, "--quiet", "--no-plot").rc == 0
     fit = json.loads((out / "fit.json").read_text())
     best = {q["path"]: q["value"] for q in fit["parameters"]}
     text = (out / "calibrated.toml").read_text()
@@ -85,7 +84,7 @@ def test_calibrate_writes_a_config_that_stiffness_runs(tmp_path, capsys):
     p = float(cfg["stress"]["pressure"].split()[0])
     pred = predict("modulus-pressure", model, from_arrays({"pressure": [p], "void_ratio": [0.65], "G": [1.0]}),
                    problem.settings)
-    capsys.readouterr()
-    assert main(["stiffness", str(out / "calibrated.toml"), "--json"]) == 0
-    got = json.loads(capsys.readouterr().out)["engineering"]["G_xz"]
+    res = cli("stiffness", str(out / "calibrated.toml"), "--json")
+    assert res.rc == 0
+    got = json.loads(res.out)["engineering"]["G_xz"]
     assert got == pytest.approx(float(pred["G"][0]), rel=1e-9)

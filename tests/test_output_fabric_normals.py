@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from grainmech.cli import main
 from grainmech.errors import ConfigError
 from grainmech.jobs import compute_stiffness
 
@@ -38,13 +37,15 @@ def test_order_two_fit_is_the_measured_fabric_tensor():
     assert f["n_normals"] == 1500 and f["p_value"] is not None and 0 < f["p_value"] <= 1
 
 
-def test_cli_reads_the_file_relative_to_the_config_and_reports_the_fit(tmp_path, monkeypatch, capsys):
+def test_cli_reads_the_file_relative_to_the_config_and_reports_the_fit(tmp_path, monkeypatch, cli):
     monkeypatch.chdir(tmp_path)  # not the examples folder
-    assert main(["stiffness", str(EX / "stiffness_measured_fabric.toml")]) == 0
-    out = capsys.readouterr().out
+    res = cli("stiffness", str(EX / "stiffness_measured_fabric.toml"))
+    assert res.rc == 0
+    out = res.out
     assert "fabric fitted to 1500 normals" in out and "chi-square" in out
-    assert main(["stiffness", str(EX / "stiffness_measured_fabric.toml"), "--json"]) == 0
-    obj = json.loads(capsys.readouterr().out)
+    res = cli("stiffness", str(EX / "stiffness_measured_fabric.toml"), "--json")
+    assert res.rc == 0
+    obj = json.loads(res.out)
     assert obj["fabric_fit"]["order"] == 2 and obj["fabric_fit"]["n_normals"] == 1500
 
 

@@ -4,7 +4,7 @@ scripts/dem_reference.py on the shipped "dense" packing; these tests need no LAM
 * Strain probes (strain 1e-6, quasi-static, docs/packing.md) against grainmech's relaxed
   tensor ``C_affine - (1/V) B^T H^+ B`` (Lemaitre & Maloney 2006, Eq. 12; Kruyt &
   Rothenburg 1998) of the same re-equilibrated network with Hertz-Mindlin no-slip contact
-  stiffnesses (seed Eq. 3.7, 3.11-3.12): the issue asks for 5 % in bulk and shear modulus.
+  stiffnesses (seed Eq. 3.7, 3.11-3.12): within 5 % in bulk and shear modulus.
 * Cyclic simple shear: the small-amplitude secant G is an independent DEM measurement of
   the probe tensor's C66; the rate and the drag do not move G (< 2 %) or the damping.
 """

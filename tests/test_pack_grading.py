@@ -8,7 +8,7 @@ definition Cu = D60 / D10 of the mass curve.
 import numpy as np
 import pytest
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.packing import D50Cu, SieveCurve, UniformRadius
 
 
@@ -68,13 +68,13 @@ def test_uniform_radius_bounds_and_mean():
     ([-1.0, 0.3e-3], [0, 100], "grading.sizes"),
 ])
 def test_bad_sieve_curves_name_the_key(sizes, passing, key):
-    with pytest.raises(ConfigError) as e:
+    with pytest.raises(ParameterError) as e:
         SieveCurve(sizes, passing)
-    assert e.value.key == key
+    assert e.value.name == key
 
 
 def test_bad_d50_cu_and_uniform():
-    with pytest.raises(ConfigError, match="cu"):
+    with pytest.raises(ParameterError, match="cu"):
         D50Cu(0.3e-3, 0.9)
-    with pytest.raises(ConfigError, match="spread"):
+    with pytest.raises(ParameterError, match="spread"):
         UniformRadius(1e-4, 1.0)

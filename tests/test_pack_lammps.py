@@ -71,11 +71,10 @@ def test_simple_cubic_lattice_stress():
 
 
 @pytest.mark.slow
-def test_pack_command_small_loose_packing(tmp_path):
+def test_pack_command_small_loose_packing(tmp_path, cli):
     """``grainmech pack`` end to end on 120 grains (frictional preparation, fast; one thread,
     so the run is deterministic: packings this small do not always bring every shear stress
     within 0.5 % of zero, see docs/packing.md)."""
-    from grainmech.cli import main
     from grainmech.io.dem import read_network
     from grainmech.packing import unbalanced_ratio
 
@@ -83,7 +82,7 @@ def test_pack_command_small_loose_packing(tmp_path):
     cfg.write_text('[grains]\ncount = 120\ndistribution = "uniform"\nradius = "0.15 mm"\nspread = 0.1\n'
                    'seed = 2\n[preparation]\nstress = "100 kPa"\nfriction = 0.5\nthreads = 1\n')
     out = tmp_path / "out"
-    assert main(["pack", str(cfg), "-o", str(out), "--quiet"]) == 0
+    assert cli("pack", str(cfg), "-o", str(out), "--quiet").rc == 0
     for f in ("contacts.npz", "particles.npz", "summary.json", "history.csv", "packing.png", "config.toml"):
         assert (out / f).exists()
     net = read_network(out / "contacts.npz", out / "particles.npz")
@@ -91,13 +90,12 @@ def test_pack_command_small_loose_packing(tmp_path):
     assert np.diag(np.asarray(network_stress(net).stress)) == pytest.approx([1e5] * 3, rel=5e-3)
 
 
-def test_pack_command_bad_config_writes_nothing(tmp_path, capsys):
-    from grainmech.cli import main
-
+def test_pack_command_bad_config_writes_nothing(tmp_path, cli):
     cfg = tmp_path / "p.toml"
     cfg.write_text('[grains]\ncount = 100\ndistribution = "sieve"\nsizes = ["0.3 mm", "0.2 mm"]\n'
                    'passing = [0, 100]\n[preparation]\nstress = "100 kPa"\n')
     out = tmp_path / "out"
-    assert main(["pack", str(cfg), "-o", str(out)]) == 2
-    assert "grains.sizes" in capsys.readouterr().err
+    res = cli("pack", str(cfg), "-o", str(out))
+    assert res.rc == 2
+    assert "grains.sizes" in res.err
     assert not out.exists()

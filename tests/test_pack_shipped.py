@@ -84,10 +84,8 @@ def test_unknown_name():
         load_packing("medium-dense")
 
 
-def test_dem_command_reads_the_format(tmp_path):
+def test_dem_command_reads_the_format(tmp_path, cli):
     """``grainmech dem`` reads the shipped tables (the network format of grainmech pack)."""
-    from grainmech.cli import main
-
-    rc = main(["dem", str(DATA / "loose-contacts.npz"), "--particles", str(DATA / "loose-particles.npz"),
-               "--no-plots", "--json", "-o", str(tmp_path)])
-    assert rc == 0
+    res = cli("dem", DATA / "loose-contacts.npz", "--particles", DATA / "loose-particles.npz",
+              "--no-plots", "--json", "-o", tmp_path)
+    assert res.rc == 0

@@ -14,8 +14,15 @@ import pytest
 from grainmech.analysis import loop_properties
 from grainmech.contact import Hertz, LinearSpring, MindlinDeresiewicz
 from grainmech.driver import LoadPath, cyclic_simple_shear, triaxial
-from grainmech.driver.packing import (PackingOptions, PackingPoint, equilibrate_network, packing_modulus_reduction,
-                                      perturbed_fcc_network, run_packing, unbalanced_force_ratio)
+from grainmech.driver.packing import (
+    PackingOptions,
+    PackingPoint,
+    equilibrate_network,
+    packing_modulus_reduction,
+    perturbed_fcc_network,
+    run_packing,
+    unbalanced_force_ratio,
+)
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.network import contact_stiffnesses, random_network, relaxed_stiffness
 

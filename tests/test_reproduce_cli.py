@@ -3,14 +3,14 @@
 import csv
 import html
 
-from grainmech.cli import main
 from grainmech.reproduce import build, reproduce
 
 
-def test_cli_one_figure_writes_png_csv_and_index(tmp_path, capsys):
+def test_cli_one_figure_writes_png_csv_and_index(tmp_path, cli):
     out = tmp_path / "out"
-    assert main(["reproduce", "fig4.3", "-o", str(out)]) == 0
-    assert "fig4_3.png" in capsys.readouterr().out
+    res = cli("reproduce", "fig4.3", "-o", str(out))
+    assert res.rc == 0
+    assert "fig4_3.png" in res.out
     png = out / "fig4_3.png"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with open(out / "fig4_3.csv", newline="") as fh:
@@ -35,15 +35,17 @@ def test_index_has_every_requested_figure(tmp_path):
     assert "<script" not in index and "<link" not in index
 
 
-def test_unknown_figure_exit_2(tmp_path, capsys):
-    assert main(["reproduce", "4.1", "-o", str(tmp_path)]) == 2
-    err = capsys.readouterr().err.strip()
+def test_unknown_figure_exit_2(tmp_path, cli):
+    res = cli("reproduce", "4.1", "-o", str(tmp_path))
+    assert res.rc == 2
+    err = res.err.strip()
     assert err.startswith("grainmech: error: unknown figure '4.1'") and "\n" not in err
 
 
-def test_unwritable_outdir_exit_2(tmp_path, capsys):
+def test_unwritable_outdir_exit_2(tmp_path, cli):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    assert main(["reproduce", "4.3", "-o", str(blocker / "sub")]) == 2
-    err = capsys.readouterr().err.strip()
+    res = cli("reproduce", "4.3", "-o", str(blocker / "sub"))
+    assert res.rc == 2
+    err = res.err.strip()
     assert err.startswith("grainmech: error:") and "\n" not in err

@@ -6,8 +6,15 @@ import numpy as np
 import pytest
 
 from grainmech.errors import GrainmechError
-from grainmech.reproduce import FIGURES, build, normalize_id
-from grainmech.reproduce import fabric_sections, isotropic_moduli, linear_moduli, stress_paths
+from grainmech.reproduce import (
+    FIGURES,
+    build,
+    fabric_sections,
+    isotropic_moduli,
+    linear_moduli,
+    normalize_id,
+    stress_paths,
+)
 
 
 def _eq_4_15(n, a20, a22, b22):

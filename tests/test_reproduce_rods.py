@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from grainmech.errors import GrainmechError
 from grainmech import rods as rodlib
+from grainmech.errors import GrainmechError
 from grainmech.reproduce import random_rods as rod_figs
 from grainmech.reproduce import rods
 from grainmech.rods import random_packing as random_rods

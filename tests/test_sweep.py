@@ -11,7 +11,6 @@ import sys
 import numpy as np
 import pytest
 
-from grainmech.cli import main
 from grainmech.errors import ConfigError, GrainmechError
 
 pytest.importorskip("distributed")
@@ -141,10 +140,10 @@ def test_monte_carlo_bounded_reproducible():
 
 # ------------------------------------------------------------------------- running sweeps
 def test_grid_stiffness_table_equals_library(tmp_path, client):
-    from grainmech.fabric import SphericalDensity, coordination_number
     from grainmech.contact import HertzMindlin
-    from grainmech.material import Packing, packing_stiffness
     from grainmech.elasticity import bulk_modulus, engineering_constants, shear_modulus
+    from grainmech.fabric import SphericalDensity, coordination_number
+    from grainmech.material import Packing, packing_stiffness
 
     sw = sweep_from_dict(stiffness_sweep())
     s = run_sweep(sw, tmp_path, client=client, plots=False)
@@ -307,7 +306,7 @@ def test_bad_sweep_files_name_the_key(mutate, key):
     assert info.value.key == key, str(info.value)
 
 
-def test_cli_sweep_and_errors(tmp_path, capsys):
+def test_cli_sweep_and_errors(tmp_path, cli):
     base = tmp_path / "base.toml"
     base.write_text('[packing]\nvoid_ratio = 0.6\ncoordination = 8\nradius = "0.2 mm"\n'
                     '[contacts]\nlaw = "hertz-mindlin"\nshear_modulus = "44 GPa"\npoisson = 0.08\n'
@@ -317,15 +316,18 @@ def test_cli_sweep_and_errors(tmp_path, capsys):
                   'samples = 4\nseed = 2\n[parameters."stress.pressure"]\nmin = "50 kPa"\nmax = "1 MPa"\n'
                   'scale = "log"\n')
     out = tmp_path / "out"
-    assert main(["sweep", str(sw), "-o", str(out), "--quiet"]) == 0
-    assert "4 succeeded, 0 failed, 0 reused" in capsys.readouterr().out
-    assert main(["sweep", str(sw), "-o", str(out), "--quiet", "--no-plots"]) == 0
-    assert "0 failed, 4 reused" in capsys.readouterr().out
+    res = cli("sweep", str(sw), "-o", str(out), "--quiet")
+    assert res.rc == 0
+    assert "4 succeeded, 0 failed, 0 reused" in res.out
+    res = cli("sweep", str(sw), "-o", str(out), "--quiet", "--no-plots")
+    assert res.rc == 0
+    assert "0 failed, 4 reused" in res.out
     # the folder holds the latest run only: its --no-plots run left no stale summary.png
     assert not (out / "summary.png").exists() and (out / "sweep.json").exists()
     sw.write_text(sw.read_text().replace("max =", "maxx ="))
-    assert main(["sweep", str(sw), "-o", str(out)]) == 2
-    err = capsys.readouterr().err.strip()
+    res = cli("sweep", str(sw), "-o", str(out))
+    assert res.rc == 2
+    err = res.err.strip()
     assert err.count("\n") == 0 and 'parameters.stress.pressure' in err
 
 

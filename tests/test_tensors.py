@@ -21,13 +21,12 @@ import itertools
 import numpy as np
 import pytest
 import sympy as sp
-from _hyp import HealthCheck, given, settings
-from _hyp import st
 from scipy.spatial.transform import Rotation
 
+from _hyp import HealthCheck, given, settings, st
+from grainmech import elasticity as T
 from grainmech.conventions import matrix_to_tensor4, reorder, tensor4_to_matrix, voigt_to_mandel
 from grainmech.errors import GrainmechError
-from grainmech import elasticity as T
 
 FAST = settings(max_examples=8, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow])

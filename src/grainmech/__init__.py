@@ -17,7 +17,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 
 __version__ = "0.1.0"
 
@@ -47,7 +47,7 @@ _LAZY: dict[str, str] = {
     "plots": "grainmech.plots",
 }
 
-__all__ = ["ConfigError", "GrainmechError", "__version__", *sorted(_LAZY)]
+__all__ = ["ConfigError", "GrainmechError", "ParameterError", "__version__", *sorted(_LAZY)]
 
 
 def __getattr__(name: str) -> Any:

@@ -39,12 +39,13 @@ One engine, two ways of feeding it:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
-from grainmech.conventions import tensor4_to_matrix, matrix_to_tensor4
+from grainmech.conventions import matrix_to_tensor4, tensor4_to_matrix
 from grainmech.errors import GrainmechError
 
 __all__ = [
@@ -150,7 +151,7 @@ class ContactSet:
     def __len__(self) -> int:
         return int(self.normals.shape[0])
 
-    def with_stiffness(self, kn: Any, ks: Any) -> "ContactSet":
+    def with_stiffness(self, kn: Any, ks: Any) -> ContactSet:
         """Same geometry with new contact stiffnesses."""
         return ContactSet(self.normals, self.branch, self.weights, kn, ks, self.convention)
 
@@ -165,7 +166,7 @@ class ContactSet:
         ks: float | Callable[[np.ndarray], np.ndarray],
         extra_degree: int = 4,
         convention: str = "physical",
-    ) -> "ContactSet":
+    ) -> ContactSet:
         """Discretise a contact-normal density by quadrature (seed Eq. 2.41).
 
         Parameters
@@ -190,8 +191,8 @@ class ContactSet:
         if not np.isfinite(branch_length) or branch_length <= 0:
             raise GrainmechError(f"branch_length must be > 0, got {branch_length!r}")
         normals, w = density.directions(extra_degree)
-        kn_v = kn(normals) if callable(kn) else kn
-        ks_v = ks(normals) if callable(ks) else ks
+        kn_v = np.asarray(kn(normals) if callable(kn) else kn, dtype=float)
+        ks_v = np.asarray(ks(normals) if callable(ks) else ks, dtype=float)
         return cls(normals, branch_length * normals, contacts_per_volume * np.asarray(w),
                    kn_v, ks_v, convention)
 
@@ -378,8 +379,11 @@ def _moments_to_matrices(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def moments_to_voigt(a: np.ndarray) -> np.ndarray:
-    """Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``add_moments3``
-    (seed Eq. 2.26 with the full tangential projector, symmetrised as :func:`stiffness`)."""
+    """Voigt stiffness (6, 6) [stress] from the 27 moments of ``add_moments3``.
+
+    Voigt stiffness (6, 6) [stress] from the 27 moments accumulated by ``add_moments3``
+    (seed Eq. 2.26 with the full tangential projector, symmetrised as :func:`stiffness`).
+    """
     A, M = _moments_to_matrices(a)
     Cm = A + _b_mandel(M)
     return 0.5 * (Cm + Cm.T) * _M2V[3]

@@ -19,7 +19,7 @@ length, which for equal spheres is exactly twice the seed's value.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, asdict
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -226,6 +226,7 @@ class HertzMindlinIsotropic:
     convention: str
 
     def as_dict(self) -> dict:
+        """The fields as a plain dict."""
         return asdict(self)
 
 

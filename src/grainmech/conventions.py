@@ -22,7 +22,7 @@ See ``docs/conventions.md`` for the prose version. In short:
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -81,7 +81,7 @@ def index_pairs(order: Sequence[str]) -> list[tuple[int, int]]:
     list of (int, int)
         ``[(0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1)]`` for the example.
     """
-    return [tuple(AXES.index(c) for c in _canon(lab)) for lab in order]  # type: ignore[misc]
+    return [(AXES.index(lab[0]), AXES.index(lab[1])) for lab in map(_canon, order)]
 
 
 def order_for(dim: int, name: str = "voigt") -> tuple[str, ...]:

@@ -17,12 +17,12 @@ from typing import Any, Protocol
 import numpy as np
 
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness
-from grainmech.errors import GrainmechError
+from grainmech.errors import GrainmechError, ParameterError
 
 __all__ = [
     "Packing",
     "ContactStiffness",
-    "HertzMindlinStiffness",
+    "HertzMindlinStiffness",  # noqa: F822 - resolved lazily by the module's __getattr__
     "normal_forces_for_stress",
     "StiffnessResult",
     "packing_stiffness",
@@ -62,20 +62,21 @@ class Packing:
         for name in ("contacts_per_volume", "branch_length"):
             v = getattr(self, name)
             if not np.isfinite(v) or v <= 0:
-                raise GrainmechError(f"{name} must be > 0, got {v!r}")
+                raise ParameterError(name, v, "must be > 0")
         if self.convention not in ("physical", "seed"):
-            raise GrainmechError(f"convention must be 'physical' or 'seed', got {self.convention!r}")
+            raise ParameterError("convention", self.convention, "must be 'physical' or 'seed'")
         if self.radius is None:
             r = self.branch_length / 2 if self.convention == "physical" else self.branch_length
             object.__setattr__(self, "radius", r)
 
     @property
     def dim(self) -> int:
+        """Space dimension of the fabric (2 or 3)."""
         return int(self.density.dim)
 
     @classmethod
     def from_grains(cls, density: Any, *, void_ratio: float, coordination: float, radius: float,
-                    convention: str = "physical") -> "Packing":
+                    convention: str = "physical") -> Packing:
         """Equal grains of radius ``radius`` at void ratio e with coordination m (Eq. 4.1)."""
         from grainmech.closed_form import packing_scale
 
@@ -98,7 +99,9 @@ class Packing:
 class ContactStiffness(Protocol):
     """Anything giving tangent contact stiffnesses from normal forces (array -> (kn, ks))."""
 
-    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+    def stiffness(self, normal_force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tangent stiffnesses ``(kn, ks)`` [N/m], each shaped like ``normal_force`` [N]."""
+        ...
 
 
 def __getattr__(name: str) -> Any:
@@ -212,7 +215,7 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
         sigma = np.asarray(stress, dtype=float)
         if sigma.ndim == 0:
             if not np.isfinite(sigma) or sigma <= 0:
-                raise GrainmechError(f"pressure must be > 0, got {float(sigma)!r}")
+                raise ParameterError("pressure", float(sigma), "must be > 0")
             sigma = float(sigma) * np.eye(d)
     # constant stiffness or uniform forces: a degree-4 integrand is exact
     isotropic_fabric = packing.density.order == 0 and np.allclose(sigma, sigma[0, 0] * np.eye(d))
@@ -225,7 +228,8 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         raise GrainmechError(
-            f"contact stiffness is not finite (kn = {float(np.asarray(kn)[i]):.4g}, ks = {float(np.asarray(ks)[i]):.4g} "
+            f"contact stiffness is not finite (kn = {float(np.asarray(kn)[i]):.4g}, "
+            f"ks = {float(np.asarray(ks)[i]):.4g} "
             f"at normal force {N[i]:.4g}): the inputs overflow; check radius ({packing.radius:.4g}), "
             "void_ratio, coordination, shear_modulus, poisson and the pressure for a consistent unit system")
     cs = geom.with_stiffness(kn, ks)

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import contextlib
 import logging
-from typing import Any, Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any
 
 from grainmech.errors import GrainmechError
 
@@ -32,8 +33,7 @@ _ONE_THREAD = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREAD
 
 
 def import_distributed() -> Any:
-    """Import and return :mod:`distributed`, or raise a :class:`GrainmechError` telling
-    the user how to install it."""
+    """Import and return :mod:`distributed`, or raise a :class:`GrainmechError` telling the user how to install it."""
     try:
         import distributed  # noqa: PLC0415 (optional dependency, imported lazily)
     except ImportError as exc:
@@ -122,9 +122,12 @@ _FAST_CLOSE = 0.5
 
 
 def _close(obj: Any, interrupted: bool) -> None:
-    """Close a client or cluster; after Ctrl-C within :data:`_FAST_CLOSE` seconds, and
+    """Close a Dask client or cluster.
+
+    Close a client or cluster; after Ctrl-C within :data:`_FAST_CLOSE` seconds, and
     without waiting for an in-process worker's running task (its thread is a daemon
-    thread: it ends with the process)."""
+    thread: it ends with the process).
+    """
     if not interrupted:
         obj.close()
         return

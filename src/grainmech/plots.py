@@ -16,7 +16,8 @@ Example
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -35,8 +36,11 @@ def _matplotlib() -> Any:
 
 
 def figure(**kw: Any) -> Any:
-    """A ``matplotlib.figure.Figure`` detached from pyplot (``figsize``, ``dpi``...): it
-    needs no display and is freed when dropped (``fig.savefig`` writes it)."""
+    """A matplotlib Figure detached from pyplot.
+
+    A ``matplotlib.figure.Figure`` detached from pyplot (``figsize``, ``dpi``...): it
+    needs no display and is freed when dropped (``fig.savefig`` writes it).
+    """
     _matplotlib()
     from matplotlib.figure import Figure
 
@@ -59,9 +63,11 @@ def _axes(ax: Any) -> Any:
     return plt.gca()
 
 
-def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None, component: int = 4,
+def loops(results: Sequence[Any], amplitudes: Sequence[float] | np.ndarray, *, ax: Any = None, component: int = 4,
           label: str = "xz") -> Any:
-    """Stress-strain loops of cyclic runs, every amplitude on one scale: ``(tau - tau_0) /
+    """Stress-strain loops of cyclic runs, every amplitude on one scale.
+
+    Stress-strain loops of cyclic runs, every amplitude on one scale: ``(tau - tau_0) /
     tau_a`` against ``gamma / gamma_a``.
 
     ``tau_a`` is the largest ``|tau - tau_0|`` of the amplitude's run, ``gamma_a`` its
@@ -101,9 +107,12 @@ def loops(results: Sequence[Any], amplitudes: Sequence[float], *, ax: Any = None
 def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
                       references: dict[str, tuple[Any, Any]] | None = None,
                       label: str = "grainmech", style: str = "ko") -> Any:
-    """G/Gmax against shear strain amplitude (decimal), with reference curves
+    """G/Gmax against shear strain amplitude, with reference curves.
+
+    G/Gmax against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, G/Gmax)``; call again on the same Axes (another ``label`` and
-    ``style``, no references) to add a model. Returns the Axes."""
+    ``style``, no references) to add a model. Returns the Axes.
+    """
     ax = _axes(ax)
     ax.semilogx(amplitude, G_ratio, style, label=label)
     for name, (g, r) in (references or {}).items():
@@ -119,9 +128,12 @@ def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
 def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
             references: dict[str, tuple[Any, Any]] | None = None, label: str = "grainmech",
             style: str = "ko") -> Any:
-    """Damping ratio [%] against shear strain amplitude (decimal), with reference curves
+    """Damping ratio [%] against shear strain amplitude, with reference curves.
+
+    Damping ratio [%] against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, D)`` (D decimal); call again on the same Axes to add a model.
-    Returns the Axes."""
+    Returns the Axes.
+    """
     ax = _axes(ax)
     ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), style, label=label)
     for name, (g, d) in (references or {}).items():
@@ -134,8 +146,11 @@ def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
 
 
 def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequence[Any]:
-    """Strain (engineering shear) and stress [Pa] components against step number of a
-    driver run, in two Axes (given, or two new ones side by side). Returns the two Axes."""
+    """Strain and stress components against step number of a driver run.
+
+    Strain (engineering shear) and stress [Pa] components against step number of a
+    driver run, in two Axes (given, or two new ones side by side). Returns the two Axes.
+    """
     from grainmech.conventions import ORDER_3D
 
     if axes is None:
@@ -158,11 +173,14 @@ def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequenc
 
 
 def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequence[Any]:
-    """The usual soil-mechanics views of a driver path in four Axes: deviator stress ``q``
+    """Soil-mechanics views of a driver path in four Axes.
+
+    The usual soil-mechanics views of a driver path in four Axes: deviator stress ``q``
     and volumetric strain against axial strain, stress ratio ``q/p`` against axial strain,
     and the ``p``-``q`` stress path (quantities of
     :func:`grainmech.io.results.soil_path_table`; strains decimal, compression positive,
-    stresses in kPa). Returns the four Axes."""
+    stresses in kPa). Returns the four Axes.
+    """
     from grainmech.io.results import soil_path_table
 
     if axes is None:
@@ -195,8 +213,11 @@ def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequen
 
 def contact_loops(columns: dict[str, Any], *, axes: Sequence[Any] | None = None,
                   force_unit: str = "N") -> Sequence[Any]:
-    """One contact's tangential force-displacement loop and normal force-approach curve
-    (the columns of :class:`grainmech.jobs.ContactOutcome`). Returns the two Axes."""
+    """One contact's tangential and normal force-displacement curves.
+
+    One contact's tangential force-displacement loop and normal force-approach curve
+    (the columns of :class:`grainmech.jobs.ContactOutcome`). Returns the two Axes.
+    """
     if axes is None:
         _matplotlib()
         import matplotlib.pyplot as plt

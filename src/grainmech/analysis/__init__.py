@@ -12,11 +12,11 @@ from grainmech.analysis.empirical import (
     HardinDrnevichReference,
     HardinRichart,
     darendeli,
-    hardin_richart,
-    mohr_coulomb_ratio,
     hardin_drnevich,
     hardin_drnevich_reference,
+    hardin_richart,
     masing_damping_hyperbolic,
+    mohr_coulomb_ratio,
 )
 from grainmech.analysis.loops import (
     LoopProperties,

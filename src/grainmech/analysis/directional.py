@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.conventions import vector_to_strain, stress_to_vector
-from grainmech.errors import ConfigError
+from grainmech.conventions import stress_to_vector, vector_to_strain
+from grainmech.errors import ParameterError
 
 __all__ = ["apparent_moduli"]
 
@@ -39,9 +39,9 @@ def apparent_moduli(C: Any, alpha: Any, plane: str = "xz") -> tuple[np.ndarray, 
     """
     C = np.asarray(C, dtype=float)
     if C.shape != (6, 6) or not np.all(np.isfinite(C)):
-        raise ConfigError("C", C.shape, "must be a finite (6, 6) Voigt matrix")
+        raise ParameterError("C", C.shape, "must be a finite (6, 6) Voigt matrix")
     if len(plane) != 2 or plane[0] == plane[1] or any(c not in _AX for c in plane):
-        raise ConfigError("plane", plane, "must be two distinct axes of x, y, z, e.g. 'xz'")
+        raise ParameterError("plane", plane, "must be two distinct axes of x, y, z, e.g. 'xz'")
     S = np.linalg.inv(C)
     a = np.atleast_1d(np.asarray(alpha, dtype=float))
     i, j = _AX[plane[0]], _AX[plane[1]]

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "HardinDrnevichReference",
            "hardin_drnevich_reference", "darendeli", "DarendeliCurves",
@@ -41,7 +41,7 @@ DARENDELI_PHI = (0.0352, 0.0010, 0.3246, 0.3483, 0.9190, 0.8005,
 def _strain(gamma: Any) -> np.ndarray:
     g = np.asarray(gamma, dtype=float)
     if not np.all(np.isfinite(g)) or np.any(g <= 0):
-        raise ConfigError("gamma", gamma, "strains must be finite and > 0")
+        raise ParameterError("gamma", gamma, "strains must be finite and > 0")
     return g
 
 
@@ -60,9 +60,9 @@ def hardin_drnevich(gamma: Any, gamma_r: float, d_max: float = 0.0) -> tuple[np.
     """
     g = _strain(gamma)
     if not gamma_r > 0:
-        raise ConfigError("gamma_r", gamma_r, "must be > 0")
+        raise ParameterError("gamma_r", gamma_r, "must be > 0")
     if not 0 <= d_max < 1:
-        raise ConfigError("d_max", d_max, "must lie in [0, 1)")
+        raise ParameterError("d_max", d_max, "must lie in [0, 1)")
     r = 1.0 / (1.0 + g / gamma_r)
     return r, d_max * (1.0 - r)
 
@@ -181,9 +181,9 @@ def darendeli(gamma: Any, mean_stress: float, *, pi: float = 0.0, ocr: float = 1
     for name, v, lo in (("mean_stress", mean_stress, 0.0), ("ocr", ocr, 0.0),
                         ("n_cycles", n_cycles, 0.0), ("frequency", frequency, 0.0)):
         if not (np.isfinite(v) and v > lo):
-            raise ConfigError(name, v, "must be finite and > 0")
+            raise ParameterError(name, v, "must be finite and > 0")
     if not (np.isfinite(pi) and pi >= 0):
-        raise ConfigError("pi", pi, "must be finite and >= 0")
+        raise ParameterError("pi", pi, "must be finite and >= 0")
     p = DARENDELI_PHI
     s_atm = mean_stress / P_ATM
     gr_pct = (p[0] + p[1] * pi * ocr ** p[2]) * s_atm ** p[3]
@@ -246,9 +246,9 @@ def hardin_richart(void_ratio: float, mean_stress: float) -> HardinRichart:
         Mean effective stress [Pa] (> 0).
     """
     if not (np.isfinite(void_ratio) and 0 < void_ratio < 2.17):
-        raise ConfigError("void_ratio", void_ratio, "must lie in (0, 2.17) for Hardin-Richart")
+        raise ParameterError("void_ratio", void_ratio, "must lie in (0, 2.17) for Hardin-Richart")
     if not (np.isfinite(mean_stress) and mean_stress > 0):
-        raise ConfigError("mean_stress", mean_stress, "must be finite and > 0 (Pa)")
+        raise ParameterError("mean_stress", mean_stress, "must be finite and > 0 (Pa)")
     e = float(void_ratio)
     root = np.sqrt(mean_stress / 1e3)  # sqrt(kPa)
     g_round = 6908.0 * (2.17 - e) ** 2 / (1.0 + e) * root * 1e3
@@ -263,10 +263,13 @@ SAND_PEAK_FRICTION_DEG = 50.0
 
 
 def mohr_coulomb_ratio(friction_angle: float) -> float:
-    """Largest principal stress ratio ``sigma1/sigma3 = (1 + sin phi)/(1 - sin phi)``
+    """Largest principal stress ratio on a cohesionless Mohr-Coulomb envelope.
+
+    Largest principal stress ratio ``sigma1/sigma3 = (1 + sin phi)/(1 - sin phi)``
     on a Mohr-Coulomb envelope of friction angle ``phi`` [rad] without cohesion
-    (e.g. 7.55 for 50 deg, 2.62 for the contact angle atan 0.5 = 26.6 deg)."""
+    (e.g. 7.55 for 50 deg, 2.62 for the contact angle atan 0.5 = 26.6 deg).
+    """
     if not (np.isfinite(friction_angle) and 0 <= friction_angle < np.pi / 2):
-        raise ConfigError("friction_angle", friction_angle, "must lie in [0, pi/2) rad")
+        raise ParameterError("friction_angle", friction_angle, "must lie in [0, pi/2) rad")
     sn = np.sin(friction_angle)
     return float((1 + sn) / (1 - sn))

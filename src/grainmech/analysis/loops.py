@@ -12,12 +12,14 @@ For one closed stress-strain loop ``(gamma, tau)`` (engineering shear strain):
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = ["LoopProperties", "loop_properties", "ModulusReduction", "modulus_reduction",
            "condensed_modulus"]
@@ -47,13 +49,13 @@ def loop_properties(gamma: Any, tau: Any) -> LoopProperties:
     g = np.asarray(gamma, dtype=float)
     t = np.asarray(tau, dtype=float)
     if g.ndim != 1 or g.shape != t.shape or g.size < 4:
-        raise ConfigError("gamma/tau", (g.shape, t.shape), "must be 1-D arrays of equal length >= 4")
+        raise ParameterError("gamma/tau", (g.shape, t.shape), "must be 1-D arrays of equal length >= 4")
     if not (np.all(np.isfinite(g)) and np.all(np.isfinite(t))):
-        raise ConfigError("gamma/tau", "non-finite", "must be finite")
+        raise ParameterError("gamma/tau", "non-finite", "must be finite")
     imax, imin = int(np.argmax(g)), int(np.argmin(g))
     ga = 0.5 * (g[imax] - g[imin])
     if ga <= 0:
-        raise ConfigError("gamma", "constant", "the loop has zero strain amplitude")
+        raise ParameterError("gamma", "constant", "the loop has zero strain amplitude")
     ta = 0.5 * (t[imax] - t[imin])
     dW = abs(float(np.sum(0.5 * (t[1:] + t[:-1]) * np.diff(g))))
     W = 0.5 * ta * ga
@@ -71,7 +73,7 @@ def condensed_modulus(C: np.ndarray, component: int, stress_control: Sequence[bo
     C = np.asarray(C, dtype=float)
     k = int(component)
     if sc[k]:
-        raise ConfigError("component", k, "must be strain controlled")
+        raise ParameterError("component", k, "must be strain controlled")
     if not sc.any():
         return float(C[k, k])
     return float(C[k, k] - C[k, sc] @ np.linalg.solve(C[np.ix_(sc, sc)], C[sc, k]))
@@ -101,10 +103,11 @@ class ModulusReduction:
 
     @property
     def G_ratio(self) -> np.ndarray:
+        """Secant modulus ratio ``G / G_max`` [-] per amplitude, shape (n_amplitudes,)."""
         return self.G / self.G_max
 
 
-def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
+def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
                       steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
                       progress: Callable[[int, float, Any], None] | None = None,
                       raise_on_failure: bool = True, **run_options: Any) -> ModulusReduction:
@@ -135,7 +138,7 @@ def modulus_reduction(point: Any, amplitudes: Sequence[float], *, n_cycles: int 
 
     amps = np.asarray(amplitudes, dtype=float)
     if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
-        raise ConfigError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
+        raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
     G, D, res = [], [], []
     success, message = True, "done"
     for i, a in enumerate(amps):

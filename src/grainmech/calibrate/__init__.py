@@ -12,8 +12,8 @@ See ``docs/calibrate.md``.
 
 from grainmech.calibrate.data import Dataset, read_csv
 from grainmech.calibrate.fit import (
-    FitResult,
     FitParameter,
+    FitResult,
     Problem,
     fit,
     latin_hypercube_starts,

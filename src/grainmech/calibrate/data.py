@@ -80,6 +80,7 @@ class Dataset:
         return int(self.lines.size)
 
     def has(self, name: str) -> bool:
+        """Whether the table has the column ``name``."""
         return name in self.columns
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -180,7 +181,8 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
             try:
                 v = float(c)
             except ValueError:
-                raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r} is not a number") from None
+                raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r} "
+                                     "is not a number") from None
             if not math.isfinite(v):
                 raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r} is not finite")
             if h.startswith("sd_") and v <= 0:

@@ -32,15 +32,16 @@ from __future__ import annotations
 import copy
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from grainmech.calibrate.data import Dataset, read_csv
 from grainmech.calibrate.model import DATA_KINDS, parse_settings, predict, set_path, targets_of, validate_data
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.units import ANGLE_UNITS, config_value
 
 __all__ = ["FitParameter", "Problem", "FitResult", "load_problem", "problem_from_config", "fit",
@@ -103,12 +104,14 @@ class FitParameter:
     si_unit: str = ""
 
     def to_internal(self, x: np.ndarray | float) -> np.ndarray:
+        """Map values ``x`` (SI) to the optimiser's coordinate ``t`` in [0, 1] (linear or log scale)."""
         x = np.asarray(x, dtype=float)
         if self.log:
             return (np.log(x) - math.log(self.lower)) / (math.log(self.upper) - math.log(self.lower))
         return (x - self.lower) / (self.upper - self.lower)
 
     def from_internal(self, t: np.ndarray | float) -> np.ndarray:
+        """Map the optimiser's coordinate ``t`` in [0, 1] back to values (SI); inverse of :meth:`to_internal`."""
         t = np.asarray(t, dtype=float)
         if self.log:
             return np.exp(math.log(self.lower) + t * (math.log(self.upper) - math.log(self.lower)))
@@ -229,18 +232,28 @@ class Problem:
 
     @property
     def m(self) -> int:
+        """Number of residuals: targets x data rows."""
         return len(self.targets) * len(self.data)
 
-    def config_at(self, x: Sequence[float]) -> dict:
+    def config_at(self, x: Sequence[float] | np.ndarray) -> dict:
+        """The model config with the parameter values ``x`` (SI, parameter order) written at their paths."""
         cfg = copy.deepcopy(self.model)
         for p, v in zip(self.parameters, x):
             set_path(cfg, p.path, config_value(v, p.si_unit))
         return cfg
 
-    def predict(self, x: Sequence[float], validate: bool = False) -> dict[str, np.ndarray]:
+    def predict(self, x: Sequence[float] | np.ndarray, validate: bool = False) -> dict[str, np.ndarray]:
+        """Model predictions ``{target: array (rows,)}`` at parameter values ``x`` (SI)."""
         return predict(self.kind, self.config_at(x), self.data, self.settings, validate=validate)
 
-    def residuals(self, x: Sequence[float], validate: bool = False) -> np.ndarray:
+    def residuals(self, x: Sequence[float] | np.ndarray, validate: bool = False) -> np.ndarray:
+        """Scaled residuals ``(prediction - data) / scale`` of every target, shape (m,).
+
+        Raises
+        ------
+        GrainmechError
+            If the model gives non-finite predictions at ``x``.
+        """
         pred = self.predict(x, validate)
         r = np.concatenate([(pred[t] - self.data[t]) / self.scales[t] for t in self.targets])
         if not np.all(np.isfinite(r)):
@@ -248,12 +261,15 @@ class Problem:
         return r
 
     def x_of(self, t: np.ndarray) -> np.ndarray:
+        """Parameter values (SI), shape (n,), from optimiser coordinates ``t`` (n,)."""
         return np.array([p.from_internal(ti) for p, ti in zip(self.parameters, t)], dtype=float)
 
     def t_of(self, x: np.ndarray) -> np.ndarray:
+        """Optimiser coordinates, shape (n,), from parameter values ``x`` (SI) (n,)."""
         return np.array([p.to_internal(xi) for p, xi in zip(self.parameters, x)], dtype=float)
 
-    def describe(self, x: Sequence[float]) -> str:
+    def describe(self, x: Sequence[float] | np.ndarray) -> str:
+        """``"path = value unit, ..."`` of the parameter values ``x`` in their display units."""
         return ", ".join(f"{p.path} = {v / p.unit_factor:.6g}{(' ' + p.unit) if p.unit else ''}"
                          for p, v in zip(self.parameters, x))
 
@@ -276,7 +292,7 @@ def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = 
     params = [parse_parameter(Section(p, f"parameters[{i}]")) for i, p in enumerate(raw_params)]
     fsec = root.section("fit", {})
     error = fsec.choice("error", ERRORS, "relative")
-    kw = dict(max_evaluations=fsec.integer("max_evaluations", 200, min=1),
+    kw: dict[str, Any] = dict(max_evaluations=fsec.integer("max_evaluations", 200, min=1),
               ftol=fsec.number("ftol", None, 1e-10, min=0), xtol=fsec.number("xtol", None, 1e-10, min=0),
               gtol=fsec.number("gtol", None, 1e-10, min=0),
               diff_step=fsec.number("diff_step", None, None, min=0, min_inclusive=False),
@@ -377,12 +393,15 @@ class FitResult:
 
     @property
     def success(self) -> bool:
+        """Whether the least-squares solver reported convergence (``status > 0``)."""
         return self.status > 0
 
     def value(self, path: str) -> float:
+        """Fitted value (SI) of the parameter at config path ``path``."""
         return float(self.x[[p.path for p in self.problem.parameters].index(path)])
 
     def std_error(self, path: str) -> float | None:
+        """Standard error (SI) of the parameter at ``path``, or None where it is not identifiable."""
         return self.stats["std_error"][[p.path for p in self.problem.parameters].index(path)]
 
 
@@ -438,7 +457,7 @@ def uncertainty(J: np.ndarray, r: np.ndarray, names: Sequence[str], rcond: float
     norms = np.linalg.norm(J, axis=0)
     ident = norms > 0
     combos: list[dict] = []
-    for j in np.flatnonzero(~ident):
+    for j in np.flatnonzero(~ident).tolist():
         combos.append({names[j]: 1.0})
         notes.append(f"{names[j]} does not change the predictions at all: not identifiable from these data")
     Js = J[:, ident] / norms[ident]
@@ -478,8 +497,9 @@ def uncertainty(J: np.ndarray, r: np.ndarray, names: Sequence[str], rcond: float
     corr = np.full((n, n), math.nan)
     for a in range(n):
         for b in range(n):
-            if se[a] and se[b]:
-                corr[a, b] = cov[a, b] / (se[a] * se[b])
+            sa, sb = se[a], se[b]
+            if sa and sb:
+                corr[a, b] = cov[a, b] / (sa * sb)
     return dict(rss=rss, dof=dof, s2=s2, cov=cov, std_error=se, std_error_unscaled=se_unscaled, correlation=corr,
                 identifiable=[bool(v) for v in ident], singular_values=sv_out, unidentified=combos, notes=notes)
 
@@ -513,7 +533,7 @@ def fit(problem: Problem, *, starts: int | None = None, seed: int | None = None,
     t_start = time.perf_counter()
     n_starts = problem.starts if starts is None else int(starts)
     if n_starts < 1:
-        raise ConfigError("starts", n_starts, "must be >= 1")
+        raise ParameterError("starts", n_starts, "must be >= 1")
     T0 = latin_hypercube_starts(problem, n_starts, problem.seed if seed is None else seed)
     items = [(problem, T0[i], i) for i in range(len(T0))]
     use_dask = len(items) > 1 and parallel is not False

@@ -61,8 +61,9 @@ from __future__ import annotations
 
 import copy
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -161,9 +162,9 @@ def _eng_name(name: str, dim: int) -> str:
 
 def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Engineering constants at each row's pressure (seed Eq. 2.41, Hertz-Mindlin Eq. 4.43)."""
+    from grainmech.elasticity import engineering_constants
     from grainmech.io.schema import build_fabric, build_law
     from grainmech.material import packing_stiffness
-    from grainmech.elasticity import engineering_constants
 
     targets = [t for t in DATA_KINDS["modulus-pressure"].targets if data.has(t)]
     out = {t: np.empty(len(data)) for t in targets}
@@ -264,7 +265,7 @@ def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
 
 def _predict_stress_strain(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Driver path through the rows (seed Ch. 2 kinematics, driver docs/driver.md)."""
-    from grainmech.driver import run, segment, concatenate
+    from grainmech.driver import concatenate, run, segment
 
     point = _point(model, DATA_KINDS["stress-strain"].model_keys, validate)
     mask = settings["control"]

@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-
 __all__ = ["summary", "write_report", "plot_fit", "calibrated_config"]
 
 #: the command a calibrated config of each data kind is made for
@@ -124,7 +123,9 @@ def write_report(result: Any, outdir: str | Path, *, plot: bool = True) -> list[
 
 
 def calibrated_config(result: Any) -> str | None:
-    """TOML text of the calibrated model: the calibration's ``[model]`` with every fitted
+    """TOML text of the calibrated model, ready to run.
+
+    TOML text of the calibrated model: the calibration's ``[model]`` with every fitted
     parameter set to its best value (in the unit the calibration file gave), completed so
     that ``grainmech stiffness`` or ``grainmech run`` (:data:`CONFIG_COMMAND`) runs it:
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
-from typing import Sequence
+from collections.abc import Sequence
 
 from grainmech import __version__
 from grainmech.errors import GrainmechError
@@ -24,6 +24,7 @@ _COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibr
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``grainmech`` argument parser with every sub-command registered."""
     parser = argparse.ArgumentParser(
         prog="grainmech",
         description="Stiffness, fabric and cyclic behaviour of granular materials from "
@@ -58,6 +59,14 @@ def _quiet_broken_pipe() -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv`` (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        Exit status: 0 success, 2 input error (one line on stderr, no traceback
+        unless ``--debug``), 130 interrupted.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -91,10 +100,13 @@ _NOTICE: list = []  # the one listener of this process
 
 
 def _announce_compilation() -> object | None:
-    """Say on stderr, once per process, that numba is compiling: the first run of a
+    """Say on stderr, once per process, that numba is compiling.
+
+    Say on stderr, once per process, that numba is compiling: the first run of a
     command after installing spends most of its time there, silently otherwise. Uses
     numba's compile events, which fire for a compilation and not for a cache load.
-    Registers one listener per process (returned; ``None`` without numba)."""
+    Registers one listener per process (returned; ``None`` without numba).
+    """
     if _NOTICE:
         return _NOTICE[0]
     try:

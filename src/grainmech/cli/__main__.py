@@ -1,3 +1,5 @@
+"""``python -m grainmech.cli``: the ``grainmech`` command line."""
+
 import sys
 
 from grainmech.cli import main

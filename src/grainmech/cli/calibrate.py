@@ -13,6 +13,7 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech calibrate`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser("calibrate", help="fit model parameters to measured data (least squares)",
@@ -33,6 +34,14 @@ def register(sub: Any) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run ``grainmech calibrate`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.calibrate import fit, load_problem
     from grainmech.calibrate.report import write_report
     from grainmech.errors import ConfigError

@@ -54,6 +54,7 @@ __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech contact`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser(
@@ -67,9 +68,17 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``grainmech contact`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.io.config import load_toml
-    from grainmech.io.reports import write_contact_outputs
     from grainmech.io.outdir import output_folder
+    from grainmech.io.reports import write_contact_outputs
     from grainmech.jobs import compute_contact
 
     cfg = load_toml(args.config)

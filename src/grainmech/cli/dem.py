@@ -35,6 +35,7 @@ import numpy as np
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech dem`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser(
@@ -60,8 +61,11 @@ def register(sub: Any) -> None:
 
 
 def _config(args: argparse.Namespace) -> dict:
-    """The dem job config: the ``--material`` tables plus a ``[network]`` table from the
-    command-line arguments (the form a sweep's ``dem`` config has)."""
+    """The dem job config built from the command-line arguments.
+
+    The dem job config: the ``--material`` tables plus a ``[network]`` table from the
+    command-line arguments (the form a sweep's ``dem`` config has).
+    """
     from grainmech.errors import ConfigError
     from grainmech.io.config import load_toml
 
@@ -78,8 +82,16 @@ def _config(args: argparse.Namespace) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from grainmech.io.reports import write_dem_outputs
+    """Run ``grainmech dem`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.io.outdir import output_folder
+    from grainmech.io.reports import write_dem_outputs
     from grainmech.jobs import compute_dem
 
     cfg = _config(args)

@@ -1,4 +1,6 @@
-"""``grainmech pack CONFIG.toml [-o OUTDIR] [--quiet] [--no-plot]``: a periodic, mechanically
+"""``grainmech pack``: prepare a periodic sphere packing at a target stress (LAMMPS).
+
+``grainmech pack CONFIG.toml [-o OUTDIR] [--quiet] [--no-plot]``: a periodic, mechanically
 stable sphere packing at a target stress, prepared with LAMMPS (extra ``grainmech[dem]``).
 
 Writes ``contacts.npz`` and ``particles.npz`` (read by ``grainmech dem``), ``summary.json``
@@ -17,6 +19,7 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech pack`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser("pack", help="prepare a periodic sphere packing at a target stress (LAMMPS)",
@@ -29,6 +32,14 @@ def register(sub: Any) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run ``grainmech pack`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.io.config import load_toml, read_text_file
     from grainmech.io.packing import write_pack_outputs
     from grainmech.jobs import pack_job

@@ -15,8 +15,8 @@ __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech reproduce`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
-
     from grainmech.reproduce import figure_ids
 
     p = sub.add_parser(
@@ -33,6 +33,14 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``grainmech reproduce`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.reproduce import reproduce
 
     reproduce(args.figures, args.outdir, log=None if args.quiet else print)

@@ -17,6 +17,7 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech run`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser("run", help="drive a material point along a loading path (default: cyclic simple shear)",
@@ -28,9 +29,17 @@ def register(sub: Any) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run ``grainmech run`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.io.config import load_toml
-    from grainmech.io.reports import write_run_outputs
     from grainmech.io.outdir import output_folder
+    from grainmech.io.reports import write_run_outputs
     from grainmech.jobs import CyclicOutcome, RunComparison, compute_run
 
     def say(msg: str) -> None:
@@ -62,7 +71,8 @@ def main(args: argparse.Namespace) -> int:
         det = o.details
         if det and "grains" in det:
             say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
-                f"{det['void_ratio']:.3f}; largest out-of-balance force ratio {det.get('max_residual', float('nan')):.2g}")
+                f"{det['void_ratio']:.3f}; largest out-of-balance force ratio "
+                f"{det.get('max_residual', float('nan')):.2g}")
         if isinstance(o, CyclicOutcome) and len(o.G):
             say(f"  Gmax = {o.G_max:.4g} Pa")
             emp = o.empirical_G_max

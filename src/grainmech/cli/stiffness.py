@@ -15,6 +15,7 @@ from grainmech.jobs import compute_stiffness
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech stiffness`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     p = sub.add_parser("stiffness", help="stiffness tensor, engineering constants and symmetry of a packing",
                        description="Stiffness tensor (seed Eq. 2.41) of a packing given by its fabric, "
                                    "packing density and contact law. Without CONFIG, runs the built-in "
@@ -36,6 +37,14 @@ def _matrix(C: np.ndarray, order: str, dim: int) -> tuple[np.ndarray, tuple[str,
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``grainmech stiffness`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from pathlib import Path
 
     from grainmech.io.config import load_toml, resolve_file_keys

@@ -15,6 +15,7 @@ from typing import Any
 
 
 def register(sub: Any) -> None:
+    """Add the ``grainmech sweep`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     from grainmech.io.reports import default_outdir
 
     p = sub.add_parser("sweep", help="run a parameter sweep (grid, Latin hypercube, Monte Carlo) on dask",
@@ -38,6 +39,14 @@ def register(sub: Any) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    """Run ``grainmech sweep`` with the parsed ``args``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
+        which :func:`grainmech.cli.main` turns into one line and status 2.
+    """
     from grainmech.errors import GrainmechError
     from grainmech.sweep import load_sweep, run_sweep
 

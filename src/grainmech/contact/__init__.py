@@ -31,6 +31,7 @@ from grainmech.contact.analytic import (
     md_unloading_force,
 )
 from grainmech.contact.control import solve_step
+from grainmech.contact.forms import LawForms, law_forms
 from grainmech.contact.geometry import (
     cylinder_approach_from_force,
     cylinder_contact_halfwidth,
@@ -46,7 +47,6 @@ from grainmech.contact.geometry import (
     mindlin_tangential_stiffness,
     mindlin_tangential_stiffness_from_force,
 )
-from grainmech.contact.forms import LawForms, law_forms
 from grainmech.contact.interface import ContactLaw, ContactLawProtocol, make_law
 from grainmech.contact.law import (
     ContactResponse,

@@ -14,12 +14,13 @@ from numpy.typing import ArrayLike
 
 from grainmech.contact.forms import law_forms
 from grainmech.contact.law import ContactResponse, ContactState, update
+from grainmech.contact.params import ContactParams
 from grainmech.errors import GrainmechError
 
 __all__ = ["solve_step"]
 
 
-def solve_step(params: object, state: ContactState, *,
+def solve_step(params: ContactParams, state: ContactState, *,
                d_normal: ArrayLike | None = None,
                normal_force: ArrayLike | None = None,
                d_tangential: ArrayLike | None = None,

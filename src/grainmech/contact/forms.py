@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.contact import geometry as geo
-from grainmech.contact.params import Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
+from grainmech.contact.params import ContactParams, Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
 
 __all__ = ["LawForms", "law_forms", "LAW_KINDS"]
 
@@ -59,15 +59,19 @@ class LawForms:
         return float(self.params.stiffness_ratio)
 
     def normal_force(self, alpha: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Normal force [N] (rods: [N/m]) at approach ``alpha`` [m], same shape."""
         raise NotImplementedError
 
     def approach_from_force(self, N: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Approach [m] at normal force ``N`` [N] (rods: [N/m]); inverse of :meth:`normal_force`."""
         raise NotImplementedError
 
     def kn(self, N: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Normal tangent stiffness ``dN/dalpha`` [N/m] at normal force ``N``, same shape."""
         raise NotImplementedError
 
     def kt0(self, N: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """No-slip tangential stiffness ``kt0`` [N/m] at normal force ``N``, same shape."""
         raise NotImplementedError
 
     def normal_energy(self, N: np.ndarray, alpha: np.ndarray) -> np.ndarray:
@@ -137,7 +141,7 @@ class _SpringForms(LawForms):
 _CACHE: dict = {}
 
 
-def law_forms(params: object) -> LawForms:
+def law_forms(params: ContactParams) -> LawForms:
     """The :class:`LawForms` of a parameter object (cached per object).
 
     Raises

@@ -45,7 +45,7 @@ __all__ = [
 try:  # one definition of the Hertz/Mindlin closed forms for NumPy and compiled code
     from numba.extending import register_jitable as _jitable
 except ImportError:  # pragma: no cover - numba is optional
-    def _jitable(fn):  # type: ignore[no-redef]
+    def _jitable(fn):  # type: ignore[no-redef]  # the NumPy stand-in for numba's decorator
         return fn
 
 
@@ -81,8 +81,11 @@ def hertz_kn(a, E):
 
 @_jitable
 def mindlin_kt0(a, G):
-    """No-slip tangential stiffness ``kt0 = 8 G* a`` (Mindlin 1949; seed Eq. 3.11 with theta = 1,
-    ``G*`` of Eq. 3.12), 0 for ``a <= 0`` [N/m]."""
+    """No-slip tangential stiffness ``kt0 = 8 G* a`` [N/m] (Mindlin 1949; seed Eq. 3.11-3.12).
+
+    No-slip tangential stiffness ``kt0 = 8 G* a`` (Mindlin 1949; seed Eq. 3.11 with theta = 1,
+    ``G*`` of Eq. 3.12), 0 for ``a <= 0`` [N/m].
+    """
     return 8.0 * G * np.maximum(a, 0.0)
 
 

@@ -9,11 +9,13 @@ implements the same algorithm and is held to this one by tests.
 
 from __future__ import annotations
 
+from typing import Any
 
 import numpy as np
 
 from grainmech.contact._errors import ReversalMemoryError
 from grainmech.contact.forms import law_forms
+from grainmech.contact.params import ContactParams, Cylinder, LinearSpring, MindlinDeresiewicz
 from grainmech.contact.state import ContactState, _dot, _norm, max_reversals
 
 _EPS = 1e-12
@@ -47,7 +49,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
 _LawOut = tuple
 
 
-def _secant_kt(params: object, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
+def _secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
                a1: np.ndarray) -> np.ndarray:
     """Mean no-slip stiffness along a straight step: ``int kt0 dalpha / dalpha = dN / (r dalpha)``.
 
@@ -55,8 +57,8 @@ def _secant_kt(params: object, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
     ``kn = dN/dalpha``. Falls back to ``kt0(N1)`` when the approach does not change.
     """
     forms = law_forms(params)
-    if forms.linear:
-        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)  # type: ignore[attr-defined]
+    if isinstance(params, LinearSpring):  # forms.linear
+        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)
     r = forms.ratio
     da = a1 - a0
     dN = N1 - N0
@@ -179,8 +181,8 @@ def _g_of_y(y: np.ndarray, p: float) -> np.ndarray:
     return np.maximum(np.where(eps < 0.02, ser, direct), 0.0)
 
 
-def _md_update(params: object, state: ContactState, T0: np.ndarray, e0: np.ndarray, N0: np.ndarray,
-               N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
+def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray,
+               N0: np.ndarray, N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
                virgin_reset: np.ndarray) -> _LawOut:
     """Hysteretic law in 3D: scalar law along the memory axis, elastic across (module notes)."""
     n, dim = T0.shape
@@ -303,7 +305,7 @@ def _md_update(params: object, state: ContactState, T0: np.ndarray, e0: np.ndarr
     return T1, e, s, k, stack.P, slide, diss, ks, ks_perp, ktn
 
 
-def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev: int, stack: _Stack,
+def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float, maxrev: int, stack: _Stack,
              tau: np.ndarray, s: np.ndarray, k: np.ndarray, N0: np.ndarray, N1: np.ndarray,
              a0: np.ndarray, a1: np.ndarray, kbar: np.ndarray, kt1: np.ndarray, d: np.ndarray,
              rising: np.ndarray, falling: np.ndarray
@@ -322,8 +324,11 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
     k = k.copy()
 
     def reverse(mask: np.ndarray, new_dir: np.ndarray, muN: np.ndarray) -> None:
-        """Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN
-        (``Q``, ``s``, ``k`` are modified in place)."""
+        """Start a loading branch in direction ``new_dir`` for the contacts in ``mask``.
+
+        Start a branch in direction new_dir (= -s) for contacts in mask, at force level muN
+        (``Q``, ``s``, ``k`` are modified in place).
+        """
         idx = np.nonzero(mask)[0]
         if idx.size == 0:
             return
@@ -432,7 +437,7 @@ def _md_axis(params: object, mu: float, p: float, m_exp: float, r: float, maxrev
     return tau_new, s, k, diss, elastic & (N1 > 0.0)
 
 
-def _falling_n(params: object, mu: float, p: float, m_exp: float, stack: _Stack, Q: np.ndarray,
+def _falling_n(params: ContactParams, mu: float, p: float, m_exp: float, stack: _Stack, Q: np.ndarray,
                s: np.ndarray, k: np.ndarray, N0: np.ndarray, N1: np.ndarray, mask: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Exact integration of a fall of N (N0 -> N1 < N0) at fixed tangential displacement.
@@ -473,12 +478,14 @@ def _falling_n(params: object, mu: float, p: float, m_exp: float, stack: _Stack,
         n_slide = np.where(sliding_now, na, n_slide)
         n_erase = np.where((kk > 0) & (z0 > 0.5), na * np.clip(2.0 * z0 - 1.0, 0.0, 1.0) ** m_exp, 0.0)
 
-        def zfun(Nv: np.ndarray, sel=slice(None)) -> np.ndarray:
+        # this pass's arrays are bound as defaults: the functions belong to this pass
+        def zfun(Nv: np.ndarray, sel: Any = slice(None), na: np.ndarray = na, c: np.ndarray = c,
+                 z0: np.ndarray = z0) -> np.ndarray:
             with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
                 ratio = (na[sel] / np.maximum(Nv, 1e-300)) ** q
             return np.clip(1.0 / c[sel] + (z0[sel] - 1.0 / c[sel]) * ratio, 0.0, 1.0)
 
-        def Qfun(Nv: np.ndarray, sel=slice(None)) -> np.ndarray:
+        def Qfun(Nv: np.ndarray, sel: Any = slice(None), c: np.ndarray = c, Pt: np.ndarray = Pt) -> np.ndarray:
             return c[sel] * mu * Nv * zfun(Nv, sel) ** m_exp - Pt[sel]
 
         # Masing target reached while N falls (Q decreases monotonically with N): bisection

@@ -27,8 +27,7 @@ import numpy as np
 
 from grainmech.contact import geometry as geo
 from grainmech.contact.forms import law_forms
-from grainmech.contact.law import (ContactResponse, ContactState, compiled_kernel, update,
-                                   state_from_normal_force)
+from grainmech.contact.law import ContactResponse, ContactState, compiled_kernel, state_from_normal_force, update
 
 __all__ = ["ContactLawProtocol", "ContactLaw", "make_law", "coulomb_limit", "contact_tangent"]
 
@@ -44,10 +43,15 @@ class ContactLawProtocol(Protocol):
         Coulomb coefficient ``mu`` (``inf`` for no sliding).
     """
 
-    params: Any
+    @property
+    def params(self) -> Any:
+        """The law's frozen parameter object."""
+        ...
 
     @property
-    def friction(self) -> float: ...
+    def friction(self) -> float:
+        """Coulomb coefficient ``mu`` (``inf`` for no sliding)."""
+        ...
 
     def initial_state(self, normal_force: np.ndarray,
                       tangential_force: np.ndarray | None = None) -> ContactState:
@@ -115,6 +119,7 @@ class ContactLaw:
 
     @property
     def friction(self) -> float:
+        """Coulomb coefficient ``mu`` of the law (``inf`` for no sliding)."""
         return float(self.params.friction)
 
     @property

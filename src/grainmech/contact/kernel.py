@@ -59,15 +59,14 @@ and ``2`` on a Masing branch.
 from __future__ import annotations
 
 import math
-
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import get_num_threads, njit, prange
 
 from grainmech.contact import law as _law
-
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
+from grainmech.contact.params import ContactParams, Hertz, LinearSpring, MindlinDeresiewicz
 
 __all__ = ["update_kernel", "rows", "constants", "KernelConstants", "KernelState", "KernelIncrement",
            "KernelOutput", "KernelScratch", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS",
@@ -92,7 +91,7 @@ _EPS = 1e-12
 _REV_TOL = _law._REV_TOL
 _MERGE_TOL = _law._MERGE_TOL
 _CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
-_JIT = dict(cache=True, error_model="numpy", fastmath=False)
+_JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False}
 
 
 # ---------------------------------------------------------------------------------------
@@ -133,10 +132,13 @@ class KernelConstants(NamedTuple):
 
 
 class KernelState(NamedTuple):
-    """State arrays of ``n`` contacts (the fields of :class:`~grainmech.contact.ContactState`
+    """State arrays of ``n`` contacts passed to the compiled kernel.
+
+    State arrays of ``n`` contacts (the fields of :class:`~grainmech.contact.ContactState`
     without ``sliding``): approach (n,), normal_force (n,), tangential_force (n, dim),
     axis (n, dim), direction int8 (n,), depth int32 (n,), reversals (n, max_reversals),
-    dissipated_energy (n,)."""
+    dissipated_energy (n,).
+    """
 
     approach: np.ndarray
     normal_force: np.ndarray
@@ -149,9 +151,12 @@ class KernelState(NamedTuple):
 
 
 class KernelIncrement(NamedTuple):
-    """One step: ``d_normal`` (n,), ``d_tangential`` (n, dim), the normal force at its end
+    """One increment of ``n`` contacts passed to the compiled kernel.
+
+    One step: ``d_normal`` (n,), ``d_tangential`` (n, dim), the normal force at its end
     ``N1`` (n,) (seed Eq. 3.6 or ``kn alpha``) and the Hertz contact radii ``rad0``,
-    ``rad1`` (n,) at its start and end (seed Eq. 3.2; any values for linear springs)."""
+    ``rad1`` (n,) at its start and end (seed Eq. 3.2; any values for linear springs).
+    """
 
     d_normal: np.ndarray
     d_tangential: np.ndarray
@@ -161,9 +166,12 @@ class KernelIncrement(NamedTuple):
 
 
 class KernelOutput(NamedTuple):
-    """Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
+    """Arrays the compiled kernel writes: the new state and the response.
+
+    Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
     excepted) and the response (``sliding``, ``dissipation`` of the step, ``ks``,
-    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals)."""
+    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals).
+    """
 
     approach: np.ndarray
     normal_force: np.ndarray
@@ -182,8 +190,11 @@ class KernelOutput(NamedTuple):
 
 
 class KernelScratch(NamedTuple):
-    """Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
-    1/2 reversal memory full on a rising / constant or falling N; 3 no termination)."""
+    """Work rows and per-contact status flags of the compiled kernel.
+
+    Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
+    1/2 reversal memory full on a rising / constant or falling N; 3 no termination).
+    """
 
     tp: np.ndarray
     dp: np.ndarray
@@ -206,7 +217,7 @@ def new_scratch(n: int, dim: int) -> KernelScratch:
 _CONSTANTS: dict = {}
 
 
-def constants(params: object) -> KernelConstants:
+def constants(params: ContactParams) -> KernelConstants:
     """:class:`KernelConstants` of a contact parameter object (cached per object)."""
     try:
         return _CONSTANTS[params]
@@ -215,16 +226,18 @@ def constants(params: object) -> KernelConstants:
     kind = _law.law_kind(params)
     forms = _law.law_forms(params)
     linear = forms.linear
-    if linear:
+    if isinstance(params, LinearSpring):
         E = R = Gs = 1.0
-        kn_lin, ks_lin = float(params.kn), float(params.ks)  # type: ignore[attr-defined]
-    else:
-        E = float(params.effective_modulus)  # type: ignore[attr-defined]
-        R = float(params.effective_radius)  # type: ignore[attr-defined]
-        Gs = float(params.effective_shear_modulus)  # type: ignore[attr-defined]
+        kn_lin, ks_lin = float(params.kn), float(params.ks)
+    elif isinstance(params, Hertz):
+        E = float(params.effective_modulus)
+        R = float(params.effective_radius)
+        Gs = float(params.effective_shear_modulus)
         kn_lin = ks_lin = 0.0
-    mu = float(params.friction)  # type: ignore[attr-defined]
-    p = float(params.stick_exponent) if kind == "md" else 1.0 / 3.0  # type: ignore[attr-defined]
+    else:
+        raise TypeError(f"no compiled kernel for {type(params).__name__} (rods use the NumPy law)")
+    mu = float(params.friction)
+    p = float(params.stick_exponent) if isinstance(params, MindlinDeresiewicz) else 1.0 / 3.0
     m_exp = 1.0 / (1.0 - p)
     kc = KernelConstants(
         {"md": LAW_MD, "jenkins": LAW_JENKINS, "frictionless": LAW_FRICTIONLESS}[kind], linear,
@@ -270,8 +283,11 @@ def _kt0(N, linear, E, R, Gs, ks_lin):
 
 @njit(**_JIT)
 def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
-    """Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
-    ``kt1 = kt0(N1)`` if the approach does not change."""
+    """Mean no-slip tangential stiffness along a straight step [N/m].
+
+    Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
+    ``kt1 = kt0(N1)`` if the approach does not change.
+    """
     if linear:
         return ks_lin if (N0 > 0.0 or N1 > 0.0) else 0.0
     da = a1 - a0
@@ -316,7 +332,9 @@ def _pow_p(y, p, sph):
 # ---------------------------------------------------------------------------------------
 @njit(inline="always", **_JIT)
 def _H(z, m, hcoef, sph):
-    """``H(z) = int_z^1 g`` with ``g(z) = 1 + (m-1) z^m - m z^(m-1)``, ``m = 1/(1-p)``;
+    """``H(z) = int_z^1 g`` of the Mindlin-Deresiewicz branch integral.
+
+    ``H(z) = int_z^1 g`` with ``g(z) = 1 + (m-1) z^m - m z^(m-1)``, ``m = 1/(1-p)``;
     series in ``1 - z`` near 1 (``H ~ (1-z)^3``).
 
     ``sph`` (spheres, ``p = 1/3``, ``m = 3/2``): ``z^m = z sqrt(z)``, the same value to a

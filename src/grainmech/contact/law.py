@@ -81,9 +81,10 @@ integral over a closed cycle equals the loop area ``oint T d delta``.
 from __future__ import annotations
 
 import math
+from types import ModuleType
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, DTypeLike
 
 from grainmech.contact import geometry as geo
 from grainmech.contact._errors import ReversalMemoryError
@@ -102,11 +103,33 @@ __all__ = [
     "max_reversals",
     "compiled_kernel",
 ]
-from grainmech.contact.hysteresis import (_EPS, _GL_W, _GL_X, _MERGE_TOL, _REV_TOL, _LawOut,  # noqa: F401
-                                          _g_series, _h_series, _md_update, _secant_kt)
-from grainmech.contact.state import (ContactResponse, ContactState, _dot, _empty_state, _norm,  # noqa: F401
-                                     initial_state, law_kind, max_reversals, reversal_forces,
-                                     state_from_approach, state_from_forces, state_from_normal_force)
+from grainmech.contact.hysteresis import (  # noqa: F401
+    _EPS,
+    _GL_W,
+    _GL_X,
+    _MERGE_TOL,
+    _REV_TOL,
+    _g_series,
+    _h_series,
+    _LawOut,
+    _md_update,
+    _secant_kt,
+)
+from grainmech.contact.params import ContactParams, Cylinder, Hertz, MindlinDeresiewicz
+from grainmech.contact.state import (  # noqa: F401
+    ContactResponse,
+    ContactState,
+    _dot,
+    _empty_state,
+    _norm,
+    initial_state,
+    law_kind,
+    max_reversals,
+    reversal_forces,
+    state_from_approach,
+    state_from_forces,
+    state_from_normal_force,
+)
 
 
 def _check_increments(state: ContactState, d_normal: ArrayLike,
@@ -160,7 +183,7 @@ def _reproject(T: np.ndarray, e: np.ndarray, normals: ArrayLike | None) -> tuple
 # ---------------------------------------------------------------------------------------
 # Public entry point
 # ---------------------------------------------------------------------------------------
-def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangential: ArrayLike,
+def update(params: ContactParams, state: ContactState, d_normal: ArrayLike, d_tangential: ArrayLike,
            *, normals: ArrayLike | None = None, backend: str = "auto"
            ) -> tuple[ContactState, ContactResponse]:
     """Advance ``n`` contacts by one increment of relative displacement (pure function).
@@ -230,6 +253,7 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
     T0 = np.where(virgin_reset[:, None], 0.0, T0)
 
     if kind == "md":
+        assert isinstance(params, (MindlinDeresiewicz, Cylinder))  # the laws of kind "md"
         out = _md_update(params, state, T0, e0, N0_eff, N1, a0_eff, alpha1, dt_eff, virgin_reset)
     elif kind == "jenkins":
         out = _jenkins_update(params, T0, N0_eff, N1, a0_eff, alpha1, dt_eff)
@@ -268,10 +292,10 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
 # Compiled backend (grainmech.contact.kernel): selection and dispatch
 # ---------------------------------------------------------------------------------------
 _BACKENDS = ("auto", "numpy", "numba")
-_KERNEL: object = None   # the module once imported; False if numba is unavailable
+_KERNEL: ModuleType | bool | None = None   # the module once imported; False if numba is unavailable
 
 
-def _load_kernel() -> object:
+def _load_kernel() -> ModuleType | bool | None:
     """Import :mod:`grainmech.contact.kernel` once (``False`` when numba is missing)."""
     global _KERNEL
     if _KERNEL is None:
@@ -284,7 +308,7 @@ def _load_kernel() -> object:
     return _KERNEL
 
 
-def compiled_kernel(params: object, backend: str = "auto") -> object:
+def compiled_kernel(params: ContactParams, backend: str = "auto") -> ModuleType | None:
     """The compiled kernel module (:mod:`grainmech.contact.kernel`) for ``backend``, or ``None``.
 
     Parameters
@@ -312,36 +336,36 @@ def compiled_kernel(params: object, backend: str = "auto") -> object:
             raise ValueError(f"backend='numba' does not support {type(params).__name__} "
                              f"(use backend='numpy' or 'auto')")
         mod = _load_kernel()
-        if mod is False:
+        if not isinstance(mod, ModuleType):
             raise ImportError("backend='numba' needs numba, which is not importable")
         return mod
     if not supported:
         return None
     mod = _load_kernel()
-    return None if mod is False else mod
+    return mod if isinstance(mod, ModuleType) else None
 
 
-def _update_compiled(kernel: object, params: object, state: ContactState, T0: np.ndarray,
+def _update_compiled(kernel: ModuleType, params: ContactParams, state: ContactState, T0: np.ndarray,
                      e0: np.ndarray, dn: np.ndarray, dt: np.ndarray
                      ) -> tuple[ContactState, ContactResponse]:
     """:func:`update` through the compiled kernel (validated, re-projected inputs)."""
-    def c(x: np.ndarray, dtype: object) -> np.ndarray:
+    def c(x: np.ndarray, dtype: DTypeLike) -> np.ndarray:
         # C-contiguous and writeable (a read-only array would compile another variant)
         x = np.ascontiguousarray(x, dtype=dtype)
         return x if x.flags.writeable else x.copy()
 
-    K = kernel  # type: Any
+    K = kernel
     forms = law_forms(params)
     alpha0 = c(state.approach, dtype=float)
     dn = c(dn, dtype=float)
     # the closed forms of the normal law, vectorised as in the reference path
     N1 = forms.normal_force(alpha0 + dn)
-    if forms.linear:
-        rad0 = rad1 = N1
-    else:
-        rad1 = geo.hertz_contact_radius_from_force(N1, params)  # type: ignore[arg-type]
+    if isinstance(params, Hertz):  # spheres (the compiled laws other than linear springs)
+        rad1 = geo.hertz_contact_radius_from_force(N1, params)
         rad0 = geo.hertz_contact_radius_from_force(
-            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)  # type: ignore[arg-type]
+            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)
+    else:  # linear springs: the kernel does not use the radii
+        rad0 = rad1 = N1
     st = K.KernelState(alpha0, c(state.normal_force, dtype=float), c(T0, dtype=float),
                        c(e0, dtype=float), c(state.direction, dtype=np.int8),
                        c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),
@@ -369,7 +393,7 @@ def _update_compiled(kernel: object, params: object, state: ContactState, T0: np
 # ---------------------------------------------------------------------------------------
 
 
-def _frictionless_update(params: object, T0: np.ndarray, N1: np.ndarray) -> _LawOut:
+def _frictionless_update(params: ContactParams, T0: np.ndarray, N1: np.ndarray) -> _LawOut:
     n, dim = T0.shape
     z = np.zeros(n)
     return (np.zeros((n, dim)), np.zeros((n, dim)), np.ones(n, dtype=np.int8),
@@ -377,7 +401,7 @@ def _frictionless_update(params: object, T0: np.ndarray, N1: np.ndarray) -> _Law
             z, z.copy(), z.copy(), z.copy())
 
 
-def _jenkins_update(params: object, T0: np.ndarray, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
+def _jenkins_update(params: ContactParams, T0: np.ndarray, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
                     a1: np.ndarray, dt: np.ndarray) -> _LawOut:
     """Elastic tangential spring with Coulomb cap and radial return.
 

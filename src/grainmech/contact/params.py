@@ -1,7 +1,7 @@
 """Parameters of the contact laws: frozen dataclasses that validate themselves.
 
 Every class checks its fields in ``__post_init__`` and raises
-:class:`~grainmech.errors.ConfigError` (a ``ValueError``) whose message names the field
+:class:`~grainmech.errors.ParameterError` (a ``ValueError``) whose message names the field
 and its value. Units: any consistent system (SI in the examples); the command line
 converts quantities with units before building these objects.
 
@@ -32,7 +32,7 @@ import operator
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = [
     "Hertz",
@@ -49,47 +49,47 @@ DEFAULT_MAX_REVERSALS = 16
 
 def _as_float(name: str, value: Any) -> float:
     if isinstance(value, bool) or isinstance(value, str):
-        raise ConfigError(name, value, "must be a number")
+        raise ParameterError(name, value, "must be a number")
     try:
         out = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(name, value, "must be a number") from None
+        raise ParameterError(name, value, "must be a number") from None
     if math.isnan(out):
-        raise ConfigError(name, value, "must not be NaN")
+        raise ParameterError(name, value, "must not be NaN")
     return out
 
 
 def _positive(name: str, value: Any, *, allow_inf: bool = False) -> float:
     v = _as_float(name, value)
     if not v > 0.0:
-        raise ConfigError(name, value, "must be positive")
+        raise ParameterError(name, value, "must be positive")
     if math.isinf(v) and not allow_inf:
-        raise ConfigError(name, value, "must be finite")
+        raise ParameterError(name, value, "must be finite")
     return v
 
 
 def _poisson(name: str, value: Any) -> float:
     v = _as_float(name, value)
     if not (-1.0 < v < 0.5):
-        raise ConfigError(name, value, "Poisson's ratio must lie in the open interval (-1, 0.5)")
+        raise ParameterError(name, value, "Poisson's ratio must lie in the open interval (-1, 0.5)")
     return v
 
 
 def _friction(name: str, value: Any, *, allow_inf: bool) -> float:
     v = _as_float(name, value)
     if v < 0.0:
-        raise ConfigError(name, value, "friction coefficient must be >= 0")
+        raise ParameterError(name, value, "friction coefficient must be >= 0")
     if math.isinf(v) and not allow_inf:
-        raise ConfigError(name, value, "must be finite (use HertzMindlin for infinitely rough contacts)")
+        raise ParameterError(name, value, "must be finite (use HertzMindlin for infinitely rough contacts)")
     return v
 
 
 def _max_reversals(name: str, value: Any) -> int:
     if isinstance(value, bool) or not hasattr(value, "__index__"):
-        raise ConfigError(name, value, "must be an integer")
+        raise ParameterError(name, value, "must be an integer")
     v = operator.index(value)
     if v < 1 or v > 4096:
-        raise ConfigError(name, value, "must be between 1 and 4096")
+        raise ParameterError(name, value, "must be between 1 and 4096")
     return v
 
 
@@ -141,12 +141,13 @@ class Hertz:
                                _positive("shear_modulus2", self.shear_modulus2))
         if self.poisson2 is not None:
             object.__setattr__(self, "poisson2", _poisson("poisson2", self.poisson2))
+        derived: tuple[float, ...]
         try:
             derived = (self.effective_modulus, self.effective_shear_modulus, self.effective_radius)
         except (ZeroDivisionError, OverflowError):
             derived = (math.inf,)
         if not all(math.isfinite(v) and v > 0 for v in derived):
-            raise ConfigError("shear_modulus", self.shear_modulus,
+            raise ParameterError("shear_modulus", self.shear_modulus,
                               "with the radii gives no finite contact modulus/radius (overflow): "
                               "use a consistent unit system")
 
@@ -266,7 +267,7 @@ class MindlinDeresiewicz(Hertz):
     def __post_init__(self) -> None:
         super().__post_init__()
         if isinstance(self.friction, float) and math.isnan(self.friction):
-            raise ConfigError("friction", None, "is required for MindlinDeresiewicz")
+            raise ParameterError("friction", None, "is required for MindlinDeresiewicz")
         object.__setattr__(self, "friction", _friction("friction", self.friction, allow_inf=False))
         object.__setattr__(self, "max_reversals", _max_reversals("max_reversals", self.max_reversals))
 
@@ -296,7 +297,7 @@ class LinearSpring:
         object.__setattr__(self, "kn", _positive("kn", self.kn))
         ks = _as_float("ks", self.ks)
         if ks < 0.0 or math.isinf(ks):
-            raise ConfigError("ks", self.ks, "must be finite and >= 0")
+            raise ParameterError("ks", self.ks, "must be finite and >= 0")
         object.__setattr__(self, "ks", ks)
         object.__setattr__(self, "friction", _friction("friction", self.friction, allow_inf=True))
 
@@ -371,7 +372,7 @@ class Cylinder:
         object.__setattr__(self, "psi", _positive("psi", self.psi))
         phi = _as_float("friction_angle", self.friction_angle)
         if not (0.0 <= phi < 0.5 * math.pi):
-            raise ConfigError("friction_angle", self.friction_angle,
+            raise ParameterError("friction_angle", self.friction_angle,
                               "must lie in [0, pi/2) radians (convert degrees with math.radians)")
         object.__setattr__(self, "friction_angle", phi)
         object.__setattr__(self, "max_reversals", _max_reversals("max_reversals", self.max_reversals))
@@ -414,6 +415,6 @@ class Cylinder:
 ContactParams = Hertz | HertzMindlin | MindlinDeresiewicz | LinearSpring | Cylinder
 
 
-def describe(params: object) -> dict[str, Any]:
+def describe(params: ContactParams) -> dict[str, Any]:
     """Field names and values of a parameter object (for logs and output headers)."""
-    return {f.name: getattr(params, f.name) for f in fields(params)}  # type: ignore[arg-type]
+    return {f.name: getattr(params, f.name) for f in fields(params)}

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from grainmech.contact.forms import law_forms
+from grainmech.contact.params import ContactParams
 
 __all__ = ["ContactState", "ContactResponse", "initial_state", "state_from_normal_force",
            "state_from_approach", "state_from_forces", "reversal_forces", "law_kind", "max_reversals"]
@@ -54,10 +55,12 @@ class ContactState(NamedTuple):
 
     @property
     def n_contacts(self) -> int:
+        """Number of contacts ``n``."""
         return int(self.approach.shape[0])
 
     @property
     def dim(self) -> int:
+        """Dimension of the tangential vectors (2 or 3)."""
         return int(self.tangential_force.shape[1])
 
     @property
@@ -65,7 +68,7 @@ class ContactState(NamedTuple):
         """Contacts without compression (``alpha <= 0``)."""
         return self.approach <= 0.0
 
-    def take(self, index: ArrayLike) -> "ContactState":
+    def take(self, index: ArrayLike) -> ContactState:
         """Sub-state of the contacts ``index`` (copies)."""
         idx = np.asarray(index)
         return ContactState(*(np.array(f[idx]) for f in self))
@@ -118,12 +121,12 @@ class ContactResponse(NamedTuple):
 # ---------------------------------------------------------------------------------------
 # Law kind
 # ---------------------------------------------------------------------------------------
-def law_kind(params: object) -> str:
+def law_kind(params: ContactParams) -> str:
     """``"md"`` (hysteretic memory law), ``"jenkins"`` (elastic + Coulomb) or ``"frictionless"``."""
     return law_forms(params).kind
 
 
-def max_reversals(params: object) -> int:
+def max_reversals(params: ContactParams) -> int:
     """Reversal memory of the law's state (``max_reversals`` of a hysteretic law, else 0)."""
     return law_forms(params).max_reversals
 
@@ -146,7 +149,7 @@ def _norm(v: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------------------
 # State constructors
 # ---------------------------------------------------------------------------------------
-def _empty_state(params: object, n: int, dim: int) -> ContactState:
+def _empty_state(params: ContactParams, n: int, dim: int) -> ContactState:
     if dim not in (1, 2, 3):
         raise ValueError(f"dim must be 1, 2 or 3, got {dim!r}")
     if n < 0:
@@ -165,7 +168,7 @@ def _empty_state(params: object, n: int, dim: int) -> ContactState:
     )
 
 
-def initial_state(params: object, n_contacts: int, dim: int = 3) -> ContactState:
+def initial_state(params: ContactParams, n_contacts: int, dim: int = 3) -> ContactState:
     """State of ``n_contacts`` virgin contacts just touching (``alpha = N = T = 0``).
 
     Parameters
@@ -180,7 +183,7 @@ def initial_state(params: object, n_contacts: int, dim: int = 3) -> ContactState
     return _empty_state(params, int(n_contacts), int(dim))
 
 
-def state_from_approach(params: object, approach: ArrayLike, dim: int = 3) -> ContactState:
+def state_from_approach(params: ContactParams, approach: ArrayLike, dim: int = 3) -> ContactState:
     """Virgin contacts (no tangential force, no memory) at a given approach.
 
     Parameters
@@ -198,7 +201,7 @@ def state_from_approach(params: object, approach: ArrayLike, dim: int = 3) -> Co
     return st._replace(approach=alpha, normal_force=N)
 
 
-def state_from_normal_force(params: object, normal_force: ArrayLike, dim: int = 3) -> ContactState:
+def state_from_normal_force(params: ContactParams, normal_force: ArrayLike, dim: int = 3) -> ContactState:
     """Virgin contacts compressed by given normal forces (e.g. an isotropic state).
 
     Parameters
@@ -217,7 +220,7 @@ def state_from_normal_force(params: object, normal_force: ArrayLike, dim: int = 
     return st._replace(approach=alpha, normal_force=N)
 
 
-def state_from_forces(params: object, normal_force: ArrayLike, tangential_force: ArrayLike,
+def state_from_forces(params: ContactParams, normal_force: ArrayLike, tangential_force: ArrayLike,
                       dim: int | None = None) -> ContactState:
     """Contacts at given normal and tangential forces, reached by monotonic loading.
 
@@ -261,7 +264,7 @@ def state_from_forces(params: object, normal_force: ArrayLike, tangential_force:
     return st._replace(tangential_force=T.copy(), axis=axis, sliding=sliding)
 
 
-def reversal_forces(params: object, state: ContactState) -> np.ndarray:
+def reversal_forces(params: ContactParams, state: ContactState) -> np.ndarray:
     """Remembered reversal forces ``T_j`` (along the memory axis), NaN-padded.
 
     ``T_j = s_j (P_j - mu N)`` with ``s_j = s (-1)^(k-1-j)`` the direction of the branch
@@ -277,6 +280,6 @@ def reversal_forces(params: object, state: ContactState) -> np.ndarray:
     j = np.arange(m)[None, :]
     k = state.depth[:, None]
     sj = state.direction[:, None].astype(float) * np.where((k - 1 - j) % 2 == 0, 1.0, -1.0)
-    muN = params.friction * state.normal_force[:, None]  # type: ignore[attr-defined]
+    muN = params.friction * state.normal_force[:, None]
     out = sj * (state.reversals - muN)
     return np.where(j < k, out, np.nan)

@@ -32,6 +32,7 @@ from grainmech.driver.solver import DriverResult, SolverOptions, run
 __all__ = [
     "COMPONENTS", "Control", "ContactLaw", "DriverResult", "LoadPath", "MaterialPoint",
     "SolverOptions", "concatenate", "constant_mean_stress", "cycles", "cyclic_simple_shear",
-    "cyclic_triaxial", "evaluate", "fig610_path", "fig610_stress", "geometric_stiffness", "geometry", "isotropic_compression",
+    "cyclic_triaxial", "evaluate", "fig610_path", "fig610_stress", "geometric_stiffness", "geometry",
+    "isotropic_compression",
     "make_law", "parse_mask", "run", "segment", "simple_shear", "tangent", "triaxial",
 ]

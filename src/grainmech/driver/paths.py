@@ -16,12 +16,13 @@ Readable masks such as ``"EESEEE"`` (E = strain, S = stress) are parsed only by
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = [
     "Control",
@@ -53,24 +54,27 @@ class Control:
     stress : tuple of 6 bool
     """
 
-    stress: tuple[bool, bool, bool, bool, bool, bool]
+    stress: tuple[bool, ...]  # six entries, checked in __post_init__
 
     def __post_init__(self) -> None:
         s = tuple(bool(x) for x in self.stress)
         if len(s) != 6:
-            raise ConfigError("control", self.stress, "must have 6 entries (xx, yy, zz, yz, xz, xy)")
+            raise ParameterError("control", self.stress, "must have 6 entries (xx, yy, zz, yz, xz, xy)")
         object.__setattr__(self, "stress", s)
 
     @property
     def array(self) -> np.ndarray:
+        """The mask as a bool array, shape (6,) (True: stress-controlled)."""
         return np.array(self.stress, dtype=bool)
 
     @classmethod
-    def all_strain(cls) -> "Control":
+    def all_strain(cls) -> Control:
+        """Every component strain-controlled."""
         return cls((False,) * 6)
 
     @classmethod
-    def all_stress(cls) -> "Control":
+    def all_stress(cls) -> Control:
+        """Every component stress-controlled."""
         return cls((True,) * 6)
 
     def __str__(self) -> str:
@@ -81,8 +85,8 @@ def parse_mask(text: str) -> Control:
     """Parse a readable mask, e.g. ``"EESEEE"`` (E strain, S stress; order xx..xy)."""
     t = str(text).strip().upper()
     if len(t) != 6 or any(c not in "ES" for c in t):
-        raise ConfigError("control", text, "must be 6 letters E (strain) or S (stress) in order xx,yy,zz,yz,xz,xy")
-    return Control(tuple(c == "S" for c in t))  # type: ignore[arg-type]
+        raise ParameterError("control", text, "must be 6 letters E (strain) or S (stress) in order xx,yy,zz,yz,xz,xy")
+    return Control(tuple(c == "S" for c in t))
 
 
 @dataclass(frozen=True)
@@ -105,9 +109,9 @@ class LoadPath:
         sc = np.asarray(self.stress_control, dtype=bool)
         inc = np.asarray(self.increment, dtype=float)
         if sc.ndim != 2 or sc.shape[1] != 6 or inc.shape != sc.shape:
-            raise ConfigError("path", (sc.shape, inc.shape), "stress_control and increment must both be (m, 6)")
+            raise ParameterError("path", (sc.shape, inc.shape), "stress_control and increment must both be (m, 6)")
         if not np.all(np.isfinite(inc)):
-            raise ConfigError("path.increment", "non-finite", "increments must be finite")
+            raise ParameterError("path.increment", "non-finite", "increments must be finite")
         sc.setflags(write=False)
         inc.setflags(write=False)
         object.__setattr__(self, "stress_control", sc)
@@ -116,7 +120,7 @@ class LoadPath:
     def __len__(self) -> int:
         return int(self.increment.shape[0])
 
-    def __add__(self, other: "LoadPath") -> "LoadPath":
+    def __add__(self, other: LoadPath) -> LoadPath:
         return concatenate([self, other])
 
 
@@ -126,27 +130,27 @@ def _control(c: Control | str) -> Control:
 
 def _nsteps(n: int, name: str = "n_steps") -> int:
     if int(n) != n or int(n) < 1:
-        raise ConfigError(name, n, "must be a positive integer")
+        raise ParameterError(name, n, "must be a positive integer")
     return int(n)
 
 
-def segment(control: Control | str, change: Sequence[float], n_steps: int) -> LoadPath:
+def segment(control: Control | str, change: ArrayLike, n_steps: int) -> LoadPath:
     """Linear segment: the controlled components change by ``change`` (6,) in ``n_steps`` equal steps."""
     c = _control(control)
     n = _nsteps(n_steps)
     ch = np.asarray(change, dtype=float)
     if ch.shape != (6,):
-        raise ConfigError("change", ch.shape, "must have 6 components")
+        raise ParameterError("change", ch.shape, "must have 6 components")
     return LoadPath(np.tile(c.array, (n, 1)), np.tile(ch / n, (n, 1)))
 
 
 def _wave(n_cycles: int, steps_per_cycle: int, waveform: str) -> np.ndarray:
     """Values of a unit-amplitude wave at the end of each step, shape (n_cycles*steps,)."""
     if waveform not in ("triangle", "sine"):
-        raise ConfigError("waveform", waveform, "must be 'triangle' or 'sine'")
+        raise ParameterError("waveform", waveform, "must be 'triangle' or 'sine'")
     spc = _nsteps(steps_per_cycle, "steps_per_cycle")
     if waveform == "triangle" and spc % 4:
-        raise ConfigError("steps_per_cycle", steps_per_cycle, "must be a multiple of 4 for a triangle wave")
+        raise ParameterError("steps_per_cycle", steps_per_cycle, "must be a multiple of 4 for a triangle wave")
     t = np.arange(1, _nsteps(n_cycles, "n_cycles") * spc + 1) / spc
     if waveform == "sine":
         return np.sin(2 * np.pi * t)
@@ -154,7 +158,7 @@ def _wave(n_cycles: int, steps_per_cycle: int, waveform: str) -> np.ndarray:
     return np.where(ph <= 0.25, 4 * ph, np.where(ph <= 0.75, 2 - 4 * ph, 4 * ph - 4))
 
 
-def cycles(control: Control | str, direction: Sequence[float], amplitude: float, n_cycles: int,
+def cycles(control: Control | str, direction: ArrayLike, amplitude: float, n_cycles: int,
            steps_per_cycle: int, waveform: str = "triangle") -> LoadPath:
     """Symmetric cycles ``x(t) = x0 + amplitude * wave(t) * direction`` starting at the current value.
 
@@ -172,9 +176,9 @@ def cycles(control: Control | str, direction: Sequence[float], amplitude: float,
     c = _control(control)
     d = np.asarray(direction, dtype=float)
     if d.shape != (6,):
-        raise ConfigError("direction", d.shape, "must have 6 components")
+        raise ParameterError("direction", d.shape, "must have 6 components")
     if not np.isfinite(amplitude):
-        raise ConfigError("amplitude", amplitude, "must be finite")
+        raise ParameterError("amplitude", amplitude, "must be finite")
     v = amplitude * _wave(n_cycles, steps_per_cycle, waveform)
     dv = np.diff(np.concatenate([[0.0], v]))
     dv[-1] -= v[-1]  # end exactly at the start value (wave returns to 0)
@@ -184,7 +188,7 @@ def cycles(control: Control | str, direction: Sequence[float], amplitude: float,
 def concatenate(paths: Sequence[LoadPath]) -> LoadPath:
     """Join paths step after step."""
     if not paths:
-        raise ConfigError("paths", paths, "must not be empty")
+        raise ParameterError("paths", paths, "must not be empty")
     return LoadPath(np.concatenate([p.stress_control for p in paths]),
                     np.concatenate([p.increment for p in paths]))
 
@@ -226,7 +230,7 @@ def fig610_path(kind: str, p0: float, ratio: float, n_steps: int) -> LoadPath:
 def fig610_stress(kind: str, p0: float, ratio: float) -> tuple[float, float]:
     """(sigma1, sigma3) on a Fig. 6.10 path at stress ratio ``ratio`` (see :func:`fig610_path`)."""
     if not ratio >= 1:
-        raise ConfigError("ratio", ratio, "sigma1/sigma3 must be >= 1")
+        raise ParameterError("ratio", ratio, "sigma1/sigma3 must be >= 1")
     if kind == "compression":
         return ratio * p0, p0
     if kind == "constant-mean":
@@ -234,7 +238,7 @@ def fig610_stress(kind: str, p0: float, ratio: float) -> tuple[float, float]:
         return ratio * s3, s3
     if kind == "reduced-compression":
         return p0, p0 / ratio
-    raise ConfigError("kind", kind, "must be 'compression', 'constant-mean' or 'reduced-compression'")
+    raise ParameterError("kind", kind, "must be 'compression', 'constant-mean' or 'reduced-compression'")
 
 
 def simple_shear(gamma: float, n_steps: int) -> LoadPath:
@@ -257,7 +261,7 @@ def cyclic_simple_shear(amplitude: float, n_cycles: int, steps_per_cycle: int,
     elif constant == "volume":
         mask = parse_mask("EEEEEE")
     else:
-        raise ConfigError("constant", constant, "must be 'stress' or 'volume'")
+        raise ParameterError("constant", constant, "must be 'stress' or 'volume'")
     return cycles(mask, _E[4], amplitude, n_cycles, steps_per_cycle, waveform)
 
 
@@ -272,4 +276,4 @@ def cyclic_triaxial(amplitude: float, n_cycles: int, steps_per_cycle: int, *,
         return cycles(parse_mask("SSESSS"), _E[2], amplitude, n_cycles, steps_per_cycle, waveform)
     if control == "stress":
         return cycles(Control.all_stress(), _E[2], amplitude, n_cycles, steps_per_cycle, waveform)
-    raise ConfigError("control", control, "must be 'strain' or 'stress'")
+    raise ParameterError("control", control, "must be 'strain' or 'stress'")

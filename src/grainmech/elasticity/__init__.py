@@ -1,4 +1,6 @@
-"""Elasticity of a stiffness tensor: checks, compliance, engineering constants, directional
+"""Elasticity of a stiffness tensor.
+
+Elasticity of a stiffness tensor: checks, compliance, engineering constants, directional
 moduli, averages, rotations and material-symmetry classification.
 
 Modules: :mod:`~grainmech.elasticity.conversions` (input handling, checks, compliance,
@@ -43,19 +45,36 @@ Chang, C. S. (1988). The seed report, Section 4.3 and Table 1 (material symmetri
 
 from __future__ import annotations
 
-from grainmech.elasticity.symmetry import (
-    N_INDEPENDENT, SEED_NAMES, SYMMETRY_CLASSES_2D, SYMMETRY_CLASSES_3D, SymmetryClass,
-    symmetric_projection, symmetry_class,
+from grainmech.elasticity.constants import (
+    EngineeringConstants,
+    IsotropicConstants,
+    PlaneEngineeringConstants,
+    bulk_modulus,
+    engineering_constants,
+    isotropic_constants,
+    isotropic_stiffness,
+    orthotropic_stiffness,
+    shear_modulus,
+    transversely_isotropic_stiffness,
 )
 from grainmech.elasticity.conversions import (
-    check_stiffness, compliance, contracted_tensors, kelvin_moduli, rotate_stiffness, rotation_about,
-)
-from grainmech.elasticity.constants import (
-    EngineeringConstants, IsotropicConstants, PlaneEngineeringConstants, bulk_modulus,
-    engineering_constants, isotropic_constants, isotropic_stiffness, orthotropic_stiffness,
-    shear_modulus, transversely_isotropic_stiffness,
+    check_stiffness,
+    compliance,
+    contracted_tensors,
+    kelvin_moduli,
+    rotate_stiffness,
+    rotation_about,
 )
 from grainmech.elasticity.directional import directional_poisson, directional_shear, directional_young
+from grainmech.elasticity.symmetry import (
+    N_INDEPENDENT,
+    SEED_NAMES,
+    SYMMETRY_CLASSES_2D,
+    SYMMETRY_CLASSES_3D,
+    SymmetryClass,
+    symmetric_projection,
+    symmetry_class,
+)
 
 __all__ = [
     "SYMMETRY_CLASSES_3D",

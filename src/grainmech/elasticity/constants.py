@@ -1,18 +1,30 @@
-"""Engineering constants, Voigt/Reuss/Hill averages, isotropic constants and the
-constructors of isotropic, transversely isotropic and orthotropic stiffnesses."""
+"""Engineering constants, averages and constructors of stiffness tensors.
+
+Engineering constants, Voigt/Reuss/Hill averages, isotropic constants and the
+constructors of isotropic, transversely isotropic and orthotropic stiffnesses.
+"""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
-from typing import Mapping, Sequence
 
 import numpy as np
 
 from grainmech.conventions import ORDER_2D, ORDER_3D, voigt_to_mandel
+from grainmech.elasticity.conversions import (
+    _as_voigt,
+    _check_finite_symmetric,
+    _dim,
+    _frame_from_axis,
+    _unit,
+    check_stiffness,
+    compliance,
+    rotate_stiffness,
+)
 from grainmech.errors import GrainmechError
-from grainmech.elasticity.conversions import (_as_voigt, _check_finite_symmetric, _dim, _frame_from_axis,
-                                              _unit, check_stiffness, compliance, rotate_stiffness)
 
 
 def _couplings(S: np.ndarray, order: Sequence[str], rtol: float) -> dict[str, float]:
@@ -70,8 +82,7 @@ class EngineeringConstants:
         _floats(self)
 
     def as_dict(self) -> dict[str, float]:
-        """Constants under the attribute names ``E_xx, E_yy, E_zz, nu_xy, ..., G_xy`` +
-        the couplings."""
+        """Constants under the attribute names ``E_xx, E_yy, E_zz, nu_xy, ..., G_xy`` + the couplings."""
         return _as_dict(self)
 
 
@@ -104,8 +115,7 @@ class PlaneEngineeringConstants:
         _floats(self)
 
     def as_dict(self) -> dict[str, float]:
-        """Constants under the attribute names ``E_xx, E_yy, nu_xy, nu_yx, G_xy`` + the
-        couplings."""
+        """Constants under the attribute names ``E_xx, E_yy, nu_xy, nu_yx, G_xy`` + the couplings."""
         return _as_dict(self)
 
 
@@ -346,7 +356,8 @@ def _pair_to_KG(given: dict[str, float], dim: int) -> tuple[float, float]:
     """Closed-form (K, G) from any two of E, nu, G, K, lam (3D or 2D relations)."""
     g = given
     keys = frozenset(g)
-    E, nu, G, K, lam = (g.get(k) for k in ("E", "nu", "G", "K", "lam"))
+    # a constant not given is NaN: only the two given are used by the branch that matches
+    E, nu, G, K, lam = (g.get(k, math.nan) for k in ("E", "nu", "G", "K", "lam"))
     if dim == 3:
         if keys == {"E", "nu"}:
             return E / (3 * (1 - 2 * nu)), E / (2 * (1 + nu))

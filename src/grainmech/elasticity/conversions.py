@@ -1,17 +1,26 @@
-"""Stiffness input handling, checks, compliance, Kelvin moduli and rotations
-(library Voigt order; Mandel form internally, see :mod:`grainmech.elasticity`)."""
+"""Stiffness input handling, checks, compliance, Kelvin moduli and rotations.
+
+Stiffness input handling, checks, compliance, Kelvin moduli and rotations
+(library Voigt order; Mandel form internally, see :mod:`grainmech.elasticity`).
+"""
 
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
-from grainmech.conventions import ORDER_2D, ORDER_3D, mandel_to_voigt, matrix_to_tensor4, tensor4_to_matrix, voigt_to_mandel
+from grainmech.conventions import (
+    ORDER_2D,
+    ORDER_3D,
+    mandel_to_voigt,
+    matrix_to_tensor4,
+    tensor4_to_matrix,
+    voigt_to_mandel,
+)
 from grainmech.errors import GrainmechError
-
 
 _SQ2 = float(np.sqrt(2.0))
 
@@ -161,8 +170,8 @@ def contracted_tensors(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.einsum("ijkk->ij", T), np.einsum("ikjk->ij", T)
 
 
-def _unit(v: np.ndarray, dim: int, name: str) -> np.ndarray:
-    v = np.asarray(v, dtype=float)
+def _unit(vec: ArrayLike, dim: int, name: str) -> np.ndarray:
+    v = np.asarray(vec, dtype=float)
     if v.shape[-1:] != (dim,):
         raise GrainmechError(f"{name} must have trailing dimension {dim}; got shape {v.shape}")
     nrm = np.linalg.norm(v, axis=-1, keepdims=True)
@@ -172,8 +181,11 @@ def _unit(v: np.ndarray, dim: int, name: str) -> np.ndarray:
 
 
 def _frame_from_axis(a: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
-    """Right-handed frame (rows x', y', a) with x' the projection of ``ref`` (default e_x,
-    else e_y) onto the plane normal to ``a``."""
+    """Right-handed frame whose third axis is ``a``.
+
+    Right-handed frame (rows x', y', a) with x' the projection of ``ref`` (default e_x,
+    else e_y) onto the plane normal to ``a``.
+    """
     a = a / np.linalg.norm(a)
     cands = [ref] if ref is not None else []
     cands += [np.array([1.0, 0, 0]), np.array([0, 1.0, 0])]
@@ -185,7 +197,7 @@ def _frame_from_axis(a: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray
     return np.array([t, np.cross(a, t), a])
 
 
-def rotation_about(axis: Sequence[float], angle: float) -> np.ndarray:
+def rotation_about(axis: ArrayLike, angle: float) -> np.ndarray:
     """Proper rotation matrix by ``angle`` (radians, right-handed) about ``axis``."""
     a = _unit(axis, 3, "axis")
     return Rotation.from_rotvec(a * float(angle)).as_matrix()

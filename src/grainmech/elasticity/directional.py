@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from grainmech.conventions import stress_to_vector, voigt_to_mandel
-from grainmech.errors import GrainmechError
 from grainmech.elasticity.conversions import _as_voigt, _dim, _unit, check_stiffness
+from grainmech.errors import GrainmechError
 
 
 def _mandel_compliance(C: np.ndarray) -> tuple[np.ndarray, int]:

@@ -15,6 +15,7 @@ Main entry points
 
 from __future__ import annotations
 
+from grainmech.fabric import _checks
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
 from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
 from grainmech.fabric.fourier import FourierDensity
@@ -62,7 +63,6 @@ from grainmech.fabric.tensors import (
     symmetrize,
     trace,
 )
-from grainmech.fabric import _checks
 
 
 def isotropic(dim: int, order: int = 0) -> SphericalDensity | FourierDensity:
@@ -76,7 +76,7 @@ def isotropic(dim: int, order: int = 0) -> SphericalDensity | FourierDensity:
     """
     dim = _checks.as_dim(dim)
     cls = SphericalDensity if dim == 3 else FourierDensity
-    return cls.isotropic(order)  # type: ignore[return-value]
+    return cls.isotropic(order)
 
 
 def density_from_fabric_tensor(N: object, allow_negative: bool = False
@@ -88,9 +88,9 @@ def density_from_fabric_tensor(N: object, allow_negative: bool = False
     dim = A.shape[0] if A.ndim else 0
     cls = SphericalDensity if dim == 3 else FourierDensity if dim == 2 else None
     if cls is None:
-        from grainmech.errors import ConfigError
-        raise ConfigError("N", f"array of shape {A.shape}", "must be (d, ..., d) with d = 2 or 3")
-    return cls.from_fabric_tensor(A, allow_negative=allow_negative)  # type: ignore[return-value]
+        from grainmech.errors import ParameterError
+        raise ParameterError("N", f"array of shape {A.shape}", "must be (d, ..., d) with d = 2 or 3")
+    return cls.from_fabric_tensor(A, allow_negative=allow_negative)
 
 
 __all__ = [

@@ -13,17 +13,18 @@ A subclass stores its coefficients and implements
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar, Mapping
+from typing import Any, ClassVar, Self
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from grainmech.conventions import seed_angles, seed_theta
-from grainmech.errors import ConfigError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import _checks
-from grainmech.fabric.quadrature import unit_rule
 from grainmech.fabric import tensors as _t
+from grainmech.fabric.quadrature import unit_rule
 
 #: A density whose normalised value ``|S| xi`` is below ``-NEGATIVE_TOL`` somewhere is
 #: rejected as negative (``|S| xi = 1`` for the isotropic density).
@@ -77,6 +78,8 @@ class DensityBase:
     """Common API of :class:`SphericalDensity` and :class:`FourierDensity`."""
 
     dim: ClassVar[int] = 0
+    #: expansion order (a dataclass field of each subclass)
+    order: int
 
     # ---- hooks (subclasses also define the dataclass field ``order: int``) -----------
     def _normalised(self, n: np.ndarray) -> np.ndarray:  # pragma: no cover
@@ -157,9 +160,9 @@ class DensityBase:
         """
         rank = _checks.as_int(rank, "rank", 0)
         if rank > _t.MAX_RANK:
-            raise ConfigError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
+            raise ParameterError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
         pts, wts = self.directions(rank)
-        return ((wts @ _t.outer_power(pts, rank))).reshape((self.dim,) * rank)
+        return (wts @ _t.outer_power(pts, rank)).reshape((self.dim,) * rank)
 
     def coefficient_tensors(self) -> dict[int, np.ndarray]:
         """Kanatani's traceless coefficient tensors ``{k: phi_(k)}`` (seed Eq. 4.10).
@@ -179,21 +182,22 @@ class DensityBase:
     # ---- constructors shared by both dimensions --------------------------------------
     @classmethod
     def _project(cls, func: Callable[[np.ndarray], np.ndarray], order: int, degree: int,
-                 allow_negative: bool) -> "DensityBase":
+                 allow_negative: bool) -> Self:
         pts, w = unit_rule(cls.dim, order + degree)
         vals = np.asarray(func(np.array(pts)), dtype=float)
         kw = cls._coefficients_from_values(pts, w, vals, order)
+        # cls is one of the dataclass subclasses, whose fields these are
         return cls(order=order, allow_negative=allow_negative, **kw)  # type: ignore[call-arg]
 
     @classmethod
-    def isotropic(cls, order: int = 0) -> "DensityBase":
+    def isotropic(cls, order: int = 0) -> Self:
         """The uniform density ``1/|S|`` (all coefficients zero)."""
         order = _checks.as_even_order(order)
         return cls._project(lambda p: np.ones(len(p)), order, 0, False)
 
     @classmethod
     def from_coefficient_tensors(cls, phis: Mapping[int, object],
-                                 allow_negative: bool = False, tol: float = 1e-8) -> "DensityBase":
+                                 allow_negative: bool = False, tol: float = 1e-8) -> Self:
         """Density ``(1/|S|)[1 + sum_k phi_(k) . n^k]`` (seed Eq. 4.10, 4.16, 4.35).
 
         Parameters
@@ -205,7 +209,7 @@ class DensityBase:
         """
         ph, d = _t._check_phis(phis, cls.dim, tol)
         if d != cls.dim:
-            raise ConfigError("phis", f"{d}D tensors", f"{cls.__name__} needs {cls.dim}D tensors")
+            raise ParameterError("phis", f"{d}D tensors", f"{cls.__name__} needs {cls.dim}D tensors")
         order = max(ph, default=0)
 
         def f(p: np.ndarray) -> np.ndarray:
@@ -215,7 +219,7 @@ class DensityBase:
 
     @classmethod
     def from_fabric_tensor(cls, N: object, allow_negative: bool = False,
-                           tol: float = 1e-8) -> "DensityBase":
+                           tol: float = 1e-8) -> Self:
         """Density of order ``L`` with the given rank-``L`` fabric tensor (seed Eq. 4.11).
 
         ``N`` fixes all lower fabric tensors by traces, hence all ``phi_(k)`` for
@@ -228,7 +232,7 @@ class DensityBase:
     @classmethod
     def from_function(cls, func: Callable[[np.ndarray], np.ndarray], order: int,
                       degree: int | None = None, normalise: bool = False,
-                      allow_negative: bool = False) -> "DensityBase":
+                      allow_negative: bool = False) -> Self:
         """Project a function of the normal onto the harmonics up to ``order``.
 
         Parameters
@@ -248,22 +252,22 @@ class DensityBase:
         pts, w = unit_rule(cls.dim, order + deg)
         vals = _checks.as_finite_array(func(np.array(pts)), "func(normals)")
         if vals.shape != (len(w),):
-            raise ConfigError("func(normals)", f"array of shape {vals.shape}",
+            raise ParameterError("func(normals)", f"array of shape {vals.shape}",
                               f"must return one value per normal, shape ({len(w)},)")
         total = 4.0 * np.pi if cls.dim == 3 else 2.0 * np.pi
         integral = total * float(w @ vals)
         if normalise:
             if not integral > 0:
-                raise ConfigError("func", integral, "integral must be positive to normalise")
+                raise ParameterError("func", integral, "integral must be positive to normalise")
             vals = vals / integral
         elif abs(integral - 1.0) > 1e-8:
-            raise ConfigError("func", f"integral {integral:.12g}",
+            raise ParameterError("func", f"integral {integral:.12g}",
                               "a density must integrate to 1 (seed Eq. 4.8); pass normalise=True")
         return cls._project(lambda p: total * np.asarray(func(p), dtype=float)
                             / (integral if normalise else 1.0), order, deg, allow_negative)
 
     # ---- transformations ---------------------------------------------------------------
-    def rotated(self, R: object) -> "DensityBase":
+    def rotated(self, R: object) -> Self:
         """Density of the rotated normals ``n' = R n``: ``xi'(n') = xi(R^T n')``.
 
         Exact: ``xi o R^T`` is again a polynomial of degree ``order``, projected with a
@@ -274,7 +278,7 @@ class DensityBase:
         return self._project(lambda p: self._normalised(p @ Rm), self.order, self.order,
                              bool(getattr(self, "allow_negative", False)))
 
-    def shrunk(self, factor: float) -> "DensityBase":
+    def shrunk(self, factor: float) -> Self:
         """``(1/|S|)[1 + factor (|S| xi - 1)]``: scale all anisotropic coefficients."""
         f = _checks.as_scalar(factor, "factor")
         return self._project(lambda p: 1.0 + f * (self._normalised(p) - 1.0), self.order,
@@ -378,7 +382,7 @@ class DensityBase:
         return self.minimum().normalised >= -NEGATIVE_TOL
 
     # ---- sampling -----------------------------------------------------------------------
-    def sample(self, size: int, rng: "np.random.Generator | int | None" = None) -> np.ndarray:
+    def sample(self, size: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
         """Random unit normals distributed with density ``xi`` (rejection sampling).
 
         Parameters
@@ -411,6 +415,6 @@ class DensityBase:
             have += int(keep.sum())
         return np.concatenate(out)[:size]
 
-    def anisotropy(self) -> "_t.Anisotropy":
+    def anisotropy(self) -> _t.Anisotropy:
         """Anisotropy measures of the second-order fabric tensor (see :func:`anisotropy`)."""
         return _t.anisotropy(self.fabric_tensor(2))

@@ -28,7 +28,7 @@ from scipy.special import sph_harm_y
 from grainmech.conventions import seed_angles, seed_theta
 
 
-def sh_index_arrays(degrees: "list[int] | range") -> tuple[np.ndarray, np.ndarray]:
+def sh_index_arrays(degrees: list[int] | range) -> tuple[np.ndarray, np.ndarray]:
     """(k, m) of each basis function, degrees in the given order, m = -k..k."""
     ks, ms = [], []
     for k in degrees:
@@ -68,7 +68,7 @@ def real_sh(n: np.ndarray, ks: np.ndarray, ms: np.ndarray) -> np.ndarray:
     return np.asarray(out, dtype=float)
 
 
-def fourier_index_arrays(degrees: "list[int] | range") -> tuple[np.ndarray, np.ndarray]:
+def fourier_index_arrays(degrees: list[int] | range) -> tuple[np.ndarray, np.ndarray]:
     """(k, s) per 2D basis function: s = +1 for cos, -1 for sin (k >= 1), 0 for k = 0."""
     ks, ss = [], []
     for k in degrees:

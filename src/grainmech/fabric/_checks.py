@@ -1,6 +1,6 @@
 """Input checks shared by the fabric modules (private).
 
-Every check raises :class:`grainmech.errors.ConfigError` naming the offending field, so
+Every check raises :class:`grainmech.errors.ParameterError` naming the offending field, so
 a user never sees a deep NumPy traceback or a silent NaN.
 """
 
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 #: Tolerance on ``| |n| - 1 |`` accepted for "unit" normals.
 UNIT_TOL = 1e-6
@@ -20,9 +20,9 @@ def _short(a: np.ndarray) -> str:
 
 def as_int(value: object, name: str, minimum: int | None = None) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ConfigError(name, value, "must be an integer")
+        raise ParameterError(name, value, "must be an integer")
     if minimum is not None and value < minimum:
-        raise ConfigError(name, value, f"must be >= {minimum}")
+        raise ParameterError(name, value, f"must be >= {minimum}")
     return int(value)
 
 
@@ -30,27 +30,27 @@ def as_even_order(value: object, name: str = "order") -> int:
     """A non-negative even integer (expansion order of a centrosymmetric density)."""
     v = as_int(value, name, 0)
     if v % 2:
-        raise ConfigError(name, value, "must be even (a contact-normal density is "
+        raise ParameterError(name, value, "must be even (a contact-normal density is "
                           "centrosymmetric, so only even harmonics occur; seed Eq. 4.7, 4.9)")
     return v
 
 
 def as_dim(value: object, name: str = "dim") -> int:
     if isinstance(value, (bool, np.bool_)) or value not in (2, 3):
-        raise ConfigError(name, value, "must be 2 or 3")
-    return int(value)  # type: ignore[arg-type]
+        raise ParameterError(name, value, "must be 2 or 3")
+    return int(value)
 
 
 def as_finite_array(value: object, name: str) -> np.ndarray:
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise ConfigError(name, value, f"must be numeric ({exc})") from None
+        raise ParameterError(name, value, f"must be numeric ({exc})") from None
     if not np.all(np.isfinite(a)):
         if a.ndim == 0:
-            raise ConfigError(name, a.item(), "must be finite (not NaN or inf)")
+            raise ParameterError(name, a.item(), "must be finite (not NaN or inf)")
         bad = np.argwhere(~np.isfinite(a))[0]
-        raise ConfigError(name, _short(a),
+        raise ParameterError(name, _short(a),
                           f"contains a non-finite value (NaN or inf) at index {tuple(int(i) for i in bad)}")
     return a
 
@@ -59,7 +59,7 @@ def as_scalar(value: object, name: str) -> float:
     """A finite real scalar."""
     a = as_finite_array(value, name)
     if a.ndim != 0:
-        raise ConfigError(name, value, "must be a single number")
+        raise ParameterError(name, value, "must be a single number")
     return float(a)
 
 
@@ -78,12 +78,12 @@ def as_normals(value: object, dim: int | None = None, name: str = "normals",
     n = as_finite_array(value, name)
     if n.ndim == 0 or n.shape[-1] not in ((dim,) if dim else (2, 3)):
         want = f"(..., {dim})" if dim else "(..., 2) or (..., 3)"
-        raise ConfigError(name, _short(n), f"must have shape {want}")
+        raise ParameterError(name, _short(n), f"must have shape {want}")
     norm = np.linalg.norm(n, axis=-1)
     dev = np.abs(norm - 1.0)
     if dev.size and dev.max() > UNIT_TOL:
         idx = np.unravel_index(int(np.argmax(dev)), dev.shape)
-        raise ConfigError(name, _short(n),
+        raise ParameterError(name, _short(n),
                           f"must be unit vectors; entry {tuple(int(i) for i in idx)} has length "
                           f"{norm[idx]:.9g} (tolerance {UNIT_TOL:g})")
     return n / norm[..., None] if normalise else n
@@ -93,12 +93,12 @@ def as_weights(value: object, count: int, name: str = "weights") -> np.ndarray:
     """Non-negative finite weights of shape (count,) with a positive sum."""
     w = as_finite_array(value, name)
     if w.shape != (count,):
-        raise ConfigError(name, _short(w), f"must have shape ({count},), one weight per normal")
+        raise ParameterError(name, _short(w), f"must have shape ({count},), one weight per normal")
     if np.any(w < 0):
         i = int(np.argmin(w))
-        raise ConfigError(name, _short(w), f"must be non-negative; weights[{i}] = {w[i]:g}")
+        raise ParameterError(name, _short(w), f"must be non-negative; weights[{i}] = {w[i]:g}")
     if not w.sum() > 0:
-        raise ConfigError(name, _short(w), "must have a positive sum")
+        raise ParameterError(name, _short(w), "must have a positive sum")
     return w
 
 
@@ -106,8 +106,8 @@ def as_rotation(value: object, dim: int, name: str = "R", tol: float = 1e-8) -> 
     """An orthogonal (dim, dim) matrix (proper or improper)."""
     R = as_finite_array(value, name)
     if R.shape != (dim, dim):
-        raise ConfigError(name, _short(R), f"must have shape ({dim}, {dim})")
+        raise ParameterError(name, _short(R), f"must have shape ({dim}, {dim})")
     err = np.abs(R @ R.T - np.eye(dim)).max()
     if err > tol:
-        raise ConfigError(name, _short(R), f"must be orthogonal; max |R R^T - I| = {err:.3g}")
+        raise ParameterError(name, _short(R), f"must be orthogonal; max |R R^T - I| = {err:.3g}")
     return R

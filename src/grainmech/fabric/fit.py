@@ -44,7 +44,7 @@ from typing import Literal
 import numpy as np
 from scipy.stats import chi2 as _chi2
 
-from grainmech.errors import ConfigError, NegativeDensityError
+from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric import tensors as _t
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
@@ -81,10 +81,10 @@ def fabric_tensor(normals: object, rank: int = 2, weights: object | None = None)
     """
     n = _checks.as_normals(normals)
     if n.ndim != 2 or n.shape[0] == 0:
-        raise ConfigError("normals", f"array of shape {n.shape}", "must have shape (p, d) with p >= 1")
+        raise ParameterError("normals", f"array of shape {n.shape}", "must have shape (p, d) with p >= 1")
     rank = _checks.as_int(rank, "rank", 0)
     if rank > _t.MAX_RANK:
-        raise ConfigError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
+        raise ParameterError("rank", rank, f"rank above {_t.MAX_RANK} not supported")
     p, d = n.shape
     w = np.full(p, 1.0 / p) if weights is None else _checks.as_weights(weights, p)
     w = w / w.sum()
@@ -201,7 +201,7 @@ def _chi_square(n: np.ndarray, w: np.ndarray, density: DensityBase, n_bins: int
     if d == 3:
         B = max(1, int(round(np.sqrt(n_bins / 2.0))))
         if 2 * B * B != n_bins:
-            raise ConfigError("n_bins", n_bins, "in 3D must be 2 B^2 (B rings x 2B sectors), "
+            raise ParameterError("n_bins", n_bins, "in 3D must be 2 B^2 (B rings x 2B sectors), "
                               "e.g. 8, 18, 32, 50, 72, 98, 128, ...")
         S = 2 * B
         f = np.where(n[:, 2:3] < 0, -n, n)
@@ -273,13 +273,13 @@ def fit_density(normals: object, order: int, weights: object | None = None,
     """
     n = _checks.as_normals(normals)
     if n.ndim != 2:
-        raise ConfigError("normals", f"array of shape {n.shape}", "must have shape (p, d)")
+        raise ParameterError("normals", f"array of shape {n.shape}", "must have shape (p, d)")
     p, d = n.shape
     L = _checks.as_even_order(order)
     if on_negative not in ("warn", "raise", "shrink", "allow"):
-        raise ConfigError("on_negative", on_negative, "must be 'warn', 'raise', 'shrink' or 'allow'")
+        raise ParameterError("on_negative", on_negative, "must be 'warn', 'raise', 'shrink' or 'allow'")
     if p < 2:
-        raise ConfigError("normals", f"array of shape {n.shape}", "need at least 2 normals")
+        raise ParameterError("normals", f"array of shape {n.shape}", "need at least 2 normals")
     w = np.full(p, 1.0 / p) if weights is None else _checks.as_weights(weights, p)
     w = w / w.sum()
     sw2 = float(w @ w)

@@ -26,13 +26,13 @@ Moment property: ``a_k = 2 E[cos k theta]``, ``b_k = 2 E[sin k theta]``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Mapping
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from grainmech.conventions import seed_theta
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import DensityBase
 
@@ -59,7 +59,8 @@ class FourierDensity(DensityBase):
     b: np.ndarray
     allow_negative: bool = False
 
-    dim = 2  # type: ignore[misc]
+    dim = 2
+    _k: np.ndarray = field(init=False, repr=False, compare=False)  # degrees 2, 4, ..., order
 
     def __post_init__(self) -> None:
         L = _checks.as_even_order(self.order)
@@ -67,7 +68,7 @@ class FourierDensity(DensityBase):
         for name in ("a", "b"):
             v = _checks.as_finite_array(getattr(self, name), name).reshape(-1).copy()
             if v.shape != (L // 2,):
-                raise ConfigError(name, f"array of shape {np.shape(getattr(self, name))}",
+                raise ParameterError(name, f"array of shape {np.shape(getattr(self, name))}",
                                   f"order {L} needs {L // 2} coefficients (k = 2, 4, ..., {L})")
             v.setflags(write=False)
             arrs[name] = v
@@ -102,7 +103,7 @@ class FourierDensity(DensityBase):
     # ---- seed convention ------------------------------------------------------------------
     @classmethod
     def from_seed(cls, a2: float = 0.0, b2: float = 0.0, a4: float = 0.0, b4: float = 0.0,
-                  allow_negative: bool = False) -> "FourierDensity":
+                  allow_negative: bool = False) -> FourierDensity:
         """Density of seed Eq. 4.34: ``(1/2 pi)[1 + a2 cos 2t + b2 sin 2t + a4 cos 4t + b4 sin 4t]``.
 
         The order is 4 if ``a4`` or ``b4`` is non-zero, else 2.
@@ -117,35 +118,35 @@ class FourierDensity(DensityBase):
     @classmethod
     def from_seed_coefficients(cls, coeffs: Mapping[int, tuple[float, float]],
                                order: int | None = None,
-                               allow_negative: bool = False) -> "FourierDensity":
+                               allow_negative: bool = False) -> FourierDensity:
         """Density from ``{k: (a_k, b_k)}`` (Eq. 4.9), ``k`` even >= 2; missing entries 0.
 
         ``order`` defaults to the largest ``k`` given.
         """
         if not isinstance(coeffs, Mapping):
-            raise ConfigError("coeffs", type(coeffs).__name__, "must be a mapping {k: (a_k, b_k)}")
+            raise ParameterError("coeffs", type(coeffs).__name__, "must be a mapping {k: (a_k, b_k)}")
         parsed: dict[int, tuple[float, float]] = {}
         for key, val in coeffs.items():
             k = _checks.as_even_order(key, "k")
             if k < 2:
-                raise ConfigError("k", key, "must be >= 2 (k = 0 is fixed by normalisation)")
+                raise ParameterError("k", key, "must be >= 2 (k = 0 is fixed by normalisation)")
             try:
                 a, b = (float(x) for x in val)
             except (TypeError, ValueError):
-                raise ConfigError(f"coeffs[{key}]", val, "must be a pair (a_k, b_k)") from None
+                raise ParameterError(f"coeffs[{key}]", val, "must be a pair (a_k, b_k)") from None
             if not (np.isfinite(a) and np.isfinite(b)):
-                raise ConfigError(f"coeffs[{key}]", val, "must be finite")
+                raise ParameterError(f"coeffs[{key}]", val, "must be finite")
             parsed[k] = (a, b)
         kmax = max(parsed, default=0)
         L = kmax if order is None else _checks.as_even_order(order)
         if L < kmax:
-            raise ConfigError("order", order, f"smaller than the highest degree given ({kmax})")
-        a = np.zeros(L // 2)
-        b = np.zeros(L // 2)
+            raise ParameterError("order", order, f"smaller than the highest degree given ({kmax})")
+        a_k = np.zeros(L // 2)
+        b_k = np.zeros(L // 2)
         for k, (ak, bk) in parsed.items():
-            a[k // 2 - 1] = ak
-            b[k // 2 - 1] = bk
-        return cls(order=L, a=a, b=b, allow_negative=allow_negative)
+            a_k[k // 2 - 1] = ak
+            b_k[k // 2 - 1] = bk
+        return cls(order=L, a=a_k, b=b_k, allow_negative=allow_negative)
 
     def seed_coefficients(self) -> dict[int, tuple[float, float]]:
         """``{k: (a_k, b_k)}`` for ``k = 2, 4, ..., order`` (Eq. 4.9)."""
@@ -160,11 +161,14 @@ class FourierDensity(DensityBase):
 
     @property
     def coefficients(self) -> np.ndarray:
-        """Orthonormal coefficients ``integral xi f_k dtheta`` on ``cos(k t)/sqrt(pi)``,
-        ``sin(k t)/sqrt(pi)``, interleaved ``[c2, s2, c4, s4, ...]`` (= a_k / (2 sqrt(pi)))."""
+        """Orthonormal Fourier coefficients of the density, interleaved ``[c2, s2, c4, s4, ...]``.
+
+        Orthonormal coefficients ``integral xi f_k dtheta`` on ``cos(k t)/sqrt(pi)``,
+        ``sin(k t)/sqrt(pi)``, interleaved ``[c2, s2, c4, s4, ...]`` (= a_k / (2 sqrt(pi))).
+        """
         return (np.stack([self.a, self.b], axis=-1).reshape(-1) / (2.0 * np.sqrt(np.pi)))
 
-    def truncated(self, order: int) -> "FourierDensity":
+    def truncated(self, order: int) -> FourierDensity:
         """Keep the terms with ``k <= order`` (or zero-pad to a higher order)."""
         L = _checks.as_even_order(order)
         a = np.zeros(L // 2)

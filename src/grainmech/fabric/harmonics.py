@@ -26,12 +26,12 @@ The coefficient vector is ordered by degree ``k = 2, 4, ..., L`` and, within a d
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Mapping
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import DensityBase
 from grainmech.fabric._basis import real_sh, sh_index_arrays, sh_norm
@@ -50,7 +50,7 @@ def sh_index(k: int, m: int) -> int:
     k = _checks.as_even_order(k, "k")
     m = _checks.as_int(m, "m")
     if k < 2 or abs(m) > k:
-        raise ConfigError("(k, m)", (k, m), "need even k >= 2 and |m| <= k")
+        raise ParameterError("(k, m)", (k, m), "need even k >= 2 and |m| <= k")
     return n_coefficients_3d(k - 2) + (m + k)
 
 
@@ -91,13 +91,15 @@ class SphericalDensity(DensityBase):
     coefficients: np.ndarray
     allow_negative: bool = False
 
-    dim = 3  # type: ignore[misc]
+    dim = 3
+    _ks: np.ndarray = field(init=False, repr=False, compare=False)  # degree of each coefficient
+    _ms: np.ndarray = field(init=False, repr=False, compare=False)  # order of each coefficient
 
     def __post_init__(self) -> None:
         L = _checks.as_even_order(self.order)
         c = _checks.as_finite_array(self.coefficients, "coefficients").reshape(-1).copy()
         if c.shape != (n_coefficients_3d(L),):
-            raise ConfigError("coefficients", f"array of shape {np.shape(self.coefficients)}",
+            raise ParameterError("coefficients", f"array of shape {np.shape(self.coefficients)}",
                               f"order {L} needs {n_coefficients_3d(L)} coefficients")
         c.setflags(write=False)
         object.__setattr__(self, "order", L)
@@ -131,7 +133,7 @@ class SphericalDensity(DensityBase):
     # ---- seed convention -------------------------------------------------------------------
     @classmethod
     def from_seed(cls, a20: float = 0.0, a22: float = 0.0, b22: float = 0.0,
-                  allow_negative: bool = False) -> "SphericalDensity":
+                  allow_negative: bool = False) -> SphericalDensity:
         """Second-order density of seed Eq. 4.15 (equivalently Eq. 4.16-4.17).
 
         ``xi = (1/4 pi)[1 + a20 P2(cos gamma) + 3 sin^2 gamma (a22 cos 2 beta + b22 sin 2 beta)]``;
@@ -155,7 +157,7 @@ class SphericalDensity(DensityBase):
     @classmethod
     def from_seed_coefficients(cls, coeffs: Mapping[tuple[int, int], tuple[float, float]],
                                order: int | None = None,
-                               allow_negative: bool = False) -> "SphericalDensity":
+                               allow_negative: bool = False) -> SphericalDensity:
         """Density from the seed's coefficients ``{(k, m): (a_km, b_km)}`` (Eq. 4.7, 4.13).
 
         Parameters
@@ -169,7 +171,7 @@ class SphericalDensity(DensityBase):
             Expansion order; default the largest ``k`` among the keys (0 if empty).
         """
         if not isinstance(coeffs, Mapping):
-            raise ConfigError("coeffs", type(coeffs).__name__,
+            raise ParameterError("coeffs", type(coeffs).__name__,
                               "must be a mapping {(k, m): (a_km, b_km)}")
         kmax = 0
         parsed: dict[tuple[int, int], tuple[float, float]] = {}
@@ -177,24 +179,24 @@ class SphericalDensity(DensityBase):
             try:
                 k, m = key
             except (TypeError, ValueError):
-                raise ConfigError("coeffs key", key, "must be a pair (k, m)") from None
+                raise ParameterError("coeffs key", key, "must be a pair (k, m)") from None
             k = _checks.as_even_order(k, "k")
             m = _checks.as_int(m, "m")
             if k < 2 or not 0 <= m <= k:
-                raise ConfigError("coeffs key", key, "need even k >= 2 and 0 <= m <= k")
+                raise ParameterError("coeffs key", key, "need even k >= 2 and 0 <= m <= k")
             try:
                 a, b = (float(x) for x in val)
             except (TypeError, ValueError):
-                raise ConfigError(f"coeffs[{key}]", val, "must be a pair (a_km, b_km)") from None
+                raise ParameterError(f"coeffs[{key}]", val, "must be a pair (a_km, b_km)") from None
             if not (np.isfinite(a) and np.isfinite(b)):
-                raise ConfigError(f"coeffs[{key}]", val, "must be finite")
+                raise ParameterError(f"coeffs[{key}]", val, "must be finite")
             if m == 0 and b != 0.0:
-                raise ConfigError(f"coeffs[{key}]", val, "b_k0 must be 0 (sin 0 = 0)")
+                raise ParameterError(f"coeffs[{key}]", val, "b_k0 must be 0 (sin 0 = 0)")
             parsed[(k, m)] = (a, b)
             kmax = max(kmax, k)
         L = kmax if order is None else _checks.as_even_order(order)
         if L < kmax:
-            raise ConfigError("order", order, f"smaller than the highest degree given ({kmax})")
+            raise ParameterError("order", order, f"smaller than the highest degree given ({kmax})")
         c = np.zeros(n_coefficients_3d(L))
         for (k, m), (a, b) in parsed.items():
             f = _seed_factor(k, m)
@@ -233,7 +235,7 @@ class SphericalDensity(DensityBase):
         return {"a20": sc[(2, 0)][0], "a22": sc[(2, 2)][0], "b22": sc[(2, 2)][1],
                 "a21": sc[(2, 1)][0], "b21": sc[(2, 1)][1]}
 
-    def truncated(self, order: int) -> "SphericalDensity":
+    def truncated(self, order: int) -> SphericalDensity:
         """Keep the harmonics of degree ``<= order`` (or zero-pad to a higher order)."""
         L = _checks.as_even_order(order)
         c = np.zeros(n_coefficients_3d(L))

@@ -28,11 +28,11 @@ result exceeds 12 (the kissing number of equal spheres).  Porosity ``n = e / (1 
 from __future__ import annotations
 
 import warnings
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 
 __all__ = [
@@ -69,7 +69,7 @@ def _as_positive(x: object, name: str, strict_upper: float | None = None) -> np.
     if np.any(bad):
         v = a[bad].flat[0] if a.ndim else a.item()
         rng = "> 0" if strict_upper is None else f"in (0, {strict_upper:g})"
-        raise ConfigError(name, float(v), f"must be {rng}")
+        raise ParameterError(name, float(v), f"must be {rng}")
     return a
 
 
@@ -114,7 +114,7 @@ def particles_per_volume(void_ratio: object, radius: object, dim: int = 3) -> np
     bad = ~np.isfinite(nv) | (nv <= 0)
     if np.any(bad):
         v = r[bad].flat[0] if r.ndim else r.item()
-        raise ConfigError("radius", float(v), "gives a particle count per volume outside the "
+        raise ParameterError("radius", float(v), "gives a particle count per volume outside the "
                           "floating-point range (check the length unit)")
     return _out(nv)
 
@@ -155,7 +155,7 @@ def _check_range(e: np.ndarray, m: np.ndarray, name: str) -> np.ndarray | float:
     lo, hi = NOMINAL_VOID_RATIO_RANGE
     if np.any(m <= 0):
         v = e[m <= 0].flat[0] if e.ndim else e.item()
-        raise ConfigError("void_ratio", float(v),
+        raise ParameterError("void_ratio", float(v),
                           f"{name} gives a non-positive coordination number there")
     if np.any((e < lo) | (e > hi)):
         warnings.warn(f"{name}: void ratio outside the nominal range {lo}..{hi}",
@@ -237,5 +237,5 @@ def coordination_number(void_ratio: object, correlation: str = "yanagisawa") -> 
         Seed Eq. 4.2, 4.3, 4.4, 4.5 or 6.4.
     """
     if correlation not in CORRELATIONS:
-        raise ConfigError("correlation", correlation, f"must be one of {sorted(CORRELATIONS)}")
+        raise ParameterError("correlation", correlation, f"must be one of {sorted(CORRELATIONS)}")
     return CORRELATIONS[correlation](void_ratio)

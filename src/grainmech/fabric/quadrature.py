@@ -26,7 +26,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.integrate import lebedev_rule
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = [
     "LEBEDEV_ORDERS",
@@ -57,9 +57,9 @@ MAX_SPHERE_DEGREE = LEBEDEV_ORDERS[-1]
 
 def _check_degree(degree: object, name: str = "degree") -> int:
     if isinstance(degree, (bool, np.bool_)) or not isinstance(degree, (int, np.integer)):
-        raise ConfigError(name, degree, "must be a non-negative integer")
+        raise ParameterError(name, degree, "must be a non-negative integer")
     if degree < 0:
-        raise ConfigError(name, degree, "must be a non-negative integer")
+        raise ParameterError(name, degree, "must be a non-negative integer")
     return int(degree)
 
 
@@ -80,14 +80,14 @@ def lebedev_order(degree: int, positive: bool = True) -> int:
 
     Raises
     ------
-    ConfigError
+    ParameterError
         If ``degree`` is negative or exceeds 131 (the highest order SciPy provides).
     """
     degree = _check_degree(degree)
     for order in LEBEDEV_ORDERS:
         if order >= degree and not (positive and order in LEBEDEV_NEGATIVE_WEIGHT_ORDERS):
             return order
-    raise ConfigError("degree", degree,
+    raise ParameterError("degree", degree,
                       f"no Lebedev rule is exact beyond degree {MAX_SPHERE_DEGREE}")
 
 
@@ -163,4 +163,4 @@ def unit_rule(dim: int, degree: int) -> tuple[np.ndarray, np.ndarray]:
         return sphere_rule(degree)
     if dim == 2:
         return circle_rule(degree)
-    raise ConfigError("dim", dim, "must be 2 or 3")
+    raise ParameterError("dim", dim, "must be 2 or 3")

@@ -39,13 +39,13 @@ All functions here work for ``d = 2`` and ``d = 3`` and any even rank (memory gr
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from math import factorial, prod
-from typing import Mapping
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._basis import harmonic_basis
 from grainmech.fabric.quadrature import unit_rule
@@ -103,9 +103,9 @@ def _check_tensor(T: object, name: str, dim: int | None = None) -> np.ndarray:
     d = A.shape[0]
     if d not in (2, 3) or any(s != d for s in A.shape) or (dim is not None and d != dim):
         want = f"({dim}, ..., {dim})" if dim else "(d, ..., d) with d = 2 or 3"
-        raise ConfigError(name, f"array of shape {A.shape}", f"must have shape {want}")
+        raise ParameterError(name, f"array of shape {A.shape}", f"must have shape {want}")
     if A.ndim > MAX_RANK:
-        raise ConfigError(name, f"array of shape {A.shape}", f"rank above {MAX_RANK} not supported")
+        raise ParameterError(name, f"array of shape {A.shape}", f"rank above {MAX_RANK} not supported")
     return A
 
 
@@ -162,7 +162,10 @@ def symmetrize(T: object) -> np.ndarray:
         return A.copy()
     from itertools import permutations
     perms = set(permutations(range(k)))
-    return sum(np.transpose(A, p) for p in perms) / len(perms)
+    total = np.zeros_like(A)
+    for p in perms:
+        total = total + np.transpose(A, p)
+    return total / len(perms)
 
 
 def trace(T: object, times: int = 1) -> np.ndarray:
@@ -170,7 +173,7 @@ def trace(T: object, times: int = 1) -> np.ndarray:
     A = _check_tensor(T, "T")
     times = _checks.as_int(times, "times", 0)
     if 2 * times > A.ndim:
-        raise ConfigError("times", times, f"cannot take {times} traces of a rank-{A.ndim} tensor")
+        raise ParameterError("times", times, f"cannot take {times} traces of a rank-{A.ndim} tensor")
     for _ in range(times):
         A = np.trace(A, axis1=A.ndim - 2, axis2=A.ndim - 1)
     return A
@@ -223,7 +226,7 @@ def isotropic_moment(rank: int, dim: int) -> np.ndarray:
     rank = _checks.as_int(rank, "rank", 0)
     dim = _checks.as_dim(dim)
     if rank > MAX_RANK:
-        raise ConfigError("rank", rank, f"rank above {MAX_RANK} not supported")
+        raise ParameterError("rank", rank, f"rank above {MAX_RANK} not supported")
     shape = (dim,) * rank
     if rank % 2:
         return np.zeros(shape)
@@ -262,7 +265,7 @@ def _check_symmetric(A: np.ndarray, name: str, tol: float) -> None:
     err = np.abs(symmetrize(A) - A).max()
     scale = max(1.0, np.abs(A).max())
     if err > tol * scale:
-        raise ConfigError(name, f"array of shape {A.shape}",
+        raise ParameterError(name, f"array of shape {A.shape}",
                           f"must be fully symmetric; max |sym(T) - T| = {err:.3g}")
 
 
@@ -287,17 +290,17 @@ def phi_from_fabric(N: object, tol: float = 1e-8) -> dict[int, np.ndarray]:
 
     Raises
     ------
-    ConfigError
+    ParameterError
         If ``N`` has odd rank, is not symmetric, or its full trace is not 1.
     """
     A = _check_tensor(N, "N")
     L = A.ndim
     if L < 2 or L % 2:
-        raise ConfigError("N", f"array of shape {A.shape}", "rank must be even and >= 2")
+        raise ParameterError("N", f"array of shape {A.shape}", "rank must be even and >= 2")
     _check_symmetric(A, "N", tol)
     full = float(trace(A, L // 2))
     if abs(full - 1.0) > tol:
-        raise ConfigError("N", f"array of shape {A.shape}",
+        raise ParameterError("N", f"array of shape {A.shape}",
                           f"full trace must be 1 (normalised density, seed Eq. 4.8); got {full:.12g}")
     d = A.shape[0]
     out: dict[int, np.ndarray] = {}
@@ -308,26 +311,26 @@ def phi_from_fabric(N: object, tol: float = 1e-8) -> dict[int, np.ndarray]:
 
 def _check_phis(phis: Mapping[int, object], dim: int | None, tol: float) -> tuple[dict[int, np.ndarray], int]:
     if not isinstance(phis, Mapping):
-        raise ConfigError("phis", type(phis).__name__,
+        raise ParameterError("phis", type(phis).__name__,
                           "must be a mapping {rank: tensor}, e.g. {2: phi_ij, 4: phi_ijkl}")
     out: dict[int, np.ndarray] = {}
     for k, T in phis.items():
         k = _checks.as_even_order(k, "phis rank")
         if k == 0:
-            raise ConfigError("phis rank", k, "rank 0 is fixed to 1 by normalisation (Eq. 4.10)")
+            raise ParameterError("phis rank", k, "rank 0 is fixed to 1 by normalisation (Eq. 4.10)")
         A = _check_tensor(T, f"phis[{k}]", dim)
         if A.ndim != k:
-            raise ConfigError(f"phis[{k}]", f"array of shape {A.shape}", f"must have rank {k}")
+            raise ParameterError(f"phis[{k}]", f"array of shape {A.shape}", f"must have rank {k}")
         dim = A.shape[0]
         _check_symmetric(A, f"phis[{k}]", tol)
         tr = np.abs(trace(A)).max()
         if tr > tol * max(1.0, np.abs(A).max()):
-            raise ConfigError(f"phis[{k}]", f"array of shape {A.shape}",
+            raise ParameterError(f"phis[{k}]", f"array of shape {A.shape}",
                               f"must be traceless (Kanatani's deviatoric coefficient tensor, seed "
                               f"Eq. 4.10); max |trace| = {tr:.3g}")
         out[k] = A
     if dim is None:
-        raise ConfigError("phis", phis, "give at least one tensor or the dimension")
+        raise ParameterError("phis", phis, "give at least one tensor or the dimension")
     return out, dim
 
 
@@ -362,14 +365,14 @@ def fabric_from_phi(phis: Mapping[int, object], rank: int, dim: int | None = Non
     """
     rank = _checks.as_int(rank, "rank", 0)
     if rank > MAX_RANK:
-        raise ConfigError("rank", rank, f"rank above {MAX_RANK} not supported")
+        raise ParameterError("rank", rank, f"rank above {MAX_RANK} not supported")
     if dim is not None:
         dim = _checks.as_dim(dim)
     ph, d = _check_phis(phis, dim, tol)
     top = max(ph, default=0)
     pts, w = unit_rule(d, rank + top)
     f = np.ones(len(w))
-    for k, A in ph.items():
+    for A in ph.values():
         f = f + contract_normals(A, pts)
     N = (w * f) @ outer_power(pts, rank)
     return N.reshape((d,) * rank)
@@ -431,11 +434,11 @@ def anisotropy(N: object, tol: float = 1e-8) -> Anisotropy:
 
     A = _check_tensor(N, "N")
     if A.ndim != 2:
-        raise ConfigError("N", f"array of shape {A.shape}", "must be a second-order tensor (d, d)")
+        raise ParameterError("N", f"array of shape {A.shape}", "must be a second-order tensor (d, d)")
     _check_symmetric(A, "N", tol)
     tr = float(np.trace(A))
     if abs(tr - 1.0) > tol:
-        raise ConfigError("N", f"array of shape {A.shape}", f"trace must be 1; got {tr:.12g}")
+        raise ParameterError("N", f"array of shape {A.shape}", f"trace must be 1; got {tr:.12g}")
     d = A.shape[0]
     dev = A - np.eye(d) * tr / d
     phi = kanatani_factor(2, d) * dev

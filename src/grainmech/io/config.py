@@ -11,10 +11,12 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
+from collections.abc import Iterable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.units import to_float
 
 __all__ = ["load_toml", "read_text_file", "Section"]
@@ -23,8 +25,11 @@ _MISSING = object()
 
 
 def read_text_file(path: str | Path, what: str) -> str:
-    """The text of a UTF-8 file; a missing file, a directory or bad encoding is a
-    GrainmechError naming the path (``what`` names the kind of file: "config", "data")."""
+    """The text of a UTF-8 file, or a GrainmechError naming the path.
+
+    The text of a UTF-8 file; a missing file, a directory or bad encoding is a
+    GrainmechError naming the path (``what`` names the kind of file: "config", "data").
+    """
     p = Path(path)
     if not p.exists():
         raise GrainmechError(f"{what} file not found: {p}")
@@ -57,12 +62,21 @@ class Section:
         self._children: list[Section] = []
 
     def key(self, k: str) -> str:
+        """Dotted key of ``k`` in this section, for messages (``section.k``)."""
         return f"{self.name}.{k}" if self.name else k
 
     def has(self, k: str) -> bool:
+        """Whether the section has the key ``k``."""
         return k in self.data
 
     def raw(self, k: str, default: Any = _MISSING) -> Any:
+        """The value of ``k`` as written (no conversion), or ``default``; marks ``k`` as read.
+
+        Raises
+        ------
+        ConfigError
+            If ``k`` is missing and there is no default (naming a likely misspelling).
+        """
         self._used.add(k)
         if k not in self.data:
             if default is _MISSING:
@@ -115,6 +129,7 @@ class Section:
         return x
 
     def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None) -> int:
+        """The integer at ``k`` (``>= min`` if given), or ``default``; a ConfigError names the key otherwise."""
         v = self.raw(k, default)
         if v is default and default is not _MISSING:
             return v
@@ -125,6 +140,7 @@ class Section:
         return v
 
     def choice(self, k: str, options: Iterable[str], default: Any = _MISSING) -> str:
+        """The value at ``k``, one of ``options``, or ``default``; a ConfigError lists the options otherwise."""
         opts = tuple(options)
         v = self.raw(k, default)
         if v not in opts:
@@ -132,16 +148,41 @@ class Section:
         return v
 
     def boolean(self, k: str, default: Any = _MISSING) -> bool:
+        """The boolean at ``k`` (TOML true/false), or ``default``."""
         v = self.raw(k, default)
         if not isinstance(v, bool):
             raise ConfigError(self.key(k), v, "expected true or false")
         return v
 
-    def section(self, k: str, default: Any = _MISSING) -> "Section":
+    def section(self, k: str, default: Any = _MISSING) -> Section:
+        """The sub-table at ``k`` as a :class:`Section` (its keys are checked by :meth:`finish`)."""
         v = self.raw(k, default)
         child = Section(v, self.key(k))
         self._children.append(child)
         return child
+
+    @contextmanager
+    def checked(self, rename: Mapping[str, str] | None = None) -> Iterator[None]:
+        """Report the library's checks of values read from this section by their keys.
+
+        A :class:`~grainmech.errors.ParameterError` raised inside the ``with`` block is
+        re-raised as a :class:`~grainmech.errors.ConfigError`: an argument that is a key
+        of this section (after ``rename``, library name -> config key) is named by its
+        dotted key, any other by this section's name followed by the library's message.
+
+        Parameters
+        ----------
+        rename : mapping of str to str, optional
+            Library argument names that the config spells differently.
+        """
+        try:
+            yield
+        except ParameterError as exc:
+            name = (rename or {}).get(exc.name, exc.name)
+            if self.has(name):
+                raise ConfigError(self.key(name), exc.value, exc.problem) from None
+            where = self.name or "config"
+            raise ConfigError(where, None, str(exc)) from None
 
     def finish(self) -> None:
         """Raise for keys that were never read (unknown or misspelt keys), here and in sub-tables."""
@@ -161,8 +202,11 @@ FILE_KEYS = (("fabric", "normals"), ("model", "network"), ("model", "particles")
 
 
 def resolve_file_keys(cfg: dict, base_dir: str | Path) -> dict:
-    """A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
-    to ``base_dir`` (the folder of the config file) instead of the working directory."""
+    """A copy of ``cfg`` with its relative file paths resolved against ``base_dir``.
+
+    A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
+    to ``base_dir`` (the folder of the config file) instead of the working directory.
+    """
     import copy
 
     out = copy.deepcopy(cfg)

@@ -33,8 +33,9 @@ import os
 import shutil
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Iterator
+from types import ModuleType
 
 from grainmech.errors import GrainmechError
 
@@ -60,9 +61,12 @@ def _pid_alive(pid: int) -> bool:
 
 
 class _Lock:
-    """An exclusive lock on ``path``: ``flock`` (released by the kernel if the process
+    """An exclusive lock on ``path`` held by this process.
+
+    An exclusive lock on ``path``: ``flock`` (released by the kernel if the process
     dies), else an ``O_EXCL`` file holding the pid (a stale one of a dead pid is taken
-    over)."""
+    over).
+    """
 
     def __init__(self, path: Path) -> None:
         self.path = path
@@ -80,6 +84,7 @@ class _Lock:
             "wait for it to finish or choose another folder with -o")
 
     def acquire(self) -> None:
+        fcntl: ModuleType | None
         try:
             import fcntl
         except ImportError:  # pragma: no cover (not POSIX)
@@ -168,8 +173,11 @@ class OutputFolder:
             "files": self._staged() + ["summary.json"]})
 
     def commit(self, success: bool = True) -> list[str]:
-        """Move the staged files into :attr:`path`, remove the previous run's files that
-        this run did not write, write the manifest. Returns the files (relative paths)."""
+        """Move the staged files into :attr:`path` and write the manifest.
+
+        Move the staged files into :attr:`path`, remove the previous run's files that
+        this run did not write, write the manifest. Returns the files (relative paths).
+        """
         from grainmech.io.results import write_json
 
         files = self._staged()

@@ -1,6 +1,9 @@
-"""Files of ``grainmech pack``: the network (grainmech's generic NPZ tables, read by
+"""Files of ``grainmech pack``.
+
+Files of ``grainmech pack``: the network (grainmech's generic NPZ tables, read by
 ``grainmech dem`` and :func:`grainmech.io.dem.read_network`), a JSON summary, the
-preparation history (CSV) and a PNG."""
+preparation history (CSV) and a PNG.
+"""
 
 from __future__ import annotations
 
@@ -17,7 +20,9 @@ PACK_FILES = ("contacts.npz", "particles.npz", "summary.json", "history.csv", "p
 
 
 def write_pack_outputs(result: Any, outdir: str | Path, cfg_text: str | None = None, plot: bool = True) -> list[Path]:
-    """Write a :class:`grainmech.packing.PackResult` to ``outdir`` (each file atomically,
+    """Write a :class:`grainmech.packing.PackResult` to ``outdir``.
+
+    Write a :class:`grainmech.packing.PackResult` to ``outdir`` (each file atomically,
     all after the computation, so a failed or interrupted run leaves nothing half-written).
 
     ``contacts.npz`` (``id1 id2 fx fy fz delta`` with the force by id1 on id2, and

@@ -14,8 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.io.results import (driver_table, ensure_dir, soil_path_table, write_csv, write_figure, write_json,
-                                  write_text)
+from grainmech.io.results import (
+    driver_table,
+    ensure_dir,
+    soil_path_table,
+    write_csv,
+    write_figure,
+    write_json,
+    write_text,
+)
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
            "write_dem_outputs", "CONTACT_COLUMNS"]
@@ -25,14 +32,19 @@ DEFAULT_OUTPUT_ROOT = "grainmech-out"
 
 
 def default_outdir(command: str) -> str:
-    """The default output folder of a command: ``grainmech-out/<command>`` (relative to
-    the working directory; one rule for every command, listed in ``.gitignore``)."""
+    """The default output folder of a command, ``grainmech-out/<command>``.
+
+    The default output folder of a command: ``grainmech-out/<command>`` (relative to
+    the working directory; one rule for every command, listed in ``.gitignore``).
+    """
     return f"{DEFAULT_OUTPUT_ROOT}/{command}"
 
 
 # ----------------------------------------------------------------------------------- run
 def _reference_curves(out: Any) -> dict:
-    """Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
+    """Empirical reference curves (Darendeli 2001, Hardin-Drnevich 1972) for a run.
+
+    Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
     the strain range of the model's amplitudes.
 
     Both are empirical end to end: neither reference strain uses the model's Gmax.
@@ -42,7 +54,8 @@ def _reference_curves(out: Any) -> dict:
     (Hardin & Richart 1963, the form Hardin & Drnevich 1972 use), so a model that is too
     stiff shows as a curve shifted away from both references instead of moving one of
     them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
-    the only one available and is used (``hd_gmax_source`` says which)."""
+    the only one available and is used (``hd_gmax_source`` says which).
+    """
     from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
 
     amps = np.asarray(out.amplitudes)
@@ -73,14 +86,17 @@ MODEL_STYLE = {"affine": ("ko", "affine (seed: every contact follows the mean st
 
 
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
-    """Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
+    """Write the files of ``grainmech run``.
+
+    Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
     or ``path.csv``, ``modulus_reduction.csv``, ``site_response_curves.csv``, PNG plots,
     ``config_used.json``, ``summary.json`` and ``index.html``. ``out`` is a
     :class:`grainmech.jobs.CyclicOutcome` or :class:`grainmech.jobs.PathOutcome` (one
     model), or a :class:`grainmech.jobs.RunComparison` (several models: each model's files
     carry the prefix ``<method>_``, the curves of all models share
     ``modulus_reduction.png``, and ``summary.json`` has one entry per model under
-    ``models``). Returns the summary (``files`` lists the names)."""
+    ``models``). Returns the summary (``files`` lists the names).
+    """
     from grainmech.jobs import RunComparison
 
     d = ensure_dir(outdir)
@@ -185,9 +201,12 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
 
 
 def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
-    """``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
+    """Write ``modulus_reduction.png``: G/Gmax and damping with empirical references.
+
+    ``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
     and Hardin-Drnevich (1972) at the run's mean stress (:func:`_reference_curves` of the
-    first model: both references are empirical, neither depends on the model)."""
+    first model: both references are empirical, neither depends on the model).
+    """
     from grainmech import plots
 
     first, _ = cyclic[0]
@@ -319,8 +338,11 @@ CONTACT_COLUMNS = ("step", "segment", "normal_displacement", "tangential_displac
 
 
 def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
-    """``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
-    :class:`grainmech.jobs.ContactOutcome`. Returns the paths written."""
+    """Write ``contact.csv`` and ``contact.png`` of a contact run.
+
+    ``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
+    :class:`grainmech.jobs.ContactOutcome`. Returns the paths written.
+    """
     from grainmech.io.results import atomic_write
 
     d = ensure_dir(outdir)
@@ -354,8 +376,11 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
 
 # ----------------------------------------------------------------------------------- dem
 def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[Path]:
-    """``summary.json``, the stiffness matrices and engineering constants as CSV, and the
-    rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`."""
+    """Write the files of ``grainmech dem``.
+
+    ``summary.json``, the stiffness matrices and engineering constants as CSV, and the
+    rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`.
+    """
     from grainmech.io.results import atomic_write
 
     d = ensure_dir(outdir)

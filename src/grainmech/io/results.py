@@ -11,8 +11,9 @@ import io
 import json
 import os
 import tempfile
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import IO, Any
 
 import numpy as np
 
@@ -24,6 +25,7 @@ __all__ = ["atomic_write", "write_text", "write_json", "write_csv", "write_npz",
 
 
 def ensure_dir(path: str | Path) -> Path:
+    """Create the folder ``path`` (and parents) if needed; an existing non-folder is an error."""
     p = Path(path)
     if p.exists() and not p.is_dir():
         raise GrainmechError(f"output path exists and is not a directory: {p}")
@@ -52,8 +54,9 @@ def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool =
     p = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     try:
-        with os.fdopen(fd, "wb" if binary else "w",
-                       **({} if binary else {"newline": newline, "encoding": "utf-8"})) as fh:
+        fh: IO[Any] = (os.fdopen(fd, "wb") if binary
+                       else os.fdopen(fd, "w", newline=newline, encoding="utf-8"))
+        with fh:
             writer(fh)
         _chmod_default(tmp)
         os.replace(tmp, p)
@@ -67,6 +70,7 @@ def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool =
 
 
 def write_text(path: str | Path, text: str) -> Path:
+    """Write UTF-8 ``text`` to ``path`` atomically (:func:`atomic_write`)."""
     return atomic_write(path, lambda fh: fh.write(text))
 
 
@@ -93,6 +97,7 @@ def write_json(path: str | Path, obj: Any) -> Path:
 
 
 def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> Path:
+    """Write a CSV file (one ``header`` row, then ``rows``) atomically."""
     def w(fh: Any) -> None:
         wr = csv.writer(fh)
         wr.writerow(header)
@@ -112,6 +117,7 @@ def write_figure(path: str | Path, fig: Any, dpi: int = 120) -> Path:
 
 
 def write_npz(path: str | Path, **arrays: Any) -> Path:
+    """Write ``arrays`` to a compressed ``.npz`` file atomically."""
     def w(fh: Any) -> None:
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)

@@ -30,20 +30,24 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.config import Section
 
-__all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress", "build_pressure", "LAWS",
-           "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial", "ContactSegment"]
+__all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress",
+           "build_pressure", "LAWS", "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial",
+           "ContactSegment"]
 
 SEED_3D = ("a20", "a22", "b22")
 SEED_2D = ("a2", "b2", "a4", "b4")
 
 
 def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
-    """Unit contact normals from a file: ``.npy`` (array ``(n, d)``) or text (CSV or
+    """Unit contact normals (n, d) read from a ``.npy`` or text file.
+
+    Unit contact normals from a file: ``.npy`` (array ``(n, d)``) or text (CSV or
     whitespace separated, ``d`` = 2 or 3 columns, ``#`` comments, an optional header
-    line). Rows are normalised to unit length; a zero row is an error naming the line."""
+    line). Rows are normalised to unit length; a zero row is an error naming the line.
+    """
     from grainmech.io.config import read_text_file
 
     p = Path(path)
@@ -54,13 +58,14 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
             raise ConfigError(key, str(path), "file not found") from None
         except (OSError, ValueError) as exc:
             raise ConfigError(key, str(path), f"cannot read the .npy file ({exc})") from None
-        lines = np.arange(1, len(arr) + 1) if np.ndim(arr) == 2 else None
+        lines: list[int] | None = list(range(1, len(arr) + 1)) if np.ndim(arr) == 2 else None
     else:
         try:
             text = read_text_file(p, "normals")
         except GrainmechError as exc:
             raise ConfigError(key, str(path), str(exc)) from None
-        rows, lines = [], []
+        rows: list[list[float]] = []
+        lines = []
         for i, line in enumerate(text.splitlines(), 1):
             t = line.split("#", 1)[0].strip()
             if not t:
@@ -78,7 +83,6 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
         if len({len(r) for r in rows}) != 1:
             raise ConfigError(key, str(path), "every row needs the same number of columns (2 or 3)")
         arr = np.array(rows, dtype=float)
-        lines = np.array(lines)
     if np.ndim(arr) != 2 or arr.shape[1] not in (2, 3):
         raise ConfigError(key, str(path), f"needs 2 or 3 columns (components of each normal), got shape "
                           f"{np.shape(arr)}")
@@ -93,11 +97,14 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
 
 
 def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
-    """Density from ``[fabric]``: seed parameters, a fabric tensor, or a file of measured
+    """Contact-normal density from the ``[fabric]`` table.
+
+    Density from ``[fabric]``: seed parameters, a fabric tensor, or a file of measured
     contact normals (``normals = "file.csv"``, ``fit_order = 2``) fitted by
     :func:`grainmech.fabric.fit_density` (moment estimator, chi-square test of the fit;
     a fitted series negative somewhere is shrunk towards isotropy until it is not, and
-    the factor is reported). ``fit_report``, if given, receives the fit's summary."""
+    the factor is reported). ``fit_report``, if given, receives the fit's summary.
+    """
     from grainmech import fabric
 
     if sec.has("normals"):
@@ -112,7 +119,8 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
             raise ConfigError(sec.key(k), sec.data[k], f"is a {'2D' if dim == 3 else '3D'} parameter but dim = {dim}")
     if sec.has("tensor"):
         if any(sec.has(k) for k in names):
-            raise ConfigError(sec.key("tensor"), sec.data["tensor"], f"give either tensor or {', '.join(names)}, not both")
+            raise ConfigError(sec.key("tensor"), sec.data["tensor"],
+                              f"give either tensor or {', '.join(names)}, not both")
         raw = sec.raw("tensor")
         try:
             N = np.asarray(raw, dtype=float)
@@ -124,15 +132,17 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
             raise ConfigError(sec.key("tensor"), raw, "must be symmetric with trace 1 (N_ij = <n_i n_j>)")
         if np.allclose(N, np.eye(dim) / dim, rtol=0, atol=1e-12):
             return fabric.isotropic(dim)
-        return fabric.density_from_fabric_tensor(N)
-    vals = {k: sec.number(k, None, 0.0) for k in names}
+        with sec.checked({"N": "tensor"}):
+            return fabric.density_from_fabric_tensor(N)
+    vals: dict[str, Any] = {k: sec.number(k, None, 0.0) for k in names}
     if not any(vals.values()):
         # the isotropic density has order 0: quadrature rules are chosen by the order of
         # density x integrand, so an order-2 density with zero coefficients would cost
         # a rule two degrees higher (770 instead of 14 directions for a stiffness)
         return fabric.isotropic(dim)
     cls = fabric.SphericalDensity if dim == 3 else fabric.FourierDensity
-    return cls.from_seed(**vals)
+    with sec.checked():
+        return cls.from_seed(**vals)
 
 
 def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
@@ -151,7 +161,8 @@ def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
     for k in (SEED_3D + SEED_2D + ("tensor",)):
         if sec.has(k):
             raise ConfigError(sec.key(k), sec.data[k], "give either normals or the density's coefficients, not both")
-    fit = fit_density(n, order, on_negative="shrink")
+    with sec.checked({"order": "fit_order"}):
+        fit = fit_density(n, order, on_negative="shrink")
     if fit_report is not None:
         fit_report.update(
             source=raw, n_normals=fit.n_normals, order=order, dim=dim, chi2=fit.chi2, dof=fit.dof,
@@ -168,7 +179,9 @@ def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
 
 
 def coordination_relation(sec: Section, void_ratio: float, pressure: float | None) -> float:
-    """Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
+    """Coordination number from a relation table at ``packing.coordination``.
+
+    Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
     ``packing.coordination``: ``m = (a - b e) (p / p_ref)^n`` at the mean stress ``p`` [Pa].
 
     ``n = 0``, ``a = 23``, ``b = 25`` is seed Eq. 6.4 (``m = 23 - 25 e``); ``n > 0`` is the
@@ -183,10 +196,13 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
     n = cs.number("n", None, 0.0)
     p_ref = cs.number("p_ref", "Pa", 101325.0, min=0, min_inclusive=False)
     cs.finish()
-    if n != 0.0 and pressure is None:
+    if n == 0.0:
+        m = a - b * void_ratio
+    elif pressure is None:
         raise ConfigError(sec.key("coordination"), coord, "a relation with n != 0 needs the mean stress: "
                           "give [stress] pressure (stiffness) or [initial] pressure (run)")
-    m = (a - b * void_ratio) * ((pressure / p_ref) ** n if n != 0.0 else 1.0)
+    else:
+        m = (a - b * void_ratio) * (pressure / p_ref) ** n
     if not np.isfinite(m) or m <= 0:
         raise ConfigError(sec.key("coordination"), coord, f"gives coordination m = {m:.4g} at void ratio "
                           f"{void_ratio:g}" + ("" if pressure is None else f" and mean stress {pressure:.4g} Pa")
@@ -195,8 +211,11 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
 
 
 def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
-    """Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
-    coordination relation (:func:`coordination_relation`) is evaluated at."""
+    """Packing from the ``[packing]`` table and a density.
+
+    Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
+    coordination relation (:func:`coordination_relation`) is evaluated at.
+    """
     from grainmech.fabric import CORRELATIONS, coordination_number
     from grainmech.material import Packing
 
@@ -205,12 +224,14 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
         nv = sec.number("contacts_per_volume", f"1/m**{density.dim}", min=0, min_inclusive=False)
         bl = sec.number("branch_length", "m", min=0, min_inclusive=False)
         radius = sec.number("radius", "m", None, min=0, min_inclusive=False)
-        return Packing(density, nv, bl, convention, radius)
+        with sec.checked():
+            return Packing(density, nv, bl, convention, radius)
     e = sec.number("void_ratio", None, min=0, min_inclusive=False)
     coord = sec.raw("coordination")
     name = coord.strip().lower() if isinstance(coord, str) else None
     if name is not None and name in CORRELATIONS:
-        m = float(coordination_number(e, name))
+        with sec.checked():
+            m = float(coordination_number(e, name))
     elif isinstance(coord, dict):
         m = coordination_relation(sec, e, pressure)
     else:
@@ -222,7 +243,8 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
                                   f"{', '.join(map(repr, sorted(CORRELATIONS)))}") from None
             raise
     radius = sec.number("radius", "m", min=0, min_inclusive=False)
-    return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
+    with sec.checked():
+        return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
 
 
 #: Stresses a config may give [Pa]: 1 uPa to 1 TPa. Far outside every granular material
@@ -328,11 +350,8 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
                           "the grain radius of a packing is packing.radius, not a contact-law key")
 
     def make(cls: Any, *args: Any, **kw: Any) -> Any:
-        try:
+        with sec.checked(RENAMED):  # the parameter classes name their fields: use the file's keys
             return cls(*args, **kw)
-        except ConfigError as exc:  # the parameter classes name their fields: use the file's keys
-            key = RENAMED.get(exc.key, exc.key)
-            raise ConfigError(sec.key(key), exc.value, exc.problem) from None
 
     if law == "linear":
         kn = sec.number("kn", "N/m", min=0, min_inclusive=False)
@@ -350,6 +369,7 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
     nu = sec.number("poisson", None, min=-1, max=0.5, min_inclusive=False, max_inclusive=False)
     if radius is None:
         R1 = sec.number("radius", "m", min=0, min_inclusive=False)
+        second: tuple[float | None, float | None, float | None]
         second = (sec.number("radius2", "m", None, min=0, min_inclusive=False),
                   sec.number("shear_modulus2", "Pa", None, min=0, min_inclusive=False),
                   sec.number("poisson2", None, None, min=-1, max=0.5, min_inclusive=False,
@@ -375,8 +395,11 @@ class ContactInitial:
 
 @dataclass(frozen=True)
 class ContactSegment:
-    """One ramp of a contact path: per channel a mode (``"force"``, ``"disp"`` or ``None``
-    = hold) and an absolute target; ``index`` is the ``[[path]]`` entry it came from."""
+    """One ramp of a contact path.
+
+    One ramp of a contact path: per channel a mode (``"force"``, ``"disp"`` or ``None``
+    = hold) and an absolute target; ``index`` is the ``[[path]]`` entry it came from.
+    """
 
     steps: int
     index: int
@@ -404,8 +427,11 @@ def _channel(sec: Section, fkey: str, dkey: str, fu: str, du: str) -> tuple[str 
 
 
 def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list[ContactSegment]]:
-    """``[initial]`` and ``[[path]]`` of a ``grainmech contact`` config (cycles expanded
-    into ramps: ``+A`` in ``steps/2`` steps, then ``count`` times ``-A``, ``+A``)."""
+    """Initial state and ramps of a ``grainmech contact`` config.
+
+    ``[initial]`` and ``[[path]]`` of a ``grainmech contact`` config (cycles expanded
+    into ramps: ``+A`` in ``steps/2`` steps, then ``count`` times ``-A``, ``+A``).
+    """
     fu, du = contact_units(params)
     ini = root.section("initial", {})
     if ini.has("normal_force") and ini.has("approach"):
@@ -469,7 +495,9 @@ class PackConfig:
 
 
 def build_pack_config(cfg: dict) -> PackConfig:
-    """Read a ``grainmech pack`` config (``docs/packing.md``): tables ``[grains]``,
+    """Read a ``grainmech pack`` config (``docs/packing.md``).
+
+    Read a ``grainmech pack`` config (``docs/packing.md``): tables ``[grains]``,
     ``[material]``, ``[preparation]``; strict keys, quantities with units.
 
     ``[grains]``: ``count`` (>= 50), ``distribution`` = ``"sieve"`` (``sizes``, list of
@@ -484,7 +512,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
     from dataclasses import replace
 
     from grainmech.io.units import to_float
-    from grainmech.packing import D50Cu, MATERIALS, PackSettings, SieveCurve, UniformRadius
+    from grainmech.packing import MATERIALS, D50Cu, PackSettings, SieveCurve, UniformRadius
 
     root = Section(cfg, "")
     g = root.section("grains")
@@ -497,7 +525,10 @@ def build_pack_config(cfg: dict) -> PackConfig:
                 raise ConfigError(g.key(k), v, "expected a list of at least two values")
         d = [to_float(v, "m", f"{g.key('sizes')}[{i}]") for i, v in enumerate(sizes)]
         p = [to_float(v, None, f"{g.key('passing')}[{i}]") for i, v in enumerate(passing)]
-        grading: Any = SieveCurve(d, p, key=g.name)
+        try:
+            grading: Any = SieveCurve(d, p, key=g.name)
+        except ParameterError as exc:  # the grading names its keys as g.key(...)
+            raise ConfigError(exc.name, exc.value, exc.problem) from None
     elif kind == "d50-cu":
         grading = D50Cu(g.number("d50", "m", min=0, min_inclusive=False), g.number("cu", None, min=1),
                         key=g.name)
@@ -509,7 +540,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
 
     m = root.section("material", {})
     mat = MATERIALS[m.choice("name", tuple(MATERIALS), "quartz")]
-    fields = {}
+    fields: dict[str, Any] = {}
     for k, unit, lo, hi in (("shear_modulus", "Pa", 0, None), ("poisson", None, -1, 0.5),
                             ("density", "kg/m^3", 0, None), ("friction", None, 0, None),
                             ("restitution", None, 0, 1)):
@@ -526,9 +557,11 @@ def build_pack_config(cfg: dict) -> PackConfig:
     if isinstance(raw, list):
         if len(raw) != 3:
             raise ConfigError(pr.key("stress"), raw, "give one stress or three principal stresses (x, y, z)")
-        stress = tuple(to_float(v, "Pa", f"{pr.key('stress')}[{i}]") for i, v in enumerate(raw))
+        sx, sy, sz = (to_float(v, "Pa", f"{pr.key('stress')}[{i}]") for i, v in enumerate(raw))
+        stress = (sx, sy, sz)
     else:
-        stress = (to_float(raw, "Pa", pr.key("stress")),) * 3
+        s0 = to_float(raw, "Pa", pr.key("stress"))
+        stress = (s0, s0, s0)
     if not all(s > 0 for s in stress):
         raise ConfigError(pr.key("stress"), raw, "must be positive (compression positive)")
     kw: dict[str, Any] = {}

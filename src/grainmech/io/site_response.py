@@ -1,8 +1,10 @@
 """Modulus-reduction and damping curves for site-response programs (CSV).
 
-File layout (``docs/site-response.md``)::
+File layout (``docs/site-response.md``; the first line is one line, wrapped here)::
 
-    # grainmech modulus-reduction and damping curves | strain: shear strain amplitude gamma (engineering shear strain, decimal, NOT percent) | G/Gmax: secant modulus ratio [-] | damping: damping ratio D = dW/(4 pi W) (decimal, NOT percent) | Gmax = ... Pa | source: ...
+    # grainmech modulus-reduction and damping curves | strain: shear strain amplitude gamma
+      (engineering shear strain, decimal, NOT percent) | G/Gmax: secant modulus ratio [-] |
+      damping: damping ratio D = dW/(4 pi W) (decimal, NOT percent) | Gmax = ... Pa | source: ...
     strain,G/Gmax,damping
     1e-06,0.9995,0.0004
     ...

@@ -85,6 +85,9 @@ ANGLE_UNITS = ("degree", "radian", "arcminute", "arcsecond", "turn", "revolution
 
 
 def config_value(value: float, si_unit: str) -> float | str:
-    """A value to write into a config dict: angles as ``"<x> rad"`` (a bare angle is an
-    error in every config, ``docs/config.md``), everything else as the bare SI number."""
+    """A value to write into a config dict, in SI units.
+
+    A value to write into a config dict: angles as ``"<x> rad"`` (a bare angle is an
+    error in every config, ``docs/config.md``), everything else as the bare SI number.
+    """
     return f"{float(value)!r} rad" if si_unit == "rad" else float(value)

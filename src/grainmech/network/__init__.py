@@ -43,8 +43,16 @@ from typing import Any
 
 from grainmech.network.builders import lattice_network, random_network
 from grainmech.network.data import Box, ContactNetwork
-from grainmech.network.measures import (CoordinationResult, FabricResult, contact_stiffnesses, coordination,
-                                        network_fabric, network_stress, rattler_threshold, rattlers)
+from grainmech.network.measures import (
+    CoordinationResult,
+    FabricResult,
+    contact_stiffnesses,
+    coordination,
+    network_fabric,
+    network_stress,
+    rattler_threshold,
+    rattlers,
+)
 from grainmech.network.relaxed import RelaxedResult, relaxed_stiffness
 from grainmech.network.report import NetworkReport, closed_form_from_fit, network_report, network_report_json
 from grainmech.network.stiffness import affine_stiffness, contact_matrix, effective_ks, strain_map

@@ -1,5 +1,4 @@
-"""Synthetic periodic contact networks (lattices, disordered packings) for tests and
-benchmarks."""
+"""Synthetic periodic contact networks (lattices, disordered packings) for tests and benchmarks."""
 
 from __future__ import annotations
 
@@ -26,7 +25,9 @@ def _hertz_forces(net_pos: np.ndarray, radii: np.ndarray, I: np.ndarray, J: np.n
 
 def lattice_network(kind: str, n_cells: int, radius: float, overlap: float, *,
                     shear_modulus: float = 29e9, poisson: float = 0.15) -> ContactNetwork:
-    """Periodic simple-cubic (``"sc"``) or face-centred-cubic (``"fcc"``) packing of equal
+    """Periodic simple-cubic or face-centred-cubic packing of equal Hertz spheres.
+
+    Periodic simple-cubic (``"sc"``) or face-centred-cubic (``"fcc"``) packing of equal
     Hertz spheres, every nearest-neighbour pair in contact with the given ``overlap``.
 
     The nearest-neighbour distance is ``2 radius - overlap``; the cell is

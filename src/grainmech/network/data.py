@@ -1,12 +1,15 @@
-"""Contact-network data: the simulation cell (:class:`Box`) and the contacts
-(:class:`ContactNetwork`) in grainmech's counting convention (``docs/conventions.md``)."""
+"""Contact-network data: the simulation cell and the contacts.
+
+Contact-network data: the simulation cell (:class:`Box`) and the contacts
+(:class:`ContactNetwork`) in grainmech's counting convention (``docs/conventions.md``).
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from grainmech.errors import GrainmechError
 
@@ -49,9 +52,8 @@ class Box:
         object.__setattr__(self, "periodic", p)
 
     @classmethod
-    def orthogonal(cls, lo: Sequence[float], hi: Sequence[float],
-                   periodic: Sequence[bool] | bool = True) -> "Box":
-        """Axis-aligned box from its bounds."""
+    def orthogonal(cls, lo: ArrayLike, hi: ArrayLike, periodic: ArrayLike = True) -> Box:
+        """Axis-aligned box from its bounds ``lo``, ``hi`` (d,) and periodic flags (d,) or one for all."""
         lo_ = np.asarray(lo, dtype=float)
         hi_ = np.asarray(hi, dtype=float)
         per = np.broadcast_to(np.asarray(periodic, dtype=bool), lo_.shape)
@@ -59,6 +61,7 @@ class Box:
 
     @property
     def dim(self) -> int:
+        """Space dimension (2 or 3)."""
         return int(self.origin.shape[0])
 
     @property
@@ -160,22 +163,27 @@ class ContactNetwork:
 
     @property
     def dim(self) -> int:
+        """Space dimension (2 or 3)."""
         return self.box.dim
 
     @property
     def volume(self) -> float:
+        """Volume (3D) or area (2D) of the cell [length^d]."""
         return self.box.volume
 
     @property
     def n_particles(self) -> int:
+        """Number of particles ``P``."""
         return int(len(self.ids))
 
     @property
     def n_contacts(self) -> int:
+        """Number of contacts ``C``."""
         return int(len(self.i))
 
     @property
     def branch_length(self) -> np.ndarray:
+        """Length of each branch vector, shape (C,) [length]."""
         if "L" not in self._cache:
             self._cache["L"] = np.linalg.norm(self.branch, axis=1)
         return self._cache["L"]
@@ -187,15 +195,34 @@ class ContactNetwork:
             self._cache["n"] = self.branch / self.branch_length[:, None]
         return self._cache["n"]
 
+    def require_radii(self, what: str) -> np.ndarray:
+        """Particle radii (P,) [length], or an error saying that ``what`` needs them.
+
+        Parameters
+        ----------
+        what : str
+            The computation that needs the radii, for the message.
+
+        Raises
+        ------
+        GrainmechError
+            If the network has no radii (e.g. a contact file read without particles).
+        """
+        if self.radii is None:
+            raise GrainmechError(f"{what} needs the particle radii, which this network ({self.source}) lacks")
+        return self.radii
+
     @property
     def normal_force(self) -> np.ndarray:
         """Normal force ``N = f . n`` (compression positive), (C,)."""
         return np.einsum("ij,ij->i", self.force, self.normals)
 
-    def subset(self, contacts: np.ndarray) -> "ContactNetwork":
+    def subset(self, contacts: np.ndarray) -> ContactNetwork:
         """The same particles with only the selected contacts (bool mask or indices)."""
         sel = np.asarray(contacts)
-        pick = (lambda a: None if a is None else a[sel])
+        def pick(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else a[sel]
+
         return ContactNetwork(self.ids, self.positions, self.radii, self.box, self.i[sel], self.j[sel],
                               self.force[sel], self.branch[sel], pick(self.overlap),
                               pick(self.contact_point), pick(self.kn), pick(self.ks), self.source)

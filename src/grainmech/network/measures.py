@@ -1,5 +1,8 @@
-"""Measures of a contact network: Love-Weber stress, fabric tensors, rattlers,
-coordination numbers and per-contact stiffnesses of the Hertz-Mindlin law."""
+"""Measures of a contact network.
+
+Measures of a contact network: Love-Weber stress, fabric tensors, rattlers,
+coordination numbers and per-contact stiffnesses of the Hertz-Mindlin law.
+"""
 
 from __future__ import annotations
 

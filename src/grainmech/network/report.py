@@ -1,5 +1,8 @@
-"""All measures of a network in one result (:func:`network_report`) and its JSON form
-(:meth:`NetworkReport.to_json`, :func:`network_report_json`)."""
+"""All measures of a network in one result, and its JSON form.
+
+All measures of a network in one result (:func:`network_report`) and its JSON form
+(:meth:`NetworkReport.to_json`, :func:`network_report_json`).
+"""
 
 from __future__ import annotations
 
@@ -12,8 +15,15 @@ import numpy as np
 from grainmech.assembly import StressResult
 from grainmech.errors import GrainmechError
 from grainmech.network.data import Box, ContactNetwork
-from grainmech.network.measures import (CoordinationResult, FabricResult, contact_stiffnesses, coordination,
-                                        network_fabric, network_stress, rattler_threshold)
+from grainmech.network.measures import (
+    CoordinationResult,
+    FabricResult,
+    contact_stiffnesses,
+    coordination,
+    network_fabric,
+    network_stress,
+    rattler_threshold,
+)
 from grainmech.network.relaxed import RelaxedResult, relaxed_stiffness
 from grainmech.network.stiffness import affine_stiffness
 
@@ -21,8 +31,11 @@ __all__ = ["NetworkReport", "network_report", "network_report_json", "closed_for
 
 
 def to_json(x: Any) -> Any:
-    """``x`` with NumPy arrays and scalars as lists and Python numbers (non-finite -> None),
-    mapping keys as strings (tuples joined by commas): ready for :func:`json.dump`."""
+    """``x`` converted for :func:`json.dump`.
+
+    ``x`` with NumPy arrays and scalars as lists and Python numbers (non-finite -> None),
+    mapping keys as strings (tuples joined by commas): ready for :func:`json.dump`.
+    """
     if isinstance(x, dict):
         return {",".join(map(str, k)) if isinstance(k, tuple) else str(k): to_json(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
@@ -171,7 +184,9 @@ def network_report(net: ContactNetwork, *, shear_modulus: float | None = None, p
                    geometric: bool = False, relaxed: bool = True, solver: str = "auto",
                    remove_rattlers: bool = True, min_contacts: int | None = None,
                    fit_order: int = 2) -> NetworkReport:
-    """All measures of a network: stress, fabric, coordination, affine, closed-form and
+    """All measures of a network in one :class:`NetworkReport`.
+
+    All measures of a network: stress, fabric, coordination, affine, closed-form and
     relaxed stiffness and their engineering constants.
 
     Parameters
@@ -210,7 +225,8 @@ def network_report(net: ContactNetwork, *, shear_modulus: float | None = None, p
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         fit = fit_density(net.normals, fit_order, on_negative="allow")
-    base = dict(source=net.source, n_particles=net.n_particles, n_contacts=net.n_contacts, volume=net.volume,
+    base: dict[str, Any] = dict(source=net.source, n_particles=net.n_particles, n_contacts=net.n_contacts,
+                                volume=net.volume,
                 box=net.box, stress=st, fabric=fab, fit=fit, fit_order=fit_order, coordination=co,
                 order=tuple(order_for(d)), min_contacts=int(min_contacts))
     have_law = (shear_modulus is not None and poisson is not None) or kn is not None or \

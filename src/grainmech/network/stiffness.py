@@ -23,8 +23,11 @@ def effective_ks(net: ContactNetwork, ks: np.ndarray, geometric: bool) -> np.nda
 
 
 def contact_matrix(n: np.ndarray, kn: np.ndarray, ks: np.ndarray) -> np.ndarray:
-    """Contact stiffness ``K = kn n (x) n + ks (I - n (x) n)`` (seed Eq. 2.20 with the full
-    tangential projector), (C, d, d) [force/length]."""
+    """Contact stiffness matrices ``K`` (C, d, d) [force/length] (seed Eq. 2.20).
+
+    Contact stiffness ``K = kn n (x) n + ks (I - n (x) n)`` (seed Eq. 2.20 with the full
+    tangential projector), (C, d, d) [force/length].
+    """
     d = n.shape[1]
     nn = n[:, :, None] * n[:, None, :]
     return (kn - ks)[:, None, None] * nn + ks[:, None, None] * np.eye(d)[None]
@@ -91,10 +94,10 @@ def affine_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     """
     kn = np.asarray(kn, float)
     ks_e = effective_ks(net, ks, geometric)
-    w = 1.0 / net.volume
+    w = np.asarray(1.0 / net.volume)  # one weight for every contact (0-d: broadcast)
     neg = ks_e < 0
     C = stiffness(ContactSet(net.normals, net.branch, w, kn, np.where(neg, 0.0, ks_e)), mandel=mandel)
     if np.any(neg):
-        C = C - stiffness(ContactSet(net.normals, net.branch, w, 0.0, np.where(neg, -ks_e, 0.0)),
+        C = C - stiffness(ContactSet(net.normals, net.branch, w, np.zeros_like(kn), np.where(neg, -ks_e, 0.0)),
                           mandel=mandel)
     return C

@@ -1,4 +1,6 @@
-"""Making packings of spheres: grain-size distributions, preparation with LAMMPS, shipped
+"""Making packings of spheres.
+
+Making packings of spheres: grain-size distributions, preparation with LAMMPS, shipped
 packings and DEM reference runs (``docs/packing.md``).
 
 Only :mod:`grainmech.packing.engine` imports LAMMPS (extra ``grainmech[dem]``); the shipped
@@ -17,11 +19,20 @@ Modules
 
 from __future__ import annotations
 
-from grainmech.packing.shipped import PACKINGS, load_packing, packing_info
 from grainmech.packing.grading import D50Cu, Sample, SieveCurve, UniformRadius
-from grainmech.packing.prepare import (GLASS, MATERIALS, QUARTZ, GrainMaterial, PackResult, PackSettings,
+from grainmech.packing.prepare import (
+                                       GLASS,
+                                       MATERIALS,
+                                       QUARTZ,
+                                       GrainMaterial,
+                                       PackResult,
+                                       PackSettings,
                                        PreparationError,
-                                       packing_summary, prepare_packing, unbalanced_ratio)
+                                       packing_summary,
+                                       prepare_packing,
+                                       unbalanced_ratio,
+)
+from grainmech.packing.shipped import PACKINGS, load_packing, packing_info
 
 __all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "GrainMaterial", "QUARTZ", "GLASS",
            "MATERIALS", "PackSettings", "PackResult", "PreparationError", "prepare_packing", "packing_summary",

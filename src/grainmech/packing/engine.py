@@ -15,8 +15,9 @@ from __future__ import annotations
 import ctypes
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -111,6 +112,7 @@ class Lammps:
             raise GrainmechError(f"LAMMPS command failed: '{cmd}': {msg}") from None
 
     def commands(self, cmds: Iterable[str]) -> None:
+        """Run LAMMPS commands in order, skipping blank lines and ``#`` comments."""
         for c in cmds:
             c = c.strip()
             if c and not c.startswith("#"):
@@ -125,15 +127,16 @@ class Lammps:
             raise GrainmechError(f"LAMMPS could not create {len(ids)} atoms: {exc}") from None
 
     def has_package(self, name: str) -> bool:
+        """Whether this LAMMPS build has the package ``name`` (e.g. ``GRANULAR``)."""
         return bool(self._lmp.has_package(name))
 
     # -- data -----------------------------------------------------------------------
     def natoms(self) -> int:
+        """Number of atoms in the simulation."""
         return int(self._lmp.get_natoms())
 
     def atom(self, name: str) -> np.ndarray:
-        """A copy of a per-atom array (``x``, ``f``, ``radius``, ``id``, ``omega``, ``torque``),
-        owned atoms only."""
+        """A copy of a per-atom array (``x``, ``f``, ``radius``, ``id``, ``omega``, ``torque``), owned atoms only."""
         n = int(self._lmp.extract_setting("nlocal"))
         a = self._lmp.numpy.extract_atom(name)
         if a is None:
@@ -157,10 +160,12 @@ class Lammps:
         return np.array(a, copy=True, ndmin=2)
 
     def scalar(self, compute_id: str) -> float:
+        """The global scalar of compute ``compute_id``, after the last run."""
         lib = require_lammps()
         return float(self._lmp.numpy.extract_compute(compute_id, lib.LMP_STYLE_GLOBAL, lib.LMP_TYPE_SCALAR))
 
     def vector(self, compute_id: str) -> np.ndarray:
+        """A copy of the global vector of compute ``compute_id``, after the last run."""
         lib = require_lammps()
         return np.array(self._lmp.numpy.extract_compute(compute_id, lib.LMP_STYLE_GLOBAL,
                                                         lib.LMP_TYPE_VECTOR), copy=True)
@@ -171,6 +176,7 @@ class Lammps:
         return np.array(lo), np.array(hi), float(xy), float(yz), float(xz)
 
     def close(self) -> None:
+        """Close the LAMMPS instance (idempotent)."""
         lmp = getattr(self, "_lmp", None)
         if lmp is not None:
             try:
@@ -178,7 +184,7 @@ class Lammps:
             finally:
                 self._lmp = None
 
-    def __enter__(self) -> "Lammps":
+    def __enter__(self) -> Lammps:
         return self
 
     def __exit__(self, *exc: Any) -> None:

@@ -30,13 +30,13 @@ of the real sand is lower than the packing's by the volume of the fines).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy.stats import norm
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ParameterError
 
 __all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "GradingBase"]
 
@@ -69,18 +69,24 @@ class GradingBase:
     """Common sampling of mass-based distributions (see module notes)."""
 
     def mass_cdf(self, d: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Mass fraction finer than diameter ``d`` [m] (0-1), same shape."""
         raise NotImplementedError
 
     def mass_quantile(self, q: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """Diameter [m] at mass fraction ``q`` (0-1) finer; inverse of :meth:`mass_cdf`."""
         raise NotImplementedError
 
     def upper(self) -> float:  # pragma: no cover - abstract
+        """Largest diameter [m] of the distribution (a high quantile for open-ended ones)."""
         raise NotImplementedError
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0,
                pool: int = 20) -> Sample:
-        """``n`` radii with the number distribution of this mass curve, truncated to
-        ``[D_max / max_ratio, D_max]`` (module notes)."""
+        """``n`` radii [m] drawn from this mass curve.
+
+        ``n`` radii with the number distribution of this mass curve, truncated to
+        ``[D_max / max_ratio, D_max]`` (module notes).
+        """
         if n < 1:
             raise ValueError(f"n = {n}: need at least one grain")
         if not max_ratio > 1:
@@ -102,81 +108,95 @@ class SieveCurve(GradingBase):
 
     The curve is linear in ``log D`` between sieves (the usual semi-log plot). The first
     percent passing must be 0 and the last 100 (the range of sizes present); a curve
-    that is not is not extended by guessing: a ConfigError names the key.
+    that is not is not extended by guessing: a ParameterError names the key.
     """
 
     def __init__(self, sizes: Sequence[float], passing: Sequence[float], *, key: str = "grading") -> None:
         d = np.asarray(sizes, float)
         p = np.asarray(passing, float)
         if d.ndim != 1 or d.size < 2 or d.shape != p.shape:
-            raise ConfigError(f"{key}.sizes", list(sizes), "sizes and passing need the same length >= 2")
+            raise ParameterError(f"{key}.sizes", list(sizes), "sizes and passing need the same length >= 2")
         if not np.all(d > 0):
-            raise ConfigError(f"{key}.sizes", list(sizes), "sizes must be positive")
+            raise ParameterError(f"{key}.sizes", list(sizes), "sizes must be positive")
         if np.any(np.diff(d) <= 0):
-            raise ConfigError(f"{key}.sizes", list(sizes), "sieve sizes must increase")
+            raise ParameterError(f"{key}.sizes", list(sizes), "sieve sizes must increase")
         if np.any(np.diff(p) < 0) or p[-1] <= p[0]:
-            raise ConfigError(f"{key}.passing", list(passing), "percent passing must increase with size")
+            raise ParameterError(f"{key}.passing", list(passing), "percent passing must increase with size")
         if abs(p[0]) > 1e-9 or abs(p[-1] - 100) > 1e-9:
-            raise ConfigError(f"{key}.passing", list(passing),
+            raise ParameterError(f"{key}.passing", list(passing),
                               "must start at 0 and end at 100 (percent passing at the smallest and "
                               "largest size present)")
         self.sizes, self.passing = d, p / 100.0
 
     def mass_cdf(self, d: np.ndarray) -> np.ndarray:
+        """Mass fraction finer than ``d`` [m], linear in ``log d`` between sieves."""
         return np.interp(np.log(d), np.log(self.sizes), self.passing)
 
     def mass_quantile(self, q: np.ndarray) -> np.ndarray:
         # strictly increasing part only (flat steps carry no mass)
+        """Diameter [m] at mass fraction ``q`` finer (log-linear between sieves, flat steps skipped)."""
         keep = np.concatenate([[True], np.diff(self.passing) > 0])
         return np.exp(np.interp(q, self.passing[keep], np.log(self.sizes[keep])))
 
     def upper(self) -> float:
+        """Largest sieve size [m]."""
         return float(self.sizes[-1])
 
 
 class D50Cu(GradingBase):
-    """Median diameter ``d50`` [m] and coefficient of uniformity ``cu = D60/D10 >= 1``
-    as a log-normal mass distribution (module notes); ``cu = 1`` is one size."""
+    """Log-normal mass distribution from ``d50`` and the coefficient of uniformity.
+
+    Median diameter ``d50`` [m] and coefficient of uniformity ``cu = D60/D10 >= 1``
+    as a log-normal mass distribution (module notes); ``cu = 1`` is one size.
+    """
 
     def __init__(self, d50: float, cu: float, *, key: str = "grading") -> None:
         if not d50 > 0:
-            raise ConfigError(f"{key}.d50", d50, "must be > 0")
+            raise ParameterError(f"{key}.d50", d50, "must be > 0")
         if not cu >= 1:
-            raise ConfigError(f"{key}.cu", cu, "the coefficient of uniformity D60/D10 must be >= 1")
+            raise ParameterError(f"{key}.cu", cu, "the coefficient of uniformity D60/D10 must be >= 1")
         self.d50, self.cu = float(d50), float(cu)
         self.s = float(np.log(cu) / (_Z60 - _Z10))
 
     def mass_cdf(self, d: np.ndarray) -> np.ndarray:
+        """Mass fraction finer than ``d`` [m] of the log-normal mass distribution (a step for ``cu = 1``)."""
         if self.s == 0:
             return (np.asarray(d) >= self.d50).astype(float)
         return norm.cdf((np.log(d) - np.log(self.d50)) / self.s)
 
     def mass_quantile(self, q: np.ndarray) -> np.ndarray:
+        """Diameter [m] at mass fraction ``q`` finer (log-normal quantile; ``d50`` for ``cu = 1``)."""
         if self.s == 0:
             return np.full(np.shape(q), self.d50)
         return self.d50 * np.exp(self.s * norm.ppf(np.clip(q, 1e-12, 1 - 1e-12)))
 
     def upper(self) -> float:
+        """The 99.9 % mass quantile [m] (the log-normal has no largest size)."""
         return float(self.mass_quantile(np.array([0.999]))[0])
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0, pool: int = 20) -> Sample:
+        """``n`` radii [m] (one size for ``cu = 1``, else :meth:`GradingBase.sample`)."""
         if self.s == 0:
             return Sample(np.full(n, 0.5 * self.d50), self.d50, self.d50, 0.0, 0.0)
         return super().sample(n, rng, max_ratio=max_ratio, pool=pool)
 
 
 class UniformRadius:
-    """Radius ``radius`` [m] with a uniform spread ``spread`` in ``[0, 1)``: ``R`` uniform
-    (by number) in ``[radius (1 - spread), radius (1 + spread)]``; nothing is cut."""
+    """Radii with a uniform spread about ``radius``.
+
+    Radius ``radius`` [m] with a uniform spread ``spread`` in ``[0, 1)``: ``R`` uniform
+    (by number) in ``[radius (1 - spread), radius (1 + spread)]``; nothing is cut.
+    """
 
     def __init__(self, radius: float, spread: float = 0.0, *, key: str = "grading") -> None:
         if not radius > 0:
-            raise ConfigError(f"{key}.radius", radius, "must be > 0")
+            raise ParameterError(f"{key}.radius", radius, "must be > 0")
         if not 0 <= spread < 1:
-            raise ConfigError(f"{key}.spread", spread, "must lie in [0, 1)")
+            raise ParameterError(f"{key}.spread", spread, "must lie in [0, 1)")
         self.radius, self.spread = float(radius), float(spread)
 
     def sample(self, n: int, rng: np.random.Generator, *, max_ratio: float = 4.0, pool: int = 20) -> Sample:
+        """``n`` radii [m], uniform by number in ``[radius (1 - spread), radius (1 + spread)]``."""
         lo, hi = self.radius * (1 - self.spread), self.radius * (1 + self.spread)
         r = rng.uniform(lo, hi, n) if self.spread > 0 else np.full(n, self.radius)
         return Sample(r, 2 * lo, 2 * hi, 0.0, 0.0)

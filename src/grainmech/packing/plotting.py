@@ -10,7 +10,9 @@ __all__ = ["packing_figure"]
 
 
 def packing_figure(result: Any) -> Any:
-    """Three panels: the preparation history (mean stress and void ratio against time
+    """Three panels describing a prepared packing.
+
+    Three panels: the preparation history (mean stress and void ratio against time
     step), the grain-size curve of the packing (percent passing by mass), and a slice of
     the packing (grains cut by the plane ``z = mid-cell``, drawn as circles).
 

@@ -35,8 +35,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -296,9 +297,11 @@ def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, saf
 
 def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.ndarray,
                  mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None) -> dict:
-    """Create the periodic triclinic cell and the grains, the granular model, integrator,
-    pressure and contact computes. ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``,
-    ``c = (xz,yz,lz)`` with the origin at 0. Returns the numerical constants used."""
+    """Create the periodic triclinic cell and the grains, the granular model, integrator, pressure and contact computes.
+
+    ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``, ``c = (xz,yz,lz)`` with the origin at
+    0. Returns the numerical constants used.
+    """
     n = len(radii)
     a, b, c = cell
     lx, ly, lz = a[0], b[1], c[2]
@@ -331,7 +334,7 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
     return {"dt": dt}
 
 
-def _cell(lmp: Any) -> np.ndarray:
+def _cell(lmp: Any) -> tuple[np.ndarray, np.ndarray]:
     lo, hi, xy, yz, xz = lmp.box()
     lx, ly, lz = hi - lo
     return np.array([[lx, 0, 0], [xy, ly, 0], [xz, yz, lz]], float), lo
@@ -398,10 +401,11 @@ def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
     if net.n_contacts == 0:
         return math.inf
     n = net.normals
+    R = net.require_radii("the unbalanced force ratio")
     ov = net.overlap if net.overlap is not None else np.zeros(net.n_contacts)
     half = 0.5 * ov if lever == "lammps" else 0.0 * ov
-    rA = (net.radii[net.i] - half)[:, None] * n
-    rB = -(net.radii[net.j] - half)[:, None] * n
+    rA = (R[net.i] - half)[:, None] * n
+    rB = -(R[net.j] - half)[:, None] * n
     P = net.n_particles
     F = np.zeros((P, 3))
     M = np.zeros((P, 3))
@@ -413,7 +417,7 @@ def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
     has[net.i] = True
     has[net.j] = True
     fc = np.linalg.norm(net.force, axis=1)
-    res = np.sqrt(np.einsum("ij,ij->i", F, F) + np.einsum("ij,ij->i", M, M) / net.radii ** 2)[has]
+    res = np.sqrt(np.einsum("ij,ij->i", F, F) + np.einsum("ij,ij->i", M, M) / R ** 2)[has]
     return float(res.mean() / fc.mean()) if fc.mean() > 0 else math.inf
 
 
@@ -421,7 +425,8 @@ def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
 
 def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool = True) -> dict:
     """Void ratio, coordination (with and without rattlers), fabric, Love-Weber stress."""
-    vs = float(np.sum(4.0 / 3.0 * np.pi * net.radii ** 3))
+    R = net.require_radii("the packing summary")
+    vs = float(np.sum(4.0 / 3.0 * np.pi * R ** 3))
     V = net.volume
     st = network_stress(net)
     s = np.asarray(st.stress)
@@ -431,15 +436,16 @@ def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool
     return {
         "n_grains": net.n_particles, "n_contacts": net.n_contacts,
         "volume_m3": V, "void_ratio": V / vs - 1.0, "solid_fraction": vs / V,
-        "radius_min_m": float(net.radii.min()), "radius_max_m": float(net.radii.max()),
-        "radius_mean_m": float(net.radii.mean()),
+        "radius_min_m": float(R.min()), "radius_max_m": float(R.max()),
+        "radius_mean_m": float(R.mean()),
         "stress_Pa": s.tolist(), "mean_stress_Pa": float(np.trace(s) / 3.0),
         "coordination": {"z": co.z, "z_force": co.z_force, "z_mechanical": co.z_mechanical,
                          "n_rattlers": co.n_rattlers, "rattler_fraction": co.rattler_fraction,
                          "min_contacts": co.min_contacts},
         "fabric_normal2": None if fab is None else np.asarray(fab.normal2).tolist(),
         "mean_normal_force_N": float(N[N > 0].mean()) if np.any(N > 0) else 0.0,
-        "mean_overlap_over_radius": float(np.mean(net.overlap / net.radii[net.i])) if net.n_contacts else 0.0,
+        "mean_overlap_over_radius": float(np.mean(net.overlap / R[net.i]))
+        if net.n_contacts and net.overlap is not None else 0.0,
         "material": {"name": mat.name, "shear_modulus_Pa": mat.shear_modulus, "poisson": mat.poisson,
                      "density_kg_m3": mat.density, "friction": mat.friction},
     }

@@ -1,4 +1,6 @@
-"""DEM reference runs with LAMMPS on a packing: strain probes (the measured tangent
+"""DEM reference runs with LAMMPS on a packing.
+
+DEM reference runs with LAMMPS on a packing: strain probes (the measured tangent
 tensor) and quasi-static cyclic simple shear (secant G and damping).
 
 Both start by loading the packing into LAMMPS (:func:`load_network`) and relaxing it at
@@ -23,16 +25,22 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from grainmech.analysis.loops import loop_properties
 from grainmech.errors import GrainmechError
 from grainmech.network import ContactNetwork, network_stress
-from grainmech.packing.prepare import (GrainMaterial, critical_time_step, network_from_lammps, setup_lammps,
-                                       unbalanced_ratio)
+from grainmech.packing.prepare import (
+    GrainMaterial,
+    critical_time_step,
+    network_from_lammps,
+    setup_lammps,
+    unbalanced_ratio,
+)
 
 __all__ = ["ProbeResult", "CyclicResult", "load_network", "relax", "strain_probes", "cyclic_simple_shear",
            "VOIGT_DEFORM"]
@@ -64,10 +72,13 @@ class _Session:
 
 def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: float = 0.01,
                  safety: float = 0.07) -> _Session:
-    """Put a periodic network into LAMMPS with the granular model of
+    """Put a periodic network into LAMMPS with grainmech's granular model.
+
+    Put a periodic network into LAMMPS with the granular model of
     :mod:`grainmech.packing.prepare` and the grain friction; set the time step
     (:func:`critical_time_step` times ``safety``) and the drags (``viscous`` times the contact
-    frequency at the packing's stress)."""
+    frequency at the packing's stress).
+    """
     if net.radii is None or not bool(np.all(net.box.periodic)):
         raise GrainmechError("a DEM reference run needs a periodic 3D packing with radii")
     c = net.box.cell
@@ -94,12 +105,15 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
 
 def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
           settle: tuple[np.ndarray, float] | None = None) -> tuple[ContactNetwork, float, int]:
-    """Hold the cell and run until the unbalanced force ratio is below ``tol`` (and, with
+    """Hold the cell and run LAMMPS until the packing is in equilibrium.
+
+    Hold the cell and run until the unbalanced force ratio is below ``tol`` (and, with
     ``settle = (base, rtol)``, until the Voigt stress changes over a chunk by less than
     ``rtol`` times its distance ``max |sigma - base|`` from ``base``).
 
     Returns the network, its unbalanced force ratio and the steps used; raises
-    GrainmechError when ``max_steps`` pass without reaching ``tol``."""
+    GrainmechError when ``max_steps`` pass without reaching ``tol``.
+    """
     used = 0
     prev = None
     while True:
@@ -122,8 +136,11 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
 
 
 def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
-    """Add ``sign`` times the affine velocity field of the cell strain rate ``rate``
-    (Voigt, LAMMPS tension positive, engineering shears) to every grain."""
+    """Add ``sign`` times the affine velocity field of a cell strain rate to every grain.
+
+    Add ``sign`` times the affine velocity field of the cell strain rate ``rate``
+    (Voigt, LAMMPS tension positive, engineering shears) to every grain.
+    """
     x = s.lmp.atom("x")
     lo = s.lmp.box()[0]
     r = x - lo
@@ -135,15 +152,15 @@ def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
 
 
 def _ramp(s: _Session, de: np.ndarray, steps: int) -> None:
-    """Apply the grainmech strain increment ``de`` (Voigt, engineering, compression positive)
-    over ``steps`` time steps.
+    """Apply the grainmech strain increment ``de`` (Voigt, engineering, compression positive) over ``steps`` time steps.
 
     The grains get the affine velocity field of the strain rate and the cell follows with
     ``fix deform ... remap v`` (grains crossing a periodic face take the face's velocity):
     the contacts' tangential springs of ``pair_style granular`` integrate the relative
     velocity, so an affine move of positions alone (``remap x``) would never load them.
     The drags are off during the ramp (they would resist the affine motion); the affine
-    field is removed at the end."""
+    field is removed at the end.
+    """
     rate = -np.asarray(de, float) / (steps * s.dt)  # LAMMPS: tension positive
     parts = [f"{key} erate {r:.12g}" for (key, _), r in zip(VOIGT_DEFORM, rate) if r != 0]
     if not parts:
@@ -244,7 +261,9 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
                         settle: float = 1e-3, ramp_steps: int = 1000, max_relax_steps: int = 200_000,
                         viscous: float = 0.01, constant: str = "volume", normal_tol: float = 0.05,
                         threads: int | None = None, progress: Progress | None = None) -> CyclicResult:
-    """Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (``constant =
+    """Quasi-static cyclic simple shear of a packing with LAMMPS.
+
+    Quasi-static cyclic simple shear ``gamma_xy`` at constant volume (``constant =
     "volume"``: cell lengths held) or constant normal stress (``"stress"``: ``sigma_yy``
     held at its initial value by changing the cell length ``ly`` after each increment,
     until its error is below ``normal_tol`` times the increment's shear-stress change; the
@@ -296,7 +315,7 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
                 path += list(np.linspace(a, -a, 2 * q + 1)[1:]) + list(np.linspace(-a, a, 2 * q + 1)[1:])
             gam, tau = [], []
             base = _voigt(np.asarray(network_stress(ref).stress))
-            for k, g in enumerate(path):
+            for g in path:
                 de = np.zeros(6)
                 de[5] = g - g_now
                 _ramp(s, de, ramp_steps)

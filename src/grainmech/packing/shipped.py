@@ -33,9 +33,12 @@ def _check(name: str) -> None:
 
 
 def load_packing(name: str) -> ContactNetwork:
-    """The shipped packing ``name`` (``"dense"``, ``"medium"``, ``"loose"``) as a
+    """The shipped packing ``name`` as a contact network.
+
+    The shipped packing ``name`` (``"dense"``, ``"medium"``, ``"loose"``) as a
     :class:`~grainmech.network.ContactNetwork` (SI units, forces by A on B, compression
-    positive), e.g. for ``grainmech.driver.packing.PackingPoint.from_network``."""
+    positive), e.g. for ``grainmech.driver.packing.PackingPoint.from_network``.
+    """
     from grainmech.io.dem import read_table
 
     _check(name)
@@ -48,8 +51,11 @@ def load_packing(name: str) -> ContactNetwork:
 
 
 def packing_info(name: str) -> dict:
-    """The summary of the shipped packing ``name`` (void ratio, coordination, stress,
-    unbalanced force ratio, grading, preparation), as written by ``grainmech pack``."""
+    """The summary of the shipped packing ``name``.
+
+    The summary of the shipped packing ``name`` (void ratio, coordination, stress,
+    unbalanced force ratio, grading, preparation), as written by ``grainmech pack``.
+    """
     _check(name)
     f = resources.files("grainmech.data").joinpath("packings").joinpath(f"{name}-summary.json")
     return json.loads(f.read_text())

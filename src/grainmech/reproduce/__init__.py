@@ -15,8 +15,8 @@ from __future__ import annotations
 import importlib
 import re
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Callable, Sequence
 
 from grainmech.errors import GrainmechError
 from grainmech.reproduce._base import FigureData, reporting

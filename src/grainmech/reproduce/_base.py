@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -14,8 +15,11 @@ _LOG: list[Callable[[str], None]] = []
 
 
 def progress(message: str) -> None:
-    """A progress line from inside a long figure computation (to the logger installed by
-    :func:`reporting`; nothing without one)."""
+    """Report a progress line from inside a long figure computation.
+
+    A progress line from inside a long figure computation (to the logger installed by
+    :func:`reporting`; nothing without one).
+    """
     if _LOG:
         _LOG[-1](message)
 

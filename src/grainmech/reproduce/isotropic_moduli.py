@@ -14,6 +14,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from grainmech.closed_form import isotropic_hertz_mindlin, walton
 from grainmech.fabric import CorrelationRangeWarning, coordination_number
@@ -38,7 +39,7 @@ def hardin_black(void_ratio: np.ndarray | float, sigma: np.ndarray | float) -> n
     return 2630.0 * (2.17 - e) ** 2 * np.sqrt(np.asarray(sigma, dtype=float)) / (1.0 + e)
 
 
-def shear_modulus(shear_modulus: float, poisson: float, pressure: np.ndarray, void_ratio: float,
+def shear_modulus(shear_modulus: float, poisson: float, pressure: ArrayLike, void_ratio: float,
                   coordination: float, radius: float, convention: str) -> np.ndarray:
     """Packing shear modulus (seed Eq. 4.44-4.45 family) at each pressure."""
     return np.array([isotropic_hertz_mindlin(shear_modulus, poisson, p, void_ratio=void_ratio,

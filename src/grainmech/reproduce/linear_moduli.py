@@ -11,13 +11,13 @@ same Poisson's ratios.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
 from grainmech.closed_form import packing_scale, spheres_second_order
-from grainmech.reproduce._base import FigureData, long_table
 from grainmech.elasticity import engineering_constants
+from grainmech.reproduce._base import FigureData, long_table
 
 __all__ = ["INPUTS", "FABRICS", "moduli", "fig4_3", "fig4_4", "fig4_5", "fig4_6", "fig4_7"]
 
@@ -50,7 +50,7 @@ def moduli(a20: float, a22: float, b22: float, ks_kn: float,
     return engineering_constants(C).as_dict()
 
 
-@lru_cache(maxsize=None)
+@cache
 def _sweep(n: int = 41) -> dict[str, dict[str, np.ndarray]]:
     ratio = np.linspace(0.0, 1.0, n)
     out = {}

@@ -6,8 +6,9 @@ data come from the figure modules; nothing is computed here.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 

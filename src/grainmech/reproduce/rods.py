@@ -24,6 +24,7 @@ modulus seed Eq. 6.1 ``E = d sigma_alpha / eps_alpha`` and Poisson's ratio Eq. 6
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -138,11 +139,14 @@ def _tile(p: PeriodicRods, span: float) -> tuple[np.ndarray, np.ndarray, np.ndar
     """Rod centres/diameters of the images of ``p`` inside ``[0, span]^2`` (plus a margin)."""
     lat, pos = np.asarray(p.lattice), np.asarray(p.positions)
     reach = int(math.ceil(2 * span / min(np.linalg.norm(lat, axis=1)))) + 2
-    xs, ds, owner = [], [], []
+    xs: list[np.ndarray] = []
+    ds: list[np.ndarray] = []
+    owner: list[np.ndarray] = []
     for n1 in range(-reach, reach + 1):
         for n2 in range(-reach, reach + 1):
-            x = pos + n1 * lat[0] + n2 * lat[1]
-            xs.append(x), ds.append(p.diameters), owner.append(np.arange(len(pos)))
+            xs.append(pos + n1 * lat[0] + n2 * lat[1])
+            ds.append(np.asarray(p.diameters, dtype=float))
+            owner.append(np.arange(len(pos)))
     x, d = np.concatenate(xs), np.concatenate(ds)
     m = np.all((x > -0.5) & (x < span + 0.5), axis=1)
     return x[m], d[m], np.concatenate(owner)[m]
@@ -155,7 +159,8 @@ def fig5_2(span: float = 2.0) -> FigureData:
     contact image (``item = "contact"``: the branch vector from ``x, y`` to ``x2, y2``)
     in a ``span`` x ``span`` in window, and one per unit cell corner (``item = "cell"``).
     """
-    blocks, meta = [], {}
+    blocks: list[dict[str, Any]] = []
+    meta: dict[str, dict[str, float]] = {}
     for key in ORDER:
         p = PACKINGS[key]
         x, d, owner = _tile(p, span)
@@ -177,7 +182,8 @@ def fig5_2(span: float = 2.0) -> FigureData:
                      "contacts_per_area": len(i) / p.cell_area, "rods_per_cell": len(p.diameters)}
     stats = "; ".join(f"{k}: e = {v['void_ratio']:.3f}, m = {v['coordination']:.2f}, "
                       f"{v['contacts_per_area']:.2f} contacts/in^2" for k, v in meta.items())
-    notes, seen = [], {}
+    notes: list[str] = []
+    seen: dict[str, int] = {}
     for k in ORDER:  # E and F share one recipe: say it once
         note = PACKINGS[k].note
         if note in seen:
@@ -185,13 +191,13 @@ def fig5_2(span: float = 2.0) -> FigureData:
             continue
         seen[note] = len(notes)
         notes.append(f"{k}: {note}")
-    notes = " ".join(notes)
+    notes_text = " ".join(notes)
     caption = (
         "Seed Fig. 5.2 (the six regular packings of Sec. 5.2) is not in the text of the seed; "
         "this figure draws the arrays used for Figs. 6.1-6.2: rods (circles), contacts "
         "(branch vectors, lines) and one unit cell (dashed). A and B follow from the seed's "
         "names; C-F are RECONSTRUCTIONS from the seed's statements (Sec. 5.2, 6.1.1), not "
-        "the seed's drawings, and nothing was tuned to the seed's curves. " + notes
+        "the seed's drawings, and nothing was tuned to the seed's curves. " + notes_text
         + " Geometry: " + stats + ".")
     return FigureData("5.2", "Six regular rod packings, A-B from the seed, C-F reconstructed "
                       "(seed Fig. 5.2)", caption, long_table(blocks), meta)

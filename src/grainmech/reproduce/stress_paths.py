@@ -18,10 +18,10 @@ import numpy as np
 
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, fig610_path, fig610_stress, geometry, run
+from grainmech.elasticity import engineering_constants
 from grainmech.fabric import coordination_number, isotropic
 from grainmech.material import Packing
 from grainmech.reproduce._base import FigureData, long_table, progress
-from grainmech.elasticity import engineering_constants
 
 __all__ = ["PATHS", "INPUTS", "critical_ratio", "compute", "fig6_10", "fig6_11", "fig6_12"]
 
@@ -56,7 +56,7 @@ def _setup(extra_degree: int):
 
 @lru_cache(maxsize=8)
 def compute(ratios: tuple[float, ...] = RATIOS, n_steps: int = 36,
-            extra_degree: int = INPUTS["extra_degree"]) -> dict[str, np.ndarray]:
+            extra_degree: int = int(INPUTS["extra_degree"])) -> dict[str, np.ndarray]:
     """Moduli and sliding fractions on the three paths, by both methods (long table).
 
     Parameters
@@ -110,7 +110,8 @@ _INPUT_TEXT = (
     "statistically isotropic fabric (the seed: 'an isotropic packing'), e = 0.6 with m = 8 "
     "from Eq. 6.4 (the relation of the preceding section), r = 0.01 in, a 5810-direction "
     "Lebedev rule (wiggles below 1 % remain: the contact shear stiffness "
-    "(1 - T/(mu N))^(1/3) is not smooth near sliding), the seed counting convention (the physical one doubles every modulus; "
+    "(1 - T/(mu N))^(1/3) is not smooth near sliding), the seed counting convention "
+    "(the physical one doubles every modulus; "
     "ratios and sliding fractions are the same). Solid: the seed's state estimate "
     "(Sec. 6.3.2; x = requested sigma1/sigma3); dashed: following the path from 10 psi "
     "with the contact laws' history. Vertical line: R* = (1 + sin phi_mu)/(1 - sin phi_mu) "

@@ -1,4 +1,6 @@
-"""Rod packings (2D arrays of parallel rods, seed Ch. 5-6): regular and random packings as
+"""Rod packings (2D arrays of parallel rods, seed Ch. 5-6).
+
+Rod packings (2D arrays of parallel rods, seed Ch. 5-6): regular and random packings as
 contact sets, and the directional shear box (seed Sec. 5.3) on them.
 
 * :mod:`~grainmech.rods.regular` - :class:`PeriodicRods`, :class:`RodContactSet`, the

@@ -1,4 +1,6 @@
-"""Random rod packings like the seed's (Sec. 5.2, 6.1.2), generated, and their strains in
+"""Random rod packings like the seed's and their shear-box strains.
+
+Random rod packings like the seed's (Sec. 5.2, 6.1.2), generated, and their strains in
 the directional shear box (Sec. 5.3).
 
 The seed (Sec. 5.2, 6.1.2) tested two random rod assemblies in the directional shear box:

@@ -1,4 +1,6 @@
-"""Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2): 2D arrays of parallel rods
+"""Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2).
+
+Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2): 2D arrays of parallel rods
 per unit rod length, their contacts found from the geometry, as contact sets.
 
 Packings A-F: A is square, B hexagonal; the seed's text does not contain Fig. 5.2 and
@@ -64,7 +66,7 @@ class RodContactSet(ContactSet):
             a.setflags(write=False)
             object.__setattr__(self, name, a)
 
-    def with_stiffness(self, kn: Any, ks: Any) -> "RodContactSet":
+    def with_stiffness(self, kn: Any, ks: Any) -> RodContactSet:
         """Same geometry and rods with new contact stiffnesses."""
         return RodContactSet(self.normals, self.branch, self.weights, kn, ks, self.convention,
                              radius1=self.radius1, radius2=self.radius2, particles=self.particles,
@@ -86,7 +88,9 @@ def _pairs_by_images(lattice: np.ndarray, pos: np.ndarray, cutoff: float
                         continue  # self, and each self-image pair once
                     l_ = pos[j] + shift - pos[i]
                     if np.linalg.norm(l_) <= cutoff:
-                        I.append(i), J.append(j), L.append(l_)
+                        I.append(i)
+                        J.append(j)
+                        L.append(l_)
     return np.array(I, dtype=int), np.array(J, dtype=int), np.array(L, dtype=float).reshape(-1, 2)
 
 
@@ -192,7 +196,8 @@ class PeriodicRods:
             raise GrainmechError(f"packing {self.name}: no contacts")
         r = np.asarray(self.diameters, dtype=float) / 2
         n = l_ / np.linalg.norm(l_, axis=1)[:, None]
-        return RodContactSet(n, scale * l_, 1.0 / (scale ** 2 * self.cell_area), 0.0, 0.0,
+        w = np.asarray(1.0 / (scale ** 2 * self.cell_area))  # one weight for every contact (0-d: broadcast)
+        return RodContactSet(n, scale * l_, w, np.zeros(len(i)), np.zeros(len(i)),
                              "physical", radius1=scale * r[i], radius2=scale * r[j],
                              particles=len(r), cell_area=scale ** 2 * self.cell_area,
                              solid_area=scale ** 2 * self.solid_area)
@@ -260,8 +265,11 @@ _ALIASES = {"square": "A", "hexagonal": "B", "mixed": "C", "kagome": "D",
 
 
 def packing_geometry(kind: str) -> PeriodicRods:
-    """Regular packing ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
-    ``two-size-E``, ``two-size-F``), lengths in inches (seed Sec. 5.2)."""
+    """Regular rod packing by name, lengths in inches (seed Sec. 5.2).
+
+    Regular packing ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
+    ``two-size-E``, ``two-size-F``), lengths in inches (seed Sec. 5.2).
+    """
     key = _ALIASES.get(str(kind).lower(), str(kind).upper())
     if key not in PACKINGS:
         raise GrainmechError(f"packing must be one of A-F or {', '.join(_ALIASES)}; got {kind!r}")

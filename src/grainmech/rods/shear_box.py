@@ -1,6 +1,9 @@
-"""The directional shear box of the seed (Sec. 5.3) on a rod packing: tangent stiffness
+"""The directional shear box of the seed (Sec. 5.3) on a rod packing.
+
+The directional shear box of the seed (Sec. 5.3) on a rod packing: tangent stiffness
 under isotropic pressure, apparent modulus and Poisson's ratio along a direction, and the
-strains of a uniaxial stress increment."""
+strains of a uniaxial stress increment.
+"""
 
 from __future__ import annotations
 

@@ -23,12 +23,13 @@ from __future__ import annotations
 import itertools
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from grainmech.errors import ConfigError
+from grainmech.errors import ConfigError, ParameterError
 from grainmech.io.units import ANGLE_UNITS as _ANGLES
 
 __all__ = ["SweepParameter", "parse_parameter", "grid", "latin_hypercube", "monte_carlo", "make_design",
@@ -138,12 +139,16 @@ class SweepParameter:
 
     @property
     def numeric(self) -> bool:
+        """Whether every value is a number (a range, or a list of numbers)."""
         return self.values is None or all(isinstance(v, float) for v in self.values)
 
     def grid_values(self) -> list:
+        """The values of a grid: the given list, or ``num`` points from ``min`` to ``max`` (linear or log)."""
         if self.values is not None:
             return list(self.values)
-        n = int(self.num)  # checked by parse_parameter
+        if self.num is None:
+            raise ParameterError("num", None, f"parameter {self.key!r}: a min/max range needs num (points)")
+        n = int(self.num)
         if n == 1:
             return [self.lo]
         if self.scale == "log":
@@ -154,8 +159,11 @@ class SweepParameter:
         return [float(x) for x in v]
 
     def from_unit(self, u: np.ndarray) -> list:
-        """Map samples ``u`` in [0, 1) to values (inverse CDF of the uniform / log-uniform
-        distribution, or a discrete uniform choice among ``values``)."""
+        """Map samples ``u`` in [0, 1) to parameter values.
+
+        Map samples ``u`` in [0, 1) to values (inverse CDF of the uniform / log-uniform
+        distribution, or a discrete uniform choice among ``values``).
+        """
         u = np.asarray(u, dtype=float)
         if self.values is not None:
             idx = np.minimum((u * len(self.values)).astype(int), len(self.values) - 1)
@@ -267,10 +275,12 @@ def monte_carlo(params: Sequence[SweepParameter], n: int, seed: int) -> list[tup
 def make_design(design: str, params: Sequence[SweepParameter], samples: int | None = None,
                 seed: int = 0) -> list[tuple]:
     """Points (one tuple of values per point, in parameter order) of a design."""
+    if design not in DESIGNS:
+        raise ConfigError("sweep.design", design, f"must be one of {', '.join(map(repr, DESIGNS))}")
     if design == "grid":
         return grid(params)
+    if samples is None:
+        raise ParameterError("samples", None, f"design {design!r} needs the number of samples")
     if design == "latin-hypercube":
         return latin_hypercube(params, int(samples), seed)
-    if design == "monte-carlo":
-        return monte_carlo(params, int(samples), seed)
-    raise ConfigError("sweep.design", design, f"must be one of {', '.join(map(repr, DESIGNS))}")
+    return monte_carlo(params, int(samples), seed)

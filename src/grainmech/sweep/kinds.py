@@ -7,9 +7,10 @@ functions are module-level so process workers can unpickle them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 __all__ = ["Kind", "SWEEP_KINDS", "run_point", "stiffness_point", "run_kind_point", "dem_point"]
 

@@ -14,9 +14,12 @@ def _finite(v: Any) -> bool:
 
 
 def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Path) -> bool:
-    """Scatter every headline output of the run kind (e.g. ``G_max`` and ``gamma_r`` for
+    """Scatter plots of the headline outputs against the swept inputs.
+
+    Scatter every headline output of the run kind (e.g. ``G_max`` and ``gamma_r`` for
     ``run``) against every numeric swept input, coloured by the next input. Only
-    successful points are drawn. Returns False (no file) if there is nothing to draw."""
+    successful points are drawn. Returns False (no file) if there is nothing to draw.
+    """
     from grainmech.sweep.kinds import SWEEP_KINDS
 
     ok = [r for r in rows if r[header.index("status")] == "ok"]

@@ -23,8 +23,9 @@ import json
 import math
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from grainmech.sweep.spec import Point, Sweep
 

@@ -162,7 +162,8 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
         for k in ("samples", "seed"):
             if sw.has(k):
                 raise ConfigError(sw.key(k), sw.data[k], "only for design = 'latin-hypercube' or 'monte-carlo'")
-        samples, seed = None, None
+        samples: int | None = None
+        seed: int | None = None
     else:
         samples = sw.integer("samples", min=1)
         seed = sw.integer("seed", 0, min=0)
@@ -199,11 +200,11 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     if design == "grid":
         for p in params:
             n_total *= len(p.grid_values())
-    else:
+    elif samples is not None:
         n_total = samples
     if n_total > MAX_POINTS:
         raise ConfigError("parameters", list(praw), f"gives {n_total} points (more than {MAX_POINTS})")
-    values = make_design(design, params, samples, seed)
+    values = make_design(design, params, samples, seed or 0)
     points: list[Point] = []
     seen: dict[str, int] = {}
     for i, vals in enumerate(values):
