@@ -23,7 +23,7 @@ from grainmech.driver.packing import (
     run_packing,
     unbalanced_force_ratio,
 )
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import contact_stiffnesses, random_network, relaxed_stiffness
 
 G_GRAIN, NU = 29e9, 0.15
@@ -151,11 +151,11 @@ def test_fluctuation_bound_stops_the_run(point):
 
 
 def test_bad_arguments_name_the_field(packing):
-    with pytest.raises(ConfigError, match="forces"):
+    with pytest.raises(ParameterError, match="forces"):
         PackingPoint.from_network(packing, MD, forces="magic")
-    with pytest.raises(ConfigError, match="params"):
+    with pytest.raises(ParameterError, match="params"):
         PackingPoint.from_network(packing, object())
-    with pytest.raises(ConfigError, match="tangent"):
+    with pytest.raises(ParameterError, match="tangent"):
         PackingOptions(tangent="sometimes")
     with pytest.raises(GrainmechError, match="exceeds mu N"):
         f = packing.force.copy()
@@ -206,5 +206,5 @@ def test_at_stress_then_modulus_reduction(packing):
     g_full = PackingPoint.from_network(packing, MD).tangent[4, 4]
     # Hertz: G ~ p^(1/3) at fixed fabric (seed Eq. 3.7/3.11 with a ~ N^(1/3)); loose bound for the relaxed tensor
     assert 0.7 < mr.G_max / g_full < 0.9
-    with pytest.raises(ConfigError, match="sigma"):
+    with pytest.raises(ParameterError, match="sigma"):
         PackingPoint.at_stress(packing, MD, -1.0)

@@ -24,9 +24,10 @@ returns a typed result (:class:`StiffnessOutcome`, :class:`CyclicOutcome` or
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -106,8 +107,8 @@ class StiffnessOutcome:
 
 def execute_stiffness(spec: StiffnessSpec) -> StiffnessOutcome:
     """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class."""
-    from grainmech.material import packing_stiffness
     from grainmech.elasticity import engineering_constants, symmetry_class
+    from grainmech.material import packing_stiffness
 
     res = packing_stiffness(spec.packing, spec.contacts, spec.stress)
     return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.packing,
@@ -173,7 +174,7 @@ class RunSpec:
     friction: float = float("inf")
     warnings: list = field(default_factory=list)
     methods: tuple = ("affine",)
-    grains: "PackingSource | None" = None
+    grains: PackingSource | None = None
     packing_law: Any = None
 
 
@@ -194,8 +195,10 @@ class PackingSource:
 
     @property
     def void_ratio(self) -> float:
-        """Void ratio ``e = V / V_s - 1`` of the cell (``V_s``: volume of all spheres,
-        rattlers included)."""
+        """Void ratio ``e = V / V_s - 1`` of the cell.
+
+        ``V_s`` is the volume of all spheres, rattlers included.
+        """
         net = self.network
         solid = float(np.sum(4.0 / 3.0 * np.pi * np.asarray(net.radii, dtype=float) ** 3))
         return float(net.box.volume / solid - 1.0)
@@ -215,10 +218,12 @@ def _read_methods(model: Any) -> tuple:
 
 
 def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
-    """The packing of ``method = "packing"``: ``packing = "<name>"`` (a shipped packing,
-    :func:`grainmech.packing.load_packing`) or ``network = "<file>"`` (a contact network
-    :func:`grainmech.io.dem.read_network` reads; ``particles`` and ``format`` as in the
-    ``[network]`` table of ``grainmech dem``)."""
+    """The packing of ``method = "packing"`` from the ``[model]`` table.
+
+    ``packing = "<name>"`` (a shipped packing, :func:`grainmech.packing.load_packing`) or
+    ``network = "<file>"`` (a contact network :func:`grainmech.io.dem.read_network` reads;
+    ``particles`` and ``format`` as in the ``[network]`` table of ``grainmech dem``).
+    """
     has_name, has_file = model.has("packing"), model.has("network")
     if has_name == has_file:
         raise ConfigError(model.key("packing"), model.raw("packing", None),
@@ -249,6 +254,8 @@ def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
             return base / v
 
         contacts, particles = path("network"), path("particles")
+        if contacts is None:  # has_file: model.network is given
+            raise ConfigError(model.key("network"), None, "must be a file path")
         fmt = model.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto")
         net = read_network(contacts, particles, format=fmt)
         label = str(model.raw("network"))
@@ -298,10 +305,13 @@ def _segments(sec: Any) -> Any:
 
 
 def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
-    """Read a driver config (``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
-    ``[quadrature]``, ``[test]``, ``[reference]``; strict keys)."""
-    from grainmech.io.config import Section
+    """Read a driver config (strict keys).
+
+    Tables ``[model]``, ``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
+    ``[quadrature]``, ``[test]``, ``[reference]``.
+    """
     from grainmech.fabric import LEBEDEV_ORDERS
+    from grainmech.io.config import Section
     from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure
 
     root = Section(cfg, "")
@@ -328,7 +338,9 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
                               "grains come from model.packing or model.network: remove the table or add "
                               "'affine' to model.method")
         packing = None
-        law = build_law(root.section("contacts"), float(np.median(grains.network.radii)))
+        if grains is None:  # _read_grains gives the packing whenever 'packing' is a method
+            raise ConfigError("model.method", list(methods), "the packing model needs model.packing or model.network")
+        law = build_law(root.section("contacts"), float(np.median(grains.network.require_radii("the packing model"))))
     packing_law = None
     if grains is not None:
         from grainmech.contact import Hertz, LinearSpring
@@ -348,7 +360,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         raise ConfigError(quad.key("degree"), degree, f"must be <= {top}"
                           + (f" for this fabric (density of order {density.order}): the rule must "
                              f"integrate density x integrand, {MAX_SPHERE_DEGREE} at most"
-                             if density.order else f" (the highest Lebedev rule)"))
+                             if density.order else " (the highest Lebedev rule)"))
     test = root.section("test")
     kind = test.choice("kind", RUN_TEST_KINDS)
     ref = root.section("reference", {})
@@ -464,8 +476,11 @@ class CyclicOutcome(RunOutcome):
 
     @property
     def mean_stress_change(self) -> np.ndarray:
-        """p at the end of each amplitude's run / initial p - 1 (at constant sigma_zz the
-        horizontal stresses change during cycling, affine model)."""
+        """Relative change of the mean stress over each amplitude's run.
+
+        ``p_end / p_0 - 1``: at constant sigma_zz the horizontal stresses change during
+        cycling (affine model).
+        """
         return np.array([float(np.mean(r.stress[-1, :3]) / np.mean(r.stress[0, :3]) - 1.0)
                          for r in self.results[:len(self.G)]])
 
@@ -479,39 +494,48 @@ class PathOutcome(RunOutcome):
 
 @dataclass
 class RunComparison:
-    """Several kinematic models on one test (``[model] method`` a list): one
-    :class:`RunOutcome` per method, in the config's order."""
+    """Several kinematic models on one test (``[model] method`` a list).
+
+    One :class:`RunOutcome` per method, in the config's order.
+    """
 
     outcomes: list
 
     @property
     def success(self) -> bool:
+        """Whether every method succeeded."""
         return all(o.success for o in self.outcomes)
 
     @property
     def message(self) -> str:
+        """Each method's message, prefixed with the method."""
         return "; ".join(f"{o.method}: {o.message}" for o in self.outcomes)
 
     @property
     def warnings(self) -> list:
+        """Every method's warnings."""
         return [w for o in self.outcomes for w in o.warnings]
 
     @property
     def seconds(self) -> float:
+        """Wall time of all methods [s]."""
         return float(sum(o.seconds for o in self.outcomes))
 
     @property
     def kind(self) -> str:
+        """The test kind (the same for every method)."""
         return self.outcomes[0].kind
 
     @property
     def pressure(self) -> float:
+        """The initial mean stress [Pa] (the same for every method)."""
         return self.outcomes[0].pressure
 
 
-def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> "RunOutcome | RunComparison":
-    """Drive the material point of every method of ``spec``; ``progress(message)`` is
-    called before each run.
+def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> RunOutcome | RunComparison:
+    """Drive the material point of every method of ``spec``.
+
+    ``progress(message)`` is called before each run.
 
     Returns a :class:`CyclicOutcome` or a :class:`PathOutcome` for one method, a
     :class:`RunComparison` of them for several.
@@ -549,7 +573,7 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
 
 
 def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: Any,
-                    void_ratio: float | None, details: dict | None = None) -> "CyclicOutcome":
+                    void_ratio: float | None, details: dict | None = None) -> CyclicOutcome:
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
         message=mr.message, seconds=seconds, point=point, method=method, details=dict(details or {}),
@@ -567,12 +591,15 @@ PACKING_STRESS_TOLERANCE = 5e-3
 
 
 def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
-    """The packing driver (:mod:`grainmech.driver.packing`) on the packing of ``spec.grains``:
-    every grain in force and moment equilibrium at every step."""
-    from grainmech.driver.packing import (PackingOptions, PackingPoint, packing_modulus_reduction,
-                                          run_packing)
+    """The packing driver (:mod:`grainmech.driver.packing`) on the packing of ``spec.grains``.
+
+    Every grain is in force and moment equilibrium at every step.
+    """
+    from grainmech.driver.packing import PackingOptions, PackingPoint, packing_modulus_reduction, run_packing
 
     src = spec.grains
+    if src is None:
+        raise ValueError("the packing model needs a packing (RunSpec.grains is None)")
     net = src.network
     opts = PackingOptions(law_backend="auto")
     t0 = time.perf_counter()
@@ -632,9 +659,11 @@ SPHERE_COORDINATION_RANGE = (4.0, 12.0)
 
 
 def grain_modulus_warning(g_max: float, law: Any) -> list[str]:
-    """A warning if the packing's shear modulus exceeds the grains' own (``law.shear_modulus``):
-    a packing of grains cannot be stiffer than the solid it is made of (Hashin-Shtrikman
-    upper bound of a porous solid)."""
+    """A warning if the packing's shear modulus exceeds the grains' own (``law.shear_modulus``).
+
+    A packing of grains cannot be stiffer than the solid it is made of (Hashin-Shtrikman
+    upper bound of a porous solid).
+    """
     grain_g = getattr(law, "shear_modulus", None)
     if grain_g is None or not np.isfinite(g_max) or g_max <= grain_g:
         return []
@@ -752,7 +781,7 @@ def envelope_check(stress: np.ndarray) -> dict:
             "first_step": first}
 
 
-def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> "RunOutcome | RunComparison":
+def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> RunOutcome | RunComparison:
     """Config dict -> driver result (see :func:`execute_run`); no file writing."""
     return execute_run(prepare_run(cfg), progress)
 
@@ -783,7 +812,7 @@ def _invariants(s: np.ndarray) -> tuple[float, float]:
     return p, float(np.sqrt(3.0 * j2))
 
 
-def run_scalars(out: RunOutcome) -> dict[str, Any]:
+def run_scalars(out: RunOutcome | RunComparison) -> dict[str, Any]:
     """Scalar outputs of a driver result.
 
     Cyclic simple shear: ``G_max [Pa]``, ``gamma_r`` (strain where G/Gmax = 0.5,
@@ -795,10 +824,10 @@ def run_scalars(out: RunOutcome) -> dict[str, Any]:
     ``"<method>: "``, then the overall ``success`` and ``message``.
     """
     if isinstance(out, RunComparison):
-        row = {f"{o.method}: {k}": v for o in out.outcomes for k, v in run_scalars(o).items()}
-        row["success"] = bool(out.success)
-        row["message"] = str(out.message)
-        return row
+        both: dict[str, Any] = {f"{o.method}: {k}": v for o in out.outcomes for k, v in run_scalars(o).items()}
+        both["success"] = bool(out.success)
+        both["message"] = str(out.message)
+        return both
     row: dict[str, Any] = {}
     if isinstance(out, CyclicOutcome):
         gmax = float(out.G_max)
@@ -831,9 +860,11 @@ def run_scalars(out: RunOutcome) -> dict[str, Any]:
 
 # ----------------------------------------------------------------------------------- dem
 def dem_options(root: Any) -> dict:
-    """Keyword arguments of :func:`grainmech.network.network_report` from the tables
-    ``[material]``, ``[stiffness]``, ``[relaxed]``, ``[fabric]`` of a config
-    :class:`~grainmech.io.config.Section` (the caller calls ``finish``)."""
+    """Keyword arguments of :func:`grainmech.network.network_report` from a config.
+
+    Tables ``[material]``, ``[stiffness]``, ``[relaxed]``, ``[fabric]`` of a
+    :class:`~grainmech.io.config.Section` (the caller calls ``finish``).
+    """
     opts: dict[str, Any] = {}
     if root.has("material"):
         m = root.section("material")
@@ -883,9 +914,12 @@ def _names(sec: Any, k: str) -> list[str] | None:
 
 
 def prepare_dem(cfg: dict, base_dir: str | Path | None = None) -> DemSpec:
-    """Read a dem config: ``[network]`` (``contacts``, ``particles``, ``format``,
-    ``keywords``, ``columns``, ``force_on``; file paths relative to ``base_dir``) and the
-    ``grainmech dem --material`` tables (see :func:`dem_options`)."""
+    """Read a dem config.
+
+    ``[network]`` (``contacts``, ``particles``, ``format``, ``keywords``, ``columns``,
+    ``force_on``; file paths relative to ``base_dir``) and the ``grainmech dem --material``
+    tables (see :func:`dem_options`).
+    """
     from grainmech.io.config import Section
 
     root = Section(cfg, "")
@@ -901,10 +935,12 @@ def prepare_dem(cfg: dict, base_dir: str | Path | None = None) -> DemSpec:
         return base / v
 
     contacts = path("contacts", True)
+    if contacts is None:
+        raise ConfigError(net.key("contacts"), None, "must be a file path")
     particles = path("particles", False)
+    force_on = net.choice("force_on", ("id1", "id2"), "id1") if net.has("force_on") else None
     read = dict(format=net.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto"),
-                keywords=_names(net, "keywords"), columns=_names(net, "columns"),
-                force_on=net.choice("force_on", ("id1", "id2", None), None))
+                keywords=_names(net, "keywords"), columns=_names(net, "columns"), force_on=force_on)
     opts = dem_options(root)
     root.finish()
     return DemSpec(contacts, particles, read, opts)
@@ -941,9 +977,11 @@ def compute_dem(cfg: dict, base_dir: str | Path | None = None) -> DemOutcome:
 
 
 def dem_scalars(out: DemOutcome) -> dict[str, Any]:
-    """Scalar outputs of a network report: counts, stress invariants, coordination,
-    fabric anisotropy, Hill moduli and engineering constants of the affine and relaxed
-    stiffness (empty when not computed)."""
+    """Scalar outputs of a network report.
+
+    Counts, stress invariants, coordination, fabric anisotropy, Hill moduli and engineering
+    constants of the affine and relaxed stiffness (empty when not computed).
+    """
     from grainmech.elasticity import bulk_modulus, shear_modulus
 
     rep = out.report
@@ -1007,8 +1045,11 @@ class ContactOutcome:
 
 
 def prepare_contact(cfg: dict, base_dir: str | Path | None = None) -> ContactSpec:
-    """Read a ``grainmech contact`` config: ``[contact]`` (:func:`grainmech.io.schema.build_law`,
-    every law), ``[initial]`` and ``[[path]]`` (:func:`grainmech.io.schema.build_contact_path`)."""
+    """Read a ``grainmech contact`` config.
+
+    ``[contact]`` (:func:`grainmech.io.schema.build_law`, every law), ``[initial]`` and
+    ``[[path]]`` (:func:`grainmech.io.schema.build_contact_path`).
+    """
     from grainmech.io.config import Section
     from grainmech.io.schema import LAWS, build_contact_path, build_law
 

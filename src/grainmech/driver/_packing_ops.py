@@ -82,7 +82,7 @@ class Kinematics:
 
     @classmethod
     def build(cls, a: np.ndarray, b: np.ndarray, n: np.ndarray, l_: np.ndarray, RA: np.ndarray,
-              RB: np.ndarray, n_grains: int) -> "Kinematics":
+              RB: np.ndarray, n_grains: int) -> Kinematics:
         C = a.size
         rA = RA[:, None] * n
         rB = -RB[:, None] * n

@@ -23,17 +23,26 @@ equilibrium residuals), :class:`PackingOptions`, :func:`packing_modulus_reductio
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Any, Callable, Sequence
+from typing import Any, cast
 
 import numpy as np
 
-from grainmech.contact import (Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz, ContactState,
-                               state_from_approach, state_from_forces, update)
-from grainmech.driver import Control, DriverResult, LoadPath, cyclic_simple_shear
-from grainmech.driver._packing_ops import (Kinematics, Preconditioner, contact_tangent, voigt_of)
-from grainmech.errors import ConfigError, GrainmechError
+from grainmech.contact import (
+    ContactState,
+    Hertz,
+    HertzMindlin,
+    LinearSpring,
+    MindlinDeresiewicz,
+    state_from_approach,
+    state_from_forces,
+    update,
+)
+from grainmech.driver import DriverResult, LoadPath, cyclic_simple_shear
+from grainmech.driver._packing_ops import Kinematics, Preconditioner, contact_tangent, voigt_of
+from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
 
 __all__ = ["PackingOptions", "PackingPoint", "PackingResult", "run_packing", "packing_modulus_reduction",
@@ -99,24 +108,24 @@ class PackingOptions:
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1e-2):
-            raise ConfigError("rtol", self.rtol, "must lie in (0, 1e-2)")
+            raise ParameterError("rtol", self.rtol, "must lie in (0, 1e-2)")
         if not (self.rtol <= self.rtol_accept < 1e-2):
-            raise ConfigError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
+            raise ParameterError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
         for name in ("max_iter", "krylov_max", "refactor_after"):
             if int(getattr(self, name)) < 1:
-                raise ConfigError(name, getattr(self, name), "must be >= 1")
+                raise ParameterError(name, getattr(self, name), "must be >= 1")
         for name in ("max_depth", "max_backtracks"):
             if not (0 <= int(getattr(self, name)) <= 30):
-                raise ConfigError(name, getattr(self, name), "must lie in [0, 30]")
+                raise ParameterError(name, getattr(self, name), "must lie in [0, 30]")
         if not (0 < self.krylov_rtol < 1):
-            raise ConfigError("krylov_rtol", self.krylov_rtol, "must lie in (0, 1)")
+            raise ParameterError("krylov_rtol", self.krylov_rtol, "must lie in (0, 1)")
         if not (self.max_fluctuation > 0 and self.max_strain > 0):
-            raise ConfigError("max_fluctuation/max_strain", (self.max_fluctuation, self.max_strain),
+            raise ParameterError("max_fluctuation/max_strain", (self.max_fluctuation, self.max_strain),
                               "must be positive")
         if self.tangent not in ("none", "start", "ends", "every"):
-            raise ConfigError("tangent", self.tangent, "must be 'none', 'start', 'ends' or 'every'")
+            raise ParameterError("tangent", self.tangent, "must be 'none', 'start', 'ends' or 'every'")
         if self.factorization not in ("auto", "cholespy", "superlu"):
-            raise ConfigError("factorization", self.factorization, "must be 'auto', 'cholespy' or 'superlu'")
+            raise ParameterError("factorization", self.factorization, "must be 'auto', 'cholespy' or 'superlu'")
 
 
 # --------------------------------------------------------------------------- the point
@@ -146,14 +155,14 @@ def _frictional(params: object) -> bool:
 
 def _check_params(params: object) -> None:
     if not isinstance(params, (Hertz, LinearSpring)):
-        raise ConfigError("params", type(params).__name__,
+        raise ParameterError("params", type(params).__name__,
                           "the packing driver needs a sphere law: Hertz, HertzMindlin, MindlinDeresiewicz "
                           "or LinearSpring")
 
 
 def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pairs of non-rattler grains not in contact whose gap is below ``gap`` times their mean radius."""
-    pos, R, box = net.positions, net.radii, net.box
+    pos, R, box = net.positions, net.require_radii("tracking gap pairs"), net.box
     idx = np.flatnonzero(alive)
     if idx.size < 2 or gap <= 0:
         return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))
@@ -167,7 +176,7 @@ def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.n
         I, J = idx[pr[:, 0]], idx[pr[:, 1]]
     else:
         if idx.size > 4000:
-            raise ConfigError("gap", gap, "gap-pair search in a non-orthogonal or non-periodic cell is "
+            raise ParameterError("gap", gap, "gap-pair search in a non-orthogonal or non-periodic cell is "
                               "limited to 4000 grains; use gap = 0")
         I, J = np.triu_indices(idx.size, 1)
         I, J = idx[I], idx[J]
@@ -251,7 +260,7 @@ class PackingPoint:
     @classmethod
     def from_network(cls, net: ContactNetwork, params: Any, *, forces: str = "auto", gap: float = 0.05,
                      max_unbalanced: float = 1e-2, imbalance: str = "hold",
-                     options: PackingOptions | None = None) -> "PackingPoint":
+                     options: PackingOptions | None = None) -> PackingPoint:
         """Packing point from a contact network and a contact law.
 
         Parameters
@@ -292,22 +301,22 @@ class PackingPoint:
         _check_params(params)
         opts = options or PackingOptions()
         if not isinstance(net, ContactNetwork):
-            raise ConfigError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
+            raise ParameterError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
         if net.dim != 3:
-            raise ConfigError("network.dim", net.dim, "the packing driver works in 3D")
+            raise ParameterError("network.dim", net.dim, "the packing driver works in 3D")
         if net.radii is None:
-            raise ConfigError("network.radii", None, "are required (spheres): give the particle radii")
+            raise ParameterError("network.radii", None, "are required (spheres): give the particle radii")
         if not net.box.periodic.all():
-            raise ConfigError("network.box.periodic", net.box.periodic.tolist(),
+            raise ParameterError("network.box.periodic", net.box.periodic.tolist(),
                               "must be periodic in x, y and z (walls are not modelled)")
         if imbalance not in ("hold", "relax", "none"):
-            raise ConfigError("imbalance", imbalance, "must be 'hold', 'relax' or 'none'")
+            raise ParameterError("imbalance", imbalance, "must be 'hold', 'relax' or 'none'")
         if forces not in ("auto", "stored", "overlap"):
-            raise ConfigError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
+            raise ParameterError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
         if not (gap >= 0 and math.isfinite(gap)):
-            raise ConfigError("gap", gap, "must be finite and >= 0")
+            raise ParameterError("gap", gap, "must be finite and >= 0")
         if net.n_contacts == 0:
-            raise ConfigError("network", net.source, "has no contacts")
+            raise ParameterError("network", net.source, "has no contacts")
         n, L = net.normals, net.branch_length
         RA, RB = net.radii[net.i], net.radii[net.j]
         if forces == "auto":
@@ -399,7 +408,7 @@ class PackingPoint:
                               options=replace(opts, tangent="none"))
             if not res.success:
                 raise GrainmechError(f"{net.source or 'network'}: equilibrating the input failed: {res.message}")
-            eq = res.final
+            eq = cast(PackingPoint, res.final)
             ds = float(np.abs(eq.stress - pt.stress).max() / max(np.abs(pt.stress).max(), 1e-300))
             pt = replace(eq, strain=np.zeros(6), q=np.zeros_like(eq.q),
                          notes=eq.notes + (f"equilibrated at fixed strain: stress changed by {ds:.3g} "
@@ -409,7 +418,7 @@ class PackingPoint:
 
     @classmethod
     def at_stress(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], *, n_steps: int = 10,
-                  options: PackingOptions | None = None, **from_network: Any) -> "PackingPoint":
+                  options: PackingOptions | None = None, **from_network: Any) -> PackingPoint:
         """Packing point brought to a confining stress by a stress-controlled straight path.
 
         :meth:`from_network`, then ``n_steps`` all-stress-controlled steps of
@@ -426,31 +435,36 @@ class PackingPoint:
         sig = np.asarray(sigma, dtype=float)
         if sig.ndim == 0:
             if not (math.isfinite(float(sig)) and float(sig) > 0):
-                raise ConfigError("sigma", float(sig), "a confining pressure must be positive (compression positive)")
+                raise ParameterError("sigma", float(sig),
+                                     "a confining pressure must be positive (compression positive)")
             sig = float(sig) * np.array([1.0, 1, 1, 0, 0, 0])
         if sig.shape != (6,) or not np.all(np.isfinite(sig)):
-            raise ConfigError("sigma", np.shape(sigma), "must be a pressure or a finite (6,) stress vector")
+            raise ParameterError("sigma", np.shape(sigma), "must be a pressure or a finite (6,) stress vector")
         opts = options or PackingOptions()
         pt = cls.from_network(net, params, options=opts, **from_network)
         res = run_packing(pt, segment("SSSSSS", sig - pt.stress, n_steps), replace(opts, tangent="none"))
         if not res.success:
             raise GrainmechError(f"{net.source or 'network'}: bringing the packing to the stress "
                                  f"{np.round(sig, 6).tolist()} failed: {res.message}")
-        return replace(res.final, notes=res.final.notes + (
+        fin = cast(PackingPoint, res.final)
+        return replace(fin, notes=fin.notes + (
             f"brought from the input stress to {np.round(sig, 6).tolist()} in {n_steps} stress-controlled steps "
             f"(volumetric strain {float(res.final.strain[:3].sum()):.3g})",), _cache={})
 
     # ------------------------------------------------------------------ derived
     @property
     def n_grains(self) -> int:
+        """Number of grains kept (rattlers excluded)."""
         return int(self.grains.size)
 
     @property
     def n_contacts(self) -> int:
+        """Number of tracked contacts (listed ones and gap pairs)."""
         return self.kinematics.n_contacts
 
     @property
     def frictional(self) -> bool:
+        """Whether the contact law has a finite, non-zero friction coefficient."""
         return _frictional(self.params)
 
     def contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
@@ -482,8 +496,9 @@ class PackingPoint:
 
     @cached_property
     def elastic_tangent(self) -> np.ndarray:
-        """Relaxed tangent (6, 6) with the elastic contact stiffness ``K0 = kn n n +
-        ks_perp (I - n n)`` (no slip) of the current state [stress].
+        """Relaxed tangent (6, 6) with the elastic (no-slip) contact stiffness [stress].
+
+        ``K0 = kn n n + ks_perp (I - n n)`` of the current state.
 
         The stiffness of a small strain reversal from this state: at the reversal every
         Mindlin-Deresiewicz contact unloads with its no-slip stiffness ``8 G* a``
@@ -559,8 +574,10 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
 
 
 def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False) -> np.ndarray:
-    """Relaxed tangent (6, 6) of ``point`` with its consistent contact tangent, or with the
-    elastic one (``elastic``), by GMRES per column."""
+    """Relaxed tangent (6, 6) of ``point`` by GMRES per column.
+
+    With its consistent contact tangent, or with the elastic one (``elastic``).
+    """
     import scipy.sparse.linalg as spla
 
     from grainmech.driver._packing_ops import block_diagonal
@@ -628,8 +645,10 @@ def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
 
 
 def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
-    """Elastic energy (C,) of frictionless contacts [energy]: Hertz ``(2/5) N alpha`` (seed
-    Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``."""
+    """Elastic energy (C,) of frictionless contacts [energy].
+
+    Hertz ``(2/5) N alpha`` (seed Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``.
+    """
     N = resp.normal_force
     if isinstance(point.params, LinearSpring):
         return N * N / (2 * point.params.kn)
@@ -650,8 +669,6 @@ _PTC_STALL = 0.9
 def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
            counters: list) -> PackingPoint:
     """Newton-Krylov iterations of one (sub)step with line search; returns the new point."""
-    import scipy.sparse.linalg as spla
-
     from grainmech.driver._packing_ops import block_diagonal
 
     opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
@@ -773,49 +790,8 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
                             ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
         Kb = block_diagonal(K)
-        n = nq + ms
-
-        def direction(shift: float) -> tuple:
-            """GMRES on (J + shift I) y = -r (scaled); the update, its slope and the
-            decrease of the scaled residual norm the linear model predicts."""
-            rhs = -np.concatenate([Dq * rq, De * re])
-
-            def matvec(y: np.ndarray) -> np.ndarray:
-                vq = Dq * y[:nq]
-                d6 = np.zeros(6)
-                d6[S] = De * y[nq:]
-                df = Kb @ kin.delta(vq, d6).reshape(-1)
-                return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
-
-            def psolve(z: np.ndarray) -> np.ndarray:
-                yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
-                return np.concatenate([yq / Dq, ye / De])
-
-            count = [0]
-
-            def cb(_r: Any) -> None:
-                count[0] += 1
-
-            # right preconditioning: GMRES minimises the true (scaled) residual of the linear
-            # model, not the preconditioned one, which the near-singular directions of the
-            # elastic operator (mechanisms: grains that roll or slide freely) dominate
-            z, _info = spla.gmres(spla.LinearOperator((n, n), matvec=lambda v: matvec(psolve(v)), dtype=float),
-                                  rhs, rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
-                                  callback=cb, callback_type="pr_norm")
-            y = psolve(z)
-            ctx.krylov += count[0]
-            if not np.all(np.isfinite(y)):
-                raise _StepFailure("linear solve not finite")
-            dq_, de_ = Dq * y[:nq], De * y[nq:]
-            sl_ = float(np.dot(rq, dq_) + np.dot(re, de_))
-            if ctx.energy and not sl_ < 0:  # inexact Krylov step not downhill: preconditioned gradient
-                dq_, de_ = prec.apply(-rq, -re, S)
-                sl_ = float(np.dot(rq, dq_) + np.dot(re, de_))
-            pr_ = m - float(np.linalg.norm(matvec(y) - shift * y - rhs)) if not ctx.energy else 0.0
-            return dq_, de_, sl_, pr_, count[0]
-
         if mu == 0.0:  # Newton with a backtracking line search
-            dxq, dxe, slope, pred, kr = direction(_MU_FLOOR)
+            dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
             # trust limit (see `move` above) on each grain by itself: a grain on a
             # mechanism (free, rolling or sliding away) must not cut the others' update
             lam = 1.0
@@ -859,7 +835,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                 ctx.ptc += 1
         if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
             for _grow in range(_MU_GROWTHS + 1):
-                dxq, dxe, slope, pred, kr = direction(mu)
+                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx)
                 # each grain's move clipped to the trust limit by itself: a grain on a
                 # mechanism (sliding away, squeezed out) must not stall the others
                 dxq = _clip(kin, dxq, Rg, move)
@@ -900,9 +876,63 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                        f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
 
 
+def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
+               shift: float, m: float, opts: PackingOptions, ctx: _Context) -> tuple:
+    """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
+
+    ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)
+    and ``r = (rq, re)`` the residual. Right preconditioning by the factorised elastic
+    operator: GMRES minimises the true (scaled) residual of the linear model, not the
+    preconditioned one, which the near-singular directions of the elastic operator
+    (mechanisms: grains that roll or slide freely) would dominate.
+
+    Returns
+    -------
+    (dxq, dxe, slope, pred, krylov) : the update, ``r . dx``, the decrease of the scaled
+    residual norm the linear model predicts (from ``m``), GMRES iterations.
+    """
+    import scipy.sparse.linalg as spla
+
+    Dq, De = prec.dq, prec.de[S]
+    nq, n = Dq.size, Dq.size + De.size
+    rhs = -np.concatenate([Dq * rq, De * re])
+
+    def matvec(y: np.ndarray) -> np.ndarray:
+        vq = Dq * y[:nq]
+        d6 = np.zeros(6)
+        d6[S] = De * y[nq:]
+        df = Kb @ kin.delta(vq, d6).reshape(-1)
+        return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
+
+    def psolve(z: np.ndarray) -> np.ndarray:
+        yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
+        return np.concatenate([yq / Dq, ye / De])
+
+    count = [0]
+
+    def cb(_r: Any) -> None:
+        count[0] += 1
+
+    z, _info = spla.gmres(spla.LinearOperator((n, n), matvec=lambda v: matvec(psolve(v)), dtype=float),
+                          rhs, rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
+                          callback=cb, callback_type="pr_norm")
+    y = psolve(z)
+    ctx.krylov += count[0]
+    if not np.all(np.isfinite(y)):
+        raise _StepFailure("linear solve not finite")
+    dxq, dxe = Dq * y[:nq], De * y[nq:]
+    slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
+    if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
+        dxq, dxe = prec.apply(-rq, -re, S)
+        slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
+    pred = m - float(np.linalg.norm(matvec(y) - shift * y - rhs)) if not ctx.energy else 0.0
+    return dxq, dxe, slope, pred, count[0]
+
+
 def _trust(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
-    """Factor (>= 1) by which the largest contact relative displacement of an update
-    ``(dxq, dxe)`` exceeds the trust limit ``move`` [length].
+    """Factor (>= 1) by which an update's largest contact displacement exceeds ``move``.
+
+    ``move`` [length] is the trust limit; the update is ``(dxq, dxe)``.
 
     Measured on the contacts, not on the grains: a grain rolling on its neighbours (a
     mechanism) may move far without loading any contact, and is bounded by the
@@ -944,8 +974,10 @@ def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
 
 
 def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.ndarray:
-    """Grain update ``dxq`` (n_free,) with each grain's translation and surface rotation
-    ``R |theta|`` scaled down to at most ``move`` [length]."""
+    """Grain update ``dxq`` (n_free,) with each grain's move clipped to ``move`` [length].
+
+    A grain's translation and surface rotation ``R |theta|`` are scaled down together.
+    """
     mv = kin.full(dxq)
     big = np.maximum(np.linalg.norm(mv[:, :3], axis=1), R * np.linalg.norm(mv[:, 3:], axis=1))
     c = move / np.maximum(big, move)
@@ -987,7 +1019,7 @@ def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.nda
 
 @dataclass(frozen=True)
 class PackingResult(DriverResult):
-    """:class:`grainmech.driver.DriverResult` of the packing driver, plus per step
+    """:class:`grainmech.driver.DriverResult` of the packing driver, plus per-step data.
 
     Attributes
     ----------
@@ -1046,9 +1078,9 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
 def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False) -> PackingResult:
     """:func:`run_packing` with its options resolved (``energy``: potential-energy line search)."""
     if not isinstance(path, LoadPath):
-        raise ConfigError("path", type(path).__name__, "must be a LoadPath")
+        raise ParameterError("path", type(path).__name__, "must be a LoadPath")
     if not isinstance(point, PackingPoint):
-        raise ConfigError("point", type(point).__name__, "must be a PackingPoint")
+        raise ParameterError("point", type(point).__name__, "must be a PackingPoint")
     point = replace(point, law_backend=opts.law_backend, factorization=opts.factorization, _cache=point._cache) \
         if (opts.law_backend, opts.factorization) != (point.law_backend, point.factorization) else point
     m = len(path)
@@ -1079,11 +1111,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     rows["stress"].append(point.stress.copy())
     rows["tangent"].append(nan66 if opts.tangent == "none" else point.tangent)
     sl0, op0 = point.fractions()
-    for k, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("stored", point.stored_energy()),
+    for key, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("stored", point.stored_energy()),
                  ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
                  ("fl", point.fluctuation()), ("cl", int(np.sum(~np.asarray(point.response.open, bool)))),
                  ("kr", 0)):
-        rows[k].append(v)
+        rows[key].append(v)
     diss = work = 0.0
     t_stress, t_strain = point.stress.copy(), point.strain.copy()
     prev = None
@@ -1135,14 +1167,14 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         diss += counters[2]
         work += counters[3]
         last = k == m - 1
-        record(point, diss, work, counters[0], counters[1], ctx.krylov - kr0,
+        record(point, diss, work, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
                opts.tangent == "every" or (opts.tangent == "ends" and last))
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
         arr["tangent"][-1] = _relaxed_tangent(point, ctx.prec, opts.krylov_max)
     return PackingResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"], arr["sl"],
                          arr["op"], arr["diss"], arr["work"], arr["stored"], arr["sub"].astype(int),
-                         arr["it"].astype(int), point, m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
+                         arr["it"].astype(int), cast(Any, point), m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
                          arr["kr"].astype(int), ctx.factorizations,
                          point.notes + ((f"{ctx.accepted} (sub)steps accepted with a residual between rtol = "
                                          f"{opts.rtol:g} and rtol_accept = {opts.rtol_accept:g} (Newton stalled "
@@ -1186,7 +1218,7 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
                              "area; use MindlinDeresiewicz or HertzMindlin with friction > 0")
     amps = np.asarray(amplitudes, dtype=float)
     if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
-        raise ConfigError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
+        raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
     G, D, res = [], [], []
     success, message = True, "done"
     path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
@@ -1237,8 +1269,8 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
     if isinstance(params, LinearSpring):
         prep: Any = LinearSpring(params.kn, 0.0, 0.0)
     else:
-        prep = Hertz(params.shear_modulus, params.poisson, params.radius1, params.radius2,  # type: ignore[attr-defined]
-                     params.shear_modulus2, params.poisson2)  # type: ignore[attr-defined]
+        prep = Hertz(params.shear_modulus, params.poisson, params.radius1, params.radius2,
+                     params.shear_modulus2, params.poisson2)
     opts = options or PackingOptions(max_iter=200, max_depth=0, max_backtracks=30, tangent="none",
                                      max_fluctuation=0.2, max_strain=0.05)
     pt = PackingPoint.from_network(net, prep, forces="overlap", gap=gap, max_unbalanced=math.inf,
@@ -1247,13 +1279,13 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
         path = LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6)))
     else:
         if not (math.isfinite(pressure) and pressure > 0):
-            raise ConfigError("pressure", pressure, "must be a positive stress (compression positive)")
+            raise ParameterError("pressure", pressure, "must be a positive stress (compression positive)")
         path = LoadPath(np.ones((1, 6), bool),
                         (np.array([pressure] * 3 + [0.0] * 3) - pt.stress)[None, :])
     res = _run(pt, path, opts, energy=True)
     if not res.success:
         raise GrainmechError(f"{net.source or 'network'}: equilibration failed: {res.message}")
-    eq = res.final
+    eq = cast(PackingPoint, res.final)
     closed = eq.response.normal_force > 0
     I = eq.grains[eq.kinematics.a[closed]]
     J = eq.grains[eq.kinematics.b[closed]]
@@ -1282,16 +1314,16 @@ def perturbed_fcc_network(n_cells: int, *, radius: float = 1.0, overlap: float =
     from grainmech.network import Box, lattice_network
 
     if not (0 <= vacancies <= 0.3):
-        raise ConfigError("vacancies", vacancies, "must lie in [0, 0.3] (more leaves a loose, floppy network)")
+        raise ParameterError("vacancies", vacancies, "must lie in [0, 0.3] (more leaves a loose, floppy network)")
     if not (0 <= disorder < 0.25 * overlap):
-        raise ConfigError("disorder", disorder, f"must lie in [0, overlap/4 = {0.25 * overlap:g}) so that every "
+        raise ParameterError("disorder", disorder, f"must lie in [0, overlap/4 = {0.25 * overlap:g}) so that every "
                           "lattice contact stays closed")
     base = lattice_network("fcc", int(n_cells), float(radius), float(overlap) * float(radius),
                            shear_modulus=shear_modulus, poisson=poisson)
     rng = np.random.default_rng(seed)
     P = base.n_particles
     pos = base.positions + disorder * radius * rng.normal(size=(P, 3))
-    R = base.radii * (1.0 + disorder * rng.uniform(-1.0, 1.0, P))
+    R = base.require_radii("perturbed_fcc_network") * (1.0 + disorder * rng.uniform(-1.0, 1.0, P))
     box: Box = base.box
     keep = np.ones(P, dtype=bool)
     keep[rng.choice(P, int(round(vacancies * P)), replace=False)] = False
