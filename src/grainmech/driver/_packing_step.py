@@ -1,0 +1,444 @@
+"""Step solver of the packing driver (:mod:`grainmech.driver.packing`).
+
+One (sub)step: Newton-Krylov iterations on every grain's fluctuation and the
+stress-controlled strains, with the consistent contact tangent, right-preconditioned
+GMRES, a per-grain trust limit, a line search, pseudo-transient continuation where Newton
+fails, and step halving. The method and its sources are in ``docs/packing-driver.md``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from grainmech.contact import ContactState, HertzMindlin, LinearSpring, MindlinDeresiewicz, update
+from grainmech.driver._packing_ops import Kinematics, Preconditioner, block_diagonal, contact_tangent, voigt_of
+
+if TYPE_CHECKING:
+    from grainmech.driver.packing import PackingOptions, PackingPoint
+
+
+def _frictional(params: object) -> bool:
+    if isinstance(params, LinearSpring):
+        return params.ks > 0 and params.friction > 0
+    if isinstance(params, (HertzMindlin, MindlinDeresiewicz)):
+        return params.friction > 0
+    return False
+
+
+def _law_kw(backend: str | None) -> dict:
+    return {} if backend is None else {"backend": backend}
+
+
+
+# --------------------------------------------------------------------------- step solver
+
+class _StepFailure(Exception):
+    def __init__(self, cause: str) -> None:
+        super().__init__(cause)
+        self.cause = cause
+
+
+@dataclass
+class _Context:
+    """Per-run solver state: preconditioner and counters."""
+
+    prec: Preconditioner
+    opts: PackingOptions
+    refactor: bool = False
+    factorizations: int = 0
+    krylov: int = 0
+    accepted: int = 0
+    last: tuple | None = None  # (v, S, xq, xe) of the last (sub)step: predictor of the next
+    mu_max: float = 0.0  # largest pseudo-time shift used
+    ptc: int = 0  # Newton iterations that switched to pseudo-transient continuation
+    stiff_ok: bool = True  # the last initial-stiffness try contracted well
+    energy: bool = False  # line search on the potential energy (frictionless laws only)
+
+
+def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
+    """Contact law at the trial increment (from the converged ``point``): state, response, forces."""
+    kin, s = point.kinematics, point.scale
+    D = kin.delta(dq, de)
+    dn = np.einsum("ij,ij->i", D, kin.n)
+    dt = D - dn[:, None] * kin.n
+    if not (np.all(np.isfinite(dn)) and np.all(np.isfinite(dt))):
+        raise _StepFailure("Newton update not finite")
+    try:
+        st, resp = update(point.params, point.state, dn * s, dt * s[:, None], **_law_kw(point.law_backend))
+    except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
+        raise _StepFailure(f"contact law error: {exc}") from None
+    f = resp.normal_force[:, None] * kin.n + resp.tangential_force
+    return st, resp, f
+
+
+def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
+    """Elastic energy (C,) of frictionless contacts [energy].
+
+    Hertz ``(2/5) N alpha`` (seed Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``.
+    """
+    N = resp.normal_force
+    if isinstance(point.params, LinearSpring):
+        return N * N / (2 * point.params.kn)
+    return 0.4 * N * np.maximum(st.approach, 0.0) / point.scale
+
+
+#: pseudo-time shift of the Newton system (Jacobi-scaled: 1 ~ the stiffest grain's own
+#: elastic stiffness): first value after a failed update, growth and shrink factors, floor
+_MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
+#: retries with a larger shift when an update grows the residual more than _PTC_GROWTH times
+_MU_GROWTHS, _PTC_GROWTH = 6, 3.0
+#: an update lowering the residual by less than this factor is a stall
+#: shift of every Newton system: keeps a free grain (no closed contact) where it is
+_MU_FLOOR = 1e-9
+_PTC_STALL = 0.9
+
+
+def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+           counters: list) -> PackingPoint:
+    """Newton-Krylov iterations of one (sub)step with line search; returns the new point."""
+    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    V = point.volume
+    nq, ms = kin.n_free, int(S.sum())
+    fm = np.linalg.norm(point.forces, axis=1)
+    fref = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
+    sref = max(float(np.abs(point.stress).max()), float(np.abs(target[S]).max()) if ms else 0.0)
+    if fref == 0.0 or sref == 0.0:  # unloaded packing: scale from the stiffness and the step
+        est = float(np.abs(prec.A0).max()) / V * max(float(np.abs(de_E).max()), 1e-12)
+        sref = sref or est
+        fref = fref or est * V / max(kin.n_contacts, 1) / float(np.mean(np.linalg.norm(kin.l, axis=1)))
+    Rg = point.radii
+    # trust limit of one update: a grain moves (or its surface turns) by at most half the
+    # mean approach of the closed contacts (not a fraction of the radius: Hertz overlaps
+    # are ~1e-4 R, and a move of 1e-2 R opens or crushes every contact of a grain)
+    # or by twice the affine displacement of the step's largest strain increment over a
+    # mean branch, whichever is larger (the fluctuations of a step are of that order)
+    closed0 = point.state.approach > 0
+    move = 0.5 * float(np.mean(point.state.approach[closed0] / point.scale[closed0])) if closed0.any() \
+        else 0.01 * float(Rg.mean())
+    lmean = float(np.mean(np.linalg.norm(kin.l, axis=1)))
+    de_max = max(float(np.abs(de_E).max()), float(np.abs(np.where(S, target - point.stress, 0.0)).max())
+                 * V / max(float(np.abs(prec.A0).max()), 1e-300))
+    move = max(move, 2.0 * de_max * lmean)
+    tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
+    tole = opts.rtol * sref * V
+    Dq, De = prec.dq, prec.de[S]
+
+    def residual(xq: np.ndarray, xe: np.ndarray):
+        de = de_E.copy()
+        de[S] = xe
+        st, resp, f = _evaluate(point, xq, de)
+        rq = kin.balance(f) if point.load is None else kin.balance(f) - point.load
+        vs = voigt_of(f, kin.l)
+        re = vs[S] - V * target[S]
+        return st, resp, f, rq, re, vs, de
+
+    w0 = _potential(point, point.state, point.response) if ctx.energy else None
+
+    def merit(cur: tuple) -> float:
+        if ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
+            return float(np.sum(_potential(point, cur[0], cur[1]) - w0)) - V * float(np.dot(target[S], cur[6][S]))
+        return rnorm(cur)
+
+    def rnorm(cur: tuple) -> float:
+        return float(np.sqrt(np.sum((Dq * cur[3]) ** 2) + np.sum((De * cur[4]) ** 2)))
+
+    def converged(rq: np.ndarray, re: np.ndarray) -> bool:
+        return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
+
+    def accept(rq: np.ndarray, re: np.ndarray) -> bool:
+        # the out-of-balance forces and moments left make the Love-Weber stress uncertain
+        # by at most sum_p (|F_p| R_p + |M_p|) / V (the stress of a grain out of balance
+        # depends on the point its moments are taken about); accept when that is below
+        # rtol_accept times the stress scale
+        return bool(_stress_ambiguity(kin, rq, Rg) <= opts.rtol_accept * sref * V
+                    and (ms == 0 or np.all(np.abs(re) <= opts.rtol_accept / opts.rtol * tole)))
+
+    def done(cur: tuple, it: int) -> PackingPoint:
+        st, resp, f, rq, re, vs, de = cur
+        new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(xq),
+                      strain=point.strain + de, stress=vs / V, _cache={})
+        counters[0] += 1
+        counters[1] += it - 1
+        counters[2] += float(np.sum(resp.dissipation / point.scale) / V)
+        counters[3] += float(np.dot(0.5 * (point.stress + new.stress), de))
+        ctx.last = (v, S.copy(), xq.copy(), xe.copy())
+        return new
+
+    # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
+    # linear response; a reversal gives factor -1)
+    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
+    xq, xe = np.zeros(nq), np.zeros(ms)
+    fac = 0.0
+    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
+        vl = ctx.last[0]
+        vv = float(np.dot(vl, vl))
+        if vv > 0:
+            fac = float(np.dot(v, vl)) / vv
+            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
+    stiff_first = not ctx.energy and (ctx.stiff_ok or fac < 0)
+    cur = residual(xq, xe)
+    m = merit(cur)
+    # pseudo-transient continuation (Kelley & Keyes 1998): each update solves
+    # (J + mu I) dx = -r in the Jacobi-scaled unknowns. mu = 0 is Newton; a large mu is an
+    # implicit step of overdamped grain dynamics (dx ~ -r / mu), which moves the grains
+    # along their out-of-balance forces as a quasi-static DEM relaxation does and stays
+    # bounded on a mechanism (a grain rolling or sliding on its neighbours, whose Newton
+    # step is singular). mu grows when an update fails to lower the residual (a branch of
+    # the contact law switching: a reversal, a contact reaching or leaving the Coulomb
+    # limit) and shrinks after each success, so Newton's convergence comes back.
+    mu = 0.0
+    dbg = _debug()
+    jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
+    for it in range(1, opts.max_iter + 1):
+        st, resp, f, rq, re, vs, de = cur
+        if dbg:
+            dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
+                f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
+        if converged(rq, re):
+            return done(cur, it)
+        if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
+            dxq, dxe = prec.apply(-rq, -re, S)
+            trial = residual(xq + dxq, xe + dxe)
+            mt = merit(trial)
+            if mt <= 0.1 * m or converged(trial[3], trial[4]):
+                xq, xe, cur, m = xq + dxq, xe + dxe, trial, mt
+                ctx.stiff_ok = True
+                continue
+            stiff_first = ctx.stiff_ok = False  # poor contraction: consistent-tangent Newton
+        # consistent tangent of the trial state
+        r_s = point.scale
+        closed = ~np.asarray(resp.open, bool)
+        ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
+        if jenkins:
+            ksp = ksp * _slip_rotation(point, resp, kin, xq, de)
+        K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
+                            ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
+        Kb = block_diagonal(K)
+        if mu == 0.0:  # Newton with a backtracking line search
+            dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
+            # trust limit (see `move` above) on each grain by itself: a grain on a
+            # mechanism (free, rolling or sliding away) must not cut the others' update
+            lam = 1.0
+            if not ctx.energy:
+                dxq = _clip(kin, dxq, Rg, move)
+                dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+            else:
+                lam = 1.0 / _trust(kin, dxq, dxe, S, move)
+            ok = False
+            for _nb in range(opts.max_backtracks + 1):
+                trial = residual(xq + lam * dxq, xe + lam * dxe)
+                mt = merit(trial)
+                if ctx.energy:
+                    ok = mt <= m + 1e-4 * lam * slope or (mt <= m and rnorm(trial) <= (1.0 - 1e-4 * lam) * rnorm(cur))
+                else:
+                    ok = m - mt >= 1e-4 * lam * pred > 0
+                ok = ok or converged(trial[3], trial[4])
+                if dbg:
+                    dbg(f"   newton lam {lam:.3g} decrease {1 - mt / m:.3e} predicted {pred / m:.3e} krylov {kr}")
+                if ok:
+                    break
+                lam *= 0.5
+            if not ok:
+                if accept(rq, re):  # stalled at a kink of the law, already below rtol_accept
+                    ctx.accepted += 1
+                    return done(cur, it)
+                if ctx.energy:
+                    sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
+                    raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
+                                       f"{rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
+                                       f"{int(closed.sum())} closed)")
+                if kr > opts.refactor_after:  # the elastic operator is stale: refactor at this state
+                    ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
+                    ctx.prec = prec = Preconditioner(
+                        kin, contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, ksp, ksp,
+                                             np.zeros_like(ksp), resp.axis), opts.factorization)
+                    ctx.factorizations += 1
+                    Dq, De = prec.dq, prec.de[S]
+                    m = merit(cur)
+                mu = _MU_FIRST  # switch to pseudo-transient continuation
+                ctx.ptc += 1
+        if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
+            for _grow in range(_MU_GROWTHS + 1):
+                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx)
+                # each grain's move clipped to the trust limit by itself: a grain on a
+                # mechanism (sliding away, squeezed out) must not stall the others
+                dxq = _clip(kin, dxq, Rg, move)
+                dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+                lam = 1.0
+                try:
+                    trial = residual(xq + dxq, xe + dxe)
+                except _StepFailure:  # the law refuses the update (e.g. its memory is full): shorter
+                    mu *= _MU_GROW
+                    continue
+                mt = merit(trial)
+                if dbg:
+                    dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr}")
+                if mt <= _PTC_GROWTH * m:
+                    break
+                if accept(rq, re):
+                    ctx.accepted += 1
+                    return done(cur, it)
+                mu *= _MU_GROW
+            else:
+                raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
+                                   f"{rnorm(cur):.3g}, shift {mu:.3g}; "
+                                   f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
+                                   f"{int(closed.sum())} closed contacts sliding)")
+            if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
+                ctx.accepted += 1
+                return done(cur, it)
+            # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
+            mu = mu * mt / m
+            mu = 0.0 if mu < _MU_NEWTON else min(mu, _MU_MAX)
+            ctx.mu_max = max(ctx.mu_max, mu)
+        xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
+    rq, re = cur[3], cur[4]
+    if accept(rq, re):
+        ctx.accepted += 1
+        return done(cur, opts.max_iter + 1)
+    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (largest force residual "
+                       f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
+
+
+def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
+               shift: float, m: float, opts: PackingOptions, ctx: _Context) -> tuple:
+    """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
+
+    ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)
+    and ``r = (rq, re)`` the residual. Right preconditioning by the factorised elastic
+    operator: GMRES minimises the true (scaled) residual of the linear model, not the
+    preconditioned one, which the near-singular directions of the elastic operator
+    (mechanisms: grains that roll or slide freely) would dominate.
+
+    Returns
+    -------
+    (dxq, dxe, slope, pred, krylov) : the update, ``r . dx``, the decrease of the scaled
+    residual norm the linear model predicts (from ``m``), GMRES iterations.
+    """
+    import scipy.sparse.linalg as spla
+
+    Dq, De = prec.dq, prec.de[S]
+    nq, n = Dq.size, Dq.size + De.size
+    rhs = -np.concatenate([Dq * rq, De * re])
+
+    def matvec(y: np.ndarray) -> np.ndarray:
+        vq = Dq * y[:nq]
+        d6 = np.zeros(6)
+        d6[S] = De * y[nq:]
+        df = Kb @ kin.delta(vq, d6).reshape(-1)
+        return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
+
+    def psolve(z: np.ndarray) -> np.ndarray:
+        yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
+        return np.concatenate([yq / Dq, ye / De])
+
+    count = [0]
+
+    def cb(_r: Any) -> None:
+        count[0] += 1
+
+    z, _info = spla.gmres(spla.LinearOperator((n, n), matvec=lambda v: matvec(psolve(v)), dtype=float),
+                          rhs, rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
+                          callback=cb, callback_type="pr_norm")
+    y = psolve(z)
+    ctx.krylov += count[0]
+    if not np.all(np.isfinite(y)):
+        raise _StepFailure("linear solve not finite")
+    dxq, dxe = Dq * y[:nq], De * y[nq:]
+    slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
+    if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
+        dxq, dxe = prec.apply(-rq, -re, S)
+        slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
+    pred = m - float(np.linalg.norm(matvec(y) - shift * y - rhs)) if not ctx.energy else 0.0
+    return dxq, dxe, slope, pred, count[0]
+
+
+def _trust(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
+    """Factor (>= 1) by which an update's largest contact displacement exceeds ``move``.
+
+    ``move`` [length] is the trust limit; the update is ``(dxq, dxe)``.
+
+    Measured on the contacts, not on the grains: a grain rolling on its neighbours (a
+    mechanism) may move far without loading any contact, and is bounded by the
+    small-strain check of the step instead.
+    """
+    d6 = np.zeros(6)
+    d6[S] = dxe
+    d = kin.delta(dxq, d6)
+    return max(float(np.max(np.linalg.norm(d, axis=1), initial=0.0)) / move, 1.0)
+
+
+def _slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarray, de: np.ndarray) -> np.ndarray:
+    """Factor (C,) of the across-slip stiffness of a Coulomb-capped spring at the trial.
+
+    A sliding contact of a spring with a Coulomb cap (``HertzMindlin``, ``LinearSpring``:
+    radial return ``T = mu N T_trial / |T_trial|`` with ``T_trial = T_0 + k_t d_delta``)
+    turns its force with the slip direction: across it the consistent stiffness is
+    ``k_t mu N / |T_trial|`` (Simo & Hughes 1998, Sect. 2.3 for the radial return), not
+    ``k_t``. 1 for a contact that sticks. ``T_trial`` is estimated with the end-of-step
+    ``k_t`` (exact when the normal force does not grow); only the Newton matrix uses it.
+    """
+    sl = np.asarray(resp.sliding, bool) & ~np.asarray(resp.open, bool)
+    if not sl.any():
+        return np.ones(kin.n_contacts)
+    d = kin.delta(xq, de)
+    dt = d - np.einsum("ij,ij->i", d, kin.n)[:, None] * kin.n
+    trial = point.response.tangential_force + (resp.ks_perp * point.scale)[:, None] * dt
+    tn = np.linalg.norm(trial, axis=1)
+    cap = np.linalg.norm(resp.tangential_force, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(sl & (tn > cap), cap / np.where(tn > 0, tn, 1.0), 1.0)
+    return f
+
+
+def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
+    """``sum_p (|F_p| R_p + |M_p|)`` [force length] of out-of-balance forces and moments ``rq``."""
+    g = kin.full(rq)
+    return float(np.sum(np.linalg.norm(g[:, :3], axis=1) * R + np.linalg.norm(g[:, 3:], axis=1)))
+
+
+def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.ndarray:
+    """Grain update ``dxq`` (n_free,) with each grain's move clipped to ``move`` [length].
+
+    A grain's translation and surface rotation ``R |theta|`` are scaled down together.
+    """
+    mv = kin.full(dxq)
+    big = np.maximum(np.linalg.norm(mv[:, :3], axis=1), R * np.linalg.norm(mv[:, 3:], axis=1))
+    c = move / np.maximum(big, move)
+    return (mv * c[:, None]).reshape(-1)[kin.free]
+
+
+def _debug() -> Callable[[str], None] | None:
+    """Trace printer of the step solver when ``GRAINMECH_PACKING_TRACE`` is set."""
+    import os
+    import sys
+
+    if not os.environ.get("GRAINMECH_PACKING_TRACE"):
+        return None
+    return lambda msg: print(f"[packing] {msg}", file=sys.stderr)
+
+
+def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+                depth: int, ctx: _Context, counters: list) -> PackingPoint:
+    """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure."""
+    try:
+        return _solve(point, S, de_E, t1, ctx, counters)
+    except _StepFailure as exc:
+        err = exc
+    if depth == 0 and ctx.refactor is False:  # maybe a stale preconditioner: refactor once
+        ctx.prec = point.preconditioner()
+        ctx.factorizations += 1
+        try:
+            return _solve(point, S, de_E, t1, ctx, counters)
+        except _StepFailure as exc:
+            err = exc
+    if depth >= ctx.opts.max_depth:
+        raise _StepFailure(f"{err.cause} (after {ctx.opts.max_depth} halvings)")
+    tm = 0.5 * (t0 + t1)
+    mid = _subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters)
+    return _subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters)
