@@ -103,6 +103,7 @@ __all__ = [
     "compiled_kernel",
 ]
 from grainmech.contact.hysteresis import (_EPS, _GL_W, _GL_X, _MERGE_TOL, _REV_TOL, _LawOut,  # noqa: F401
+                                          axis_tangent,
                                           _g_series, _h_series, _md_update, _secant_kt)
 from grainmech.contact.state import (ContactResponse, ContactState, _dot, _empty_state, _norm,  # noqa: F401
                                      initial_state, law_kind, max_reversals, reversal_forces,
@@ -235,9 +236,13 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         out = _jenkins_update(params, T0, N0_eff, N1, a0_eff, alpha1, dt_eff)
     else:
         out = _frictionless_update(params, T0, N1)
-    T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn = out
+    T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn = out[:10]
 
     kn = law_forms(params).kn(N1)
+    if len(out) > 10:  # the hysteretic law's step tangent
+        t_delta, t_alpha = out[10] * frac[:, None, None], out[11]
+    else:
+        t_delta, t_alpha = axis_tangent(e1, ks, ks_perp, ktn * kn)
     new_state = ContactState(
         approach=alpha1,
         normal_force=N1,
@@ -260,6 +265,8 @@ def update(params: object, state: ContactState, d_normal: ArrayLike, d_tangentia
         sliding=slide,
         open=~closed1,
         dissipation=diss,
+        t_delta=t_delta,
+        t_alpha=t_alpha,
     )
     return new_state, resp
 
@@ -360,7 +367,8 @@ def _update_compiled(kernel: object, params: object, state: ContactState, T0: np
                              out.direction, out.depth, out.reversals, out.sliding,
                              st.dissipated_energy + out.dissipation)
     resp = ContactResponse(out.normal_force, out.tangential_force, out.kn, out.ks, out.ks_perp,
-                           out.ktn, out.axis, out.sliding, out.open, out.dissipation)
+                           out.ktn, out.axis, out.sliding, out.open, out.dissipation, out.t_delta,
+                           out.t_alpha)
     return new_state, resp
 
 

@@ -113,7 +113,7 @@ def _make(parallel: bool):
             st_in = KernelState(a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in)
             inc = KernelIncrement(dn, dt, N1, rad0, rad1)
             res = KernelOutput(a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
-                               ksp_out, ktn_out, kn_out, op_out)
+                               ksp_out, ktn_out, kn_out, op_out, np.empty((c, 3, 3)), np.empty((c, 3)))
             scratch = KernelScratch(tp, dp, flags)
             any_rows = False
             for q in range(6):
