@@ -40,6 +40,7 @@ from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius,
                                         mindlin_kt0, spring_energy)
 from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
                                       KernelState, rows)
+from grainmech.driver._mixed import add_step_jacobian
 
 __all__ = ["strain_path"]
 
@@ -104,16 +105,16 @@ def _make(parallel: bool):
             dp = np.empty((c, 3))
             flags = np.zeros(c, dtype=np.int8)
             a = np.zeros(27)
-            B = np.zeros((3, 6))
-            u = np.empty(6)
-            v = np.empty(6)
-            jac = np.zeros((6, 6))
+            jac = np.zeros(36)
+            allc = np.ones(6, dtype=np.bool_)
+            td_out = np.empty((c, 3, 3))
+            ta_out = np.empty((c, 3))
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
             st_in = KernelState(a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in)
             inc = KernelIncrement(dn, dt, N1, rad0, rad1)
             res = KernelOutput(a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
-                               ksp_out, ktn_out, kn_out, op_out, np.empty((c, 3, 3)), np.empty((c, 3)))
+                               ksp_out, ktn_out, kn_out, op_out, td_out, ta_out)
             scratch = KernelScratch(tp, dp, flags)
             any_rows = False
             for q in range(6):
@@ -164,9 +165,8 @@ def _make(parallel: bool):
                     break
                 for q in range(27):
                     a[q] = 0.0
-                for q in range(6):
-                    for q2 in range(6):
-                        jac[q, q2] = 0.0
+                for q in range(36):
+                    jac[q] = 0.0
                 sxx = 0.0
                 syy = 0.0
                 szz = 0.0
@@ -217,35 +217,9 @@ def _make(parallel: bool):
                         kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
                     wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
                     if any_rows:
-                        # consistent contact tangent (Newton only): K = ksp I + (kn - ksp) n n
-                        # + (ks - ksp) e e + ktn e n (law.py: ks along the memory axis e, ks_perp
-                        # across, ktn = d tau / d alpha); C = sum w B^T K B, delta = B d eps
-                        B[0, 0] = lx
-                        B[1, 1] = ly
-                        B[2, 2] = lz
-                        B[1, 3] = 0.5 * lz
-                        B[2, 3] = 0.5 * ly
-                        B[0, 4] = 0.5 * lz
-                        B[2, 4] = 0.5 * lx
-                        B[0, 5] = 0.5 * ly
-                        B[1, 5] = 0.5 * lx
-                        ex = e_out[j, 0]
-                        ey = e_out[j, 1]
-                        ez = e_out[j, 2]
-                        for q in range(6):
-                            u[q] = B[0, q] * nx + B[1, q] * ny + B[2, q] * nz
-                            v[q] = B[0, q] * ex + B[1, q] * ey + B[2, q] * ez
-                        ksp = ksp_out[j] if ksp_out[j] > 0.0 else 0.0
-                        c_n = w * (knj - ksp)
-                        c_e = w * (ksj - ksp)
-                        c_p = w * ksp
-                        c_c = w * ktn_out[j]
-                        for q in range(6):
-                            if jrows[q]:
-                                for q2 in range(6):
-                                    btb = B[0, q] * B[0, q2] + B[1, q] * B[1, q2] + B[2, q] * B[2, q2]
-                                    jac[q, q2] += (c_p * btb + c_n * u[q] * u[q2] + c_e * v[q] * v[q2]
-                                                   + c_c * v[q] * u[q2])
+                        # consistent (step) tangent of the law for Newton: jacobian rows
+                        add_step_jacobian(jac, 0, jrows, allc, w, kn_out[j], ta_out, td_out, j,
+                                          nx, ny, nz, lx, ly, lz)
                 stress_c[ch, s, 0] = sxx
                 stress_c[ch, s, 1] = syy
                 stress_c[ch, s, 2] = szz
@@ -261,7 +235,7 @@ def _make(parallel: bool):
                 if any_rows:
                     for q in range(6):
                         for q2 in range(6):
-                            jac_c[ch, s, q, q2] = jac[q, q2]
+                            jac_c[ch, s, q, q2] = jac[6 * q + q2]
                 # accept the step: out -> in
                 for j in range(c):
                     a_in[j] = a_out[j]
@@ -305,8 +279,8 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     d_strain : (m, 6) strain increments (engineering shear, library order)
     jacobian_rows : (6,) bool, optional
         Rows of the consistent (non-symmetric) tangent ``sum w B^T K B`` to assemble at
-        each step, ``K`` the full contact tangent with the slip-axis stiffness, the
-        cross-axis stiffness and the normal-tangential coupling of the law (for Newton).
+        each step, ``K`` the law's step tangent (``ContactResponse.t_delta``,
+        ``t_alpha``; :func:`grainmech.driver._mixed.add_step_jacobian`) (for Newton).
 
     Returns
     -------
