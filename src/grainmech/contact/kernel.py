@@ -875,7 +875,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             drr = 0.0
         else:
             dkbar = dkt1
-            drr = dkt1 / kt01 if ((kt00 > 0.0) and (kt01 < kt00)) else 0.0  # (d rho / d a1) / rho
+            drr = dkt1 / kt01 if ((kt00 > 0.0) and (kt01 < kt00) and (kt01 > 0.0)) else 0.0  # (d rho / d a1) / rho
 
         # along the axis: the 1D Mindlin-Deresiewicz / Thornton-Randall law
         elastic = False

@@ -138,11 +138,23 @@ def _make(parallel: bool):
         exz = 0.5 * de[4]
         exy = 0.5 * de[5]
         bad_c = np.full(nch, -1, dtype=np.int64)
+        # arrays as plain values into the (parallel) loop: writes through a named tuple's
+        # fields inside a prange are lost; the tuples are rebuilt inside
+        i_dn, i_dt, i_N1, i_rad0, i_rad1 = inc
+        s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en = st
+        (o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op, o_td,
+         o_ta) = out
+        c_tp, c_dp, c_fl = scratch
         for ch in rng(nch):
             lo = ch * _CH
             hi = min(n, lo + _CH)
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
+            st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
+            inc_c = KernelIncrement(i_dn, i_dt, i_N1, i_rad0, i_rad1)
+            out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op,
+                                 o_td, o_ta)
+            scr_c = KernelScratch(c_tp, c_dp, c_fl)
             for i in range(lo, hi):
                 lx = branch[i, 0]
                 ly = branch[i, 1]
@@ -155,77 +167,76 @@ def _make(parallel: bool):
                 dy = exy * lx + eyy * ly + eyz * lz
                 dz = exz * lx + eyz * ly + ezz * lz
                 d_n = dx * nx + dy * ny + dz * nz
-                inc.d_normal[i] = d_n
-                inc.d_tangential[i, 0] = dx - d_n * nx
-                inc.d_tangential[i, 1] = dy - d_n * ny
-                inc.d_tangential[i, 2] = dz - d_n * nz
-                a0 = st.approach[i]
+                i_dn[i] = d_n
+                i_dt[i, 0] = dx - d_n * nx
+                i_dt[i, 1] = dy - d_n * ny
+                i_dt[i, 2] = dz - d_n * nz
+                a0 = s_a[i]
                 a1 = a0 + d_n
                 ap = a1 if a1 > 0.0 else 0.0
                 if linear:
-                    inc.N1[i] = kn_lin * ap
-                    inc.rad0[i] = inc.N1[i]
-                    inc.rad1[i] = inc.N1[i]
+                    i_N1[i] = kn_lin * ap
+                    i_rad0[i] = i_N1[i]
+                    i_rad1[i] = i_N1[i]
                 else:
-                    inc.N1[i] = hertz_force(ap, E, R)                           # seed Eq. 3.6
-                    N0 = st.normal_force[i]
+                    i_N1[i] = hertz_force(ap, E, R)                           # seed Eq. 3.6
+                    N0 = s_N[i]
                     Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
-                    inc.rad0[i] = hertz_radius(Nc, E, R)                        # seed Eq. 3.2
-                    inc.rad1[i] = hertz_radius(inc.N1[i], E, R)
-                scratch.flags[i] = 0
-            rows(lo, hi, kcc, st, inc, out, scratch)
+                    i_rad0[i] = hertz_radius(Nc, E, R)                        # seed Eq. 3.2
+                    i_rad1[i] = hertz_radius(i_N1[i], E, R)
+                c_fl[i] = 0
+            rows(lo, hi, kcc, st_c, inc_c, out_c, scr_c)
             for i in range(lo, hi):
-                if scratch.flags[i] != 0 and bad_c[ch] < 0:
+                if c_fl[i] != 0 and bad_c[ch] < 0:
                     bad_c[ch] = i
             for q in range(_NP):
                 part[ch, q] = 0.0
-            if bad_c[ch] >= 0:
-                continue
-            sxx = 0.0
-            syy = 0.0
-            szz = 0.0
-            syz = 0.0
-            sxz = 0.0
-            sxy = 0.0
-            wsl = 0.0
-            wop = 0.0
-            wdi = 0.0
-            for i in range(lo, hi):
-                w = weights[i]
-                nx = normals[i, 0]
-                ny = normals[i, 1]
-                nz = normals[i, 2]
-                lx = branch[i, 0]
-                ly = branch[i, 1]
-                lz = branch[i, 2]
-                Ni = out.normal_force[i]
-                fx = (Ni * nx + out.tangential_force[i, 0]) * w
-                fy = (Ni * ny + out.tangential_force[i, 1]) * w
-                fz = (Ni * nz + out.tangential_force[i, 2]) * w
-                # Love-Weber, symmetric part (seed Eq. 2.6)
-                sxx += fx * lx
-                syy += fy * ly
-                szz += fz * lz
-                syz += 0.5 * (fy * lz + fz * ly)
-                sxz += 0.5 * (fx * lz + fz * lx)
-                sxy += 0.5 * (fx * ly + fy * lx)
-                if out.sliding[i]:
-                    wsl += w
-                if out.open[i]:
-                    wop += w
-                wdi += w * out.dissipation[i]
-                # Jacobian rows/columns sc: B^T K B with the law's step tangent
-                add_step_jacobian(part[ch], 6, sc, sc, w, out.kn[i], out.t_alpha, out.t_delta, i,
-                                  nx, ny, nz, lx, ly, lz)
-            part[ch, 0] = sxx
-            part[ch, 1] = syy
-            part[ch, 2] = szz
-            part[ch, 3] = syz
-            part[ch, 4] = sxz
-            part[ch, 5] = sxy
-            part[ch, 42] = wsl
-            part[ch, 43] = wop
-            part[ch, 44] = wdi
+            if bad_c[ch] < 0:
+                sxx = 0.0
+                syy = 0.0
+                szz = 0.0
+                syz = 0.0
+                sxz = 0.0
+                sxy = 0.0
+                wsl = 0.0
+                wop = 0.0
+                wdi = 0.0
+                for i in range(lo, hi):
+                    w = weights[i]
+                    nx = normals[i, 0]
+                    ny = normals[i, 1]
+                    nz = normals[i, 2]
+                    lx = branch[i, 0]
+                    ly = branch[i, 1]
+                    lz = branch[i, 2]
+                    Ni = o_N[i]
+                    fx = (Ni * nx + o_T[i, 0]) * w
+                    fy = (Ni * ny + o_T[i, 1]) * w
+                    fz = (Ni * nz + o_T[i, 2]) * w
+                    # Love-Weber, symmetric part (seed Eq. 2.6)
+                    sxx += fx * lx
+                    syy += fy * ly
+                    szz += fz * lz
+                    syz += 0.5 * (fy * lz + fz * ly)
+                    sxz += 0.5 * (fx * lz + fz * lx)
+                    sxy += 0.5 * (fx * ly + fy * lx)
+                    if o_sl[i]:
+                        wsl += w
+                    if o_op[i]:
+                        wop += w
+                    wdi += w * o_di[i]
+                    # Jacobian rows/columns sc: B^T K B with the law's step tangent
+                    add_step_jacobian(part[ch], 6, sc, sc, w, o_kn[i], o_ta, o_td, i,
+                                      nx, ny, nz, lx, ly, lz)
+                part[ch, 0] = sxx
+                part[ch, 1] = syy
+                part[ch, 2] = szz
+                part[ch, 3] = syz
+                part[ch, 4] = sxz
+                part[ch, 5] = sxy
+                part[ch, 42] = wsl
+                part[ch, 43] = wop
+                part[ch, 44] = wdi
         for ch in range(nch):
             if bad_c[ch] >= 0:
                 return bad_c[ch]
@@ -472,7 +483,12 @@ def _make(parallel: bool):
                         r[a] = sig[idx[a]] - target[idx[a]]
                         for b in range(ns):
                             J[a, b] = jac[idx[a], idx[b]]
-                    cond = np.linalg.cond(J)
+                    jfin = True
+                    for a in range(ns):
+                        for b in range(ns):
+                            if not math.isfinite(J[a, b]):
+                                jfin = False
+                    cond = np.linalg.cond(J) if jfin else np.nan
                     if not math.isfinite(cond) or cond > 1e13:
                         cause = FAIL_SINGULAR
                         finfo[0] = cond
@@ -578,11 +594,11 @@ def _make(parallel: bool):
         info[5] = n_loose
         return m
 
-    return njit(cache=True, error_model="numpy")(_segment)
+    return njit(cache=True, error_model="numpy")(_segment), evaluate
 
 
-_segment_serial = _make(False)
-_segment_parallel = _make(True)
+_segment_serial, _evaluate_serial = _make(False)
+_segment_parallel, _evaluate_parallel = _make(True)
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,
