@@ -59,7 +59,7 @@ def _make(parallel: bool):
     def _strain_path_body(kc, normals, branch, weights, dstrain, jrows,
                             alpha, N, T, e, direction, depth, P, energy,
                             stress_c, mom_c, scal_c, jac_c,
-                            f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail):
+                            f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta, fail):
         # the state arrays (alpha ... energy) are advanced in place; f_* receive the
         # response of the last step
         n = alpha.shape[0]
@@ -107,8 +107,8 @@ def _make(parallel: bool):
             a = np.zeros(27)
             jac = np.zeros(36)
             allc = np.ones(6, dtype=np.bool_)
-            td_out = np.empty((c, 3, 3))
-            ta_out = np.empty((c, 3))
+            td_out = f_td[lo:hi]
+            ta_out = f_ta[lo:hi]
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
             st_in = KernelState(a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in)
@@ -315,6 +315,8 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     f_diss, f_ks, f_ksp, f_ktn, f_kn = (np.empty(n) for _ in range(5))
     f_slide = np.empty(n, dtype=np.bool_)
     f_open = np.empty(n, dtype=np.bool_)
+    f_td = np.empty((n, 3, 3))
+    f_ta = np.empty((n, 3))
     fail = np.full(nch, -1, dtype=np.int64)
     jrows = np.zeros(6, dtype=np.bool_) if jacobian_rows is None else np.ascontiguousarray(jacobian_rows, dtype=np.bool_)
     jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
@@ -322,7 +324,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
                         state.approach, state.normal_force, state.tangential_force, state.axis,
                         state.direction, state.depth, state.reversals, state.dissipated_energy,
                         stress_c, mom_c, scal_c, jac_c,
-                        f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail)
+                        f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta, fail)
     if np.any(fail >= 0):
         return None
     stress = stress_c.sum(axis=0)
@@ -333,7 +335,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
     state = state._replace(sliding=f_slide)
     response = ContactResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_ksp, f_ktn,
-                               state.axis, f_slide, f_open, f_diss)
+                               state.axis, f_slide, f_open, f_diss, f_td, f_ta)
     jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
     return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}
