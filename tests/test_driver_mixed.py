@@ -95,6 +95,17 @@ def test_step_tangent_equals_finite_differences_of_the_numpy_law():
         Jfd[:, j] = (evaluate(p, de + e).stress - evaluate(p, de - e).stress) / (2 * h)
     assert (p.state.depth > 0).any() and (ev.state.normal_force < p.state.normal_force).any()
     assert np.abs(J - Jfd).max() <= 1e-6 * np.abs(Jfd).max()
+    # the compiled law returns the same step tangent, contact by contact
+    from grainmech.contact.interface import make_law
+    from grainmech.conventions import vector_to_strain
+
+    delta = p.contacts.branch @ vector_to_strain(de)
+    dn = np.einsum("ci,ci->c", delta, p.contacts.normals)
+    dt = delta - dn[:, None] * p.contacts.normals
+    _, rc = make_law(LAW, backend="auto").update(p.state, dn, dt)
+    kmax = np.abs(ev.response.kn).max()
+    assert np.abs(rc.t_delta - ev.response.t_delta).max() <= 1e-12 * kmax
+    assert np.abs(rc.t_alpha - ev.response.t_alpha).max() <= 1e-12 * kmax
     # the continuum form (ks, ks_perp, ktn along the new axis) is measurably off
     old = consistent_tangent(p.contacts, ev.response._replace(t_delta=None, t_alpha=None))
     assert np.abs(old - Jfd).max() > 1e2 * np.abs(J - Jfd).max()

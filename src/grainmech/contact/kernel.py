@@ -897,11 +897,14 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         # secant's derivative, or s mu (1 - theta) kn (Thornton-Randall coupling, exact
         # for spheres after a rise or a fall of N); across e kbar (tau/|d| for an axis
         # just taken from the motion), d T_perp/d a1 from kbar(a1) and rho(a1)
+        tha_ok = False  # tha is theta of the end state (reused below while tau, s, k hold)
+        tha = 0.0
         if mu > 0.0:
             if elastic:
                 a_e = kbar
                 a_n = d_par * dkbar
             else:
+                tha_ok = True
                 Qa = muN1 - s * tau
                 Pa = _top(P1, i, k, 1)
                 ca = 2.0 if k > 0 else 1.0
@@ -930,6 +933,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             T1[i, c] = tau * e1[i, c] + tp[i, c]
         t1n = math.sqrt(_dot_rows(T1, i, T1, i))
         if closed1 and (t1n > muN1 * (1.0 + 1e-12)):
+            tha_ok = False
             # radial return T = mu N1 t / |t|: dT = mu dN t + (mu N1/|t|) (I - t t) dT_trial
             _cap_tangent(i, T1, t1n, muN1, mu * kn, tdel, talp)
             scale = muN1 / t1n if t1n > 0.0 else muN1
@@ -947,6 +951,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 
         # a force below the resolution of the Q formulation, without memory: virgin contact
         if closed1 and (k == 0) and (t1n <= 1e-14 * muN1):
+            tha_ok = False
             for c in range(dim):
                 T1[i, c] = 0.0
                 tp[i, c] = 0.0
@@ -956,6 +961,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 
         # no reversal remembered: the memory axis follows the force
         if closed1 and (k == 0) and (_dot_rows(tp, i, tp, i) > 0.0):
+            tha_ok = False
             t1n = math.sqrt(_dot_rows(T1, i, T1, i))
             sg = -1.0 if _dot_rows(T1, i, e1, i) < 0.0 else 1.0
             for c in range(dim):
@@ -968,6 +974,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         # the virgin branch is symmetric: s points away from zero force
         if (k == 0) and (s * tau < 0.0):
             s = -s
+            tha_ok = False
 
         # opened contacts lose force and memory
         if not closed1:
@@ -989,6 +996,8 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             theta = 0.0
         elif elastic:
             theta = 1.0
+        elif tha_ok:
+            theta = tha
         else:
             theta = _pow_p(y, p, kc.sph)
         s1o[i] = s

@@ -201,6 +201,7 @@ def _make(parallel: bool):
                 wsl = 0.0
                 wop = 0.0
                 wdi = 0.0
+                prow = part[ch]
                 for i in range(lo, hi):
                     w = weights[i]
                     nx = normals[i, 0]
@@ -226,7 +227,7 @@ def _make(parallel: bool):
                         wop += w
                     wdi += w * o_di[i]
                     # Jacobian rows/columns sc: B^T K B with the law's step tangent
-                    add_step_jacobian(part[ch], 6, sc, sc, w, o_kn[i], o_ta, o_td, i,
+                    add_step_jacobian(prow, 6, sc, sc, w, o_kn[i], o_ta, o_td, i,
                                       nx, ny, nz, lx, ly, lz)
                 part[ch, 0] = sxx
                 part[ch, 1] = syy
