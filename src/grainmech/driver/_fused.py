@@ -36,11 +36,9 @@ import numpy as np
 from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
-from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius, hertz_radius_from_approach,
-                                        mindlin_kt0, spring_energy)
 from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
                                       KernelState, rows)
-from grainmech.driver._mixed import add_step_jacobian
+from grainmech.driver._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
 
 __all__ = ["strain_path"]
 
@@ -129,32 +127,9 @@ def _make(parallel: bool):
                 exy = 0.5 * dstrain[s, 5]
                 for j in range(c):
                     i = lo + j
-                    lx = branch[i, 0]
-                    ly = branch[i, 1]
-                    lz = branch[i, 2]
-                    nx = normals[i, 0]
-                    ny = normals[i, 1]
-                    nz = normals[i, 2]
-                    # seed Eq. 2.13: delta = d eps . l, split along and across n
-                    dx = exx * lx + exy * ly + exz * lz
-                    dy = exy * lx + eyy * ly + eyz * lz
-                    dz = exz * lx + eyz * ly + ezz * lz
-                    d_n = dx * nx + dy * ny + dz * nz
-                    dn[j] = d_n
-                    dt[j, 0] = dx - d_n * nx
-                    dt[j, 1] = dy - d_n * ny
-                    dt[j, 2] = dz - d_n * nz
-                    a1 = a_in[j] + d_n
-                    ap = a1 if a1 > 0.0 else 0.0
-                    if linear:
-                        N1[j] = kn_lin * ap
-                        rad0[j] = N1[j]
-                        rad1[j] = N1[j]
-                    else:
-                        N1[j] = hertz_force(ap, E, R)                    # seed Eq. 3.6
-                        Nc = N_in[j] if (a_in[j] > 0.0 and N_in[j] > 0.0) else 0.0
-                        rad0[j] = hertz_radius(Nc, E, R)                 # seed Eq. 3.2
-                        rad1[j] = hertz_radius(N1[j], E, R)
+                    dn[j], dt[j, 0], dt[j, 1], dt[j, 2], N1[j], rad0[j], rad1[j] = contact_increment(
+                        exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1], normals[i, 2],
+                        branch[i, 0], branch[i, 1], branch[i, 2], a_in[j], N_in[j], linear, kn_lin, E, R)
                 rows(0, c, kcc, st_in, inc, res, scratch)
                 bad = False
                 for j in range(c):
@@ -187,16 +162,14 @@ def _make(parallel: bool):
                     ly = branch[i, 1]
                     lz = branch[i, 2]
                     Nj = N_out[j]
-                    fx = (Nj * nx + T_out[j, 0]) * w
-                    fy = (Nj * ny + T_out[j, 1]) * w
-                    fz = (Nj * nz + T_out[j, 2]) * w
-                    # Love-Weber, symmetric part (seed Eq. 2.6)
-                    sxx += fx * lx
-                    syy += fy * ly
-                    szz += fz * lz
-                    syz += 0.5 * (fy * lz + fz * ly)
-                    sxz += 0.5 * (fx * lz + fz * lx)
-                    sxy += 0.5 * (fx * ly + fy * lx)
+                    t0, t1, t2, t3, t4, t5 = love_weber_terms(Nj, T_out[j, 0], T_out[j, 1], T_out[j, 2], w,
+                                                              nx, ny, nz, lx, ly, lz)
+                    sxx += t0
+                    syy += t1
+                    szz += t2
+                    syz += t3
+                    sxz += t4
+                    sxy += t5
                     knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
                     ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
                     cs = w * ksj
@@ -207,15 +180,8 @@ def _make(parallel: bool):
                         wop += w
                     wdi += w * diss_out[j]
                     # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
-                    ap = a_out[j] if a_out[j] > 0.0 else 0.0
-                    T2 = T_out[j, 0] ** 2 + T_out[j, 1] ** 2 + T_out[j, 2] ** 2
-                    if linear:
-                        en_n = spring_energy(Nj, ap)
-                        kt0 = ks_lin if Nj > 0.0 else 0.0
-                    else:
-                        en_n = hertz_energy(Nj, ap)
-                        kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
-                    wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
+                    wst += w * stored_energy_term(Nj, a_out[j], T_out[j, 0], T_out[j, 1], T_out[j, 2], linear,
+                                                  ks_lin, R, Gs)
                     if any_rows:
                         # consistent (step) tangent of the law for Newton: jacobian rows
                         add_step_jacobian(jac, 0, jrows, allc, w, kn_out[j], ta_out, td_out, j,

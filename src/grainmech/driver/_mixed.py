@@ -41,7 +41,7 @@ from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius,
 from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
                                       KernelState, rows)
 
-__all__ = ["mixed_segment", "add_step_jacobian", "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
+__all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term", "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 _CH = 128  # contacts per chunk (work item of the prange)
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
@@ -119,6 +119,73 @@ def _copy_state(src, src_resp, dst, dst_resp):
         dst_resp[f][:] = src_resp[f]
 
 
+@njit(inline="always", cache=True, error_model="numpy")
+def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
+    """One contact's step input from a strain increment (tensor components, compression
+    positive): ``delta = d eps . l`` split into ``d_n`` and ``d_t`` (seed Eq. 2.13), the
+    normal force at the step end (seed Eq. 3.6, or ``kn alpha``) and the Hertz contact
+    radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``."""
+    dx = exx * lx + exy * ly + exz * lz
+    dy = exy * lx + eyy * ly + eyz * lz
+    dz = exz * lx + eyz * ly + ezz * lz
+    d_n = dx * nx + dy * ny + dz * nz
+    a1 = a0 + d_n
+    ap = a1 if a1 > 0.0 else 0.0
+    if linear:
+        N1 = kn_lin * ap
+        return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, N1, N1
+    N1 = hertz_force(ap, E, R)
+    Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
+    return (d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(Nc, E, R),
+            hertz_radius(N1, E, R))
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
+    """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T`` (seed
+    Eq. 2.6), as (xx, yy, zz, yz, xz, xy)."""
+    fx = (N * nx + tx) * w
+    fy = (N * ny + ty) * w
+    fz = (N * nz + tz) * w
+    return (fx * lx, fy * ly, fz * lz, 0.5 * (fy * lz + fz * ly), 0.5 * (fx * lz + fz * lx),
+            0.5 * (fx * ly + fy * lx))
+
+
+@njit(cache=True, error_model="numpy")
+def _reduce(part, sig, jac):
+    """Sum the per-chunk partial sums: stress into ``sig`` (6,), Jacobian into ``jac``
+    (6, 6); returns the (sliding, open, dissipation) weighted sums."""
+    sig[:] = 0.0
+    jac[:, :] = 0.0
+    s_sl = 0.0
+    s_op = 0.0
+    s_di = 0.0
+    for ch in range(part.shape[0]):
+        for q in range(6):
+            sig[q] += part[ch, q]
+        for q in range(36):
+            jac[q // 6, q % 6] += part[ch, 6 + q]
+        s_sl += part[ch, 42]
+        s_op += part[ch, 43]
+        s_di += part[ch, 44]
+    return s_sl, s_op, s_di
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
+    """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`: the normal
+    law's ``int N d alpha`` (seed Eq. 3.6, or ``N alpha/2``) plus ``|T|^2 / (2 kt0)``."""
+    ap = alpha if alpha > 0.0 else 0.0
+    T2 = tx * tx + ty * ty + tz * tz
+    if linear:
+        en_n = spring_energy(N, ap)
+        kt0 = ks_lin if N > 0.0 else 0.0
+    else:
+        en_n = hertz_energy(N, ap)
+        kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
+    return en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0)
+
+
 def _make(parallel: bool):
     """Evaluation pass and segment driver, serial or with a ``prange`` over chunks."""
     rng = prange if parallel else range
@@ -156,34 +223,10 @@ def _make(parallel: bool):
                                  o_td, o_ta)
             scr_c = KernelScratch(c_tp, c_dp, c_fl)
             for i in range(lo, hi):
-                lx = branch[i, 0]
-                ly = branch[i, 1]
-                lz = branch[i, 2]
-                nx = normals[i, 0]
-                ny = normals[i, 1]
-                nz = normals[i, 2]
-                # seed Eq. 2.13: delta = d eps . l, split along and across n
-                dx = exx * lx + exy * ly + exz * lz
-                dy = exy * lx + eyy * ly + eyz * lz
-                dz = exz * lx + eyz * ly + ezz * lz
-                d_n = dx * nx + dy * ny + dz * nz
-                i_dn[i] = d_n
-                i_dt[i, 0] = dx - d_n * nx
-                i_dt[i, 1] = dy - d_n * ny
-                i_dt[i, 2] = dz - d_n * nz
-                a0 = s_a[i]
-                a1 = a0 + d_n
-                ap = a1 if a1 > 0.0 else 0.0
-                if linear:
-                    i_N1[i] = kn_lin * ap
-                    i_rad0[i] = i_N1[i]
-                    i_rad1[i] = i_N1[i]
-                else:
-                    i_N1[i] = hertz_force(ap, E, R)                           # seed Eq. 3.6
-                    N0 = s_N[i]
-                    Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
-                    i_rad0[i] = hertz_radius(Nc, E, R)                        # seed Eq. 3.2
-                    i_rad1[i] = hertz_radius(i_N1[i], E, R)
+                (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i], i_rad0[i],
+                 i_rad1[i]) = contact_increment(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
+                                                normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
+                                                s_a[i], s_N[i], linear, kn_lin, E, R)
                 c_fl[i] = 0
             rows(lo, hi, kcc, st_c, inc_c, out_c, scr_c)
             for i in range(lo, hi):
@@ -192,52 +235,22 @@ def _make(parallel: bool):
             for q in range(_NP):
                 part[ch, q] = 0.0
             if bad_c[ch] < 0:
-                sxx = 0.0
-                syy = 0.0
-                szz = 0.0
-                syz = 0.0
-                sxz = 0.0
-                sxy = 0.0
-                wsl = 0.0
-                wop = 0.0
-                wdi = 0.0
                 prow = part[ch]
                 for i in range(lo, hi):
                     w = weights[i]
-                    nx = normals[i, 0]
-                    ny = normals[i, 1]
-                    nz = normals[i, 2]
-                    lx = branch[i, 0]
-                    ly = branch[i, 1]
-                    lz = branch[i, 2]
-                    Ni = o_N[i]
-                    fx = (Ni * nx + o_T[i, 0]) * w
-                    fy = (Ni * ny + o_T[i, 1]) * w
-                    fz = (Ni * nz + o_T[i, 2]) * w
+                    nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+                    lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
                     # Love-Weber, symmetric part (seed Eq. 2.6)
-                    sxx += fx * lx
-                    syy += fy * ly
-                    szz += fz * lz
-                    syz += 0.5 * (fy * lz + fz * ly)
-                    sxz += 0.5 * (fx * lz + fz * lx)
-                    sxy += 0.5 * (fx * ly + fy * lx)
+                    tt = love_weber_terms(o_N[i], o_T[i, 0], o_T[i, 1], o_T[i, 2], w, nx, ny, nz, lx, ly, lz)
+                    for q in range(6):
+                        prow[q] += tt[q]
                     if o_sl[i]:
-                        wsl += w
+                        prow[42] += w
                     if o_op[i]:
-                        wop += w
-                    wdi += w * o_di[i]
+                        prow[43] += w
+                    prow[44] += w * o_di[i]
                     # Jacobian rows/columns sc: B^T K B with the law's step tangent
-                    add_step_jacobian(prow, 6, sc, sc, w, o_kn[i], o_ta, o_td, i,
-                                      nx, ny, nz, lx, ly, lz)
-                part[ch, 0] = sxx
-                part[ch, 1] = syy
-                part[ch, 2] = szz
-                part[ch, 3] = syz
-                part[ch, 4] = sxz
-                part[ch, 5] = sxy
-                part[ch, 42] = wsl
-                part[ch, 43] = wop
-                part[ch, 44] = wdi
+                    add_step_jacobian(prow, 6, sc, sc, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
         for ch in range(nch):
             if bad_c[ch] >= 0:
                 return bad_c[ch]
@@ -275,12 +288,8 @@ def _make(parallel: bool):
             resp[5][i] = 1.0 if out.sliding[i] else 0.0
             resp[6][i] = 1.0 if out.open[i] else 0.0
             w = weights[i]
-            nx = normals[i, 0]
-            ny = normals[i, 1]
-            nz = normals[i, 2]
-            lx = branch[i, 0]
-            ly = branch[i, 1]
-            lz = branch[i, 2]
+            nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+            lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
             kn = out.kn[i] if out.kn[i] > 0.0 else 0.0
             ks = out.ks[i] if out.ks[i] > 0.0 else 0.0
             # u = B^T n, the tangent w B^T (ks I + (kn - ks) n n) B
@@ -301,17 +310,9 @@ def _make(parallel: bool):
                     uq2 = u0 if q2 == 0 else (u1 if q2 == 1 else (u2 if q2 == 2 else (u3 if q2 == 3 else (u4 if q2 == 4 else u5))))
                     btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
                     Cout[6 * q + q2] += cs * btb + cn * uq * uq2
-            # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
-            Nj = out.normal_force[i]
-            ap = out.approach[i] if out.approach[i] > 0.0 else 0.0
-            T2 = out.tangential_force[i, 0] ** 2 + out.tangential_force[i, 1] ** 2 + out.tangential_force[i, 2] ** 2
-            if linear:
-                en_n = spring_energy(Nj, ap)
-                kt0 = ks_lin if Nj > 0.0 else 0.0
-            else:
-                en_n = hertz_energy(Nj, ap)
-                kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
-            wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
+            wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
+                                          out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
+                                          ks_lin, R, Gs)
         for q in range(6):
             for q2 in range(q):
                 Cout[6 * q + q2] = Cout[6 * q2 + q]
@@ -347,7 +348,6 @@ def _make(parallel: bool):
         t_stress = t_stress0  # advanced in place (the caller continues from them)
         t_strain = t_strain0
         Cflat = np.empty(36)
-        nch = part.shape[0]
         jac = np.zeros((6, 6))
         sig = np.zeros(6)
         hist = np.zeros(max_iter + 1)
@@ -446,21 +446,7 @@ def _make(parallel: bool):
                         info[3] = bad
                         info[4] = scratch.flags[bad]
                         break
-                    for q in range(6):
-                        sig[q] = 0.0
-                    for q in range(36):
-                        jac[q // 6, q % 6] = 0.0
-                    s_sl = 0.0
-                    s_op = 0.0
-                    s_di = 0.0
-                    for ch in range(nch):
-                        for q in range(6):
-                            sig[q] += part[ch, q]
-                        for q in range(36):
-                            jac[q // 6, q % 6] += part[ch, 6 + q]
-                        s_sl += part[ch, 42]
-                        s_op += part[ch, 43]
-                        s_di += part[ch, 44]
+                    s_sl, s_op, s_di = _reduce(part, sig, jac)
                     rmax = 0.0
                     for a in range(ns):
                         rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
@@ -516,17 +502,7 @@ def _make(parallel: bool):
                     # the best iterate is not the last one: evaluate it again (same state)
                     de[:] = best_de
                     evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
-                    for q in range(6):
-                        sig[q] = 0.0
-                    s_sl = 0.0
-                    s_op = 0.0
-                    s_di = 0.0
-                    for ch in range(nch):
-                        for q in range(6):
-                            sig[q] += part[ch, q]
-                        s_sl += part[ch, 42]
-                        s_op += part[ch, 43]
-                        s_di += part[ch, 44]
+                    s_sl, s_op, s_di = _reduce(part, sig, jac)
                 if cause != 0:
                     wtot = 0.0
                     for i in range(weights.shape[0]):
