@@ -6,12 +6,17 @@ Mindlin-Deresiewicz law, in two variants:
 
 * ``volume``: constant-volume simple shear, every strain component prescribed (the
   driver integrates it in one compiled pass, one law evaluation per direction and step);
-* ``stress``: constant normal stress sigma_zz (mixed control: Newton iterations per step).
+* ``stress``: constant normal stress sigma_zz (mixed control: Newton iterations per step,
+  the whole step/Newton loop in one compiled call, ``driver/_mixed.py``).
 
-Reports the wall time, steps per second and direction-updates per second (one
-direction-update = one evaluation of the law at one direction, Newton iterations and
-substeps included). The first run of each variant is a warm-up (numba compilation or
-cache loading) and is not timed.
+Reports the wall time (best of ``--repeat``, serial and with numba's threads), law
+evaluations per step, steps and direction-updates per second (one direction-update = one
+evaluation of the law at one direction, Newton iterations and substeps included), the
+ratio to an OpenBLAS dgemm (n = 2048, float64) timed in the same process (the ratio
+holds across machines, the seconds do not), and the ratio of the NumPy reference
+(``backend="numpy"``: NumPy law, Python step loop) to the compiled driver per step,
+the reference timed on ``--numpy-cycles`` cycles. The first run of each variant is a
+warm-up (numba compilation or cache loading) and is not timed.
 
 Run: ``python benchmarks/bench_driver.py [--constant volume stress] [--backend auto|numpy]``
 """
@@ -22,6 +27,7 @@ import argparse
 import time
 
 import numpy as np
+from numba import get_num_threads, set_num_threads
 
 from grainmech.assembly import ContactSet
 from grainmech.contact import MindlinDeresiewicz
@@ -38,7 +44,15 @@ def main() -> None:
     ap.add_argument("--amplitude", type=float, default=1e-4)
     ap.add_argument("--constant", nargs="+", default=["volume", "stress"], choices=["volume", "stress"])
     ap.add_argument("--repeat", type=int, default=3, help="timed runs (the best is reported)")
+    ap.add_argument("--numpy-cycles", type=int, default=1,
+                    help="cycles of the NumPy reference run (0: skip it)")
     a = ap.parse_args()
+
+    rng = np.random.default_rng(0)
+    A, B = rng.random((2048, 2048)), rng.random((2048, 2048))
+    np.dot(A, B)
+    t_dgemm = min(_timed(lambda: np.dot(A, B)) for _ in range(3))
+    print(f"yardstick: OpenBLAS dgemm n=2048 {t_dgemm:.3f} s (best of 3)")
 
     normals, w = sphere_rule(131)  # degree 131 Lebedev rule: 5810 points
     radius = 1e-3
@@ -50,19 +64,48 @@ def main() -> None:
           f"backend: {a.backend}")
     for constant in a.constant:
         path = cyclic_simple_shear(a.amplitude, a.cycles, a.steps, constant=constant)
-        run(pt, cyclic_simple_shear(a.amplitude, 1, 4, constant=constant))  # warm-up
-        times = []
-        for _ in range(a.repeat):
-            t0 = time.perf_counter()
-            r = run(pt, path)
-            times.append(time.perf_counter() - t0)
-        dt = min(times)
+        threads = get_num_threads()
+        timings = {}
+        for label, nt in (("threads", threads), ("serial", 1)):
+            set_num_threads(nt)
+            run(pt, cyclic_simple_shear(a.amplitude, 1, 4, constant=constant))  # warm-up
+            times = []
+            for _ in range(a.repeat):
+                t0 = time.perf_counter()
+                r = run(pt, path)
+                times.append(time.perf_counter() - t0)
+            timings[label] = times
+            if threads == 1:
+                break
+        set_num_threads(threads)
         evals = int(r.iterations.sum())
         print(f"\nconstant {constant}: success {r.success} ({r.message})")
         print(f"  law evaluations per direction: {evals} ({evals / len(path):.2f} per step, "
               f"max {r.iterations.max()} iterations, max {r.substeps.max()} substeps)")
-        print(f"  wall time: {dt:.3f} s (best of {a.repeat}; all: {', '.join(f'{t:.3f}' for t in times)})   "
-              f"steps/s: {len(path) / dt:.0f}   direction-updates/s: {evals * len(cs) / dt:.3g}")
+        for label, times in timings.items():
+            dt = min(times)
+            print(f"  wall time ({label}, {threads if label == 'threads' else 1} thread(s)): {dt:.3f} s = "
+                  f"{dt / t_dgemm:.1f} dgemm (best of {a.repeat}; all: {', '.join(f'{t:.3f}' for t in times)})   "
+                  f"steps/s: {len(path) / dt:.0f}   direction-updates/s: {evals * len(cs) / dt:.3g}")
+        best = min(min(t) for t in timings.values())
+        if a.numpy_cycles > 0 and a.backend != "numpy":
+            ref_pt = MaterialPoint.isotropic(cs, law, 1e5, backend="numpy")
+            ref_path = cyclic_simple_shear(a.amplitude, a.numpy_cycles, a.steps, constant=constant)
+            t0 = time.perf_counter()
+            rr = run(ref_pt, ref_path)
+            t_ref = time.perf_counter() - t0
+            per_ref = t_ref / len(ref_path)
+            print(f"  NumPy reference (backend numpy, {a.numpy_cycles} cycle(s)): {t_ref:.2f} s, "
+                  f"{rr.iterations.sum() / len(ref_path):.2f} evaluations/step; per step "
+                  f"{per_ref * 1e3:.2f} ms vs compiled {best / len(path) * 1e3:.3f} ms: "
+                  f"compiled {per_ref / (best / len(path)):.0f}x faster")
+
+
+def _timed(fn) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
 
 if __name__ == "__main__":
     main()

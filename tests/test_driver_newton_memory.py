@@ -64,13 +64,14 @@ def test_numpy_and_compiled_newton_agree(degree, n_dirs):
     assert np.abs(a.dissipation - b.dissipation).max() <= 1e-10 * a.dissipation.max()
 
 
-@pytest.mark.parametrize("degree, n_dirs, n_iter", [(5, 14, 398), (23, 194, 378)])
+@pytest.mark.parametrize("degree, n_dirs, n_iter", [(5, 14, 298), (23, 194, 268)])
 def test_without_numba_the_driver_gives_the_compiled_answer(monkeypatch, degree, n_dirs, n_iter):
     """numba absent (the NumPy reference law, NumPy Jacobian) vs the compiled pass with its
     Jacobian rows: same success, same Newton iterations at every step, same stresses.
 
     ``n_iter`` is the compiled path's total, which the NumPy path must reproduce; it is not
-    a reference value of its own.
+    a reference value of its own (398 and 378 with the earlier continuum Jacobian, 298 and
+    268 with the laws' step tangent).
     """
     pytest.importorskip("numba")
     from grainmech.contact import law as law_module

@@ -45,7 +45,8 @@ _MERGE_TOL = 1e-3
 #: Gauss–Legendre rule for the dissipation while N falls (integrand smooth, >= 0)
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
 
-#: what a tangential law returns: (T1, e1, s1, k1, P1, sliding, dissipation, ks, ks_perp, ktn/kn)
+#: what a tangential law returns: (T1, e1, s1, k1, P1, sliding, dissipation, ks, ks_perp, ktn/kn
+#: [, t_delta, t_alpha])
 _LawOut = tuple
 
 
@@ -223,25 +224,61 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
         tp2 = _dot(tperp, tperp)
         diss += np.where(kt0_0 > 0, (1.0 - rho) * tp2 / (2.0 * np.where(kt0_0 > 0, kt0_0, 1.0)), 0.0)
     tperp = rho[:, None] * tperp + kbar[:, None] * d_perp
+    # derivatives of kbar and rho with respect to the approach a1 (Hertz: kt0 = kn / r,
+    # ~ a1**(1/2), d kt0 / d a1 = kt0 / (2 a1); linear springs: 0)
+    linear = law_forms(params).linear
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dkt1 = np.where(linear | ~(a1 > 0), 0.0, kt0_1 / (2.0 * np.where(a1 > 0, a1, 1.0)))
+        da = a1 - a0
+        sec_ok = np.abs(da) > 1e-14 * np.maximum(np.abs(a0), np.abs(a1))
+        dkbar_r = np.where(linear, 0.0, np.where(sec_ok, (kt0_1 - kbar) / np.where(sec_ok, da, 1.0), 0.5 * dkt1))
+        dkbar = np.where(rising, dkbar_r, dkt1)
+        drr = np.where(~rising & (kt0_0 > 0) & (kt0_1 < kt0_0), dkt1 / np.where(kt0_1 > 0, kt0_1, 1.0), 0.0)
 
     # ---- along the axis: the 1D Mindlin–Deresiewicz / Thornton–Randall law
     if mu > 0.0:
-        tau, s, k, d_diss, elastic = _md_axis(params, mu, p, m_exp, r, maxrev, stack, tau, s, k,
+        tau, s, k, d_diss, elastic, dPn, kpush = _md_axis(params, mu, p, m_exp, r, maxrev, stack, tau, s, k,
                                               N0, N1, a0, a1, kbar, kt0_1, d_par, rising, falling)
         diss += d_diss
     else:
         tau = np.zeros(n)
         k = np.zeros(n, dtype=np.int32)
         elastic = np.zeros(n, dtype=bool)
+        dPn = np.zeros(n)
+        kpush = np.full(n, -1)
 
     muN1 = mu * N1
     closed1 = N1 > 0.0
+
+    # ---- step tangent of the trial force tau e + T_perp (kernel.rows has the derivation)
+    kn1 = law_forms(params).kn(N1)
+    if mu > 0.0:
+        Qa = muN1 - s * tau
+        Pa = _top(stack.P, np.arange(n), k, 1)
+        ca = np.where(k > 0, 2.0, 1.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ya = np.clip(np.where(muN1 > 0, (Qa + Pa) / (ca * np.where(muN1 > 0, muN1, 1.0)), 0.0), 0.0, 1.0)
+        tha = np.where((k == 0) & (Qa <= _EPS * muN1), 0.0, ya ** p)
+        a_e = np.where(elastic, kbar, kt0_1 * tha)
+        # a branch started at N1 by a pushed reversal: Q + P_top = 2 mu N1 z^m with z = 1 at
+        # its start, so dQ/dN1 = 2 mu theta - dP/dN1 (not mu theta)
+        a_n = np.where(elastic, d_par * dkbar,
+                       s * mu * (1.0 - tha) * kn1 + np.where(k == kpush, s * (dPn - mu * tha) * kn1, 0.0))
+    else:
+        a_e = a_n = np.zeros(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        b_p = np.where(fresh, tau / np.where(dtn > 0, dtn, 1.0), kbar)
+    t_alpha = (a_n[:, None] * e + dkbar[:, None] * d_perp
+               + drr[:, None] * (tperp - kbar[:, None] * d_perp))
+    t_delta = ((a_e - b_p)[:, None, None] * np.einsum("ci,cj->cij", e, e)
+               + b_p[:, None, None] * np.eye(dim))
 
     # ---- recombine, Coulomb cap on the total force (only the perpendicular part can break it)
     T1 = tau[:, None] * e + tperp
     t1n = _norm(T1)
     over = closed1 & (t1n > muN1 * (1.0 + 1e-12))
     if np.any(over):
+        t_delta, t_alpha = cap_tangent(T1, t1n, muN1, mu * kn1, t_delta, t_alpha, over)
         with np.errstate(divide="ignore", invalid="ignore"):
             scale = np.where(over, muN1 / np.where(t1n > 0, t1n, 1.0), 1.0)
             slip = np.where(over & (kt0_1 > 0), (t1n - muN1) / np.where(kt0_1 > 0, kt0_1, 1.0), 0.0)
@@ -302,18 +339,48 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
     ks = np.where(closed1, kt0_1 * theta, 0.0)
     ks_perp = np.where(closed1, kt0_1, 0.0)
     ktn = np.where(closed1, s * mu * (1.0 - theta), 0.0)
-    return T1, e, s, k, stack.P, slide, diss, ks, ks_perp, ktn
+    t_delta = np.where(closed1[:, None, None], t_delta, 0.0)
+    t_alpha = np.where(closed1[:, None], t_alpha, 0.0)
+    return T1, e, s, k, stack.P, slide, diss, ks, ks_perp, ktn, t_delta, t_alpha
+
+
+def axis_tangent(e: np.ndarray, ks: np.ndarray, ks_perp: np.ndarray, ktn: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Step tangent ``(dT/d d_t, dT/d alpha)`` of the form ``ks e e + ks_perp (I - e e)``,
+    ``ktn e`` (shapes (n, dim, dim), (n, dim); the elastic-Coulomb laws' tangent).
+    """
+    dim = e.shape[1]
+    t_delta = ((ks - ks_perp)[:, None, None] * np.einsum("ci,cj->cij", e, e)
+               + ks_perp[:, None, None] * np.eye(dim))
+    return t_delta, ktn[:, None] * e
+
+
+def cap_tangent(T: np.ndarray, tn: np.ndarray, muN1: np.ndarray, mukn: np.ndarray, t_delta: np.ndarray,
+                t_alpha: np.ndarray, over: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Step tangent through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T``
+    (``|t| = tn``), rows ``over``: ``dT = mu kn t/|t| d alpha + (mu N1/|t|) (I - t t/|t|^2) dt``.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(tn > 0, 1.0 / np.where(tn > 0, tn, 1.0), 0.0)
+    u = T * inv[:, None]
+    g = muN1 * inv
+    proj = np.eye(T.shape[1])[None] - np.einsum("ci,cj->cij", u, u)
+    ta = g[:, None] * np.einsum("cij,cj->ci", proj, t_alpha) + mukn[:, None] * u
+    td = g[:, None, None] * np.einsum("cij,cjk->cik", proj, t_delta)
+    return (np.where(over[:, None, None], td, t_delta), np.where(over[:, None], ta, t_alpha))
 
 
 def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float, maxrev: int, stack: _Stack,
              tau: np.ndarray, s: np.ndarray, k: np.ndarray, N0: np.ndarray, N1: np.ndarray,
              a0: np.ndarray, a1: np.ndarray, kbar: np.ndarray, kt1: np.ndarray, d: np.ndarray,
              rising: np.ndarray, falling: np.ndarray
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+             ) -> tuple[np.ndarray, ...]:
     """Scalar Mindlin–Deresiewicz law along the memory axis (vectorised over contacts).
 
     Works with ``Q = mu N - s tau`` and the reversal invariants ``P_j``; returns the new
-    ``tau, s, k`` (the stack is updated in place on its copy) and the dissipation.
+    ``tau, s, k`` (the stack is updated in place on its copy), the dissipation, the
+    no-slip flag, and ``dP, kpush``: ``dP = d P_(kpush-1) / d N1`` of a reversal pushed at
+    ``N1`` (``kpush = -1``: none), for the step tangent.
     """
     n = tau.shape[0]
     diss = np.zeros(n)
@@ -322,6 +389,8 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
     Q = np.clip(muN0 - s * tau, 0.0, 2.0 * muN0)   # 0 <= Q <= 2 mu N (rounding)
     s = s.copy()
     k = k.copy()
+
+    pushed = np.zeros(n, dtype=bool)
 
     def reverse(mask: np.ndarray, new_dir: np.ndarray, muN: np.ndarray) -> None:
         """Start a loading branch in direction ``new_dir`` for the contacts in ``mask``.
@@ -358,9 +427,12 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
         k[idx] = np.where(push, kk + 1, np.where(fresh, kk - 1, kk))
         Q[idx] = 2.0 * muNi - Qi
         s[idx] = new_dir[idx]
+        pushed[idx] = push
 
     dsign = np.sign(d).astype(np.int8)
     u = np.zeros(n)
+    dP = np.zeros(n)
+    kpush = np.full(n, -1)
 
     # ---------- rising N: elastic (Eq. 3.10) or N-first on the no-slip boundary
     dalpha = a1 - a0
@@ -383,7 +455,16 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
     flat = ~rising & (d != 0.0) & (N1 > 0.0)
     if np.any(flat):
         rev = flat & (dsign != s)
+        # the invariant pushed here, P = Q(N1), moves with N1 like Q on the branch before:
+        # dP/dN1 = mu theta (Thornton-Randall, as in _falling_n); for the step tangent
+        cpre = np.where(k > 0, 2.0, 1.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ypre = np.clip((Q + _top(stack.P, np.arange(n), k, 1)) / (cpre * np.where(muN1 > 0, muN1, 1.0)), 0.0, 1.0)
+        th_pre = ypre ** p
+        pushed[:] = False
         reverse(rev, dsign, muN1)
+        dP = np.where(rev & pushed, mu * th_pre, 0.0)
+        kpush = np.where(rev & pushed, k, -1)
         u = np.where(flat, np.abs(d), u)
 
     # ---------- displacement u >= 0 along s at constant N1 (exact branch integration)
@@ -434,7 +515,7 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
     tau_new = np.where(N1 > 0.0, tau_new, 0.0)
     # clamp rounding: |tau| <= mu N
     tau_new = np.clip(tau_new, -muN1, muN1)
-    return tau_new, s, k, diss, elastic & (N1 > 0.0)
+    return tau_new, s, k, diss, elastic & (N1 > 0.0), dP, kpush
 
 
 def _falling_n(params: ContactParams, mu: float, p: float, m_exp: float, stack: _Stack, Q: np.ndarray,

@@ -170,7 +170,9 @@ class KernelOutput(NamedTuple):
 
     Arrays the kernel writes: the new state (as :class:`KernelState`, ``dissipated_energy``
     excepted) and the response (``sliding``, ``dissipation`` of the step, ``ks``,
-    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals).
+    ``ks_perp``, ``ktn``, ``kn``, ``open``), all (n,) or (n, dim) / (n, max_reversals);
+    ``t_delta`` (n, dim, dim) and ``t_alpha`` (n, dim), the step derivatives ``dT1/d d_t``
+    and ``dT1/d alpha`` (:class:`~grainmech.contact.ContactResponse`).
     """
 
     approach: np.ndarray
@@ -187,6 +189,8 @@ class KernelOutput(NamedTuple):
     ktn: np.ndarray
     kn: np.ndarray
     open: np.ndarray
+    t_delta: np.ndarray
+    t_alpha: np.ndarray
 
 
 class KernelScratch(NamedTuple):
@@ -206,7 +210,8 @@ def new_output(n: int, dim: int, max_reversals: int) -> KernelOutput:
     return KernelOutput(np.empty(n), np.empty(n), np.empty((n, dim)), np.empty((n, dim)),
                         np.empty(n, dtype=np.int8), np.empty(n, dtype=np.int32),
                         np.empty((n, max_reversals)), np.empty(n, dtype=np.bool_), np.empty(n),
-                        np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_))
+                        np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_),
+                        np.empty((n, dim, dim)), np.empty((n, dim)))
 
 
 def new_scratch(n: int, dim: int) -> KernelScratch:
@@ -412,7 +417,7 @@ def _reverse(Q, k, muN, P, row, maxrev):
 
     A virgin contact at ``T ~ 0`` only turns; a reversal at the point where the current
     branch started erases it (pop); otherwise the reversal is remembered (push ``P = Q``).
-    On the new branch ``Q' = 2 mu N - Q``. Returns ``(Q, k, overflow)``.
+    On the new branch ``Q' = 2 mu N - Q``. Returns ``(Q, k, overflow, pushed)``.
     """
     if k > 0:
         # Masing's rule at a tie: the loop closed within rounding of its target (law.py)
@@ -427,12 +432,12 @@ def _reverse(Q, k, muN, P, row, maxrev):
         if k >= maxrev:
             k = _merge_closest_loop(P, row, k, Q, muN)
             if k >= maxrev:
-                return Q, k, True
+                return Q, k, True, False
         P[row, k] = Q
         k += 1
     elif fresh:
         k -= 1
-    return 2.0 * muN - Q, k, False
+    return 2.0 * muN - Q, k, False, not skeleton_zero and not fresh
 
 
 @njit(**_JIT)
@@ -574,11 +579,14 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
     ``8 G* a |d delta| <= mu dN`` (Eq. 3.10, 3.16), else ``N`` first along the no-slip
     boundary, then the displacement at constant ``N`` integrated exactly in ``z``.
 
-    Returns ``(tau, s, k, dissipation, elastic, flag)``; ``P`` (the contact's reversal
-    row) is updated in place.
+    Returns ``(tau, s, k, dissipation, elastic, flag, dP, kpush)``; ``P`` (the contact's
+    reversal row) is updated in place; ``dP = d P_(kpush-1) / d N1`` for a reversal pushed
+    at ``N1`` (``kpush = -1``: none), for the step tangent.
     """
     mu, p, m_exp, r, maxrev, hcoef, sph = kc.mu, kc.p, kc.m_exp, kc.r, kc.maxrev, kc.hcoef, kc.sph
     diss = 0.0
+    dP = 0.0
+    kpush = -1
     muN0 = mu * N0
     muN1 = mu * N1
     Q = min(max(muN0 - s * tau, 0.0), 2.0 * muN0)
@@ -599,9 +607,9 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
         Q = muN1 - s * tau_e
     if rising and not elastic:
         if dsign != s:
-            Q, k, full = _reverse(Q, k, muN0, P, row, maxrev)
+            Q, k, full, _pushed = _reverse(Q, k, muN0, P, row, maxrev)
             if full:
-                return tau, s, k, diss, False, FLAG_MEMORY_RISING
+                return tau, s, k, diss, False, FLAG_MEMORY_RISING, 0.0, -1
             s = dsign
         u = abs(d) - bound
 
@@ -609,14 +617,22 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
     if falling:
         Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, kc)
         if not ok:
-            return tau, s, k, diss, False, FLAG_NO_TERMINATION
+            return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
         diss += dd
     if (not rising) and (d != 0.0) and (N1 > 0.0):
         if dsign != s:
-            Q, k, full = _reverse(Q, k, muN1, P, row, maxrev)
+            # the invariant pushed here, P = Q(N1), moves with N1 like Q on the branch
+            # before: dP/dN1 = mu theta (Thornton-Randall, see _falling_n); for the step tangent
+            cpre = 2.0 if k > 0 else 1.0
+            ypre = _clip01((Q + _top(P, row, k, 1)) / (cpre * muN1))
+            th_pre = _pow_p(ypre, p, sph)
+            Q, k, full, pushed = _reverse(Q, k, muN1, P, row, maxrev)
             if full:
-                return tau, s, k, diss, False, FLAG_MEMORY_FLAT
+                return tau, s, k, diss, False, FLAG_MEMORY_FLAT, 0.0, -1
             s = dsign
+            if pushed:
+                dP = mu * th_pre
+                kpush = k
         u = abs(d)
 
     # displacement u >= 0 along s at constant N1: exact branch integration with events
@@ -625,7 +641,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
     while u > 0.0 and N1 > 0.0:
         it += 1
         if it > 2 * maxrev + 4:
-            return tau, s, k, diss, False, FLAG_NO_TERMINATION
+            return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
         c = 2.0 if k > 0 else 1.0
         Pt = _top(P, row, k, 1)
         if k >= 2:
@@ -671,7 +687,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
     if not N1 > 0.0:
         tau_new = 0.0
     tau_new = min(max(tau_new, -muN1), muN1)
-    return tau_new, s, k, diss, elastic and (N1 > 0.0), 0
+    return tau_new, s, k, diss, elastic and (N1 > 0.0), 0, dP, kpush
 
 
 # ---------------------------------------------------------------------------------------
@@ -683,6 +699,39 @@ def _dot_rows(A, i, B, j):
     for c in range(1, A.shape[1]):
         out = out + A[i, c] * B[j, c]
     return out
+
+
+@njit(inline="always", **_JIT)
+def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
+    """Step tangent of the form ``ks e e + ks_perp (I - e e)``, ``dT/d alpha = ktn e``."""
+    dim = e.shape[1]
+    for c in range(dim):
+        talp[i, c] = ktn * e[i, c]
+        for c2 in range(dim):
+            tdel[i, c, c2] = (ks - ksp) * e[i, c] * e[i, c2] + (ksp if c == c2 else 0.0)
+
+
+@njit(inline="always", **_JIT)
+def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
+    """Radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]`` (|t| = ``tn``): the step
+    derivatives become ``mu kn t/|t| + g (I - t t/|t|^2) dT_trial/d alpha`` and
+    ``g (I - t t/|t|^2) dT_trial/d d_t`` with ``g = mu N1/|t|``.
+    """
+    dim = T.shape[1]
+    g = muN1 / tn if tn > 0.0 else 0.0
+    inv = 1.0 / tn if tn > 0.0 else 0.0
+    # (I - t t) x = x - t (t . x)
+    ta = 0.0
+    for c in range(dim):
+        ta += T[i, c] * inv * talp[i, c]
+    for c in range(dim):
+        talp[i, c] = mukn * T[i, c] * inv + g * (talp[i, c] - T[i, c] * inv * ta)
+    for c2 in range(dim):
+        tc = 0.0
+        for c in range(dim):
+            tc += T[i, c] * inv * tdel[i, c, c2]
+        for c in range(dim):
+            tdel[i, c, c2] = g * (tdel[i, c, c2] - T[i, c] * inv * tc)
 
 
 @njit(**_JIT)
@@ -706,7 +755,8 @@ def rows(lo, hi, kc, state, inc, out, scratch):
     mu, mu_finite, r = kc.mu, kc.mu_finite, kc.r
     alpha0, N0s, T0s, e0s, dir0, depth0, P0, _diss0 = state
     dn, dt, N1s, rad0, rad1 = inc
-    alpha1o, N1o, T1, e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, kn_o, open_o = out
+    (alpha1o, N1o, T1, e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, kn_o, open_o,
+     tdel, talp) = out
     tp, dp, flags = scratch
     p = kc.p
     dim = T0s.shape[1]
@@ -763,6 +813,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             ks_o[i] = 0.0
             ksp_o[i] = 0.0
             ktn_o[i] = 0.0
+            _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp)
             continue
 
         if law == LAW_JENKINS:
@@ -797,6 +848,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             ks_o[i] = 0.0 if (slide or not closed1) else kt01
             ksp_o[i] = kt01 if closed1 else 0.0
             ktn_o[i] = ((mu if mu_finite else 0.0) if slide else 0.0) * kn
+            _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp)
             continue
 
         # ---- hysteretic law (seed Eq. 3.9-3.16): memory axis, split along/across it
@@ -828,11 +880,26 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             diss += (1.0 - rho) * tp2 / (2.0 * kt00)
         for c in range(dim):
             tp[i, c] = rho * tp[i, c] + kbar * dp[i, c]
+        # step derivatives of kbar and rho with respect to the approach a1 (Hertz:
+        # kt0 = kn / r ~ a1**(1/2), d kt0 / d a1 = kt0 / (2 a1); linear springs: 0)
+        dkt1 = 0.0 if (linear or not (a1 > 0.0)) else kt01 / (2.0 * a1)
+        if rising:
+            da = a1 - a0e
+            if linear:
+                dkbar = 0.0
+            elif abs(da) > 1e-14 * max(abs(a0e), abs(a1)):
+                dkbar = (kt01 - kbar) / da     # d/da1 of the secant (N1 - N0) / (r da)
+            else:
+                dkbar = 0.5 * dkt1
+            drr = 0.0
+        else:
+            dkbar = dkt1
+            drr = dkt1 / kt01 if ((kt00 > 0.0) and (kt01 < kt00) and (kt01 > 0.0)) else 0.0  # (d rho / d a1) / rho
 
         # along the axis: the 1D Mindlin-Deresiewicz / Thornton-Randall law
         elastic = False
         if mu > 0.0:
-            tau, s, k, d_diss, elastic, flag = _md_axis(
+            tau, s, k, d_diss, elastic, flag, dPn, kpush = _md_axis(
                 tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, kc)
             if flag != 0:
                 flags[i] = flag
@@ -843,11 +910,51 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             k = 0
 
         muN1 = mu * N1
+        # step tangent of the trial force tau e + T_perp (before the Coulomb cap):
+        # along e d tau/d d = kbar (no-slip step of rising N) or 8 G* a theta (seed
+        # Eq. 3.11 at constant N1, exact for the z-integration), d tau/d a1 = the
+        # secant's derivative, or s mu (1 - theta) kn (Thornton-Randall coupling, exact
+        # for spheres after a rise or a fall of N); across e kbar (tau/|d| for an axis
+        # just taken from the motion), d T_perp/d a1 from kbar(a1) and rho(a1)
+        tha_ok = False  # tha is theta of the end state (reused below while tau, s, k hold)
+        tha = 0.0
+        if mu > 0.0:
+            if elastic:
+                a_e = kbar
+                a_n = d_par * dkbar
+            else:
+                tha_ok = True
+                Qa = muN1 - s * tau
+                Pa = _top(P1, i, k, 1)
+                ca = 2.0 if k > 0 else 1.0
+                ya = _clip01((Qa + Pa) / (ca * muN1)) if muN1 > 0.0 else 0.0
+                if (k == 0) and (Qa <= _EPS * muN1):
+                    tha = 0.0
+                else:
+                    tha = _pow_p(ya, p, kc.sph)
+                a_e = kt01 * tha
+                a_n = s * mu * (1.0 - tha) * kn
+                if k == kpush:
+                    # a branch started at N1 by a pushed reversal: Q + P_top = 2 mu N1 z^m
+                    # with z = 1 at its start, so dQ/dN1 = 2 mu theta - dP/dN1 (not mu theta)
+                    a_n += s * (dPn - mu * tha) * kn
+        else:
+            a_e = 0.0
+            a_n = 0.0
+        b_p = (tau / dtn if dtn > 0.0 else kbar) if fresh else kbar
+        for c in range(dim):
+            talp[i, c] = a_n * e1[i, c] + dkbar * dp[i, c] + drr * (tp[i, c] - kbar * dp[i, c])
+            for c2 in range(dim):
+                ee = e1[i, c] * e1[i, c2]
+                tdel[i, c, c2] = ((a_e - b_p) * ee + (b_p if c == c2 else 0.0)) * frac  # d dt_eff/d dt = frac
         # recombine; Coulomb cap on the total force by radial return (wipes the memory)
         for c in range(dim):
             T1[i, c] = tau * e1[i, c] + tp[i, c]
         t1n = math.sqrt(_dot_rows(T1, i, T1, i))
         if closed1 and (t1n > muN1 * (1.0 + 1e-12)):
+            tha_ok = False
+            # radial return T = mu N1 t / |t|: dT = mu dN t + (mu N1/|t|) (I - t t) dT_trial
+            _cap_tangent(i, T1, t1n, muN1, mu * kn, tdel, talp)
             scale = muN1 / t1n if t1n > 0.0 else muN1
             slip = (t1n - muN1) / kt01 if kt01 > 0.0 else 0.0
             diss += muN1 * slip
@@ -863,6 +970,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 
         # a force below the resolution of the Q formulation, without memory: virgin contact
         if closed1 and (k == 0) and (t1n <= 1e-14 * muN1):
+            tha_ok = False
             for c in range(dim):
                 T1[i, c] = 0.0
                 tp[i, c] = 0.0
@@ -872,6 +980,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 
         # no reversal remembered: the memory axis follows the force
         if closed1 and (k == 0) and (_dot_rows(tp, i, tp, i) > 0.0):
+            tha_ok = False
             t1n = math.sqrt(_dot_rows(T1, i, T1, i))
             sg = -1.0 if _dot_rows(T1, i, e1, i) < 0.0 else 1.0
             for c in range(dim):
@@ -884,6 +993,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         # the virgin branch is symmetric: s points away from zero force
         if (k == 0) and (s * tau < 0.0):
             s = -s
+            tha_ok = False
 
         # opened contacts lose force and memory
         if not closed1:
@@ -905,6 +1015,8 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             theta = 0.0
         elif elastic:
             theta = 1.0
+        elif tha_ok:
+            theta = tha
         else:
             theta = _pow_p(y, p, kc.sph)
         s1o[i] = s
@@ -914,6 +1026,11 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         ks_o[i] = kt01 * theta if closed1 else 0.0
         ksp_o[i] = kt01 if closed1 else 0.0
         ktn_o[i] = (s * mu * (1.0 - theta) if closed1 else 0.0) * kn
+        if not closed1:
+            for c in range(dim):
+                talp[i, c] = 0.0
+                for c2 in range(dim):
+                    tdel[i, c, c2] = 0.0
 
 
 @njit(**_JIT)

@@ -114,6 +114,7 @@ from grainmech.contact.hysteresis import (  # noqa: F401
     _LawOut,
     _md_update,
     _secant_kt,
+    axis_tangent,
 )
 from grainmech.contact.params import ContactParams, Cylinder, Hertz, MindlinDeresiewicz
 from grainmech.contact.state import (  # noqa: F401
@@ -259,9 +260,13 @@ def update(params: ContactParams, state: ContactState, d_normal: ArrayLike, d_ta
         out = _jenkins_update(params, T0, N0_eff, N1, a0_eff, alpha1, dt_eff)
     else:
         out = _frictionless_update(params, T0, N1)
-    T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn = out
+    T1, e1, s1, k1, P1, slide, diss, ks, ks_perp, ktn = out[:10]
 
     kn = law_forms(params).kn(N1)
+    if len(out) > 10:  # the hysteretic law's step tangent
+        t_delta, t_alpha = out[10] * frac[:, None, None], out[11]
+    else:
+        t_delta, t_alpha = axis_tangent(e1, ks, ks_perp, ktn * kn)
     new_state = ContactState(
         approach=alpha1,
         normal_force=N1,
@@ -284,6 +289,8 @@ def update(params: ContactParams, state: ContactState, d_normal: ArrayLike, d_ta
         sliding=slide,
         open=~closed1,
         dissipation=diss,
+        t_delta=t_delta,
+        t_alpha=t_alpha,
     )
     return new_state, resp
 
@@ -384,7 +391,8 @@ def _update_compiled(kernel: ModuleType, params: ContactParams, state: ContactSt
                              out.direction, out.depth, out.reversals, out.sliding,
                              st.dissipated_energy + out.dissipation)
     resp = ContactResponse(out.normal_force, out.tangential_force, out.kn, out.ks, out.ks_perp,
-                           out.ktn, out.axis, out.sliding, out.open, out.dissipation)
+                           out.ktn, out.axis, out.sliding, out.open, out.dissipation, out.t_delta,
+                           out.t_alpha)
     return new_state, resp
 
 

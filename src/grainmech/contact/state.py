@@ -104,6 +104,14 @@ class ContactResponse(NamedTuple):
         Contact open at the end of the step.
     dissipation : ndarray, shape (n,)
         Energy dissipated during the step (>= 0) [J].
+    t_delta : ndarray, shape (n, dim, dim), optional
+        Step tangent ``dT1 / d d_t``: derivative of the end-of-step tangential force with
+        respect to the step's tangential displacement (in the tangent plane) [N/m].
+    t_alpha : ndarray, shape (n, dim), optional
+        Step tangent ``dT1 / d alpha``: derivative with respect to the step's normal
+        approach [N/m]. With ``t_delta``: the consistent (algorithmic) tangent of the
+        update, ``df = (kn n + t_alpha) n^T + t_delta (I - n n)`` for ``f = N n + T``;
+        ``None`` for a response not produced by a step (``ContactLaw.response``).
     """
 
     normal_force: np.ndarray
@@ -116,6 +124,8 @@ class ContactResponse(NamedTuple):
     sliding: np.ndarray
     open: np.ndarray
     dissipation: np.ndarray
+    t_delta: np.ndarray | None = None
+    t_alpha: np.ndarray | None = None
 
 
 # ---------------------------------------------------------------------------------------

@@ -36,10 +36,9 @@ import numpy as np
 from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
-from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius, hertz_radius_from_approach,
-                                        mindlin_kt0, spring_energy)
 from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
                                       KernelState, rows)
+from grainmech.driver._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
 
 __all__ = ["strain_path"]
 
@@ -58,7 +57,7 @@ def _make(parallel: bool):
     def _strain_path_body(kc, normals, branch, weights, dstrain, jrows,
                             alpha, N, T, e, direction, depth, P, energy,
                             stress_c, mom_c, scal_c, jac_c,
-                            f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail):
+                            f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta, fail):
         # the state arrays (alpha ... energy) are advanced in place; f_* receive the
         # response of the last step
         n = alpha.shape[0]
@@ -104,16 +103,16 @@ def _make(parallel: bool):
             dp = np.empty((c, 3))
             flags = np.zeros(c, dtype=np.int8)
             a = np.zeros(27)
-            B = np.zeros((3, 6))
-            u = np.empty(6)
-            v = np.empty(6)
-            jac = np.zeros((6, 6))
+            jac = np.zeros(36)
+            allc = np.ones(6, dtype=np.bool_)
+            td_out = f_td[lo:hi]
+            ta_out = f_ta[lo:hi]
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
             st_in = KernelState(a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in)
             inc = KernelIncrement(dn, dt, N1, rad0, rad1)
             res = KernelOutput(a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
-                               ksp_out, ktn_out, kn_out, op_out)
+                               ksp_out, ktn_out, kn_out, op_out, td_out, ta_out)
             scratch = KernelScratch(tp, dp, flags)
             any_rows = False
             for q in range(6):
@@ -128,32 +127,9 @@ def _make(parallel: bool):
                 exy = 0.5 * dstrain[s, 5]
                 for j in range(c):
                     i = lo + j
-                    lx = branch[i, 0]
-                    ly = branch[i, 1]
-                    lz = branch[i, 2]
-                    nx = normals[i, 0]
-                    ny = normals[i, 1]
-                    nz = normals[i, 2]
-                    # seed Eq. 2.13: delta = d eps . l, split along and across n
-                    dx = exx * lx + exy * ly + exz * lz
-                    dy = exy * lx + eyy * ly + eyz * lz
-                    dz = exz * lx + eyz * ly + ezz * lz
-                    d_n = dx * nx + dy * ny + dz * nz
-                    dn[j] = d_n
-                    dt[j, 0] = dx - d_n * nx
-                    dt[j, 1] = dy - d_n * ny
-                    dt[j, 2] = dz - d_n * nz
-                    a1 = a_in[j] + d_n
-                    ap = a1 if a1 > 0.0 else 0.0
-                    if linear:
-                        N1[j] = kn_lin * ap
-                        rad0[j] = N1[j]
-                        rad1[j] = N1[j]
-                    else:
-                        N1[j] = hertz_force(ap, E, R)                    # seed Eq. 3.6
-                        Nc = N_in[j] if (a_in[j] > 0.0 and N_in[j] > 0.0) else 0.0
-                        rad0[j] = hertz_radius(Nc, E, R)                 # seed Eq. 3.2
-                        rad1[j] = hertz_radius(N1[j], E, R)
+                    dn[j], dt[j, 0], dt[j, 1], dt[j, 2], N1[j], rad0[j], rad1[j] = contact_increment(
+                        exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1], normals[i, 2],
+                        branch[i, 0], branch[i, 1], branch[i, 2], a_in[j], N_in[j], linear, kn_lin, E, R)
                 rows(0, c, kcc, st_in, inc, res, scratch)
                 bad = False
                 for j in range(c):
@@ -164,9 +140,8 @@ def _make(parallel: bool):
                     break
                 for q in range(27):
                     a[q] = 0.0
-                for q in range(6):
-                    for q2 in range(6):
-                        jac[q, q2] = 0.0
+                for q in range(36):
+                    jac[q] = 0.0
                 sxx = 0.0
                 syy = 0.0
                 szz = 0.0
@@ -187,16 +162,14 @@ def _make(parallel: bool):
                     ly = branch[i, 1]
                     lz = branch[i, 2]
                     Nj = N_out[j]
-                    fx = (Nj * nx + T_out[j, 0]) * w
-                    fy = (Nj * ny + T_out[j, 1]) * w
-                    fz = (Nj * nz + T_out[j, 2]) * w
-                    # Love-Weber, symmetric part (seed Eq. 2.6)
-                    sxx += fx * lx
-                    syy += fy * ly
-                    szz += fz * lz
-                    syz += 0.5 * (fy * lz + fz * ly)
-                    sxz += 0.5 * (fx * lz + fz * lx)
-                    sxy += 0.5 * (fx * ly + fy * lx)
+                    t0, t1, t2, t3, t4, t5 = love_weber_terms(Nj, T_out[j, 0], T_out[j, 1], T_out[j, 2], w,
+                                                              nx, ny, nz, lx, ly, lz)
+                    sxx += t0
+                    syy += t1
+                    szz += t2
+                    syz += t3
+                    sxz += t4
+                    sxy += t5
                     knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
                     ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
                     cs = w * ksj
@@ -207,45 +180,12 @@ def _make(parallel: bool):
                         wop += w
                     wdi += w * diss_out[j]
                     # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
-                    ap = a_out[j] if a_out[j] > 0.0 else 0.0
-                    T2 = T_out[j, 0] ** 2 + T_out[j, 1] ** 2 + T_out[j, 2] ** 2
-                    if linear:
-                        en_n = spring_energy(Nj, ap)
-                        kt0 = ks_lin if Nj > 0.0 else 0.0
-                    else:
-                        en_n = hertz_energy(Nj, ap)
-                        kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
-                    wst += w * (en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0))
+                    wst += w * stored_energy_term(Nj, a_out[j], T_out[j, 0], T_out[j, 1], T_out[j, 2], linear,
+                                                  ks_lin, R, Gs)
                     if any_rows:
-                        # consistent contact tangent (Newton only): K = ksp I + (kn - ksp) n n
-                        # + (ks - ksp) e e + ktn e n (law.py: ks along the memory axis e, ks_perp
-                        # across, ktn = d tau / d alpha); C = sum w B^T K B, delta = B d eps
-                        B[0, 0] = lx
-                        B[1, 1] = ly
-                        B[2, 2] = lz
-                        B[1, 3] = 0.5 * lz
-                        B[2, 3] = 0.5 * ly
-                        B[0, 4] = 0.5 * lz
-                        B[2, 4] = 0.5 * lx
-                        B[0, 5] = 0.5 * ly
-                        B[1, 5] = 0.5 * lx
-                        ex = e_out[j, 0]
-                        ey = e_out[j, 1]
-                        ez = e_out[j, 2]
-                        for q in range(6):
-                            u[q] = B[0, q] * nx + B[1, q] * ny + B[2, q] * nz
-                            v[q] = B[0, q] * ex + B[1, q] * ey + B[2, q] * ez
-                        ksp = ksp_out[j] if ksp_out[j] > 0.0 else 0.0
-                        c_n = w * (knj - ksp)
-                        c_e = w * (ksj - ksp)
-                        c_p = w * ksp
-                        c_c = w * ktn_out[j]
-                        for q in range(6):
-                            if jrows[q]:
-                                for q2 in range(6):
-                                    btb = B[0, q] * B[0, q2] + B[1, q] * B[1, q2] + B[2, q] * B[2, q2]
-                                    jac[q, q2] += (c_p * btb + c_n * u[q] * u[q2] + c_e * v[q] * v[q2]
-                                                   + c_c * v[q] * u[q2])
+                        # consistent (step) tangent of the law for Newton: jacobian rows
+                        add_step_jacobian(jac, 0, jrows, allc, w, kn_out[j], ta_out, td_out, j,
+                                          nx, ny, nz, lx, ly, lz)
                 stress_c[ch, s, 0] = sxx
                 stress_c[ch, s, 1] = syy
                 stress_c[ch, s, 2] = szz
@@ -261,7 +201,7 @@ def _make(parallel: bool):
                 if any_rows:
                     for q in range(6):
                         for q2 in range(6):
-                            jac_c[ch, s, q, q2] = jac[q, q2]
+                            jac_c[ch, s, q, q2] = jac[6 * q + q2]
                 # accept the step: out -> in
                 for j in range(c):
                     a_in[j] = a_out[j]
@@ -305,8 +245,8 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     d_strain : (m, 6) strain increments (engineering shear, library order)
     jacobian_rows : (6,) bool, optional
         Rows of the consistent (non-symmetric) tangent ``sum w B^T K B`` to assemble at
-        each step, ``K`` the full contact tangent with the slip-axis stiffness, the
-        cross-axis stiffness and the normal-tangential coupling of the law (for Newton).
+        each step, ``K`` the law's step tangent (``ContactResponse.t_delta``,
+        ``t_alpha``; :func:`grainmech.driver._mixed.add_step_jacobian`) (for Newton).
 
     Returns
     -------
@@ -341,6 +281,8 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     f_diss, f_ks, f_ksp, f_ktn, f_kn = (np.empty(n) for _ in range(5))
     f_slide = np.empty(n, dtype=np.bool_)
     f_open = np.empty(n, dtype=np.bool_)
+    f_td = np.empty((n, 3, 3))
+    f_ta = np.empty((n, 3))
     fail = np.full(nch, -1, dtype=np.int64)
     jrows = np.zeros(6, dtype=np.bool_) if jacobian_rows is None else np.ascontiguousarray(jacobian_rows, dtype=np.bool_)
     jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
@@ -348,7 +290,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
                         state.approach, state.normal_force, state.tangential_force, state.axis,
                         state.direction, state.depth, state.reversals, state.dissipated_energy,
                         stress_c, mom_c, scal_c, jac_c,
-                        f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, fail)
+                        f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta, fail)
     if np.any(fail >= 0):
         return None
     stress = stress_c.sum(axis=0)
@@ -359,7 +301,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
     state = state._replace(sliding=f_slide)
     response = ContactResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_ksp, f_ktn,
-                               state.axis, f_slide, f_open, f_diss)
+                               state.axis, f_slide, f_open, f_diss, f_td, f_ta)
     jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
     return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}

@@ -236,6 +236,8 @@ def consistent_tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
     :mod:`grainmech.driver._fused` assembles the same matrix; a law without ``ks_perp``
     gives :func:`tangent`. Only 3D contact sets carry the extra terms.
     """
+    if cs.normals.shape[1] == 3 and resp.t_delta is not None and resp.t_alpha is not None:
+        return _step_jacobian(cs, resp)
     if resp.ks_perp is None or resp.axis is None or cs.normals.shape[1] != 3:
         return tangent(cs, resp)
     ksp = np.maximum(resp.ks_perp, 0.0)
@@ -247,6 +249,24 @@ def consistent_tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
     C += (v * (w * (ks - ksp))[:, None]).T @ v
     C += (v * (w * resp.ktn)[:, None]).T @ u
     return C
+
+
+def _step_jacobian(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+    """``sum_c w_c B_c^T K_c B_c`` with the law's step tangent (algorithmic, not symmetric):
+    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` (``ContactResponse.t_delta``,
+    ``t_alpha``), ``B_c`` as in :func:`_project` (seed Eq. 2.13, 2.26)."""
+    n = cs.normals
+    l = cs.branch
+    kn = np.maximum(resp.kn, 0.0)
+    proj = np.eye(3)[None] - np.einsum("ci,cj->cij", n, n)
+    K = (np.einsum("ci,cj->cij", kn[:, None] * n + resp.t_alpha, n)
+         + np.einsum("cij,cjk->cik", resp.t_delta, proj))
+    B = np.zeros((len(l), 3, 6))
+    B[:, 0, 0], B[:, 1, 1], B[:, 2, 2] = l[:, 0], l[:, 1], l[:, 2]
+    B[:, 1, 3], B[:, 2, 3] = 0.5 * l[:, 2], 0.5 * l[:, 1]
+    B[:, 0, 4], B[:, 2, 4] = 0.5 * l[:, 2], 0.5 * l[:, 0]
+    B[:, 0, 5], B[:, 1, 5] = 0.5 * l[:, 1], 0.5 * l[:, 0]
+    return np.einsum("c,ciq,cij,cjr->qr", cs.weights, B, K, B, optimize=True)
 
 
 def _fractions(cs: ContactSet, resp: ContactResponse) -> tuple[float, float]:

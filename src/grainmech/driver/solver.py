@@ -256,6 +256,8 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
         res = _run_fused(point, path, options)
         if res is not None:
             return res
+    if fused and path.stress_control.any():
+        return _run_mixed(point, path, options)
     rows = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored", "sub", "it")}
 
     def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
@@ -397,3 +399,84 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
         "sub": np.r_[0, np.ones(m, dtype=int)], "it": np.r_[0, np.ones(m, dtype=int)],
     }
     return _result(True, 0, f"completed {m} steps", arr, final, m, options)
+
+
+def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str:
+    """The failure cause of a compiled segment, worded as :func:`_solve` words it."""
+    from grainmech.contact._errors import ReversalMemoryError
+    from grainmech.contact.law import max_reversals
+    from grainmech.driver import _mixed
+
+    code = seg["cause"]
+    val, tol, sl, op = seg["finfo"]
+    if code == _mixed.FAIL_SINGULAR:
+        cause = (f"tangent singular (condition {val:.3g}), {100 * sl:.0f}% of contacts sliding, "
+                 f"{100 * op:.0f}% open")
+    elif code == _mixed.FAIL_NOT_FINITE:
+        cause = "Newton update not finite"
+    elif code == _mixed.FAIL_NO_CONVERGENCE:
+        cause = (f"Newton did not converge in {options.max_iter} iterations (residual {val:.3g} > {tol:.3g}), "
+                 f"{100 * sl:.0f}% of contacts sliding, {100 * op:.0f}% open")
+    elif seg["flag"] in (1, 2):
+        cause = ("contact law error: "
+                 f"{ReversalMemoryError(np.array([seg['contact']]), max_reversals(point.law.params))}")
+    else:
+        cause = "contact law error: Mindlin-Deresiewicz branch integration did not terminate"
+    return f"{cause} (after {options.max_depth} halvings)"
+
+
+def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult:
+    """:func:`run` with each segment of constant control mask in one compiled call
+    (:func:`grainmech.driver._mixed.mixed_segment`: the loop of :func:`run` /
+    :func:`_subdivided` / :func:`_solve`, same rules and messages)."""
+    from grainmech.driver._mixed import mixed_segment
+
+    m = len(path)
+    sc_all = path.stress_control
+    sl0, op0 = point.fractions()
+    rows = {"strain": [point.strain[None]], "stress": [point.stress[None]], "tangent": [point.tangent[None]],
+            "sl": [[sl0]], "op": [[op0]], "diss": [[0.0]], "work": [[0.0]], "stored": [[point.stored_energy()]],
+            "sub": [[0]], "it": [[0]]}
+    t_stress = point.stress.copy()
+    t_strain = point.strain.copy()
+    prev = None
+    diss = work = 0.0
+    n_loose = 0
+    success, status, message = True, 0, f"completed {m} steps"
+    a = 0
+    while a < m:
+        sc = sc_all[a]
+        b = a + 1
+        while b < m and np.array_equal(sc_all[b], sc):
+            b += 1
+        if prev is not None:  # a component switching control restarts from the state
+            switched = sc != prev
+            t_stress = np.where(switched & sc, point.stress, t_stress)
+            t_strain = np.where(switched & ~sc, point.strain, t_strain)
+        prev = sc
+        seg = mixed_segment(point, sc, path.increment[a:b], t_stress, t_strain, options)
+        k = seg["done"]
+        t_stress, t_strain = seg["t_stress"], seg["t_strain"]
+        n_loose += seg["n_loose"]
+        for key, name in (("strain", "strain"), ("stress", "stress"), ("tangent", "tangent"), ("sl", "sliding"),
+                          ("op", "open"), ("stored", "stored"), ("sub", "substeps"), ("it", "iterations")):
+            rows[key].append(seg[name])
+        rows["diss"].append(diss + np.cumsum(seg["dissipation"]))
+        rows["work"].append(work + np.cumsum(seg["work"]))
+        if k:
+            diss = float(rows["diss"][-1][-1])
+            work = float(rows["work"][-1][-1])
+        point = replace(point, state=seg["state"], response=seg["response"], strain=seg["strain_end"],
+                        stress=seg["stress_end"])
+        object.__setattr__(point, "tangent", seg["tangent_end"])
+        if seg["cause"]:
+            success, status = False, 1
+            message = f"step {a + k + 1}: stress target not reachable: {_mixed_cause(seg, point, options)}"
+            break
+        a = b
+    if n_loose:
+        message += (f" ({n_loose} (sub)step(s) accepted at the contact law's resolution: stress residual "
+                    f"<= {options.rtol_accept:g} x stress scale)")
+    arr = {key: np.concatenate([np.asarray(v, dtype=float) if key not in ("sub", "it") else np.asarray(v)
+                                for v in vals]) for key, vals in rows.items()}
+    return _result(success, status, message, arr, point, m, options)

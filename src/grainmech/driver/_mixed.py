@@ -1,0 +1,676 @@
+r"""Compiled step/Newton loop of a mixed-control path segment (one compiled call).
+
+:func:`grainmech.driver.solver.run` solves each step of a path with stress-controlled
+components by Newton iterations on those components (``solver._solve``), halving a step
+that does not converge (``solver._subdivided``). This module runs *the same* loop --
+same predictor, same acceptance rules (``rtol``; ``rtol_accept`` on a two-cycle or
+after ``max_iter``), same subdivision, same failure causes -- for every step of a
+segment of constant control mask inside one compiled function, so that no Python runs
+between law evaluations. Per evaluation, one pass over the contacts (chunks of
+``_CH``, a ``prange`` from :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD`
+contacts):
+
+* kinematics, seed Eq. 2.13 (``delta = d eps . l``) and the normal law at the step's
+  end (seed Eq. 3.6, 3.2), exactly as :mod:`grainmech.driver._fused`;
+* the compiled law update :func:`grainmech.contact.kernel.rows` from the last converged
+  state (trial increment, no drift);
+* the Love-Weber stress (seed Eq. 2.6, symmetric part), the weighted sliding and open
+  fractions and the dissipation;
+* the Newton Jacobian rows and columns of the stress-controlled components,
+  ``sum_c w_c B_c^T K_c B_c`` with the law's step tangent
+  ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` (consistent with the update,
+  normal-tangential coupling ``mu dN (1 - theta)`` of seed Eq. 3.11 included;
+  :func:`grainmech.driver.point.consistent_tangent` is the NumPy form).
+
+After a converged (sub)step one more pass commits the state and assembles the reported
+tangent (seed Eq. 2.26 with the laws' ``kn``, ``ks``, full tangential projector) and the
+stored energy. The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
+``tests/test_driver_mixed.py`` holds the two to the same success, stresses and Newton
+iterations.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius, hertz_radius_from_approach,
+                                        mindlin_kt0, spring_energy)
+from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
+                                      KernelState, rows)
+
+__all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term", "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
+
+_CH = 128  # contacts per chunk (work item of the prange)
+_NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
+
+#: failure causes reported by the compiled loop (``info[1]``)
+FAIL_SINGULAR = 1        # Newton Jacobian singular (condition number in finfo[0])
+FAIL_NOT_FINITE = 2      # Newton update not finite
+FAIL_NO_CONVERGENCE = 3  # max_iter iterations, no iterate within rtol_accept
+FAIL_LAW = 4             # the law could not advance a contact (index in info[3], flag in info[4])
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def _b(q, i, lx, ly, lz):
+    """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``
+    (seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy)."""
+    if q < 3:
+        if i == q:
+            return lx if q == 0 else (ly if q == 1 else lz)
+        return 0.0
+    if q == 3:
+        return 0.0 if i == 0 else (0.5 * lz if i == 1 else 0.5 * ly)
+    if q == 4:
+        return 0.5 * lz if i == 0 else (0.0 if i == 1 else 0.5 * lx)
+    return 0.5 * ly if i == 0 else (0.5 * lx if i == 1 else 0.0)
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
+    """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
+
+    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)``: the law's step (consistent) tangent
+    of ``f = N n + T`` with respect to the relative displacement ``delta = B d eps``
+    (seed Eq. 2.13, 2.26; :func:`grainmech.driver.point.consistent_tangent`).
+    """
+    knc = kn if kn > 0.0 else 0.0
+    K00 = K01 = K02 = K10 = K11 = K12 = K20 = K21 = K22 = 0.0
+    for a in range(3):
+        ha = knc * (nx if a == 0 else (ny if a == 1 else nz)) + t_alpha[i, a]
+        tn = t_delta[i, a, 0] * nx + t_delta[i, a, 1] * ny + t_delta[i, a, 2] * nz
+        k0 = (ha - tn) * nx + t_delta[i, a, 0]
+        k1 = (ha - tn) * ny + t_delta[i, a, 1]
+        k2 = (ha - tn) * nz + t_delta[i, a, 2]
+        if a == 0:
+            K00, K01, K02 = k0, k1, k2
+        elif a == 1:
+            K10, K11, K12 = k0, k1, k2
+        else:
+            K20, K21, K22 = k0, k1, k2
+    for r in range(6):
+        if colmask[r]:
+            b0 = _b(r, 0, lx, ly, lz)
+            b1 = _b(r, 1, lx, ly, lz)
+            b2 = _b(r, 2, lx, ly, lz)
+            g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
+            g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
+            g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
+            for q in range(6):
+                if rowmask[q]:
+                    acc[off + 6 * q + r] += (_b(q, 0, lx, ly, lz) * g0 + _b(q, 1, lx, ly, lz) * g1
+                                             + _b(q, 2, lx, ly, lz) * g2)
+
+
+@njit(cache=True, error_model="numpy")
+def _copy_state(src, src_resp, dst, dst_resp):
+    """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows."""
+    dst.approach[:] = src.approach
+    dst.normal_force[:] = src.normal_force
+    dst.tangential_force[:] = src.tangential_force
+    dst.axis[:] = src.axis
+    dst.direction[:] = src.direction
+    dst.depth[:] = src.depth
+    dst.reversals[:] = src.reversals
+    dst.dissipated_energy[:] = src.dissipated_energy
+    for f in range(len(src_resp)):
+        dst_resp[f][:] = src_resp[f]
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
+    """One contact's step input from a strain increment (tensor components, compression
+    positive): ``delta = d eps . l`` split into ``d_n`` and ``d_t`` (seed Eq. 2.13), the
+    normal force at the step end (seed Eq. 3.6, or ``kn alpha``) and the Hertz contact
+    radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``."""
+    dx = exx * lx + exy * ly + exz * lz
+    dy = exy * lx + eyy * ly + eyz * lz
+    dz = exz * lx + eyz * ly + ezz * lz
+    d_n = dx * nx + dy * ny + dz * nz
+    a1 = a0 + d_n
+    ap = a1 if a1 > 0.0 else 0.0
+    if linear:
+        N1 = kn_lin * ap
+        return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, N1, N1
+    N1 = hertz_force(ap, E, R)
+    Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
+    return (d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(Nc, E, R),
+            hertz_radius(N1, E, R))
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
+    """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T`` (seed
+    Eq. 2.6), as (xx, yy, zz, yz, xz, xy)."""
+    fx = (N * nx + tx) * w
+    fy = (N * ny + ty) * w
+    fz = (N * nz + tz) * w
+    return (fx * lx, fy * ly, fz * lz, 0.5 * (fy * lz + fz * ly), 0.5 * (fx * lz + fz * lx),
+            0.5 * (fx * ly + fy * lx))
+
+
+@njit(cache=True, error_model="numpy")
+def _reduce(part, sig, jac):
+    """Sum the per-chunk partial sums: stress into ``sig`` (6,), Jacobian into ``jac``
+    (6, 6); returns the (sliding, open, dissipation) weighted sums."""
+    sig[:] = 0.0
+    jac[:, :] = 0.0
+    s_sl = 0.0
+    s_op = 0.0
+    s_di = 0.0
+    for ch in range(part.shape[0]):
+        for q in range(6):
+            sig[q] += part[ch, q]
+        for q in range(36):
+            jac[q // 6, q % 6] += part[ch, 6 + q]
+        s_sl += part[ch, 42]
+        s_op += part[ch, 43]
+        s_di += part[ch, 44]
+    return s_sl, s_op, s_di
+
+
+@njit(inline="always", cache=True, error_model="numpy")
+def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
+    """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`: the normal
+    law's ``int N d alpha`` (seed Eq. 3.6, or ``N alpha/2``) plus ``|T|^2 / (2 kt0)``."""
+    ap = alpha if alpha > 0.0 else 0.0
+    T2 = tx * tx + ty * ty + tz * tz
+    if linear:
+        en_n = spring_energy(N, ap)
+        kt0 = ks_lin if N > 0.0 else 0.0
+    else:
+        en_n = hertz_energy(N, ap)
+        kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
+    return en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0)
+
+
+def _make(parallel: bool):
+    """Evaluation pass and segment driver, serial or with a ``prange`` over chunks."""
+    rng = prange if parallel else range
+
+    def _evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
+        # trial update of every contact from the converged state ``st`` by the strain
+        # increment ``de``; per-chunk sums into ``part``; returns the first contact the
+        # law could not advance (-1: none)
+        n = normals.shape[0]
+        nch = (n + _CH - 1) // _CH
+        (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
+         glx, glw, sph, k8) = kc
+        exx = de[0]
+        eyy = de[1]
+        ezz = de[2]
+        eyz = 0.5 * de[3]
+        exz = 0.5 * de[4]
+        exy = 0.5 * de[5]
+        bad_c = np.full(nch, -1, dtype=np.int64)
+        # arrays as plain values into the (parallel) loop: writes through a named tuple's
+        # fields inside a prange are lost; the tuples are rebuilt inside
+        i_dn, i_dt, i_N1, i_rad0, i_rad1 = inc
+        s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en = st
+        (o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op, o_td,
+         o_ta) = out
+        c_tp, c_dp, c_fl = scratch
+        for ch in rng(nch):
+            lo = ch * _CH
+            hi = min(n, lo + _CH)
+            kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
+                                  maxrev, hcoef, gcoef, glx, glw, sph, k8)
+            st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
+            inc_c = KernelIncrement(i_dn, i_dt, i_N1, i_rad0, i_rad1)
+            out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op,
+                                 o_td, o_ta)
+            scr_c = KernelScratch(c_tp, c_dp, c_fl)
+            for i in range(lo, hi):
+                (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i], i_rad0[i],
+                 i_rad1[i]) = contact_increment(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
+                                                normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
+                                                s_a[i], s_N[i], linear, kn_lin, E, R)
+                c_fl[i] = 0
+            rows(lo, hi, kcc, st_c, inc_c, out_c, scr_c)
+            for i in range(lo, hi):
+                if c_fl[i] != 0 and bad_c[ch] < 0:
+                    bad_c[ch] = i
+            for q in range(_NP):
+                part[ch, q] = 0.0
+            if bad_c[ch] < 0:
+                prow = part[ch]
+                for i in range(lo, hi):
+                    w = weights[i]
+                    nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+                    lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
+                    # Love-Weber, symmetric part (seed Eq. 2.6)
+                    tt = love_weber_terms(o_N[i], o_T[i, 0], o_T[i, 1], o_T[i, 2], w, nx, ny, nz, lx, ly, lz)
+                    for q in range(6):
+                        prow[q] += tt[q]
+                    if o_sl[i]:
+                        prow[42] += w
+                    if o_op[i]:
+                        prow[43] += w
+                    prow[44] += w * o_di[i]
+                    # Jacobian rows/columns sc: B^T K B with the law's step tangent
+                    add_step_jacobian(prow, 6, sc, sc, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
+        for ch in range(nch):
+            if bad_c[ch] >= 0:
+                return bad_c[ch]
+        return -1
+
+    evaluate = njit(parallel=parallel, cache=True, error_model="numpy")(_evaluate)
+
+    def _commit(kc, normals, branch, weights, st, out, resp, Cout):
+        # accept the trial state: out -> st (dissipated energy accumulated), the response
+        # kept in ``resp``; returns the stored energy and writes the reported tangent
+        # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout
+        (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
+         glx, glw, sph, k8) = kc
+        n = normals.shape[0]
+        nrev = st.reversals.shape[1]
+        for q in range(36):
+            Cout[q] = 0.0
+        wst = 0.0
+        for i in range(n):
+            st.approach[i] = out.approach[i]
+            st.normal_force[i] = out.normal_force[i]
+            for c in range(3):
+                st.tangential_force[i, c] = out.tangential_force[i, c]
+                st.axis[i, c] = out.axis[i, c]
+            st.direction[i] = out.direction[i]
+            st.depth[i] = out.depth[i]
+            for c in range(nrev):
+                st.reversals[i, c] = out.reversals[i, c]
+            st.dissipated_energy[i] += out.dissipation[i]
+            resp[0][i] = out.kn[i]
+            resp[1][i] = out.ks[i]
+            resp[2][i] = out.ks_perp[i]
+            resp[3][i] = out.ktn[i]
+            resp[4][i] = out.dissipation[i]
+            resp[5][i] = 1.0 if out.sliding[i] else 0.0
+            resp[6][i] = 1.0 if out.open[i] else 0.0
+            w = weights[i]
+            nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+            lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
+            kn = out.kn[i] if out.kn[i] > 0.0 else 0.0
+            ks = out.ks[i] if out.ks[i] > 0.0 else 0.0
+            # u = B^T n, the tangent w B^T (ks I + (kn - ks) n n) B
+            u0 = nx * lx
+            u1 = ny * ly
+            u2 = nz * lz
+            u3 = 0.5 * (ny * lz + nz * ly)
+            u4 = 0.5 * (nx * lz + nz * lx)
+            u5 = 0.5 * (nx * ly + ny * lx)
+            cn = w * (kn - ks)
+            cs = w * ks
+            for q in range(6):
+                uq = u0 if q == 0 else (u1 if q == 1 else (u2 if q == 2 else (u3 if q == 3 else (u4 if q == 4 else u5))))
+                bq0 = _b(q, 0, lx, ly, lz)
+                bq1 = _b(q, 1, lx, ly, lz)
+                bq2 = _b(q, 2, lx, ly, lz)
+                for q2 in range(q, 6):
+                    uq2 = u0 if q2 == 0 else (u1 if q2 == 1 else (u2 if q2 == 2 else (u3 if q2 == 3 else (u4 if q2 == 4 else u5))))
+                    btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
+                    Cout[6 * q + q2] += cs * btb + cn * uq * uq2
+            wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
+                                          out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
+                                          ks_lin, R, Gs)
+        for q in range(6):
+            for q2 in range(q):
+                Cout[6 * q + q2] = Cout[6 * q2 + q]
+        return wst
+
+    commit = njit(cache=True, error_model="numpy")(_commit)
+
+    def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
+                 rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
+                 rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
+        # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
+        # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
+        # finfo = (condition or residual, tolerance, sliding, open)
+        m = incs.shape[0]
+        ns = 0
+        for q in range(6):
+            if sc[q]:
+                ns += 1
+        idx = np.empty(ns, dtype=np.int64)
+        jdx = np.empty(6 - ns, dtype=np.int64)
+        a = 0
+        b = 0
+        for q in range(6):
+            if sc[q]:
+                idx[a] = q
+                a += 1
+            else:
+                jdx[b] = q
+                b += 1
+        stress = stress0.copy()
+        strain = strain0.copy()
+        C = C0.copy()
+        t_stress = t_stress0  # advanced in place (the caller continues from them)
+        t_strain = t_strain0
+        Cflat = np.empty(36)
+        jac = np.zeros((6, 6))
+        sig = np.zeros(6)
+        hist = np.zeros(max_iter + 1)
+        best_de = np.zeros(6)
+        de = np.zeros(6)
+        # substep stack (depth first): strain increment, stress targets at start/end, depth
+        sk_d = np.zeros((max_depth + 2, 6))
+        sk_t0 = np.zeros((max_depth + 2, 6))
+        sk_t1 = np.zeros((max_depth + 2, 6))
+        sk_dep = np.zeros(max_depth + 2, dtype=np.int64)
+        n_loose = 0
+        for k in range(m):
+            new_ts = np.empty(6)
+            new_te = np.empty(6)
+            for q in range(6):
+                new_ts[q] = t_stress[q] + incs[k, q] if sc[q] else stress[q]
+                new_te[q] = strain[q] if sc[q] else t_strain[q] + incs[k, q]
+            nsk = 1
+            for q in range(6):
+                sk_d[0, q] = 0.0 if sc[q] else new_te[q] - strain[q]
+                sk_t0[0, q] = stress[q] if sc[q] else 0.0
+                sk_t1[0, q] = new_ts[q] if sc[q] else 0.0
+            sk_dep[0] = 0
+            n_sub = 0
+            n_it = 0
+            diss = 0.0
+            work = 0.0
+            wsl = 0.0
+            wop = 0.0
+            wst = 0.0
+            backed = False
+            while nsk > 0:
+                nsk -= 1
+                dep = sk_dep[nsk]
+                d_strain = sk_d[nsk].copy()
+                t0 = sk_t0[nsk].copy()
+                target = sk_t1[nsk].copy()
+                # ---- solver._solve: one (sub)step of Newton iterations
+                cause = 0
+                for q in range(6):
+                    de[q] = 0.0 if sc[q] else d_strain[q]
+                scale = 0.0
+                for q in range(6):
+                    scale = max(scale, abs(stress[q]))
+                ts = 0.0
+                for a in range(ns):
+                    ts = max(ts, abs(target[idx[a]]))
+                scale = max(scale, ts)
+                if scale == 0.0:
+                    cm = 0.0
+                    dm = 0.0
+                    for q in range(36):
+                        cm = max(cm, abs(C[q // 6, q % 6]))
+                    for q in range(6):
+                        dm = max(dm, abs(de[q]))
+                    scale = cm * dm
+                    if scale == 0.0:
+                        scale = 1.0
+                tol = rtol * scale
+                loose = rtol_accept * scale
+                if ns > 0:
+                    A = np.empty((ns, ns))
+                    rhs = np.empty(ns)
+                    for a in range(ns):
+                        acc = target[idx[a]] - stress[idx[a]]
+                        for b in range(6 - ns):
+                            acc -= C[idx[a], jdx[b]] * de[jdx[b]]
+                        rhs[a] = acc
+                        for b in range(ns):
+                            A[a, b] = C[idx[a], idx[b]]
+                    ok = True
+                    try:
+                        x = np.linalg.solve(A, rhs)
+                    except Exception:  # singular predictor: start from zero
+                        ok = False
+                        x = np.zeros(ns)
+                    for a in range(ns):
+                        de[idx[a]] = x[a] if ok else 0.0
+                    fin = True
+                    for q in range(6):
+                        if not math.isfinite(de[q]):
+                            fin = False
+                    if not fin:
+                        for a in range(ns):
+                            de[idx[a]] = 0.0
+                have_best = False
+                best_r = 0.0
+                nh = 0
+                it_done = 0
+                loose_acc = False
+                rmax = 0.0
+                for it in range(1, max_iter + 1):
+                    bad = evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                    if bad >= 0:
+                        cause = FAIL_LAW
+                        info[3] = bad
+                        info[4] = scratch.flags[bad]
+                        break
+                    s_sl, s_op, s_di = _reduce(part, sig, jac)
+                    rmax = 0.0
+                    for a in range(ns):
+                        rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
+                    if rmax <= loose:
+                        if rmax <= tol:
+                            it_done = it
+                            break
+                        if (not have_best) or rmax < best_r:
+                            have_best = True
+                            best_r = rmax
+                            best_de[:] = de
+                        if nh >= 2 and abs(rmax - hist[nh - 2]) <= 1e-6 * rmax:  # two-cycle at a tie
+                            it_done = it
+                            loose_acc = True
+                            break
+                    hist[nh] = rmax
+                    nh += 1
+                    J = np.empty((ns, ns))
+                    r = np.empty(ns)
+                    for a in range(ns):
+                        r[a] = sig[idx[a]] - target[idx[a]]
+                        for b in range(ns):
+                            J[a, b] = jac[idx[a], idx[b]]
+                    jfin = True
+                    for a in range(ns):
+                        for b in range(ns):
+                            if not math.isfinite(J[a, b]):
+                                jfin = False
+                    cond = np.linalg.cond(J) if jfin else np.nan
+                    if not math.isfinite(cond) or cond > 1e13:
+                        cause = FAIL_SINGULAR
+                        finfo[0] = cond
+                        break
+                    x = np.linalg.solve(J, r)
+                    fin = True
+                    for a in range(ns):
+                        de[idx[a]] = de[idx[a]] - x[a]
+                    for q in range(6):
+                        if not math.isfinite(de[q]):
+                            fin = False
+                    if not fin:
+                        cause = FAIL_NOT_FINITE
+                        break
+                if cause == 0 and it_done == 0:  # max_iter iterations
+                    if have_best:
+                        it_done = max_iter
+                        loose_acc = True
+                    else:
+                        cause = FAIL_NO_CONVERGENCE
+                        finfo[0] = rmax
+                        finfo[1] = tol
+                if cause == 0 and loose_acc and best_r < rmax:
+                    # the best iterate is not the last one: evaluate it again (same state)
+                    de[:] = best_de
+                    evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                    s_sl, s_op, s_di = _reduce(part, sig, jac)
+                if cause != 0:
+                    wtot = 0.0
+                    for i in range(weights.shape[0]):
+                        wtot += weights[i]
+                    finfo[2] = s_sl / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
+                    finfo[3] = s_op / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
+                    if dep >= max_depth:
+                        if backed:  # substeps of this step were committed: back to its start
+                            _copy_state(bk_st, bk_resp, st, resp)
+                        info[0] = k
+                        info[1] = cause
+                        info[2] = dep
+                        info[5] = n_loose
+                        return k
+                    if not backed and n_sub == 0:  # nothing committed in this step yet
+                        _copy_state(st, resp, bk_st, bk_resp)
+                        backed = True
+                    # ---- solver._subdivided: two halves, the first on top of the stack
+                    tm = 0.5 * (t0 + target)
+                    hd = 0.5 * d_strain
+                    sk_d[nsk] = hd
+                    sk_t0[nsk] = tm
+                    sk_t1[nsk] = target
+                    sk_dep[nsk] = dep + 1
+                    sk_d[nsk + 1] = hd
+                    sk_t0[nsk + 1] = t0
+                    sk_t1[nsk + 1] = tm
+                    sk_dep[nsk + 1] = dep + 1
+                    nsk += 2
+                    continue
+                # ---- accepted: commit the state, counters as solver._subdivided
+                new_strain = strain + de
+                wst = commit(kc, normals, branch, weights, st, out, resp, Cflat)
+                n_sub += 1
+                n_it += it_done
+                if loose_acc:
+                    n_loose += 1
+                diss += s_di
+                dw = 0.0
+                for q in range(6):
+                    dw += 0.5 * (stress[q] + sig[q]) * (new_strain[q] - strain[q])
+                work += dw
+                strain = new_strain
+                stress = sig.copy()
+                for q in range(36):
+                    C[q // 6, q % 6] = Cflat[q]
+                wsl = s_sl
+                wop = s_op
+            # ---- record the step
+            for q in range(6):
+                t_stress[q] = new_ts[q] if sc[q] else stress[q]
+                t_strain[q] = strain[q] if sc[q] else new_te[q]
+                rec_strain[k, q] = strain[q]
+                rec_stress[k, q] = stress[q]
+            for q in range(36):
+                rec_tan[k, q // 6, q % 6] = C[q // 6, q % 6]
+            rec_scal[k, 0] = wsl
+            rec_scal[k, 1] = wop
+            rec_scal[k, 2] = diss
+            rec_scal[k, 3] = work
+            rec_scal[k, 4] = wst
+            rec_int[k, 0] = n_sub
+            rec_int[k, 1] = n_it
+        info[0] = m
+        info[1] = 0
+        info[5] = n_loose
+        return m
+
+    return njit(cache=True, error_model="numpy")(_segment), evaluate
+
+
+_segment_serial, _evaluate_serial = _make(False)
+_segment_parallel, _evaluate_parallel = _make(True)
+
+
+def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,
+                  options) -> dict:
+    """Run the steps ``increments`` (m, 6) of constant control mask ``sc`` (6,) from ``point``.
+
+    Parameters
+    ----------
+    point : MaterialPoint
+        Converged start, with a :class:`~grainmech.contact.interface.ContactLaw` whose
+        parameters the compiled kernel supports (the caller checks), no finite-deformation
+        correction.
+    sc : (6,) bool, stress-controlled components
+    increments : (m, 6) increments of the controlled components (stress or strain)
+    t_stress, t_strain : (6,) running targets at the segment's start (``solver.run``)
+    options : SolverOptions
+
+    Returns
+    -------
+    dict
+        ``done`` (steps completed), ``cause`` (0 or a ``FAIL_*`` code), ``depth``,
+        ``contact``, ``flag`` (law failure), ``n_loose``, ``finfo`` (condition or residual,
+        tolerance, sliding and open fractions of the failing evaluation), per-step records
+        ``strain``, ``stress``, ``tangent`` (m, ...), ``sliding``, ``open`` (fractions),
+        ``dissipation``, ``work`` (per step), ``stored``, ``substeps``, ``iterations``; the
+        final ``state``, ``response``, ``stress``, ``strain``, ``tangent``,
+        ``t_stress``, ``t_strain``.
+    """
+    from numba import get_num_threads
+
+    from grainmech.contact import kernel
+    from grainmech.contact.law import ContactResponse, ContactState
+
+    cs = point.contacts
+    params = point.law.params
+    kc = kernel.constants(params)
+    n = cs.normals.shape[0]
+    m = increments.shape[0]
+    nch = (n + _CH - 1) // _CH
+    st0 = point.state
+
+    def c(x, dtype=float):
+        return np.array(x, dtype=dtype, order="C")
+
+    dtypes = (float, float, float, float, np.int8, np.int32, float, float)
+    fields = (st0.approach, st0.normal_force, st0.tangential_force, st0.axis, st0.direction, st0.depth,
+              st0.reversals, st0.dissipated_energy)
+    st = KernelState(*(c(x, dt) for x, dt in zip(fields, dtypes)))
+    bk = KernelState(*(np.empty_like(x) for x in st))
+    nrev = st.reversals.shape[1]
+    out = KernelOutput(np.empty(n), np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, dtype=np.int8),
+                       np.empty(n, dtype=np.int32), np.empty((n, nrev)), np.empty(n, dtype=np.bool_), np.empty(n),
+                       np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_),
+                       np.empty((n, 3, 3)), np.empty((n, 3)))
+    scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8))
+    inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))
+    r0 = point.response
+    resp = tuple(c(x) for x in (r0.kn, r0.ks, r0.ks_perp, r0.ktn, r0.dissipation, r0.sliding, r0.open))
+    bk_resp = tuple(np.empty(n) for _ in resp)
+    part = np.zeros((nch, _NP))
+    rec_strain = np.zeros((m, 6))
+    rec_stress = np.zeros((m, 6))
+    rec_tan = np.zeros((m, 6, 6))
+    rec_scal = np.zeros((m, 5))
+    rec_int = np.zeros((m, 2), dtype=np.int64)
+    info = np.zeros(6, dtype=np.int64)
+    finfo = np.zeros(4)
+    parallel = n >= kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
+    fn = _segment_parallel if parallel else _segment_serial
+    C0 = np.ascontiguousarray(point.tangent, dtype=float)
+    t_stress = c(t_stress)
+    t_strain = c(t_strain)
+    done = int(fn(kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
+                  c(point.stress), c(point.strain), C0, t_stress, t_strain,
+                  float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
+                  st, out, scratch, inc, part, resp, bk, bk_resp,
+                  rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo))
+    wtot = float(cs.weights.sum())
+    sliding = resp[5] > 0.5
+    state = ContactState(st.approach, st.normal_force, st.tangential_force, st.axis, st.direction, st.depth,
+                         st.reversals, sliding, st.dissipated_energy)
+    response = ContactResponse(st.normal_force, st.tangential_force, resp[0], resp[1], resp[2], resp[3],
+                               st.axis, sliding, resp[6] > 0.5, resp[4])
+    frac = rec_scal[:, :2] / wtot if wtot > 0 else np.zeros((m, 2))
+    last = done - 1
+    return {
+        "done": done, "cause": int(info[1]), "depth": int(info[2]), "contact": int(info[3]), "flag": int(info[4]),
+        "n_loose": int(info[5]), "finfo": finfo,
+        "strain": rec_strain[:done], "stress": rec_stress[:done], "tangent": rec_tan[:done],
+        "sliding": frac[:done, 0], "open": frac[:done, 1], "dissipation": rec_scal[:done, 2],
+        "work": rec_scal[:done, 3], "stored": rec_scal[:done, 4],
+        "substeps": rec_int[:done, 0], "iterations": rec_int[:done, 1],
+        "state": state, "response": response,
+        "stress_end": rec_stress[last].copy() if done else point.stress.copy(),
+        "strain_end": rec_strain[last].copy() if done else point.strain.copy(),
+        "tangent_end": rec_tan[last].copy() if done else C0.copy(),
+        "t_stress": t_stress, "t_strain": t_strain,
+    }

@@ -1,0 +1,161 @@
+"""The compiled mixed-control loop (driver/_mixed.py) against the NumPy reference.
+
+The reference is the step loop of ``solver.run`` with the NumPy contact law
+(``backend="numpy"``: kinematics of seed Eq. 2.13 by matrix products, Love-Weber stress
+of Eq. 2.6 by ``love_weber_sum``, the Newton Jacobian ``sum w B^T K B`` by einsum). The
+law's step tangent itself is checked against central differences of the NumPy law, an
+independent check of the derivation (a consistent tangent gives Newton's quadratic
+convergence: about two evaluations per step at gamma = 1e-4 instead of three).
+
+Tolerances stated: stresses, strains, energies to 1e-9 relative (the Newton tolerance
+rtol = 1e-9 bounds how far two runs whose iterates differ by rounding can drift); Newton
+iterations: the totals within 2 %, no step more than one iteration apart.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainmech.assembly import ContactSet
+from grainmech.contact import MindlinDeresiewicz
+from grainmech.driver import (LoadPath, MaterialPoint, SolverOptions, cyclic_simple_shear, evaluate, run,
+                              segment, tangent)
+from grainmech.driver.point import consistent_tangent
+
+pytest.importorskip("numba")
+
+RADIUS = 1e-3
+LAW = MindlinDeresiewicz(29e9, 0.15, RADIUS, friction=0.5)
+
+
+def _point(degree: int, backend: str) -> MaterialPoint:
+    from grainmech.fabric import sphere_rule
+
+    normals, w = sphere_rule(degree)
+    nv = 8 / (2 * (4 / 3 * np.pi * RADIUS ** 3) * 1.6)  # e = 0.6, 8 contacts per grain
+    cs = ContactSet(normals, 2 * RADIUS * normals, nv * w, 0.0, 0.0)
+    return MaterialPoint.isotropic(cs, LAW, 1e5, backend=backend)
+
+
+def _agree(a, b, rtol=1e-9):
+    assert a.success == b.success
+    assert a.message == b.message
+    assert a.stress.shape == b.stress.shape
+    scale = np.abs(b.stress).max()
+    assert np.abs(a.stress - b.stress).max() <= rtol * scale
+    assert np.abs(a.strain - b.strain).max() <= rtol * np.abs(b.strain).max()
+    assert np.abs(a.tangent - b.tangent).max() <= rtol * np.abs(b.tangent).max()
+    for key in ("dissipation", "work", "stored"):
+        x, y = getattr(a, key), getattr(b, key)
+        assert np.abs(x - y).max() <= rtol * max(np.abs(y).max(), 1e-300), key
+    assert np.allclose(a.sliding_fraction, b.sliding_fraction, rtol=0, atol=1e-9)
+    ia, ib = a.iterations[1:], b.iterations[1:]
+    assert np.abs(ia - ib).max() <= 1
+    assert abs(int(ia.sum()) - int(ib.sum())) <= 0.02 * ib.sum()
+
+
+@pytest.mark.parametrize("amplitude, max_mean", [(1e-5, 2.1), (1e-4, 2.3), (1e-3, 3.2)])
+def test_compiled_loop_matches_numpy_reference(monkeypatch, amplitude, max_mean):
+    """Cyclic simple shear at constant sigma_zz, 194 directions, 2 cycles x 100 steps."""
+    from grainmech.driver import _mixed
+
+    calls = []
+    seg = _mixed.mixed_segment
+    monkeypatch.setattr(_mixed, "mixed_segment", lambda *a, **k: calls.append(1) or seg(*a, **k))
+    path = cyclic_simple_shear(amplitude, 2, 100, constant="stress")
+    a = run(_point(23, "auto"), path)
+    assert calls, "the compiled loop was not used"
+    b = run(_point(23, "numpy"), path)
+    assert a.success, a.message
+    _agree(a, b)
+    # the step tangent makes Newton converge quadratically: the predictor (symmetric
+    # tangent of the last step) and about one correction per step
+    assert a.iterations[1:].mean() <= max_mean
+    # the reported tangent is the symmetric one of seed Eq. 2.26 at the final state
+    C = tangent(a.final.contacts, a.final.response)
+    assert np.abs(a.final.tangent - C).max() <= 1e-12 * np.abs(C).max()
+
+
+def test_step_tangent_equals_finite_differences_of_the_numpy_law():
+    """d sigma / d eps of one trial increment (NumPy law, central differences) equals the
+    Jacobian from the step tangent, on a Masing branch with a falling normal force."""
+    pt = _point(23, "numpy")
+    path = cyclic_simple_shear(1e-4, 1, 100, constant="stress")
+    r = run(pt, LoadPath(path.stress_control[:31], path.increment[:31]))
+    p = r.final
+    de = np.array([0.0, 0.0, -4e-8, 0.0, -4e-6, 0.0])
+    ev = evaluate(p, de)
+    J = consistent_tangent(p.contacts, ev.response)
+    Jfd = np.zeros((6, 6))
+    h = 1e-6 * np.abs(de).max()
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = h
+        Jfd[:, j] = (evaluate(p, de + e).stress - evaluate(p, de - e).stress) / (2 * h)
+    assert (p.state.depth > 0).any() and (ev.state.normal_force < p.state.normal_force).any()
+    assert np.abs(J - Jfd).max() <= 1e-6 * np.abs(Jfd).max()
+    # the compiled law returns the same step tangent, contact by contact
+    from grainmech.contact.interface import make_law
+    from grainmech.conventions import vector_to_strain
+
+    delta = p.contacts.branch @ vector_to_strain(de)
+    dn = np.einsum("ci,ci->c", delta, p.contacts.normals)
+    dt = delta - dn[:, None] * p.contacts.normals
+    _, rc = make_law(LAW, backend="auto").update(p.state, dn, dt)
+    kmax = np.abs(ev.response.kn).max()
+    assert np.abs(rc.t_delta - ev.response.t_delta).max() <= 1e-12 * kmax
+    assert np.abs(rc.t_alpha - ev.response.t_alpha).max() <= 1e-12 * kmax
+    # the continuum form (ks, ks_perp, ktn along the new axis) is measurably off
+    old = consistent_tangent(p.contacts, ev.response._replace(t_delta=None, t_alpha=None))
+    assert np.abs(old - Jfd).max() > 1e2 * np.abs(J - Jfd).max()
+
+
+def test_control_switches_and_compiled_equals_step_loop():
+    """Segments of different masks (stress path, then mixed shear, then strain) in one run:
+    the compiled loop, segment by segment, equals the step loop with the same law."""
+    pt = _point(11, "auto")
+    path = (segment("SSSSSS", [2e4, 2e4, 5e4, 0, 0, 0], 10)
+            + cyclic_simple_shear(2e-4, 1, 20, constant="stress")
+            + segment("EEEEEE", [0, 0, 0, 0, 1e-4, 0], 5)
+            + segment("EESEEE", [0, 0, -1e4, 0, 0, 0], 5))
+    a = run(pt, path)
+    b = run(pt, path, compiled=False)
+    assert a.success, a.message
+    _agree(a, b, rtol=1e-12)
+    assert np.array_equal(a.iterations, b.iterations)
+
+
+def test_newton_failure_inside_compiled_loop_keeps_the_steps_done():
+    """A stress target in tension (contacts open, no stiffness): the compiled loop stops at
+    the same step with the same message as the step loop and keeps the steps before."""
+    pt = _point(11, "auto")
+    path = cyclic_simple_shear(1e-4, 1, 20, constant="stress") + segment("EESEEE", [0, 0, -3e5, 0, 0, 0], 2)
+    opts = SolverOptions(max_depth=2, max_iter=10)
+    a = run(pt, path, options=opts)
+    b = run(pt, path, options=opts.__class__(max_depth=2, max_iter=10, compiled=False))
+    assert not a.success and a.status == 1
+    assert a.message.startswith("step 21: stress target not reachable: ")
+    assert "(after 2 halvings)" in a.message
+    assert a.message == b.message
+    assert len(a.stress) == 21  # the initial state and the 20 steps done
+    _agree(a, b, rtol=1e-12)
+    # the final point is the last converged state: continuing from it works
+    more = run(a.final, cyclic_simple_shear(1e-4, 1, 8, constant="stress"))
+    assert more.success, more.message
+    assert np.allclose(a.final.stress, a.stress[-1], rtol=0, atol=1e-9 * np.abs(a.stress).max())
+
+
+def test_newton_not_converging_is_reported_with_residual():
+    """max_iter = 1 at a tight tolerance: 'Newton did not converge' with the residual and
+    the tolerance, same as the step loop."""
+    pt = _point(11, "auto")
+    path = cyclic_simple_shear(1e-3, 1, 8, constant="stress")
+    opts = dict(max_iter=1, max_depth=0, rtol=1e-12, rtol_accept=1e-12)
+    a = run(pt, path, **opts)
+    b = run(pt, path, compiled=False, **opts)
+    assert not a.success
+    assert "Newton did not converge in 1 iterations (residual" in a.message
+    assert "(after 0 halvings)" in a.message
+    assert a.message == b.message
+    assert len(a.stress) == len(b.stress)
