@@ -346,8 +346,9 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
 
 def axis_tangent(e: np.ndarray, ks: np.ndarray, ks_perp: np.ndarray, ktn: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Step tangent ``(dT/d d_t, dT/d alpha)`` of the form ``ks e e + ks_perp (I - e e)``,
-    ``ktn e`` (shapes (n, dim, dim), (n, dim); the elastic-Coulomb laws' tangent).
+    """Step tangent ``(dT/d d_t, dT/d alpha)`` in the continuum form of the elastic-Coulomb laws.
+
+    ``ks e e + ks_perp (I - e e)`` and ``ktn e``, shapes (n, dim, dim) and (n, dim).
     """
     dim = e.shape[1]
     t_delta = ((ks - ks_perp)[:, None, None] * np.einsum("ci,cj->cij", e, e)
@@ -357,8 +358,9 @@ def axis_tangent(e: np.ndarray, ks: np.ndarray, ks_perp: np.ndarray, ktn: np.nda
 
 def cap_tangent(T: np.ndarray, tn: np.ndarray, muN1: np.ndarray, mukn: np.ndarray, t_delta: np.ndarray,
                 t_alpha: np.ndarray, over: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Step tangent through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T``
-    (``|t| = tn``), rows ``over``: ``dT = mu kn t/|t| d alpha + (mu N1/|t|) (I - t t/|t|^2) dt``.
+    """Step tangent through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T``.
+
+    ``|t| = tn``, rows ``over``: ``dT = mu kn t/|t| d alpha + (mu N1/|t|) (I - t t/|t|^2) dt``.
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = np.where(tn > 0, 1.0 / np.where(tn > 0, tn, 1.0), 0.0)

@@ -713,8 +713,9 @@ def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
 
 @njit(inline="always", **_JIT)
 def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
-    """Radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]`` (|t| = ``tn``): the step
-    derivatives become ``mu kn t/|t| + g (I - t t/|t|^2) dT_trial/d alpha`` and
+    """Step derivatives through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]``.
+
+    With ``|t| = tn`` the step derivatives become ``mu kn t/|t| + g (I - t t/|t|^2) dT_trial/d alpha`` and
     ``g (I - t t/|t|^2) dT_trial/d d_t`` with ``g = mu N1/|t|``.
     """
     dim = T.shape[1]

@@ -36,8 +36,7 @@ import numpy as np
 from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
-from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
-                                      KernelState, rows)
+from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
 from grainmech.driver._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
 
 __all__ = ["strain_path"]
@@ -222,9 +221,12 @@ _kernel_parallel = _make(True)
 
 
 def _strain_path_kernel(*args):
-    """Parallel from :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD` contacts (and more
+    """The compiled pass, parallel or serial by the number of contacts.
+
+    Parallel from :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD` contacts (and more
     than one numba thread), serial below: for small sets the threads' start-up (and, on a
-    busy machine, waiting for a free core) costs more than the work."""
+    busy machine, waiting for a free core) costs more than the work.
+    """
     from numba import get_num_threads
 
     from grainmech.contact import kernel
@@ -284,7 +286,8 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     f_td = np.empty((n, 3, 3))
     f_ta = np.empty((n, 3))
     fail = np.full(nch, -1, dtype=np.int64)
-    jrows = np.zeros(6, dtype=np.bool_) if jacobian_rows is None else np.ascontiguousarray(jacobian_rows, dtype=np.bool_)
+    jrows = (np.zeros(6, dtype=np.bool_) if jacobian_rows is None
+             else np.ascontiguousarray(jacobian_rows, dtype=np.bool_))
     jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
     _strain_path_kernel(consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain), jrows,
                         state.approach, state.normal_force, state.tangential_force, state.axis,

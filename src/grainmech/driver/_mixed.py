@@ -36,12 +36,18 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from grainmech.contact.geometry import (hertz_energy, hertz_force, hertz_radius, hertz_radius_from_approach,
-                                        mindlin_kt0, spring_energy)
-from grainmech.contact.kernel import (KernelConstants, KernelIncrement, KernelOutput, KernelScratch,
-                                      KernelState, rows)
+from grainmech.contact.geometry import (
+    hertz_energy,
+    hertz_force,
+    hertz_radius,
+    hertz_radius_from_approach,
+    mindlin_kt0,
+    spring_energy,
+)
+from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
 
-__all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term", "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
+__all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
+           "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 _CH = 128  # contacts per chunk (work item of the prange)
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
@@ -54,9 +60,27 @@ FAIL_LAW = 4             # the law could not advance a contact (index in info[3]
 
 
 @njit(inline="always", cache=True, error_model="numpy")
+def _pick(q, u0, u1, u2, u3, u4, u5):
+    """The ``q``-th of six scalars (a register-held 6-vector)."""
+    if q == 0:
+        return u0
+    if q == 1:
+        return u1
+    if q == 2:
+        return u2
+    if q == 3:
+        return u3
+    if q == 4:
+        return u4
+    return u5
+
+
+@njit(inline="always", cache=True, error_model="numpy")
 def _b(q, i, lx, ly, lz):
-    """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``
-    (seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy)."""
+    """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``.
+
+    Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy.
+    """
     if q < 3:
         if i == q:
             return lx if q == 0 else (ly if q == 1 else lz)
@@ -121,10 +145,12 @@ def _copy_state(src, src_resp, dst, dst_resp):
 
 @njit(inline="always", cache=True, error_model="numpy")
 def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
-    """One contact's step input from a strain increment (tensor components, compression
-    positive): ``delta = d eps . l`` split into ``d_n`` and ``d_t`` (seed Eq. 2.13), the
+    """One contact's step input from a strain increment.
+
+    Tensor components, compression positive: ``delta = d eps . l`` split into ``d_n`` and ``d_t`` (seed Eq. 2.13), the
     normal force at the step end (seed Eq. 3.6, or ``kn alpha``) and the Hertz contact
-    radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``."""
+    radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``.
+    """
     dx = exx * lx + exy * ly + exz * lz
     dy = exy * lx + eyy * ly + eyz * lz
     dz = exz * lx + eyz * ly + ezz * lz
@@ -142,8 +168,10 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
 
 @njit(inline="always", cache=True, error_model="numpy")
 def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
-    """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T`` (seed
-    Eq. 2.6), as (xx, yy, zz, yz, xz, xy)."""
+    """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T``.
+
+    Seed Eq. 2.6, as (xx, yy, zz, yz, xz, xy).
+    """
     fx = (N * nx + tx) * w
     fy = (N * ny + ty) * w
     fz = (N * nz + tz) * w
@@ -153,8 +181,11 @@ def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
 
 @njit(cache=True, error_model="numpy")
 def _reduce(part, sig, jac):
-    """Sum the per-chunk partial sums: stress into ``sig`` (6,), Jacobian into ``jac``
-    (6, 6); returns the (sliding, open, dissipation) weighted sums."""
+    """Sum the per-chunk partial sums.
+
+    Stress into ``sig`` (6,), Jacobian into ``jac`` (6, 6); returns the (sliding, open,
+    dissipation) weighted sums.
+    """
     sig[:] = 0.0
     jac[:, :] = 0.0
     s_sl = 0.0
@@ -173,8 +204,10 @@ def _reduce(part, sig, jac):
 
 @njit(inline="always", cache=True, error_model="numpy")
 def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
-    """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`: the normal
-    law's ``int N d alpha`` (seed Eq. 3.6, or ``N alpha/2``) plus ``|T|^2 / (2 kt0)``."""
+    """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`.
+
+    The normal law's ``int N d alpha`` (seed Eq. 3.6, or ``N alpha/2``) plus ``|T|^2 / (2 kt0)``.
+    """
     ap = alpha if alpha > 0.0 else 0.0
     T2 = tx * tx + ty * ty + tz * tz
     if linear:
@@ -302,12 +335,12 @@ def _make(parallel: bool):
             cn = w * (kn - ks)
             cs = w * ks
             for q in range(6):
-                uq = u0 if q == 0 else (u1 if q == 1 else (u2 if q == 2 else (u3 if q == 3 else (u4 if q == 4 else u5))))
+                uq = _pick(q, u0, u1, u2, u3, u4, u5)
                 bq0 = _b(q, 0, lx, ly, lz)
                 bq1 = _b(q, 1, lx, ly, lz)
                 bq2 = _b(q, 2, lx, ly, lz)
                 for q2 in range(q, 6):
-                    uq2 = u0 if q2 == 0 else (u1 if q2 == 1 else (u2 if q2 == 2 else (u3 if q2 == 3 else (u4 if q2 == 4 else u5))))
+                    uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
                     btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
                     Cout[6 * q + q2] += cs * btb + cn * uq * uq2
             wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],

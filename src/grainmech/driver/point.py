@@ -15,17 +15,23 @@ first-order finite-deformation correction of seed Eq. 2.36-2.38 (corrected form 
 
 from __future__ import annotations
 
-from functools import cached_property
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from grainmech.assembly import (ContactSet, love_weber_stress, love_weber_sum, static_contact_forces,
-                                stiffness, stiffness_from_arrays)
-from grainmech.conventions import stress_to_vector, vector_to_stress, vector_to_strain
+from grainmech.assembly import (
+    ContactSet,
+    love_weber_stress,
+    love_weber_sum,
+    static_contact_forces,
+    stiffness,
+    stiffness_from_arrays,
+)
 from grainmech.contact.interface import coulomb_limit, make_law
 from grainmech.contact.law import ContactResponse
+from grainmech.conventions import stress_to_vector, vector_to_strain, vector_to_stress
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.material import Packing, normal_forces_for_stress
 
@@ -107,7 +113,7 @@ class MaterialPoint:
     @classmethod
     def from_forces(cls, source: Any, law: Any, normal_force: np.ndarray,
                     tangential_force: np.ndarray | None = None, *, extra_degree: int = 4,
-                    backend: str = "auto") -> "MaterialPoint":
+                    backend: str = "auto") -> MaterialPoint:
         """Point whose contacts carry given forces (virgin tangential history).
 
         ``law``: a contact parameter object or a law (:class:`~grainmech.contact.interface.ContactLawProtocol`);
@@ -122,7 +128,7 @@ class MaterialPoint:
 
     @classmethod
     def isotropic(cls, source: Any, law: Any, pressure: float, *, extra_degree: int = 4,
-                  backend: str = "auto") -> "MaterialPoint":
+                  backend: str = "auto") -> MaterialPoint:
         """Point under isotropic stress ``pressure`` with purely normal contact forces.
 
         Forces from :func:`grainmech.material.normal_forces_for_stress` (for an isotropic
@@ -137,7 +143,7 @@ class MaterialPoint:
     @classmethod
     def at_stress(cls, source: Any, law: Any, sigma: Any, *, initial: str = "state-estimate",
                   start_pressure: float | None = None, n_steps: int = 50, extra_degree: int = 4,
-                  backend: str = "auto", **run_options: Any) -> "MaterialPoint":
+                  backend: str = "auto", **run_options: Any) -> MaterialPoint:
         """Point at an anisotropic stress, by one of two methods (``docs/driver.md``).
 
         Parameters
@@ -252,9 +258,13 @@ def consistent_tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
 
 
 def _step_jacobian(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
-    """``sum_c w_c B_c^T K_c B_c`` with the law's step tangent (algorithmic, not symmetric):
+    """``sum_c w_c B_c^T K_c B_c`` with the law's step tangent (algorithmic, not symmetric).
+
     ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` (``ContactResponse.t_delta``,
-    ``t_alpha``), ``B_c`` as in :func:`_project` (seed Eq. 2.13, 2.26)."""
+    ``t_alpha``), ``B_c`` as in :func:`_project` (seed Eq. 2.13, 2.26).
+    """
+    if resp.t_delta is None or resp.t_alpha is None:
+        raise ValueError("the law's response carries no step tangent (t_delta, t_alpha)")
     n = cs.normals
     l = cs.branch
     kn = np.maximum(resp.kn, 0.0)

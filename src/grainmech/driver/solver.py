@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.driver.paths import LoadPath
-from grainmech.driver.point import (MaterialPoint, _fractions, consistent_tangent, evaluate,
-                                    geometric_stiffness, tangent)
+from grainmech.driver.point import MaterialPoint, _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
 from grainmech.errors import ConfigError, GrainmechError
 
 __all__ = ["run", "DriverResult", "SolverOptions"]
@@ -131,7 +130,7 @@ class _StepFailure(Exception):
 
 
 def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: np.ndarray,
-           opts: SolverOptions, fused: bool = False) -> tuple[MaterialPoint, int, Any]:
+           opts: SolverOptions, fused: bool = False) -> tuple[MaterialPoint, int, Any, bool]:
     """Newton iterations for one (sub)step; returns (point, iterations, response).
 
     ``fused``: evaluate through the compiled pass of :mod:`grainmech.driver._fused`
@@ -155,6 +154,7 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
             de[sc] = 0.0
         if not np.all(np.isfinite(de)):
             de[sc] = 0.0
+    ev: Any
     for it in range(1, opts.max_iter + 1):
         if fused:
             ev = _fused_evaluate(point, de, sc)
@@ -213,11 +213,11 @@ def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters, fused=False)
         counters[3] += float(np.dot(0.5 * (point.stress + new.stress), new.strain - point.strain))
         return new
     except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
-        err: Exception = _StepFailure(f"contact law error: {exc}")
+        err = _StepFailure(f"contact law error: {exc}")
     except _StepFailure as exc:
         err = exc
     if depth >= opts.max_depth:
-        raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")  # type: ignore[attr-defined]
+        raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")
     tm = 0.5 * (t0 + t1)
     mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters, fused)
     return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters, fused)
@@ -258,7 +258,8 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
             return res
     if fused and path.stress_control.any():
         return _run_mixed(point, path, options)
-    rows = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored", "sub", "it")}
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
+                                             "sub", "it")}
 
     def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
         sl, op = pt.fractions()
@@ -292,7 +293,7 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
         new_t_strain = np.where(~sc, t_strain + inc, point.strain)
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
         t0 = np.where(sc, point.stress, 0.0)
-        counters = [0, 0, 0.0, 0.0, 0]
+        counters: list[Any] = [0, 0, 0.0, 0.0, 0]
         try:
             point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters,
                                 fused)
@@ -320,7 +321,7 @@ def _result(success: bool, status: int, message: str, arr: dict, point: Material
     if options.engineering:
         from grainmech.elasticity import engineering_constants
 
-        dicts = []
+        dicts: list[dict | None] = []
         for C in arr["tangent"]:
             try:
                 dicts.append(engineering_constants(C).as_dict())
@@ -346,8 +347,11 @@ class _FusedEvaluation:
 
 
 def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _FusedEvaluation:
-    """One trial increment through the compiled pass (kinematics, law, stress, tangent and
-    the consistent Jacobian rows of the stress-controlled components)."""
+    """One trial increment through the compiled pass.
+
+    Kinematics, law, stress, tangent and the consistent Jacobian rows of the
+    stress-controlled components.
+    """
     from grainmech.driver._fused import strain_path
 
     out = strain_path(point, de[None, :], sc)
@@ -360,8 +364,11 @@ def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _Fu
 
 
 def _compiled_law(point: MaterialPoint) -> bool:
-    """The point's law is a :class:`~grainmech.contact.interface.ContactLaw` evaluated by the
-    compiled kernel (numba present, law supported, backend not ``numpy``)."""
+    """Whether the point's law is evaluated by the compiled kernel.
+
+    A :class:`~grainmech.contact.interface.ContactLaw` with numba present, the law
+    supported and the backend not ``numpy``.
+    """
     from grainmech.contact.interface import ContactLaw
 
     return isinstance(point.law, ContactLaw) and point.law.compiled
@@ -426,15 +433,18 @@ def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str
 
 
 def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult:
-    """:func:`run` with each segment of constant control mask in one compiled call
-    (:func:`grainmech.driver._mixed.mixed_segment`: the loop of :func:`run` /
-    :func:`_subdivided` / :func:`_solve`, same rules and messages)."""
+    """:func:`run` with each segment of constant control mask in one compiled call.
+
+    :func:`grainmech.driver._mixed.mixed_segment` runs the loop of :func:`run` /
+    :func:`_subdivided` / :func:`_solve`, with the same rules and messages.
+    """
     from grainmech.driver._mixed import mixed_segment
 
     m = len(path)
     sc_all = path.stress_control
     sl0, op0 = point.fractions()
-    rows = {"strain": [point.strain[None]], "stress": [point.stress[None]], "tangent": [point.tangent[None]],
+    rows: dict[str, list] = {
+            "strain": [point.strain[None]], "stress": [point.stress[None]], "tangent": [point.tangent[None]],
             "sl": [[sl0]], "op": [[op0]], "diss": [[0.0]], "work": [[0.0]], "stored": [[point.stored_energy()]],
             "sub": [[0]], "it": [[0]]}
     t_stress = point.stress.copy()
@@ -454,7 +464,7 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
             t_stress = np.where(switched & sc, point.stress, t_stress)
             t_strain = np.where(switched & ~sc, point.strain, t_strain)
         prev = sc
-        seg = mixed_segment(point, sc, path.increment[a:b], t_stress, t_strain, options)
+        seg: dict[str, Any] = mixed_segment(point, sc, path.increment[a:b], t_stress, t_strain, options)
         k = seg["done"]
         t_stress, t_strain = seg["t_stress"], seg["t_strain"]
         n_loose += seg["n_loose"]

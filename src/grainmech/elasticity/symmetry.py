@@ -1,13 +1,14 @@
 """Material-symmetry class of a stiffness (Forte & Vianello 1996; Cowin & Mehrabadi
-1987), its natural frame, and the projection onto a symmetry class."""
+1987), its natural frame, and the projection onto a symmetry class.
+"""
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 from types import MappingProxyType
-from typing import Mapping
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -15,12 +16,20 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import mandel_to_voigt, matrix_to_tensor4, voigt_to_mandel
-from grainmech.errors import GrainmechError
 from grainmech.elasticity.constants import _iso_project, _iso_projectors
-from grainmech.elasticity.conversions import (_as_voigt, _check_finite_symmetric, _check_orthogonal, _dim,
-                                              _frame_from_axis, _mandel_rot, _output, _unit, contracted_tensors,
-                                              rotation_about)
-
+from grainmech.elasticity.conversions import (
+    _as_voigt,
+    _check_finite_symmetric,
+    _check_orthogonal,
+    _dim,
+    _frame_from_axis,
+    _mandel_rot,
+    _output,
+    _unit,
+    contracted_tensors,
+    rotation_about,
+)
+from grainmech.errors import GrainmechError
 
 #: Names of the eight elastic symmetry classes (Forte & Vianello 1996), highest first.
 SYMMETRY_CLASSES_3D: tuple[str, ...] = (
@@ -88,7 +97,7 @@ def _group_mats(cls: str) -> np.ndarray:
     raise KeyError(cls)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _projector(cls: str, dim: int) -> np.ndarray:
     """(m^2, m^2) matrix of the orthogonal projection onto ``cls``-invariant tensors."""
     if cls == "isotropic":
@@ -118,7 +127,8 @@ _LEVELS_3D = (("isotropic",), ("cubic", "transversely isotropic"), ("tetragonal"
 @lru_cache(maxsize=1)
 def _sphere_grid(n: int = 1200, k: int = 8) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Fibonacci points on the upper hemisphere, their neighbour lists (with n ~ -n) and
-    a frame per point (rows t1, t2, a)."""
+    a frame per point (rows t1, t2, a).
+    """
     i = np.arange(n)
     z = (i + 0.5) / n
     phi = i * np.pi * (3.0 - np.sqrt(5.0))

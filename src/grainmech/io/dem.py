@@ -26,9 +26,10 @@ from __future__ import annotations
 import itertools
 import os
 import re
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any, Iterable, Sequence
+from typing import IO, Any
 
 import numpy as np
 
@@ -105,7 +106,7 @@ class _LineReader:
     def __init__(self, path: Path) -> None:
         self.path = path
         try:
-            self.fh: IO[str] = open(path, "r", encoding="utf-8", errors="strict", newline=None)
+            self.fh: IO[str] = open(path, encoding="utf-8", errors="strict", newline=None)
         except IsADirectoryError:
             raise GrainmechError(f"{path}: is a directory, not a file") from None
         except FileNotFoundError:
@@ -140,7 +141,7 @@ class _LineReader:
     def close(self) -> None:
         self.fh.close()
 
-    def __enter__(self) -> "_LineReader":
+    def __enter__(self) -> _LineReader:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -742,7 +743,7 @@ def detect_format(path: str | os.PathLike) -> str:
     if p.suffix.lower() == ".npz":
         return "npz"
     try:
-        with open(p, "r", encoding="utf-8", errors="replace") as fh:
+        with open(p, encoding="utf-8", errors="replace") as fh:
             head = fh.readline().strip()
     except FileNotFoundError:
         raise GrainmechError(f"{p}: file not found") from None

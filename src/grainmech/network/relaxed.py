@@ -181,8 +181,6 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         Voigt matrices in library order [stress]; ``C_affine`` is that of the solved
         (rattler-free) network.
     """
-    import scipy.sparse as sp
-
     _solvers.choose(solver, 0)  # validates the name and the optional package
     d = net.dim
     kn = np.asarray(kn, float)
