@@ -23,6 +23,7 @@ the line, the column and the value.
 
 from __future__ import annotations
 
+import io
 import itertools
 import os
 import re
@@ -167,15 +168,139 @@ def _diagnose(lines: Sequence[str], names: Sequence[str], delimiter: str | None,
     raise GrainmechError(f"{path}:{line0}-{line0 + len(lines) - 1}: could not parse the data block")
 
 
+class _UntilItem(io.RawIOBase):
+    """Binary stream of a data block: from the current position of ``fh`` up to (not
+    including) the next ``ITEM:`` (the next dump snapshot) or the end of the file."""
+
+    def __init__(self, fh: IO[bytes], stop: bytes | None) -> None:
+        self.fh, self.stop, self.buf, self.done = fh, stop, b"", False
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, b: Any) -> int:
+        n = len(b)
+        while not self.done and len(self.buf) < n + 8:
+            data = self.fh.read(max(n, 1 << 22))
+            if not data:
+                self.done = True
+                break
+            self.buf += data
+            if self.stop is not None:
+                p = self.buf.find(self.stop)
+                if p >= 0:
+                    self.buf, self.done = self.buf[:p], True
+        # keep a short tail back until the stop marker is ruled out across the boundary
+        k = len(self.buf) if self.done else max(0, min(n, len(self.buf) - 8))
+        b[:k] = self.buf[:k]
+        self.buf = self.buf[k:]
+        return k
+
+
+def _arrow_csv() -> Any:
+    """``pyarrow.csv``, or None when pyarrow is not installed."""
+    try:
+        import pyarrow.csv as pacsv  # noqa: PLC0415 (optional dependency)
+    except ImportError:
+        return None
+    return pacsv
+
+
+#: block size of the pyarrow CSV reader [bytes]
+ARROW_BLOCK = 1 << 24
+
+
+def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: dict[str, int],
+                      count: int | None, delimiter: str | None, stop_prefix: str | None
+                      ) -> dict[str, np.ndarray] | None:
+    """The wanted columns of a data block parsed by pyarrow's multi-threaded CSV reader.
+
+    The block starts after ``skip_lines`` lines and ends at a line starting with
+    ``stop_prefix`` or at the end of the file.  Record batches are copied into arrays
+    allocated once (``count`` known) or concatenated at the end, so the peak memory is the
+    kept arrays plus a few blocks of ``ARROW_BLOCK`` bytes.  Returns None whenever the
+    block is not in the simple form this path handles (whitespace other than single
+    spaces, a wrong number of fields, a value that is not a number, a short block):
+    the caller then runs the line parser, which reports the exact line and column.
+    """
+    pacsv = _arrow_csv()
+    if pacsv is None:
+        return None
+    import pyarrow as pa  # noqa: PLC0415
+
+    with open(path, "rb") as fh:
+        for _ in range(skip_lines):
+            fh.readline()
+        start = fh.tell()
+        head = fh.readline().rstrip(b"\r\n")
+        fh.seek(start)
+        if not head or (stop_prefix and head.startswith(stop_prefix.encode())):
+            return None
+        if delimiter is None:
+            if b"\t" in head or b"  " in head or head.startswith(b" "):
+                return None
+            sep = " "
+        else:
+            sep = delimiter
+        fields = head.split(sep.encode())
+        extra = len(fields) - len(names)
+        if extra not in (0, 1) or (extra == 1 and fields[-1].strip()):
+            return None  # the line parser reports the column count
+        colnames = [f"c{k}" for k in range(len(fields))]
+        keys = list(want)
+        inc = [colnames[want[k]] for k in keys]
+        try:
+            reader = pacsv.open_csv(
+                _UntilItem(fh, stop_prefix.encode() if stop_prefix else None),
+                read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK,
+                                               use_threads=True),
+                parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
+                                                 ignore_empty_lines=False),
+                # every column is converted (a non-number anywhere is an error, as in the
+                # line parser); only the wanted ones are kept
+                convert_options=pacsv.ConvertOptions(
+                    include_columns=colnames[:len(names)],
+                    column_types={c: pa.float64() for c in colnames[:len(names)]},
+                    strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
+            out: dict[str, Any] = {k: (np.empty(count) if count is not None else []) for k in keys}
+            done = 0
+            for batch in reader:
+                m = batch.num_rows
+                if count is not None and done + m > count:
+                    return None
+                for k, c in zip(keys, inc):
+                    a = batch.column(c).to_numpy(zero_copy_only=False)
+                    if count is not None:
+                        out[k][done:done + m] = a
+                    else:
+                        out[k].append(a)
+                done += m
+                del batch
+        except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+            return None
+    if count is not None:
+        if done != count:
+            return None
+        return out
+    return {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in out.items()}
+
+
 def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], count: int | None,
                 delimiter: str | None = None, stop_prefix: str | None = None,
                 int_cols: Iterable[str] = ()) -> tuple[dict[str, np.ndarray], int]:
     """Read ``count`` data rows (or to EOF / a line starting with ``stop_prefix``).
 
     Returns the wanted columns (by canonical name -> column index) and the line number of
-    the first data row.
+    the first data row.  With pyarrow installed the block is parsed by
+    :func:`_read_block_arrow` (same arrays, same checks); the chunked line parser below
+    is the fallback and the source of the error messages.
     """
     first = rd.line + 1
+    if not rd._pushed:
+        fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix)
+        if fast is not None:
+            _check_block(fast, names, want, rd.path, first)
+            return _int_columns(fast, names, want, set(int_cols), rd.path, first), first
     parts: dict[str, list[np.ndarray]] = {k: [] for k in want}
     cols = list(want.values())
     keys = list(want)
@@ -214,19 +339,36 @@ def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], cou
             break
         _append_chunk(lines, names, cols, keys, parts, delimiter, rd.path, line0)
         done += len(lines)
-    out: dict[str, np.ndarray] = {}
-    for k in keys:
-        a = np.concatenate(parts[k]) if parts[k] else np.zeros(0)
+    out = {k: (np.concatenate(parts[k]) if parts[k] else np.zeros(0)) for k in keys}
+    return _int_columns(out, names, want, int_set, rd.path, first), first
+
+
+def _check_block(cols: dict[str, np.ndarray], names: Sequence[str], want: dict[str, int], path: Path,
+                 first: int) -> None:
+    """Every value finite, else an error naming the first bad line (in line order)."""
+    bad_rows = [int(np.flatnonzero(~np.isfinite(a))[0]) for a in cols.values() if not np.isfinite(a).all()]
+    if not bad_rows:
+        return
+    r = min(bad_rows)
+    k = min((c for c in cols if not np.isfinite(cols[c][r])), key=lambda c: want[c])
+    raise GrainmechError(f"{path}:{first + r}: column {names[want[k]]!r}: value {float(cols[k][r])!r} "
+                         "is not finite")
+
+
+def _int_columns(out: dict[str, np.ndarray], names: Sequence[str], want: dict[str, int], int_set: set,
+                 path: Path, first: int) -> dict[str, np.ndarray]:
+    """Convert the id columns to int64, rejecting non-integer values."""
+    for k in out:
         if k in int_set:
+            a = out[k]
             ai = np.rint(a).astype(np.int64)
             bad = np.flatnonzero(ai != a)
             if bad.size:
                 b = int(bad[0])
-                raise GrainmechError(f"{rd.path}:{first + b}: column {names[want[k]]!r}: value {float(a[b])!r} "
+                raise GrainmechError(f"{path}:{first + b}: column {names[want[k]]!r}: value {float(a[b])!r} "
                                      "is not an integer id")
-            a = ai
-        out[k] = a
-    return out, first
+            out[k] = ai
+    return out
 
 
 def _append_chunk(lines, names, cols, keys, parts, delimiter, path, line0) -> None:
