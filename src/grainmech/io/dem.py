@@ -207,12 +207,53 @@ def _arrow_csv() -> Any:
 
 
 #: block size of the pyarrow CSV reader [bytes]
-ARROW_BLOCK = 1 << 24
+ARROW_BLOCK = 1 << 21
+
+
+#: columns read into one (n, 3) array (the arrays the network keeps)
+_VECTOR_COLUMNS = (("fx", "fy", "fz"), ("cpx", "cpy", "cpz"), ("x1", "y1", "z1"), ("x2", "y2", "z2"))
+
+
+def _allocate(keys: Sequence[str], ints: set, count: int) -> dict[str, np.ndarray]:
+    """Output arrays of a block: int64 ids, (n, 3) arrays for vector columns (each column
+    a view, see :func:`_vector`), float64 otherwise."""
+    out: dict[str, np.ndarray] = {}
+    for group in _VECTOR_COLUMNS:
+        if all(k in keys for k in group):
+            V = np.empty((count, 3))
+            for q, k in enumerate(group):
+                out[k] = V[:, q]
+    for k in keys:
+        if k not in out:
+            out[k] = np.empty(count, dtype=np.int64 if k in ints else float)
+    return out
+
+
+def _vector(cols: dict[str, np.ndarray], group: Sequence[str]) -> np.ndarray:
+    """The (n, 3) array of three columns: the array they are views of, else a stack."""
+    a = [cols[k] for k in group]
+    base = a[0].base
+    if (isinstance(base, np.ndarray) and base.ndim == 2 and base.shape[1] == 3 and base.flags.c_contiguous
+            and all(x.base is base for x in a) and all(x.shape[0] == base.shape[0] for x in a)
+            and [x.__array_interface__["data"][0] - base.__array_interface__["data"][0] for x in a]
+            == [0, 8, 16]):
+        return base
+    return np.stack(a, axis=1)
+
+
+def _as_ids(a: np.ndarray, name: str, path: Path, first: int) -> np.ndarray:
+    """Float column -> int64 ids, rejecting non-integer values (error names the line)."""
+    ai = np.rint(a).astype(np.int64)
+    bad = np.flatnonzero(ai != a)
+    if bad.size:
+        b = int(bad[0])
+        raise GrainmechError(f"{path}:{first + b}: column {name!r}: value {float(a[b])!r} is not an integer id")
+    return ai
 
 
 def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: dict[str, int],
-                      count: int | None, delimiter: str | None, stop_prefix: str | None
-                      ) -> dict[str, np.ndarray] | None:
+                      count: int | None, delimiter: str | None, stop_prefix: str | None,
+                      int_cols: Iterable[str] = ()) -> dict[str, np.ndarray] | None:
     """The wanted columns of a data block parsed by pyarrow's multi-threaded CSV reader.
 
     The block starts after ``skip_lines`` lines and ends at a line starting with
@@ -227,6 +268,8 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
     if pacsv is None:
         return None
     import pyarrow as pa  # noqa: PLC0415
+
+    first = skip_lines + 1
 
     with open(path, "rb") as fh:
         for _ in range(skip_lines):
@@ -249,35 +292,51 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
         colnames = [f"c{k}" for k in range(len(fields))]
         keys = list(want)
         inc = [colnames[want[k]] for k in keys]
-        try:
-            reader = pacsv.open_csv(
-                _UntilItem(fh, stop_prefix.encode() if stop_prefix else None),
-                read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK,
-                                               use_threads=True),
-                parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
-                                                 ignore_empty_lines=False),
-                # every column is converted (a non-number anywhere is an error, as in the
-                # line parser); only the wanted ones are kept
-                convert_options=pacsv.ConvertOptions(
-                    include_columns=colnames[:len(names)],
-                    column_types={c: pa.float64() for c in colnames[:len(names)]},
-                    strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
-            out: dict[str, Any] = {k: (np.empty(count) if count is not None else []) for k in keys}
-            done = 0
-            for batch in reader:
-                m = batch.num_rows
-                if count is not None and done + m > count:
-                    return None
-                for k, c in zip(keys, inc):
-                    a = batch.column(c).to_numpy(zero_copy_only=False)
-                    if count is not None:
-                        out[k][done:done + m] = a
-                    else:
-                        out[k].append(a)
-                done += m
-                del batch
-        except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+        ints = set(int_cols)
+        opts = dict(
+            read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK, use_threads=True),
+            parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
+                                             ignore_empty_lines=False),
+            # every column is converted (a non-number anywhere is an error, as in the line
+            # parser); only the wanted ones are kept
+            convert_options=pacsv.ConvertOptions(
+                include_columns=colnames[:len(names)],
+                column_types={c: pa.float64() for c in colnames[:len(names)]},
+                strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
+    # first as a native stream to the end of the file (no Python buffers: the usual single
+    # snapshot); if that fails, bounded at the next 'ITEM:' through a Python stream
+    for bounded in (False, True):
+        if bounded and not stop_prefix:
             return None
+        with (open(path, "rb") if bounded else pa.OSFile(str(path))) as fh:
+            fh.seek(start)
+            src = _UntilItem(fh, stop_prefix.encode()) if bounded else fh  # type: ignore[arg-type]
+            try:
+                out: dict[str, Any] = (_allocate(keys, ints, count) if count is not None
+                                       else {k: [] for k in keys})
+                done = 0
+                for batch in pacsv.open_csv(src, **opts):
+                    m = batch.num_rows
+                    if count is not None and done + m > count:
+                        break
+                    for k, c in zip(keys, inc):
+                        a = batch.column(c).to_numpy(zero_copy_only=False)
+                        if k in ints:
+                            a = _as_ids(a, names[want[k]], path, first + done)
+                        if count is not None:
+                            out[k][done:done + m] = a
+                        else:
+                            out[k].append(a)
+                    done += m
+                    del batch
+                else:
+                    if count is None or done == count:
+                        break
+            except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+                pass
+            del out
+    else:
+        return None
     if count is not None:
         if done != count:
             return None
@@ -297,7 +356,7 @@ def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], cou
     """
     first = rd.line + 1
     if not rd._pushed:
-        fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix)
+        fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix, int_cols)
         if fast is not None:
             _check_block(fast, names, want, rd.path, first)
             return _int_columns(fast, names, want, set(int_cols), rd.path, first), first
@@ -346,6 +405,7 @@ def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], cou
 def _check_block(cols: dict[str, np.ndarray], names: Sequence[str], want: dict[str, int], path: Path,
                  first: int) -> None:
     """Every value finite, else an error naming the first bad line (in line order)."""
+    cols = {k: a for k, a in cols.items() if a.dtype.kind == "f"}
     bad_rows = [int(np.flatnonzero(~np.isfinite(a))[0]) for a in cols.values() if not np.isfinite(a).all()]
     if not bad_rows:
         return
@@ -359,15 +419,8 @@ def _int_columns(out: dict[str, np.ndarray], names: Sequence[str], want: dict[st
                  path: Path, first: int) -> dict[str, np.ndarray]:
     """Convert the id columns to int64, rejecting non-integer values."""
     for k in out:
-        if k in int_set:
-            a = out[k]
-            ai = np.rint(a).astype(np.int64)
-            bad = np.flatnonzero(ai != a)
-            if bad.size:
-                b = int(bad[0])
-                raise GrainmechError(f"{path}:{first + b}: column {names[want[k]]!r}: value {float(a[b])!r} "
-                                     "is not an integer id")
-            out[k] = ai
+        if k in int_set and not np.issubdtype(out[k].dtype, np.integer):
+            out[k] = _as_ids(out[k], names[want[k]], path, first)
     return out
 
 
@@ -619,19 +672,19 @@ def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particle
     if same.size:
         k = int(same[0])
         raise GrainmechError(f"{path}:{first + k}: contact of particle {id1[k]} with itself")
-    f = np.stack([cols["fx"], cols["fy"], cols["fz"]], axis=1)
+    f = _vector(cols, ("fx", "fy", "fz"))
     if force_on == "id1":
-        f = -f  # force on A (by B) -> force by A on B
+        np.negative(f, out=f)  # force on A (by B) -> force by A on B
     has_pos = all(c in cols for c in ("x1", "y1", "z1", "x2", "y2", "z2"))
     if parts is None:
         if not has_pos:
             raise GrainmechError(f"{path}: the contacts carry no positions (pos keyword / x1..z2 columns); "
                                  "give the particle file (--particles)")
         allid = np.concatenate([id1, id2])
-        allpos = np.concatenate([np.stack([cols["x1"], cols["y1"], cols["z1"]], 1),
-                                 np.stack([cols["x2"], cols["y2"], cols["z2"]], 1)])
+        allpos = np.concatenate([_vector(cols, ("x1", "y1", "z1")), _vector(cols, ("x2", "y2", "z2"))])
         uid, idx = np.unique(allid, return_index=True)
         parts = _Particles(uid, allpos[idx], None, None, path, first)
+        del allid, allpos
     box = box if box is not None else parts.box
     if box is None:
         r = parts.radii if parts.radii is not None else np.zeros(len(parts.ids))
@@ -643,15 +696,18 @@ def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particle
     sid = parts.ids[order]
     ia = _lookup(sid, order, id1, path, first, "id1", parts.path)
     ib = _lookup(sid, order, id2, path, first, "id2", parts.path)
-    l_ = box.minimum_image(parts.pos[ib] - parts.pos[ia])
-    L = np.linalg.norm(l_, axis=1)
-    zero = np.flatnonzero(L <= 0)
+    del id1, id2, cols["id1"], cols["id2"]  # only ia, ib are kept
+    d = parts.pos[ib]
+    d -= parts.pos[ia]
+    l_ = box.minimum_image(d)
+    del d
+    zero = np.flatnonzero(np.einsum("ij,ij->i", l_, l_) <= 0)
     if zero.size:
         k = int(zero[0])
-        raise GrainmechError(f"{path}:{first + k}: particles {id1[k]} and {id2[k]} have the same centre")
+        raise GrainmechError(f"{path}:{first + k}: particles {parts.ids[ia[k]]} and {parts.ids[ib[k]]} have "
+                             "the same centre")
     overlap = cols.get("delta")
-    cp = np.stack([cols["cpx"], cols["cpy"], cols["cpz"]], 1) if all(
-        c in cols for c in ("cpx", "cpy", "cpz")) else None
+    cp = _vector(cols, ("cpx", "cpy", "cpz")) if all(c in cols for c in ("cpx", "cpy", "cpz")) else None
     kn = cols.get("kn")
     ks = cols.get("ks")
     return ContactNetwork(parts.ids, parts.pos, parts.radii, box, ia, ib, f, l_, overlap, cp, kn, ks, source)
