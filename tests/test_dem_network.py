@@ -441,3 +441,25 @@ def test_frictionless_loose_network_names_the_rule_that_removed_everything():
     # the same network with its tangential stiffness keeps grains (frictional rule: 2)
     rr = relaxed_stiffness(net, kn, ks)
     assert rr.n_particles > 0 and rr.C_relaxed[0, 0] > 0
+
+
+def test_every_installed_solver_gives_the_same_relaxed_tensor():
+    """PARDISO, CHOLMOD, SuperLU, AMG-CG and block CG solve the same system H q = -B
+    (Lemaitre & Maloney 2006, Eq. 12): same C_relaxed, each reporting the solver that ran
+    and a residual below the tolerance; ``auto`` runs a direct method when one is installed."""
+    from grainmech.network import _solvers
+
+    net = random_network(100, seed=5)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    ref = relaxed_stiffness(net, kn, ks, solver="superlu")
+    for s in ("pardiso", "cholesky", "amg", "cg"):
+        if not _solvers.available(s):
+            continue
+        r = relaxed_stiffness(net, kn, ks, solver=s, maxiter=50000)
+        # AMG-CG solves the shifted system without refinement: its residual against H is
+        # what relaxed_stiffness accepts (<= 1e-6), the others reach ~tol
+        assert r.solver == s and r.residual <= (1e-6 if s == "amg" else 1e-9)
+        np.testing.assert_allclose(r.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-6 * np.abs(ref.C_relaxed).max())
+    auto = relaxed_stiffness(net, kn, ks)
+    assert auto.solver == _solvers.choose("auto", 6 * auto.n_particles)
+    assert auto.solver in ("pardiso", "cholesky", "superlu")

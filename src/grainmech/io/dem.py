@@ -648,16 +648,30 @@ def _read_particles_dump(path: Path) -> _Particles:
 
 # --------------------------------------------------------------------------- assembling
 
+#: rows per block of the index look-up and branch vectors (bounded temporaries)
+_BUILD_BLOCK = 1 << 20
+
+
 def _lookup(ids_sorted: np.ndarray, order: np.ndarray, q: np.ndarray, path: Path, first: int,
             col: str, ppath: Path) -> np.ndarray:
-    pos = np.searchsorted(ids_sorted, q)
-    pos = np.minimum(pos, len(ids_sorted) - 1)
-    bad = np.flatnonzero(ids_sorted[pos] != q) if len(ids_sorted) else np.arange(len(q))
-    if bad.size:
-        k = int(bad[0])
-        raise GrainmechError(f"{path}:{first + k}: particle id {int(q[k])} (column {col}) is not listed in "
-                             f"{ppath} ({bad.size} contact(s) reference unlisted particles)")
-    return order[pos]
+    """Row of each id of ``q`` in the particle table (blockwise: temporaries stay small)."""
+    out = np.empty(len(q), dtype=np.int64)
+    nbad = 0
+    kbad = -1
+    for a in range(0, len(q), _BUILD_BLOCK):
+        qq = q[a:a + _BUILD_BLOCK]
+        pos = np.searchsorted(ids_sorted, qq)
+        np.minimum(pos, len(ids_sorted) - 1, out=pos)
+        bad = np.flatnonzero(ids_sorted[pos] != qq) if len(ids_sorted) else np.arange(len(qq))
+        if bad.size:
+            nbad += bad.size
+            kbad = a + int(bad[0]) if kbad < 0 else kbad
+        elif kbad < 0:
+            out[a:a + _BUILD_BLOCK] = order[pos]
+    if nbad:
+        raise GrainmechError(f"{path}:{first + kbad}: particle id {int(q[kbad])} (column {col}) is not listed in "
+                             f"{ppath} ({nbad} contact(s) reference unlisted particles)")
+    return out
 
 
 def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particles | None,
@@ -697,10 +711,10 @@ def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particle
     ia = _lookup(sid, order, id1, path, first, "id1", parts.path)
     ib = _lookup(sid, order, id2, path, first, "id2", parts.path)
     del id1, id2, cols["id1"], cols["id2"]  # only ia, ib are kept
-    d = parts.pos[ib]
-    d -= parts.pos[ia]
-    l_ = box.minimum_image(d)
-    del d
+    l_ = np.empty((len(ia), parts.pos.shape[1]))
+    for a in range(0, len(ia), _BUILD_BLOCK):
+        blk = slice(a, a + _BUILD_BLOCK)
+        l_[blk] = box.minimum_image(parts.pos[ib[blk]] - parts.pos[ia[blk]])
     zero = np.flatnonzero(np.einsum("ij,ij->i", l_, l_) <= 0)
     if zero.size:
         k = int(zero[0])

@@ -1,8 +1,10 @@
 """Sparse symmetric positive-definite solvers for the relaxed stiffness (several right-hand
 sides at once).
 
-* ``cholesky`` - sparse Cholesky factorisation (CHOLMOD, supernodal, fill-reducing
-  ordering) from the optional package ``cholespy``; factor once, solve all columns.
+* ``pardiso`` - Intel MKL PARDISO (parallel supernodal Cholesky, nested-dissection
+  ordering) from the optional package ``pypardiso``; factor once, solve all columns.
+* ``cholesky`` - sparse Cholesky factorisation (CHOLMOD through the optional package
+  ``cholespy``, minimum-degree ordering); factor once, solve all columns.
 * ``superlu`` - SciPy's SuperLU with the symmetric ordering ``MMD_AT_PLUS_A`` and
   diagonal pivoting (the SciPy-only direct fallback).
 * ``amg`` - conjugate gradients preconditioned by one V-cycle of smoothed-aggregation
@@ -26,43 +28,50 @@ from grainmech.errors import GrainmechError
 __all__ = ["METHODS", "available", "choose", "solve_spd", "block_cg"]
 
 #: Names accepted by :func:`solve_spd` (``direct``: the best direct method installed).
-METHODS = ("auto", "direct", "cholesky", "superlu", "amg", "cg")
+METHODS = ("auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg")
 
 #: Unknowns up to which ``auto`` uses a direct factorisation (above: AMG-CG if pyamg is
 #: installed); see ``docs/performance.md``.
+DIRECT_LIMIT_PARDISO = 1_000_000
 DIRECT_LIMIT_CHOLESKY = 150_000
 DIRECT_LIMIT_SUPERLU = 20_000
+
+_PACKAGES = {"pardiso": "pypardiso", "cholesky": "cholespy", "amg": "pyamg"}
 
 
 def available(method: str) -> bool:
     """True if the optional package behind ``method`` is installed."""
-    pkg = {"cholesky": "cholespy", "amg": "pyamg"}.get(method)
+    pkg = _PACKAGES.get(method)
     return pkg is None or importlib.util.find_spec(pkg) is not None
 
 
 def choose(method: str, n: int) -> str:
     """The method :func:`solve_spd` runs for ``method`` and ``n`` unknowns.
 
-    ``auto``: a direct factorisation up to :data:`DIRECT_LIMIT_CHOLESKY` unknowns with
-    cholespy (:data:`DIRECT_LIMIT_SUPERLU` with SuperLU, whose fill-in and time grow
-    faster), AMG-preconditioned CG above when pyamg is installed, else block-Jacobi CG.
-    ``direct``: cholesky if installed, else superlu.
+    ``auto`` (measured in ``docs/performance.md``): PARDISO up to
+    :data:`DIRECT_LIMIT_PARDISO` unknowns when pypardiso is installed (the fastest method
+    at every size measured); else cholespy up to :data:`DIRECT_LIMIT_CHOLESKY` unknowns
+    (SuperLU up to :data:`DIRECT_LIMIT_SUPERLU`, whose fill-in and time grow faster),
+    AMG-preconditioned CG above when pyamg is installed, else block-Jacobi CG.
+    ``direct``: the first installed of pardiso, cholesky, superlu.
     """
     if method not in METHODS:
         raise GrainmechError(f"solver must be one of {', '.join(METHODS)}; got {method!r}")
-    have_chol, have_amg = available("cholesky"), available("amg")
+    have_pardiso, have_chol, have_amg = available("pardiso"), available("cholesky"), available("amg")
     if method == "direct":
-        return "cholesky" if have_chol else "superlu"
+        return "pardiso" if have_pardiso else "cholesky" if have_chol else "superlu"
     if method == "auto":
+        if have_pardiso and (n <= DIRECT_LIMIT_PARDISO or not have_amg):
+            return "pardiso"
         if have_chol and (n <= DIRECT_LIMIT_CHOLESKY or not have_amg):
             return "cholesky"
         if n <= DIRECT_LIMIT_SUPERLU:
             return "superlu"
         return "amg" if have_amg else "cg"
     if not available(method):
-        pkg = {"cholesky": "cholespy", "amg": "pyamg"}[method]
+        pkg = _PACKAGES[method]
         raise GrainmechError(f"solver {method!r} needs the optional package {pkg} "
-                             "(pip install 'grainmech[fast]')")
+                             f"(pip install {pkg})")
     return method
 
 
@@ -70,6 +79,19 @@ def _factor_solve(A: Any, rhs: np.ndarray, method: str) -> tuple[Any, np.ndarray
     """Factor ``A`` (CSR, SPD) and solve ``A X = rhs`` for all columns; returns the solve."""
     import scipy.sparse as sp
 
+    if method == "pardiso":
+        import pypardiso
+
+        Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
+        ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        try:
+            ps.factorize(Au)
+        except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
+            raise GrainmechError(f"relaxed stiffness: PARDISO factorisation failed ({exc})") from None
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            return np.asarray(ps.solve(Au, np.ascontiguousarray(b, dtype=float))).reshape(b.shape)
+        return solve, solve(rhs)
     if method == "cholesky":
         from cholespy import CholeskySolverD, MatrixType
 
@@ -192,7 +214,7 @@ def solve_spd(A: Any, rhs: np.ndarray, method: str, *, dof_type: np.ndarray, shi
     import scipy.sparse as sp
 
     As = A if shift is None else (A + sp.diags(shift)).tocsr()
-    if method in ("cholesky", "superlu"):
+    if method in ("pardiso", "cholesky", "superlu"):
         solve, X = _factor_solve(As, rhs, method)
         nb = np.linalg.norm(rhs, axis=0)
         nb[nb == 0] = 1.0

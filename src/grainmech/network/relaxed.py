@@ -169,10 +169,14 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         ``|l|/2``).
     geometric : bool
         Add the geometric term ``-(N/|l|) (I - n n)`` to ``K`` (default off).
-    solver : {"auto", "direct", "cg"}
-        ``direct`` uses SuperLU; ``cg`` block-Jacobi preconditioned conjugate gradients
-        on all 6 right-hand sides at once; ``auto`` is direct up to 15000 unknowns
-        (about 2500 particles; SuperLU fill-in grows fast for 3D networks beyond).
+    solver : {"auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg"}
+        ``direct``: the best installed sparse factorisation (PARDISO from pypardiso,
+        CHOLMOD from cholespy, else SciPy's SuperLU), factored once for the six
+        right-hand sides; ``amg``: CG preconditioned by algebraic multigrid (pyamg);
+        ``cg``: block-Jacobi preconditioned CG on all six right-hand sides at once;
+        ``auto``: by size and installed packages (:func:`grainmech.network._solvers.choose`,
+        measurements in ``docs/performance.md``).  The result names the solver that ran
+        and its relative residual.
     tol, maxiter : CG tolerance (relative residual) and iteration cap.
 
     Returns
