@@ -149,11 +149,14 @@ def _amg_cg(A: Any, rhs: np.ndarray, dof_type: np.ndarray, tol: float, maxiter: 
 
 
 def block_cg(H: Any, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxiter: int,
-             ref: np.ndarray) -> tuple[np.ndarray, int, float]:
+             ref: np.ndarray, predict_after: int | None = None) -> tuple[np.ndarray, int, float]:
     """Block-Jacobi preconditioned CG, all right-hand sides at once (columns independent).
 
     Works on the singular ``H`` (zero modes are not excited: the right-hand sides lie in
     its range). Returns the solution, the iterations and the largest relative residual.
+    With ``predict_after = k`` the run stops early (unconverged) when, after ``k``
+    iterations, the mean reduction rate of the residual so far predicts more than
+    ``maxiter`` iterations to reach ``tol``.
     """
     P, b, _ = diag_blocks.shape
     # pseudo-inverse of each diagonal block (handles zero rotation blocks)
@@ -185,6 +188,10 @@ def block_cg(H: Any, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxit
         rz = rz_new
         it += 1
         res = np.linalg.norm(r, axis=0) / nb
+        if predict_after is not None and it == predict_after and res.max() > tol:
+            rate = float(res.max()) ** (1.0 / it)
+            if rate >= 1.0 or it * np.log(tol) / np.log(rate) > maxiter:
+                break
     return x, it, float(res.max())
 
 

@@ -123,6 +123,12 @@ def _diagonal_blocks(H, P: int, b: int) -> np.ndarray:
     return out
 
 
+#: ``solver="auto"``: iterations after which block CG predicts its total, and the most
+#: it may need before the factorisation is used instead (``docs/performance.md``)
+AUTO_CG_PREDICT = 40
+AUTO_CG_MAXITER = 600
+
+
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
                       remove_rattlers: bool = True, min_contacts: int | None = None,
                       rotations: bool = True, geometric: bool = False, solver: str = "auto",
@@ -174,8 +180,10 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         CHOLMOD from cholespy, else SciPy's SuperLU), factored once for the six
         right-hand sides; ``amg``: CG preconditioned by algebraic multigrid (pyamg);
         ``cg``: block-Jacobi preconditioned CG on all six right-hand sides at once;
-        ``auto``: by size and installed packages (:func:`grainmech.network._solvers.choose`,
-        measurements in ``docs/performance.md``).  The result names the solver that ran
+        ``auto``: block CG when its first :data:`AUTO_CG_PREDICT` iterations predict
+        convergence within :data:`AUTO_CG_MAXITER`, else the method chosen by size and
+        installed packages (:func:`grainmech.network._solvers.choose`; measurements in
+        ``docs/performance.md``).  The result names the solver that ran
         and its relative residual.
     tol, maxiter : CG tolerance (relative residual) and iteration cap.
 
@@ -239,9 +247,20 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     ndof = P * b
     rhs = -B
     name = _solvers.choose(solver, ndof)
-    if name == "cg":
+    q = None
+    if solver == "auto":
+        # block CG first: on packings it converges in a few hundred iterations and beats
+        # every factorisation; when its first iterations predict more than AUTO_CG_MAXITER
+        # (ill-conditioned networks) it stops and the factorisation runs instead
+        q, iters, res_cg = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, AUTO_CG_MAXITER,
+                                             1e-6 * bref, predict_after=AUTO_CG_PREDICT)
+        if res_cg <= tol:
+            name = "cg"
+        else:
+            q = None
+    if name == "cg" and q is None:
         q, iters, _ = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, maxiter, 1e-6 * bref)
-    else:
+    elif name != "cg":
         # pin the translation of particle 0 (global translation mode); the other zero modes
         # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
         # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
