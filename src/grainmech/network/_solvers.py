@@ -190,7 +190,7 @@ def block_cg(H: Any, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxit
         res = np.linalg.norm(r, axis=0) / nb
         if predict_after is not None and it == predict_after and res.max() > tol:
             rate = float(res.max()) ** (1.0 / it)
-            if rate >= 1.0 or it * np.log(tol) / np.log(rate) > maxiter:
+            if rate >= 1.0 or np.log(tol) / np.log(rate) > maxiter:
                 break
     return x, it, float(res.max())
 
