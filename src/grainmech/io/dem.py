@@ -649,7 +649,7 @@ def _read_particles_dump(path: Path) -> _Particles:
 # --------------------------------------------------------------------------- assembling
 
 #: rows per block of the index look-up and branch vectors (bounded temporaries)
-_BUILD_BLOCK = 1 << 20
+_BUILD_BLOCK = 1 << 16
 
 
 def _lookup(ids_sorted: np.ndarray, order: np.ndarray, q: np.ndarray, path: Path, first: int,
