@@ -67,7 +67,7 @@ def _case(label: str, net, kn, ks, solvers: list[str], repeat: int, budget: floa
               f"iterations {res.iterations:5d} residual {res.residual:.1e}  |C - C_first|/|C| {dev:.1e}  "
               f"peak traced {peak / 1e6:6.0f} MB")
     ndof = 6 * res.n_particles if res is not None else 0
-    print(f"  {label:28s} auto -> {_solvers.choose('auto', ndof)} for {ndof} unknowns; process max RSS "
+    print(f"  {label:28s} auto: block CG, else {_solvers.choose('auto', ndof)} for {ndof} unknowns; process max RSS "
           f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB")
     return rows
 

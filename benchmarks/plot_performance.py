@@ -14,16 +14,18 @@ import sys
 
 #: (size, seconds, dgemm seconds of that run) per series
 DEM_READ = {  # read_network of a LIGGGHTS dump: contacts
-    "grainmech reader (pyarrow)": [],
-    "pyarrow.csv.read_csv": [],
+    "grainmech reader (pyarrow path)": [(1e5, 0.13, 0.336), (1e6, 0.86, 0.335), (1e7, 9.97, 0.338)],
+    "pyarrow.csv.read_csv, same file": [(1e5, 0.06, 0.336), (1e6, 0.63, 0.335), (1e7, 12.26, 0.338)],
+    "before (NumPy line parser)": [(1e6, 1.55, 0.230)],
 }
-RELAXED = {  # relaxed tensor: grains
-    "auto": [],
-    "block CG": [],
-    "PARDISO": [],
-    "cholespy": [],
+RELAXED = {  # relaxed tensor: grains (2000: shipped dense packing; 1e4, 1e5: random networks)
+    "auto": [(2000, 0.320, 0.110), (1e4, 5.108, 0.672)],
+    "PARDISO": [(2000, 1.214, 0.110), (1e4, 4.804, 0.672), (1e5, 156.1, 0.672)],
+    "cholespy": [(2000, 2.126, 0.110), (1e4, 19.68, 0.672)],
+    "block CG": [(2000, 0.343, 0.110), (1e4, 81.2, 0.672)],
+    "SuperLU": [(2000, 2.451, 0.110)],
+    "before (auto = cholespy)": [(2000, 2.202, 0.230)],
 }
-STIFFNESS_POINT = []  # one stiffness point: (1, seconds, dgemm)
 
 
 def main(out: str = "docs/performance.png") -> None:
