@@ -19,8 +19,8 @@ DEM_READ = {  # read_network of a LIGGGHTS dump: contacts
     "before (NumPy line parser)": [(1e6, 1.55, 0.230)],
 }
 RELAXED = {  # relaxed tensor: grains (2000: shipped dense packing; 1e4, 1e5: random networks)
-    "auto": [(2000, 0.320, 0.110), (1e4, 5.108, 0.672)],
-    "PARDISO": [(2000, 1.214, 0.110), (1e4, 4.804, 0.672), (1e5, 156.1, 0.672)],
+    "auto": [(2000, 0.320, 0.110), (1e4, 5.108, 0.672), (1e5, 367.7, 0.240)],
+    "PARDISO": [(2000, 1.214, 0.110), (1e4, 4.804, 0.672)],
     "cholespy": [(2000, 2.126, 0.110), (1e4, 19.68, 0.672)],
     "block CG": [(2000, 0.343, 0.110), (1e4, 81.2, 0.672)],
     "SuperLU": [(2000, 2.451, 0.110)],

@@ -14,9 +14,10 @@ DEM sign conventions, converted here and nowhere else:
 * The generic table (and YADE's ``i.phys.normalForce + i.phys.shearForce``, which is the
   force applied on ``id2``) already holds the force on ``id2`` (``force_on="id2"``).
 
-Files are read as a stream in chunks of lines (``np.loadtxt`` on each chunk), keeping
-only the needed columns, so memory is bounded by the output arrays (about 80 bytes per
-contact), not by the file. Malformed lines, missing columns, NaN/inf values, duplicate
+Data blocks are parsed by pyarrow's CSV reader when pyarrow is installed (streamed in
+blocks straight into the kept arrays), else -- and for anything that reader does not take,
+and for every error message -- by a NumPy line parser in chunks of lines; both keep only
+the needed columns, so memory is bounded by the output arrays, not by the file. Malformed lines, missing columns, NaN/inf values, duplicate
 or unknown particle ids raise :class:`~grainmech.errors.GrainmechError` naming the file,
 the line, the column and the value.
 """
