@@ -13,6 +13,17 @@ from grainmech.network import Box, lattice_network, network_stress, random_netwo
 TRICLINIC = np.array([[10.0, 0, 0], [2.0, 9.0, 0], [1.0, -1.5, 11.0]])
 
 
+@pytest.fixture(autouse=True, params=["pyarrow", "line-parser"])
+def reader(request, monkeypatch):
+    """Every test of this module runs with the pyarrow CSV path and with the NumPy line
+    parser (the fallback without pyarrow): same arrays, same sign conventions, same errors."""
+    if request.param == "pyarrow":
+        pytest.importorskip("pyarrow")
+    else:
+        monkeypatch.setattr(demio, "_arrow_csv", lambda: None)
+    return request.param
+
+
 def _direct_stress(pos, I, J, f_by_i_on_j, cell):
     """sigma = (1/V) sum f (x) l with l the minimum image of x_j - x_i (independent sum)."""
     inv = np.linalg.inv(cell)
@@ -300,3 +311,51 @@ def test_liggghts_file_written_by_hand_from_a_packing(tmp_path):
     # contact file alone (centres from its pos columns, box from its header)
     alone = read_network(tmp_path / "c.dump")
     np.testing.assert_allclose(network_stress(alone).stress, ref, rtol=1e-10, atol=1e-12 * np.abs(ref).max())
+
+
+def _network_arrays(net):
+    return {k: getattr(net, k) for k in ("ids", "positions", "radii", "i", "j", "force", "branch",
+                                         "overlap", "contact_point")}
+
+
+@pytest.mark.parametrize("variant", ["plain", "trailing-space", "crlf", "two-snapshots", "exp-ids"])
+def test_pyarrow_and_line_parser_give_identical_arrays(tmp_path, monkeypatch, variant, reader):
+    """Bit-identical networks from both parsers for the forms LAMMPS/LIGGGHTS write
+    ('%g ' columns with a trailing space, several snapshots in one file, ids as 1e+06),
+    and the pyarrow path is really taken when pyarrow is installed."""
+    if reader != "pyarrow":
+        pytest.skip("compares the two parsers once")
+    net = random_network(400, seed=4)
+    net = type(net)(net.ids * 10000, net.positions, net.radii, net.box, net.i, net.j, net.force, net.branch,
+                    net.overlap, net.contact_point, None, None, "t") if variant == "exp-ids" else net
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    write_liggghts(net, c, p)
+    text = c.read_text()
+    if variant == "exp-ids":
+        lines = text.splitlines()
+        k = next(n for n, x in enumerate(lines) if x.startswith("ITEM: ENTRIES")) + 1
+        for n in range(k, len(lines)):  # ids printed as %g does: 1e+06
+            w = lines[n].split()
+            w[6], w[7] = (f"{float(v):g}" for v in w[6:8])
+            lines[n] = " ".join(w)
+        text = "\n".join(lines) + "\n"
+    if variant == "trailing-space":
+        text = "".join(x + " \n" if x[:1].isdigit() or x[:1] == "-" else x + "\n" for x in text.splitlines())
+    if variant == "crlf":
+        text = text.replace("\n", "\r\n")
+    if variant == "two-snapshots":
+        text = text + text.replace("ITEM: TIMESTEP\n0", "ITEM: TIMESTEP\n100")
+    c.write_bytes(text.encode())
+    calls = []
+    real = demio._read_block_arrow
+    monkeypatch.setattr(demio, "_read_block_arrow", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])
+    fast = read_network(c, p)
+    assert calls and all(x is not None for x in calls), "the pyarrow path was not taken"
+    monkeypatch.setattr(demio, "_arrow_csv", lambda: None)
+    slow = read_network(c, p)
+    for k, a in _network_arrays(fast).items():
+        b = getattr(slow, k)
+        assert (a is None) == (b is None), k
+        if a is not None:
+            assert a.dtype == b.dtype and np.array_equal(a, b), k
+    np.testing.assert_array_equal(fast.force, net.force)  # sign: force by id1 on id2

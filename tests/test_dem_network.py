@@ -438,3 +438,42 @@ def test_frictionless_loose_network_names_the_rule_that_removed_everything():
     # the same network with its tangential stiffness keeps grains (frictional rule: 2)
     rr = relaxed_stiffness(net, kn, ks)
     assert rr.n_particles > 0 and rr.C_relaxed[0, 0] > 0
+
+
+def test_every_installed_solver_gives_the_same_relaxed_tensor():
+    """PARDISO, CHOLMOD, SuperLU, AMG-CG and block CG solve the same system H q = -B
+    (Lemaitre & Maloney 2006, Eq. 12): same C_relaxed, each reporting the solver that ran
+    and a residual below the tolerance; ``auto`` runs a direct method when one is installed."""
+    from grainmech.network import _solvers
+
+    net = random_network(100, seed=5)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    ref = relaxed_stiffness(net, kn, ks, solver="superlu")
+    for s in ("pardiso", "cholesky", "amg", "cg"):
+        if not _solvers.available(s):
+            continue
+        r = relaxed_stiffness(net, kn, ks, solver=s, maxiter=50000)
+        # AMG-CG solves the shifted system without refinement: its residual against H is
+        # what relaxed_stiffness accepts (<= 1e-6), the others reach ~tol
+        assert r.solver == s and r.residual <= (1e-6 if s == "amg" else 1e-9)
+        np.testing.assert_allclose(r.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-6 * np.abs(ref.C_relaxed).max())
+    auto = relaxed_stiffness(net, kn, ks)
+    assert auto.solver in ("cg", _solvers.choose("auto", 6 * auto.n_particles))
+    np.testing.assert_allclose(auto.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-7 * np.abs(ref.C_relaxed).max())
+
+
+def test_auto_uses_cg_on_a_packing_and_a_factorisation_when_cg_would_be_slow(monkeypatch):
+    """auto: block CG when its early convergence rate predicts few iterations (the
+    fcc lattice converges at once), a factorisation when it predicts many."""
+    from grainmech.network import _solvers
+    from grainmech.network import relaxed as rel
+
+    net = lattice_network("fcc", 3, 1.0, 1e-3)
+    kn = np.full(net.n_contacts, 1.0e6)
+    ks = np.full(net.n_contacts, 0.4e6)
+    assert relaxed_stiffness(net, kn, ks).solver == "cg"
+    rnet = random_network(100, seed=5)
+    kn, ks, _ = contact_stiffnesses(rnet, shear_modulus=G, poisson=NU)
+    monkeypatch.setattr(rel, "AUTO_CG_MAXITER", 5)
+    r = relaxed_stiffness(rnet, kn, ks)
+    assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-9

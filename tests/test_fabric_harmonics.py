@@ -276,3 +276,29 @@ def test_from_function_shrunk_truncated():
     g = SphericalDensity.from_function(lambda p: np.exp(p[:, 2] ** 2), order=8, degree=30,
                                        normalise=True)
     assert g.order == 8 and g.is_nonnegative
+
+
+def test_positivity_shortcut_is_sound():
+    """The check that skips the refined minimum search (coefficient bound from the
+    addition theorem, or grid values with Bernstein's inequality) must never pass a
+    density whose refined minimum is negative, and the coefficient bound must hold."""
+    from grainmech.fabric import FourierDensity
+    from grainmech.fabric.harmonics import n_coefficients_3d
+
+    rng = np.random.default_rng(2)
+    g = rng.normal(size=(50000, 3))
+    g /= np.linalg.norm(g, axis=1)[:, None]
+    certified = 0
+    for L in (2, 4, 6):
+        for _ in range(12):
+            c = rng.normal(size=n_coefficients_3d(L)) * rng.uniform(0.005, 0.06)
+            d = SphericalDensity(L, c, allow_negative=True)
+            assert np.abs(d._normalised(g) - 1).max() <= d._anisotropy_bound() + 1e-12
+            ok = d._certainly_positive()
+            certified += ok
+            assert not (ok and d.minimum().normalised <= 0)
+        for _ in range(12):
+            a, b = rng.normal(size=(2, L // 2)) * 0.5
+            d2 = FourierDensity(L, a, b, allow_negative=True)
+            assert not (d2._certainly_positive() and d2.minimum().normalised <= 0)
+    assert certified > 5  # the shortcut does fire

@@ -347,3 +347,20 @@ def test_indexed_keys_into_arrays_of_tables():
         with pytest.raises(ConfigError) as info:
             sweep_from_dict({"sweep": {"kind": "run"}, "base": base, "parameters": {key: {"values": [1e-5]}}})
         assert info.value.key == err
+
+
+def test_cheap_points_run_in_batches_and_a_failure_stays_one_point(tmp_path, client):
+    """Stiffness points are sent several to a task (a dask task costs about as much as a
+    point); a failing point inside a batch fails alone."""
+    from grainmech.sweep.runner import _batches
+
+    assert _batches(1000, "stiffness", 1) == [list(range(k, k + 32)) for k in range(0, 992, 32)] + \
+        [list(range(992, 1000))]
+    assert _batches(1000, "run", 2) == [[k] for k in range(1000)]
+    assert _batches(8, "stiffness", 1) == [[0, 1], [2, 3], [4, 5], [6, 7]]
+    values = [0.6, 0.62, 0.64, -0.1, 0.66, 0.68, 0.7, 0.72, 0.74, 0.76, 0.78, 0.8]
+    sw = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"values": values}}))
+    s = run_sweep(sw, tmp_path, client=client, plots=False)
+    assert (s["succeeded"], s["failed"], s["failed_points"]) == (11, 1, [3])
+    rows = read_table(tmp_path / "sweep.csv")
+    assert "-0.1" in rows[3]["error"] and all(float(r["K_hill [Pa]"]) > 0 for k, r in enumerate(rows) if k != 3)

@@ -652,3 +652,47 @@ def test_engineering_constants_names_are_the_dict_keys_and_hold_floats(C):
         assert type(getattr(ec, k)) is float and d[k] == getattr(ec, k)
     assert all(type(v) is float for v in ec.couplings.values())
     assert ec.E_xx == pytest.approx(1.0 / np.linalg.inv(C)[0, 0], rel=1e-14)  # Lekhnitskii: E_x = 1/S_11
+
+
+# ------------------------------------- fast paths of the classification (same answers)
+
+def test_invariant_lower_bound_never_exceeds_the_searched_residual():
+    """The Cowin & Mehrabadi (1987) contracted-tensor bound that lets symmetry_class skip
+    an orientation search must stay below the residual the search finds."""
+    from grainmech.elasticity.symmetry import _Search3D
+
+    rng = np.random.default_rng(11)
+    mats = [random_pd(rng) for _ in range(3)]
+    mats += [T.rotate_stiffness(nye_form(c, list(rng.uniform(-1, 1, 52)), 0.5), rot(rng.normal(size=4)))
+             for c in ("cubic", "tetragonal", "trigonal", "orthotropic")]
+    for C in mats:
+        Mn = voigt_to_mandel(C)
+        Mn = Mn / np.linalg.norm(Mn)
+        s = _Search3D(Mn)
+        for c in ("cubic", "transversely isotropic", "tetragonal", "trigonal"):
+            assert s.lower_bound(c) <= s.residual(c)[0] + 1e-12, c
+
+
+@pytest.mark.parametrize("cls", ["isotropic", "cubic", "transversely isotropic", "tetragonal",
+                                 "trigonal", "orthotropic", "monoclinic"])
+def test_fast_classification_equals_full_search(cls, monkeypatch):
+    """With the invariant bounds and the seed shortcut switched off symmetry_class runs
+    every orientation search; the class, axis and residual must not change (rotated
+    standard forms of Nye 1957, exact and with noise near the tolerance)."""
+    import grainmech.elasticity.symmetry as S
+
+    rng = np.random.default_rng(5)
+    C = nye_form(cls, list(rng.uniform(-1, 1, 52)), rng.uniform(0.05, 2.0))
+    Cr = T.rotate_stiffness(C, rot(rng.normal(size=4)))
+    A = rng.normal(size=(6, 6))
+    cases = [Cr] + [Cr + eps * np.abs(Cr).max() * (A + A.T) / np.abs(A + A.T).max() for eps in (1e-8, 2e-6)]
+    fast = [T.symmetry_class(X) for X in cases]
+    monkeypatch.setattr(S._Search3D, "lower_bound", lambda self, c: 0.0)
+    monkeypatch.setattr(S, "_CERTAIN", -1.0)
+    full = [T.symmetry_class(X) for X in cases]
+    for f, g in zip(fast, full):
+        assert f.name == g.name
+        assert f.residual == pytest.approx(g.residual, rel=1e-3, abs=1e-12)
+        if g.axis is not None:
+            assert abs(abs(f.axis @ g.axis) - 1) < 1e-8
+    assert fast[0].name == cls and fast[1].name == cls

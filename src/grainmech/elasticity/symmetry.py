@@ -1,5 +1,6 @@
-"""Material-symmetry class of a stiffness (Forte & Vianello 1996; Cowin & Mehrabadi
-1987), its natural frame, and the projection onto a symmetry class.
+"""Material-symmetry class of a stiffness, its natural frame, and the projection onto a class.
+
+Forte & Vianello 1996; Cowin & Mehrabadi 1987.
 """
 
 from __future__ import annotations
@@ -126,8 +127,9 @@ _LEVELS_3D = (("isotropic",), ("cubic", "transversely isotropic"), ("tetragonal"
 
 @lru_cache(maxsize=1)
 def _sphere_grid(n: int = 1200, k: int = 8) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Fibonacci points on the upper hemisphere, their neighbour lists (with n ~ -n) and
-    a frame per point (rows t1, t2, a).
+    """Fibonacci points on the upper hemisphere, their neighbour lists and frames.
+
+    Neighbours with ``n ~ -n``; a frame per point (rows t1, t2, a).
     """
     i = np.arange(n)
     z = (i + 0.5) / n
@@ -188,26 +190,71 @@ class _Search3D:
 
     def __init__(self, Mn: np.ndarray) -> None:
         self.Mn = Mn
-        P, nb, frames = _sphere_grid()
-        self.grid, self.nb, self.frames = P, nb, frames
-        K = _mandel_rot(frames)
-        self.Mgrid = (K @ Mn @ np.swapaxes(K, -1, -2)).reshape(len(P), -1)
         # Cowin-Mehrabadi seeds: eigenvectors of the dilatational and Voigt tensors
         d, v = contracted_tensors(matrix_to_tensor4(Mn, mandel=True))
-        seeds = np.hstack([np.linalg.eigh(d)[1], np.linalg.eigh(v)[1]]).T
+        (ld, Vd), (lv, Vv) = np.linalg.eigh(d), np.linalg.eigh(v)
+        self.contracted_eigs = (ld, lv)
+        seeds = np.hstack([Vd, Vv]).T
         self.seed_frames = np.array([_frame_from_axis(_canon_axis(s)) for s in seeds])
+        # the eigenvector frames of d and v (rows, made proper): orthotropic / cubic seeds
+        self.eigen_frames = np.array([V.T * (np.sign(np.linalg.det(V)) or 1.0) for V in (Vd, Vv)])
+        self._grid: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         self._axes: dict[str, list[tuple[float, np.ndarray]]] = {}
         self.best: dict[str, tuple[float, np.ndarray | None]] = {}
+
+    def grid(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Hemisphere grid, neighbours, frames and the rotated matrices (computed once)."""
+        if self._grid is None:
+            P, nb, frames = _sphere_grid()
+            K = _mandel_rot(frames)
+            Mgrid = (K @ self.Mn @ np.swapaxes(K, -1, -2)).reshape(len(P), -1)
+            self._grid = (P, nb, frames, Mgrid)
+        return self._grid
+
+    def lower_bound(self, cls: str) -> float:
+        """A lower bound of the class residual from the contracted tensors alone.
+
+        The contractions ``d_ij = C_ijkk`` and ``v_ij = C_ikjk`` commute with rotations,
+        so for the group average ``P_G`` (any orientation), ``d(C) - d(P_G C) = d(C - P_G C)``
+        and ``||d(X)||_F <= sqrt(3) ||X||_F`` (Cauchy-Schwarz over the contracted index;
+        likewise for ``v``).  ``d(P_G C)`` is the group average of ``d(C)``: isotropic for the
+        cubic group, transversely isotropic for an n-fold rotation with n >= 3
+        (Cowin & Mehrabadi 1987).  Hence the residual of ``cubic`` is at least
+        ``||dev d|| / sqrt(3)``, and that of the classes with a 3-, 4- or 8-fold axis at
+        least ``min(lambda_2 - lambda_1, lambda_3 - lambda_2) / sqrt(6)`` (the distance to
+        the nearest matrix with a double eigenvalue, Hoffman-Wielandt), the larger of the
+        ``d`` and ``v`` values.  Other classes: 0.
+        """
+        bounds = [0.0]
+        for lam in self.contracted_eigs:
+            if cls == "cubic":
+                bounds.append(float(np.linalg.norm(lam - lam.mean())) / np.sqrt(3.0))
+            elif cls in ("transversely isotropic", "tetragonal", "trigonal"):
+                bounds.append(float(np.min(np.diff(lam))) / np.sqrt(6.0))
+        return max(bounds)
+
+    def quick(self, cls: str, tol: float) -> tuple[float, np.ndarray]:
+        """Best residual and frame among the Cowin-Mehrabadi seeds (no search).
+
+        Polished when it is already within ``tol``.
+        """
+        frames = self.seed_frames if cls in _AXIS_CLASSES else self.eigen_frames
+        rs = np.linalg.norm(_natural_residual(self.Mn, frames, cls), axis=-1)
+        i = int(np.argmin(rs))
+        if rs[i] > tol:
+            return float(rs[i]), frames[i]
+        return _refine(self.Mn, frames[i], cls, axis_only=cls in _AXIS_CLASSES)
 
     def axes(self, cls: str, nref: int) -> list[tuple[float, np.ndarray]]:
         """Refined candidate axes for an axis class: list of (residual, frame), best first."""
         if cls in self._axes:
             return self._axes[cls]
         P = _projector(cls, 3)
-        r = np.linalg.norm(self.Mgrid - self.Mgrid @ P.T, axis=1)
-        locmin = np.flatnonzero(r <= r[self.nb].min(axis=1))
+        _, nb, gframes, Mgrid = self.grid()
+        r = np.linalg.norm(Mgrid - Mgrid @ P.T, axis=1)
+        locmin = np.flatnonzero(r <= r[nb].min(axis=1))
         locmin = locmin[np.argsort(r[locmin])]
-        cands = [(float(r[i]), self.frames[i]) for i in locmin]
+        cands = [(float(r[i]), gframes[i]) for i in locmin]
         rs = np.linalg.norm(_natural_residual(self.Mn, self.seed_frames, cls), axis=-1)
         cands += [(float(x), F) for x, F in zip(rs, self.seed_frames)]
         cands = _dedupe_axes(cands)[:nref]
@@ -249,6 +296,43 @@ class _Search3D:
             res = self.frame_class(cls)
         self.best[cls] = res
         return res
+
+
+#: a seed frame whose polished residual is below this fraction of ``tol`` settles its level
+_CERTAIN = 1e-3
+
+
+def _level_results(search: _Search3D, level: tuple[str, ...], tol: float
+                   ) -> dict[str, tuple[float, np.ndarray | None]]:
+    """Residual and frame of the classes of one level that need to be known.
+
+    A class whose invariant lower bound (:meth:`_Search3D.lower_bound`) exceeds ``tol``
+    cannot pass: its bound is recorded and no orientation is searched.  If a
+    Cowin-Mehrabadi seed frame already fits a class to ``_CERTAIN * tol``, that class
+    passes and the other classes of the level are not searched (a second class within
+    ``tol`` with a still smaller residual would put the tensor within ~``tol`` of the
+    higher level, which has failed).  Otherwise every remaining class is searched.
+    """
+    results: dict[str, tuple[float, np.ndarray | None]] = {}
+    todo: list[str] = []
+    for c in level:
+        bound = search.lower_bound(c)
+        if bound > tol * (1.0 + 1e-9):
+            results[c] = (bound, None)
+        else:
+            todo.append(c)
+    certain = {}
+    for c in todo:
+        if c not in ("isotropic", "triclinic"):
+            r, Fq = search.quick(c, tol)
+            if r <= _CERTAIN * tol:
+                certain[c] = (r, Fq)
+    if certain:
+        results.update(certain)
+        return results
+    for c in todo:
+        results[c] = search.residual(c)
+    return results
 
 
 def _nearest_signed_permutation(F: np.ndarray, group: np.ndarray) -> np.ndarray:
@@ -322,7 +406,10 @@ class SymmetryClass:
         is the orthogonal projection onto tensors of that symmetry (Frobenius norm of the
         tensor = of its Mandel matrix).  ``<= tol`` by construction (0 for triclinic).
     residuals : mapping str -> float
-        The minimised residual of every class that was tested.
+        The minimised residual of every class that was tested; for a class ruled out by
+        the contracted-tensor invariants without a search, that lower bound (``> tol``).
+        A class not needed for the answer (the other class of a level settled by a seed
+        frame) is absent.
     tol : float
     aligned : bool or None
         Whether the natural axes (the axis alone for transversely isotropic and
@@ -391,6 +478,13 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
        monoclinic | triclinic; the first level with a residual ``<= tol`` wins, ties inside
        a level going to the smaller residual.
 
+    Two shortcuts avoid searches whose outcome is already known: a class whose lower
+    bound from the eigenvalues of ``d`` and ``v`` exceeds ``tol`` (cubic: ``d``, ``v``
+    isotropic; 3-, 4-, 8-fold axis: ``d``, ``v`` with a double eigenvalue) is not searched,
+    and a level is settled without a search when a seed frame (eigenvectors of ``d`` or
+    ``v``) already fits one of its classes to ``1e-3 tol`` -- the usual case for a tensor
+    computed from a fabric, which costs well under a millisecond.
+
     Since an n-fold axis (n = 2, 3, 4) already forces the mirror planes of the class for an
     elasticity tensor (Forte & Vianello 1996), rotations suffice.  The Kelvin moduli are
     returned as an independent check (e.g. isotropic: a five-fold eigenvalue).
@@ -414,10 +508,10 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
     residuals: dict[str, float] = {}
     name, res, F = "triclinic", 0.0, None
     for level in _LEVELS_3D:
-        results = {c: search.residual(c) for c in level}
+        results = _level_results(search, level, tol)
         for c, (r, _) in results.items():
             residuals[c] = r
-        ok = [c for c in level if results[c][0] <= tol]
+        ok = [c for c in results if results[c][0] <= tol]
         if ok:
             name = min(ok, key=lambda c: results[c][0])
             res, F = results[name]
@@ -445,7 +539,7 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
         if aligned and name != "isotropic":
             # snap to the exact coordinate frame when that is as good
             Fs = np.round(F) if name not in ("transversely isotropic", "monoclinic") \
-                else _frame_from_axis(np.round(axis))
+                else _frame_from_axis(np.round(np.asarray(axis)))
             rs = float(np.linalg.norm(_natural_residual(Mn, Fs, name)))
             if name in ("tetragonal", "trigonal"):
                 # the class residual ignores the in-plane angle: the snapped frame must also

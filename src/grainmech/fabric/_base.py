@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, ClassVar, Self
 
 import numpy as np
@@ -73,6 +74,34 @@ def _fibonacci_hemisphere(p: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
 
 
+@lru_cache(maxsize=8)
+def _covered_grid(dim: int, order: int) -> tuple[np.ndarray, float]:
+    """The extremum-search grid and its covering radius [rad].
+
+    Every direction (or its antipode) lies within the returned angle of a grid point.
+    3D: the Fibonacci half-sphere grid of :meth:`DensityBase._extremum`; the covering
+    radius of the grid and its antipodes is the largest vertex-to-generator angle of their
+    spherical Voronoi diagram.  2D: ``N`` equally spaced angles on the half circle, radius
+    ``pi / (2 N)``.
+    """
+    L = max(order, 2)
+    if dim == 3:
+        from scipy.spatial import SphericalVoronoi
+
+        grid = _fibonacci_hemisphere(max(2000, 40 * (L + 1) ** 2))
+        pts = np.vstack([grid, -grid])
+        sv = SphericalVoronoi(pts)
+        cover = max(float(np.max(sv.vertices[reg] @ pts[i] * -1.0 + 1.0))
+                    for i, reg in enumerate(sv.regions))  # 1 - cos(angle)
+        radius = float(np.arccos(1.0 - cover))
+    else:
+        t = np.linspace(0.0, np.pi, max(720, 60 * L), endpoint=False)
+        grid = np.stack([np.sin(t), np.cos(t)], axis=-1)
+        radius = np.pi / (2 * len(t))
+    grid.setflags(write=False)
+    return grid, radius
+
+
 @dataclass(frozen=True, eq=False)
 class DensityBase:
     """Common API of :class:`SphericalDensity` and :class:`FourierDensity`."""
@@ -84,6 +113,10 @@ class DensityBase:
     # ---- hooks (subclasses also define the dataclass field ``order: int``) -----------
     def _normalised(self, n: np.ndarray) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
+
+    def _anisotropy_bound(self) -> float:
+        """An upper bound of ``max |(|S| xi) - 1|`` from the coefficients alone."""
+        return np.inf
 
     def _degree_part(self, n: np.ndarray, k: int) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
@@ -369,6 +402,8 @@ class DensityBase:
 
         The message gives the minimum value, the direction and the seed's angles.
         """
+        if self._certainly_positive():
+            return
         m = self.minimum()
         if m.normalised < -NEGATIVE_TOL:
             raise NegativeDensityError(
@@ -379,7 +414,28 @@ class DensityBase:
     @property
     def is_nonnegative(self) -> bool:
         """True if ``xi >= 0`` everywhere (to round-off)."""
-        return self.minimum().normalised >= -NEGATIVE_TOL
+        return self._certainly_positive() or self.minimum().normalised >= -NEGATIVE_TOL
+
+    def _certainly_positive(self) -> bool:
+        """True when ``xi > 0`` everywhere is proven without a refined minimum search.
+
+        First by the coefficient bound (:meth:`_anisotropy_bound` below 1), else from the
+        grid values:
+        ``|S| xi`` is a polynomial of degree ``L`` on the sphere (trigonometric of degree
+        ``L`` on the circle); along any great circle it is a trigonometric polynomial of
+        degree ``<= L``, so Bernstein's inequality bounds its slope by ``L max|f|``.  With
+        the grid's covering radius ``h`` (:func:`_covered_grid`),
+        ``max|f| <= max_grid|f| / (1 - L h)`` and ``f >= min_grid f - L h max|f|``.
+        """
+        L = int(self.order)
+        if L == 0 or self._anisotropy_bound() < 1.0:
+            return True
+        grid, h = _covered_grid(self.dim, L)
+        if L * h >= 0.5:
+            return False
+        vals = self._normalised(grid)
+        bound = float(np.max(np.abs(vals))) / (1.0 - L * h)
+        return float(np.min(vals)) - L * h * bound > 0.0
 
     # ---- sampling -----------------------------------------------------------------------
     def sample(self, size: int, rng: np.random.Generator | int | None = None) -> np.ndarray:

@@ -86,6 +86,10 @@ class FourierDensity(DensityBase):
         th = seed_theta(n)[..., None] * self._k
         return 1.0 + np.cos(th) @ self.a + np.sin(th) @ self.b
 
+    def _anisotropy_bound(self) -> float:
+        """``sum_k sqrt(a_k^2 + b_k^2)``, the largest possible ``|a_k cos + b_k sin|`` summed."""
+        return float(np.sum(np.hypot(self.a, self.b)))
+
     def _degree_part(self, n: np.ndarray, k: int) -> np.ndarray:
         if k < 2 or k > self.order or k % 2:
             return np.zeros(n.shape[:-1])

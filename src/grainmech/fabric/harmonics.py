@@ -116,6 +116,16 @@ class SphericalDensity(DensityBase):
             return np.ones(n.shape[:-1])
         return 1.0 + 4.0 * np.pi * (real_sh(n, self._ks, self._ms) @ self.coefficients)
 
+    def _anisotropy_bound(self) -> float:
+        """``sum_k ||c_k|| sqrt(4 pi (2k + 1))``, a bound of the anisotropic part.
+
+        By the addition theorem, ``sum_m Y_km(n)^2 = (2k + 1) / (4 pi)``, so Cauchy-Schwarz bounds the degree-k part
+        of ``4 pi sum c_km Y_km`` by ``||c_k|| sqrt(4 pi (2k + 1))``.
+        """
+        c = np.asarray(self.coefficients)
+        return float(sum(np.linalg.norm(c[self._ks == k]) * np.sqrt(4.0 * np.pi * (2 * k + 1))
+                         for k in np.unique(self._ks)))
+
     def _degree_part(self, n: np.ndarray, k: int) -> np.ndarray:
         sel = self._ks == k
         if not np.any(sel):

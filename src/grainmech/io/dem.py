@@ -14,15 +14,18 @@ DEM sign conventions, converted here and nowhere else:
 * The generic table (and YADE's ``i.phys.normalForce + i.phys.shearForce``, which is the
   force applied on ``id2``) already holds the force on ``id2`` (``force_on="id2"``).
 
-Files are read as a stream in chunks of lines (``np.loadtxt`` on each chunk), keeping
-only the needed columns, so memory is bounded by the output arrays (about 80 bytes per
-contact), not by the file. Malformed lines, missing columns, NaN/inf values, duplicate
-or unknown particle ids raise :class:`~grainmech.errors.GrainmechError` naming the file,
-the line, the column and the value.
+Data blocks are parsed by pyarrow's CSV reader when pyarrow is installed (streamed in
+blocks straight into the kept arrays), else -- and for anything that reader does not take,
+and for every error message -- by a NumPy line parser in chunks of lines; both keep only
+the needed columns, so memory is bounded by the output arrays, not by the file. Malformed
+lines, missing columns, NaN/inf values, duplicate or unknown particle ids raise
+:class:`~grainmech.errors.GrainmechError` naming the file, the line, the column and the
+value.
 """
 
 from __future__ import annotations
 
+import io
 import itertools
 import os
 import re
@@ -168,15 +171,204 @@ def _diagnose(lines: Sequence[str], names: Sequence[str], delimiter: str | None,
     raise GrainmechError(f"{path}:{line0}-{line0 + len(lines) - 1}: could not parse the data block")
 
 
+class _UntilItem(io.RawIOBase):
+    """Binary stream of a data block.
+
+    From the current position of ``fh`` up to (not including) the next ``ITEM:`` (the next
+    dump snapshot) or the end of the file.
+    """
+
+    def __init__(self, fh: IO[bytes], stop: bytes | None) -> None:
+        self.fh, self.stop, self.buf, self.done = fh, stop, b"", False
+
+    def readable(self) -> bool:
+        return True
+
+    def readinto(self, b: Any) -> int:
+        n = len(b)
+        while not self.done and len(self.buf) < n + 8:
+            data = self.fh.read(max(n, 1 << 22))
+            if not data:
+                self.done = True
+                break
+            self.buf += data
+            if self.stop is not None:
+                p = self.buf.find(self.stop)
+                if p >= 0:
+                    self.buf, self.done = self.buf[:p], True
+        # keep a short tail back until the stop marker is ruled out across the boundary
+        k = len(self.buf) if self.done else max(0, min(n, len(self.buf) - 8))
+        b[:k] = self.buf[:k]
+        self.buf = self.buf[k:]
+        return k
+
+
+def _arrow_csv() -> Any:
+    """``pyarrow.csv``, or None when pyarrow is not installed."""
+    try:
+        import pyarrow.csv as pacsv  # noqa: PLC0415 (optional dependency)
+    except ImportError:
+        return None
+    return pacsv
+
+
+#: block size of the pyarrow CSV reader [bytes]
+ARROW_BLOCK = 1 << 21
+
+
+#: columns read into one (n, 3) array (the arrays the network keeps)
+_VECTOR_COLUMNS = (("fx", "fy", "fz"), ("cpx", "cpy", "cpz"), ("x1", "y1", "z1"), ("x2", "y2", "z2"))
+
+
+def _allocate(keys: Sequence[str], ints: set, count: int) -> dict[str, np.ndarray]:
+    """Output arrays of a block.
+
+    int64 ids, (n, 3) arrays for vector columns (each column a view, see :func:`_vector`),
+    float64 otherwise.
+    """
+    out: dict[str, np.ndarray] = {}
+    for group in _VECTOR_COLUMNS:
+        if all(k in keys for k in group):
+            V = np.empty((count, 3))
+            for q, k in enumerate(group):
+                out[k] = V[:, q]
+    for k in keys:
+        if k not in out:
+            out[k] = np.empty(count, dtype=np.int64 if k in ints else float)
+    return out
+
+
+def _vector(cols: dict[str, np.ndarray], group: Sequence[str]) -> np.ndarray:
+    """The (n, 3) array of three columns: the array they are views of, else a stack."""
+    a = [cols[k] for k in group]
+    base = a[0].base
+    if (isinstance(base, np.ndarray) and base.ndim == 2 and base.shape[1] == 3 and base.flags.c_contiguous
+            and all(x.base is base for x in a) and all(x.shape[0] == base.shape[0] for x in a)
+            and [x.__array_interface__["data"][0] - base.__array_interface__["data"][0] for x in a]
+            == [0, 8, 16]):
+        return base
+    return np.stack(a, axis=1)
+
+
+def _as_ids(a: np.ndarray, name: str, path: Path, first: int) -> np.ndarray:
+    """Float column -> int64 ids, rejecting non-integer values (error names the line)."""
+    ai = np.rint(a).astype(np.int64)
+    bad = np.flatnonzero(ai != a)
+    if bad.size:
+        b = int(bad[0])
+        raise GrainmechError(f"{path}:{first + b}: column {name!r}: value {float(a[b])!r} is not an integer id")
+    return ai
+
+
+def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: dict[str, int],
+                      count: int | None, delimiter: str | None, stop_prefix: str | None,
+                      int_cols: Iterable[str] = ()) -> dict[str, np.ndarray] | None:
+    """The wanted columns of a data block parsed by pyarrow's multi-threaded CSV reader.
+
+    The block starts after ``skip_lines`` lines and ends at a line starting with
+    ``stop_prefix`` or at the end of the file.  Record batches are copied into arrays
+    allocated once (``count`` known) or concatenated at the end, so the peak memory is the
+    kept arrays plus a few blocks of ``ARROW_BLOCK`` bytes.  Returns None whenever the
+    block is not in the simple form this path handles (whitespace other than single
+    spaces, a wrong number of fields, a value that is not a number, a short block):
+    the caller then runs the line parser, which reports the exact line and column.
+    """
+    pacsv = _arrow_csv()
+    if pacsv is None:
+        return None
+    import pyarrow as pa  # noqa: PLC0415
+
+    first = skip_lines + 1
+
+    with open(path, "rb") as fh:
+        for _ in range(skip_lines):
+            fh.readline()
+        start = fh.tell()
+        head = fh.readline().rstrip(b"\r\n")
+        fh.seek(start)
+        if not head or (stop_prefix and head.startswith(stop_prefix.encode())):
+            return None
+        if delimiter is None:
+            if b"\t" in head or b"  " in head or head.startswith(b" "):
+                return None
+            sep = " "
+        else:
+            sep = delimiter
+        fields = head.split(sep.encode())
+        extra = len(fields) - len(names)
+        if extra not in (0, 1) or (extra == 1 and fields[-1].strip()):
+            return None  # the line parser reports the column count
+        colnames = [f"c{k}" for k in range(len(fields))]
+        keys = list(want)
+        inc = [colnames[want[k]] for k in keys]
+        ints = set(int_cols)
+        opts = dict(
+            read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK, use_threads=True),
+            parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
+                                             ignore_empty_lines=False),
+            # every column is converted (a non-number anywhere is an error, as in the line
+            # parser); only the wanted ones are kept
+            convert_options=pacsv.ConvertOptions(
+                include_columns=colnames[:len(names)],
+                column_types={c: pa.float64() for c in colnames[:len(names)]},
+                strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
+    # first as a native stream to the end of the file (no Python buffers: the usual single
+    # snapshot); if that fails, bounded at the next 'ITEM:' through a Python stream
+    for bounded in (False, True):
+        if bounded and not stop_prefix:
+            return None
+        with (open(path, "rb") if bounded else pa.OSFile(str(path))) as fh:
+            fh.seek(start)
+            src = _UntilItem(fh, (stop_prefix or "").encode()) if bounded else fh
+            try:
+                out: dict[str, Any] = (_allocate(keys, ints, count) if count is not None
+                                       else {k: [] for k in keys})
+                done = 0
+                for batch in pacsv.open_csv(src, **opts):
+                    m = batch.num_rows
+                    if count is not None and done + m > count:
+                        break
+                    for k, c in zip(keys, inc):
+                        a = batch.column(c).to_numpy(zero_copy_only=False)
+                        if k in ints:
+                            a = _as_ids(a, names[want[k]], path, first + done)
+                        if count is not None:
+                            out[k][done:done + m] = a
+                        else:
+                            out[k].append(a)
+                    done += m
+                    del batch
+                else:
+                    if count is None or done == count:
+                        break
+            except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+                pass
+            out = {}  # this attempt failed: release its arrays before the next one
+    else:
+        return None
+    if count is not None:
+        if done != count:
+            return None
+        return out
+    return {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in out.items()}
+
+
 def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], count: int | None,
                 delimiter: str | None = None, stop_prefix: str | None = None,
                 int_cols: Iterable[str] = ()) -> tuple[dict[str, np.ndarray], int]:
     """Read ``count`` data rows (or to EOF / a line starting with ``stop_prefix``).
 
     Returns the wanted columns (by canonical name -> column index) and the line number of
-    the first data row.
+    the first data row.  With pyarrow installed the block is parsed by
+    :func:`_read_block_arrow` (same arrays, same checks); the chunked line parser below
+    is the fallback and the source of the error messages.
     """
     first = rd.line + 1
+    if not rd._pushed:
+        fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix, int_cols)
+        if fast is not None:
+            _check_block(fast, names, want, rd.path, first)
+            return _int_columns(fast, names, want, set(int_cols), rd.path, first), first
     parts: dict[str, list[np.ndarray]] = {k: [] for k in want}
     cols = list(want.values())
     keys = list(want)
@@ -215,19 +407,30 @@ def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], cou
             break
         _append_chunk(lines, names, cols, keys, parts, delimiter, rd.path, line0)
         done += len(lines)
-    out: dict[str, np.ndarray] = {}
-    for k in keys:
-        a = np.concatenate(parts[k]) if parts[k] else np.zeros(0)
-        if k in int_set:
-            ai = np.rint(a).astype(np.int64)
-            bad = np.flatnonzero(ai != a)
-            if bad.size:
-                b = int(bad[0])
-                raise GrainmechError(f"{rd.path}:{first + b}: column {names[want[k]]!r}: value {float(a[b])!r} "
-                                     "is not an integer id")
-            a = ai
-        out[k] = a
-    return out, first
+    out = {k: (np.concatenate(parts[k]) if parts[k] else np.zeros(0)) for k in keys}
+    return _int_columns(out, names, want, int_set, rd.path, first), first
+
+
+def _check_block(cols: dict[str, np.ndarray], names: Sequence[str], want: dict[str, int], path: Path,
+                 first: int) -> None:
+    """Every value finite, else an error naming the first bad line (in line order)."""
+    cols = {k: a for k, a in cols.items() if a.dtype.kind == "f"}
+    bad_rows = [int(np.flatnonzero(~np.isfinite(a))[0]) for a in cols.values() if not np.isfinite(a).all()]
+    if not bad_rows:
+        return
+    r = min(bad_rows)
+    k = min((c for c in cols if not np.isfinite(cols[c][r])), key=lambda c: want[c])
+    raise GrainmechError(f"{path}:{first + r}: column {names[want[k]]!r}: value {float(cols[k][r])!r} "
+                         "is not finite")
+
+
+def _int_columns(out: dict[str, np.ndarray], names: Sequence[str], want: dict[str, int], int_set: set,
+                 path: Path, first: int) -> dict[str, np.ndarray]:
+    """Convert the id columns to int64, rejecting non-integer values."""
+    for k in out:
+        if k in int_set and not np.issubdtype(out[k].dtype, np.integer):
+            out[k] = _as_ids(out[k], names[want[k]], path, first)
+    return out
 
 
 def _append_chunk(lines, names, cols, keys, parts, delimiter, path, line0) -> None:
@@ -454,16 +657,30 @@ def _read_particles_dump(path: Path) -> _Particles:
 
 # --------------------------------------------------------------------------- assembling
 
+#: rows per block of the index look-up and branch vectors (bounded temporaries)
+_BUILD_BLOCK = 1 << 16
+
+
 def _lookup(ids_sorted: np.ndarray, order: np.ndarray, q: np.ndarray, path: Path, first: int,
             col: str, ppath: Path) -> np.ndarray:
-    pos = np.searchsorted(ids_sorted, q)
-    pos = np.minimum(pos, len(ids_sorted) - 1)
-    bad = np.flatnonzero(ids_sorted[pos] != q) if len(ids_sorted) else np.arange(len(q))
-    if bad.size:
-        k = int(bad[0])
-        raise GrainmechError(f"{path}:{first + k}: particle id {int(q[k])} (column {col}) is not listed in "
-                             f"{ppath} ({bad.size} contact(s) reference unlisted particles)")
-    return order[pos]
+    """Row of each id of ``q`` in the particle table (blockwise: temporaries stay small)."""
+    out = np.empty(len(q), dtype=np.int64)
+    nbad = 0
+    kbad = -1
+    for a in range(0, len(q), _BUILD_BLOCK):
+        qq = q[a:a + _BUILD_BLOCK]
+        pos = np.searchsorted(ids_sorted, qq)
+        np.minimum(pos, len(ids_sorted) - 1, out=pos)
+        bad = np.flatnonzero(ids_sorted[pos] != qq) if len(ids_sorted) else np.arange(len(qq))
+        if bad.size:
+            nbad += bad.size
+            kbad = a + int(bad[0]) if kbad < 0 else kbad
+        elif kbad < 0:
+            out[a:a + _BUILD_BLOCK] = order[pos]
+    if nbad:
+        raise GrainmechError(f"{path}:{first + kbad}: particle id {int(q[kbad])} (column {col}) is not listed in "
+                             f"{ppath} ({nbad} contact(s) reference unlisted particles)")
+    return out
 
 
 def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particles | None,
@@ -478,19 +695,19 @@ def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particle
     if same.size:
         k = int(same[0])
         raise GrainmechError(f"{path}:{first + k}: contact of particle {id1[k]} with itself")
-    f = np.stack([cols["fx"], cols["fy"], cols["fz"]], axis=1)
+    f = _vector(cols, ("fx", "fy", "fz"))
     if force_on == "id1":
-        f = -f  # force on A (by B) -> force by A on B
+        np.negative(f, out=f)  # force on A (by B) -> force by A on B
     has_pos = all(c in cols for c in ("x1", "y1", "z1", "x2", "y2", "z2"))
     if parts is None:
         if not has_pos:
             raise GrainmechError(f"{path}: the contacts carry no positions (pos keyword / x1..z2 columns); "
                                  "give the particle file (--particles)")
         allid = np.concatenate([id1, id2])
-        allpos = np.concatenate([np.stack([cols["x1"], cols["y1"], cols["z1"]], 1),
-                                 np.stack([cols["x2"], cols["y2"], cols["z2"]], 1)])
+        allpos = np.concatenate([_vector(cols, ("x1", "y1", "z1")), _vector(cols, ("x2", "y2", "z2"))])
         uid, idx = np.unique(allid, return_index=True)
         parts = _Particles(uid, allpos[idx], None, None, path, first)
+        del allid, allpos
     box = box if box is not None else parts.box
     if box is None:
         r = parts.radii if parts.radii is not None else np.zeros(len(parts.ids))
@@ -502,15 +719,18 @@ def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particle
     sid = parts.ids[order]
     ia = _lookup(sid, order, id1, path, first, "id1", parts.path)
     ib = _lookup(sid, order, id2, path, first, "id2", parts.path)
-    l_ = box.minimum_image(parts.pos[ib] - parts.pos[ia])
-    L = np.linalg.norm(l_, axis=1)
-    zero = np.flatnonzero(L <= 0)
+    del id1, id2, cols["id1"], cols["id2"]  # only ia, ib are kept
+    l_ = np.empty((len(ia), parts.pos.shape[1]))
+    for a in range(0, len(ia), _BUILD_BLOCK):
+        blk = slice(a, a + _BUILD_BLOCK)
+        l_[blk] = box.minimum_image(parts.pos[ib[blk]] - parts.pos[ia[blk]])
+    zero = np.flatnonzero(np.einsum("ij,ij->i", l_, l_) <= 0)
     if zero.size:
         k = int(zero[0])
-        raise GrainmechError(f"{path}:{first + k}: particles {id1[k]} and {id2[k]} have the same centre")
+        raise GrainmechError(f"{path}:{first + k}: particles {parts.ids[ia[k]]} and {parts.ids[ib[k]]} have "
+                             "the same centre")
     overlap = cols.get("delta")
-    cp = np.stack([cols["cpx"], cols["cpy"], cols["cpz"]], 1) if all(
-        c in cols for c in ("cpx", "cpy", "cpz")) else None
+    cp = _vector(cols, ("cpx", "cpy", "cpz")) if all(c in cols for c in ("cpx", "cpy", "cpz")) else None
     kn = cols.get("kn")
     ks = cols.get("ks")
     return ContactNetwork(parts.ids, parts.pos, parts.radii, box, ia, ib, f, l_, overlap, cp, kn, ks, source)
@@ -653,10 +873,10 @@ def _npz_cols(z: dict[str, np.ndarray], path: Path, names: Iterable[str], int_co
             out[k] = a.astype(np.int64)
         else:
             af = a.astype(float)
-            bad = np.flatnonzero(~np.isfinite(af))
-            if bad.size:
-                raise GrainmechError(f"{path}: array {k!r} row {int(bad[0])}: value "
-                                     f"{float(af[bad[0]])!r} is not finite")
+            nonfinite = np.flatnonzero(~np.isfinite(af))
+            if nonfinite.size:
+                raise GrainmechError(f"{path}: array {k!r} row {int(nonfinite[0])}: value "
+                                     f"{float(af[nonfinite[0]])!r} is not finite")
             out[k] = af
     return out
 

@@ -1,8 +1,11 @@
-"""Sparse symmetric positive-definite solvers for the relaxed stiffness (several right-hand
-sides at once).
+"""Sparse symmetric positive-definite solvers for the relaxed stiffness.
 
-* ``cholesky`` - sparse Cholesky factorisation (CHOLMOD, supernodal, fill-reducing
-  ordering) from the optional package ``cholespy``; factor once, solve all columns.
+Several right-hand sides at once.
+
+* ``pardiso`` - Intel MKL PARDISO (parallel supernodal Cholesky, nested-dissection
+  ordering) from the optional package ``pypardiso``; factor once, solve all columns.
+* ``cholesky`` - sparse Cholesky factorisation (CHOLMOD through the optional package
+  ``cholespy``, minimum-degree ordering); factor once, solve all columns.
 * ``superlu`` - SciPy's SuperLU with the symmetric ordering ``MMD_AT_PLUS_A`` and
   diagonal pivoting (the SciPy-only direct fallback).
 * ``amg`` - conjugate gradients preconditioned by one V-cycle of smoothed-aggregation
@@ -26,43 +29,50 @@ from grainmech.errors import GrainmechError
 __all__ = ["METHODS", "available", "choose", "solve_spd", "block_cg"]
 
 #: Names accepted by :func:`solve_spd` (``direct``: the best direct method installed).
-METHODS = ("auto", "direct", "cholesky", "superlu", "amg", "cg")
+METHODS = ("auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg")
 
 #: Unknowns up to which ``auto`` uses a direct factorisation (above: AMG-CG if pyamg is
 #: installed); see ``docs/performance.md``.
+DIRECT_LIMIT_PARDISO = 1_000_000
 DIRECT_LIMIT_CHOLESKY = 150_000
 DIRECT_LIMIT_SUPERLU = 20_000
+
+_PACKAGES = {"pardiso": "pypardiso", "cholesky": "cholespy", "amg": "pyamg"}
 
 
 def available(method: str) -> bool:
     """True if the optional package behind ``method`` is installed."""
-    pkg = {"cholesky": "cholespy", "amg": "pyamg"}.get(method)
+    pkg = _PACKAGES.get(method)
     return pkg is None or importlib.util.find_spec(pkg) is not None
 
 
 def choose(method: str, n: int) -> str:
     """The method :func:`solve_spd` runs for ``method`` and ``n`` unknowns.
 
-    ``auto``: a direct factorisation up to :data:`DIRECT_LIMIT_CHOLESKY` unknowns with
-    cholespy (:data:`DIRECT_LIMIT_SUPERLU` with SuperLU, whose fill-in and time grow
-    faster), AMG-preconditioned CG above when pyamg is installed, else block-Jacobi CG.
-    ``direct``: cholesky if installed, else superlu.
+    ``auto`` (measured in ``docs/performance.md``): PARDISO up to
+    :data:`DIRECT_LIMIT_PARDISO` unknowns when pypardiso is installed (the fastest method
+    at every size measured); else cholespy up to :data:`DIRECT_LIMIT_CHOLESKY` unknowns
+    (SuperLU up to :data:`DIRECT_LIMIT_SUPERLU`, whose fill-in and time grow faster),
+    AMG-preconditioned CG above when pyamg is installed, else block-Jacobi CG.
+    ``direct``: the first installed of pardiso, cholesky, superlu.
     """
     if method not in METHODS:
         raise GrainmechError(f"solver must be one of {', '.join(METHODS)}; got {method!r}")
-    have_chol, have_amg = available("cholesky"), available("amg")
+    have_pardiso, have_chol, have_amg = available("pardiso"), available("cholesky"), available("amg")
     if method == "direct":
-        return "cholesky" if have_chol else "superlu"
+        return "pardiso" if have_pardiso else "cholesky" if have_chol else "superlu"
     if method == "auto":
+        if have_pardiso and (n <= DIRECT_LIMIT_PARDISO or not have_amg):
+            return "pardiso"
         if have_chol and (n <= DIRECT_LIMIT_CHOLESKY or not have_amg):
             return "cholesky"
         if n <= DIRECT_LIMIT_SUPERLU:
             return "superlu"
         return "amg" if have_amg else "cg"
     if not available(method):
-        pkg = {"cholesky": "cholespy", "amg": "pyamg"}[method]
+        pkg = _PACKAGES[method]
         raise GrainmechError(f"solver {method!r} needs the optional package {pkg} "
-                             "(pip install 'grainmech[fast]')")
+                             f"(pip install {pkg})")
     return method
 
 
@@ -70,6 +80,19 @@ def _factor_solve(A: Any, rhs: np.ndarray, method: str) -> tuple[Any, np.ndarray
     """Factor ``A`` (CSR, SPD) and solve ``A X = rhs`` for all columns; returns the solve."""
     import scipy.sparse as sp
 
+    if method == "pardiso":
+        import pypardiso
+
+        Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
+        ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        try:
+            ps.factorize(Au)
+        except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
+            raise GrainmechError(f"relaxed stiffness: PARDISO factorisation failed ({exc})") from None
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            return np.asarray(ps.solve(Au, np.ascontiguousarray(b, dtype=float))).reshape(b.shape)
+        return solve, solve(rhs)
     if method == "cholesky":
         from cholespy import CholeskySolverD, MatrixType
 
@@ -127,11 +150,14 @@ def _amg_cg(A: Any, rhs: np.ndarray, dof_type: np.ndarray, tol: float, maxiter: 
 
 
 def block_cg(H: Any, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxiter: int,
-             ref: np.ndarray) -> tuple[np.ndarray, int, float]:
+             ref: np.ndarray, predict_after: int | None = None) -> tuple[np.ndarray, int, float]:
     """Block-Jacobi preconditioned CG, all right-hand sides at once (columns independent).
 
     Works on the singular ``H`` (zero modes are not excited: the right-hand sides lie in
     its range). Returns the solution, the iterations and the largest relative residual.
+    With ``predict_after = k`` the run stops early (unconverged) when, after ``k``
+    iterations, the mean reduction rate of the residual so far predicts more than
+    ``maxiter`` iterations to reach ``tol``.
     """
     P, b, _ = diag_blocks.shape
     # pseudo-inverse of each diagonal block (handles zero rotation blocks)
@@ -163,13 +189,18 @@ def block_cg(H: Any, rhs: np.ndarray, diag_blocks: np.ndarray, tol: float, maxit
         rz = rz_new
         it += 1
         res = np.linalg.norm(r, axis=0) / nb
+        if predict_after is not None and it == predict_after and res.max() > tol:
+            rate = float(res.max()) ** (1.0 / it)
+            if rate >= 1.0 or np.log(tol) / np.log(rate) > maxiter:
+                break
     return x, it, float(res.max())
 
 
 def solve_spd(A: Any, rhs: np.ndarray, method: str, *, dof_type: np.ndarray, shift: np.ndarray | None = None,
               tol: float = 1e-10, maxiter: int = 20000, refine: int = 3) -> tuple[np.ndarray, int]:
-    """Solve ``A X = rhs`` (``A`` sparse symmetric positive semi-definite, ``rhs`` (n, k) in
-    its range) with ``method`` (``cholesky``, ``superlu`` or ``amg``; see :func:`choose`).
+    """Solve ``A X = rhs`` with ``method`` (see :func:`choose`).
+
+    ``A`` sparse symmetric positive semi-definite, ``rhs`` (n, k) in its range.
 
     Parameters
     ----------
@@ -192,7 +223,7 @@ def solve_spd(A: Any, rhs: np.ndarray, method: str, *, dof_type: np.ndarray, shi
     import scipy.sparse as sp
 
     As = A if shift is None else (A + sp.diags(shift)).tocsr()
-    if method in ("cholesky", "superlu"):
+    if method in ("pardiso", "cholesky", "superlu"):
         solve, X = _factor_solve(As, rhs, method)
         nb = np.linalg.norm(rhs, axis=0)
         nb[nb == 0] = 1.0

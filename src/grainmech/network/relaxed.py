@@ -63,8 +63,10 @@ def _cross_matrix(r: np.ndarray) -> np.ndarray:
 
 def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndarray, kn: np.ndarray,
               ks: np.ndarray, rA: np.ndarray, rB: np.ndarray, rotations: bool):
-    """Hessian ``H = G^T K G`` (CSR, ``P b`` square), ``B = G^T K E`` (``P b``, m), the gross
-    size of ``B`` per column and ``b`` (unknowns per particle).
+    """Hessian and coupling of the relaxed stiffness.
+
+    ``H = G^T K G`` (CSR, ``P b`` square), ``B = G^T K E`` (``P b``, m), the gross size of
+    ``B`` per column and ``b`` (unknowns per particle).
 
     ``G`` (``C d`` x ``P b``) maps the particle unknowns to the contact displacements
     ``Delta_c = G_A q_A + G_B q_B`` with ``G_A = [I, -[r_A]x]``, ``G_B = [-I, [r_B]x]``; it is
@@ -123,6 +125,12 @@ def _diagonal_blocks(H, P: int, b: int) -> np.ndarray:
     return out
 
 
+#: ``solver="auto"``: iterations after which block CG predicts its total, and the most
+#: it may need before the factorisation is used instead (``docs/performance.md``)
+AUTO_CG_PREDICT = 40
+AUTO_CG_MAXITER = 600
+
+
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
                       remove_rattlers: bool = True, min_contacts: int | None = None,
                       rotations: bool = True, geometric: bool = False, solver: str = "auto",
@@ -169,10 +177,16 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         ``|l|/2``).
     geometric : bool
         Add the geometric term ``-(N/|l|) (I - n n)`` to ``K`` (default off).
-    solver : {"auto", "direct", "cg"}
-        ``direct`` uses SuperLU; ``cg`` block-Jacobi preconditioned conjugate gradients
-        on all 6 right-hand sides at once; ``auto`` is direct up to 15000 unknowns
-        (about 2500 particles; SuperLU fill-in grows fast for 3D networks beyond).
+    solver : {"auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg"}
+        ``direct``: the best installed sparse factorisation (PARDISO from pypardiso,
+        CHOLMOD from cholespy, else SciPy's SuperLU), factored once for the six
+        right-hand sides; ``amg``: CG preconditioned by algebraic multigrid (pyamg);
+        ``cg``: block-Jacobi preconditioned CG on all six right-hand sides at once;
+        ``auto``: block CG when its first :data:`AUTO_CG_PREDICT` iterations predict
+        convergence within :data:`AUTO_CG_MAXITER`, else the method chosen by size and
+        installed packages (:func:`grainmech.network._solvers.choose`; measurements in
+        ``docs/performance.md``).  The result names the solver that ran
+        and its relative residual.
     tol, maxiter : CG tolerance (relative residual) and iteration cap.
 
     Returns
@@ -233,9 +247,20 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     ndof = P * b
     rhs = -B
     name = _solvers.choose(solver, ndof)
-    if name == "cg":
+    q = None
+    if solver == "auto":
+        # block CG first: on packings it converges in a few hundred iterations and beats
+        # every factorisation; when its first iterations predict more than AUTO_CG_MAXITER
+        # (ill-conditioned networks) it stops and the factorisation runs instead
+        q, iters, res_cg = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, AUTO_CG_MAXITER,
+                                             1e-6 * bref, predict_after=AUTO_CG_PREDICT)
+        if res_cg <= tol:
+            name = "cg"
+        else:
+            q = None
+    if name == "cg" and q is None:
         q, iters, _ = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, maxiter, 1e-6 * bref)
-    else:
+    elif name != "cg":
         # pin the translation of particle 0 (global translation mode); the other zero modes
         # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
         # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
@@ -265,7 +290,7 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     disp = None
     if return_displacements:
         disp = np.zeros((net.n_particles, b, m))
-        disp[alive_idx] = q.reshape(P, b, m)
+        disp[alive_idx] = np.asarray(q).reshape(P, b, m)
     if residual > max(tol * 100, 1e-6):
         what = (f"CG did not converge in {iters} iterations" if name in ("cg", "amg") else
                 "the factorisation is not accurate (ill-conditioned network)")

@@ -53,10 +53,14 @@ class Kind:
     evaluate: Callable[[dict, Any], dict]
     #: outputs drawn against every numeric input in the summary plot
     headline: tuple[str, ...]
+    #: most points per scheduler task: a dask task costs ~3 ms of scheduling, as much as
+    #: a whole stiffness point, so cheap kinds are sent in batches
+    batch: int = 1
 
 
 SWEEP_KINDS: dict[str, Kind] = {
-    "stiffness": Kind("stiffness", _prepare("stiffness"), stiffness_point, ("K_hill [Pa]", "G_hill [Pa]")),
+    "stiffness": Kind("stiffness", _prepare("stiffness"), stiffness_point, ("K_hill [Pa]", "G_hill [Pa]"),
+                      batch=32),
     "run": Kind("run", _prepare("run"), run_kind_point, ("G_max [Pa]", "gamma_r", "p [Pa]", "q [Pa]")),
     "dem": Kind("dem", _prepare("dem"), dem_point, ("z", "p [Pa]", "K_hill_relaxed [Pa]", "G_hill_relaxed [Pa]")),
 }

@@ -29,7 +29,7 @@ from typing import Any
 
 from grainmech.sweep.spec import Point, Sweep
 
-__all__ = ["run_sweep", "load_record", "table_rows", "write_table", "evaluate_task"]
+__all__ = ["run_sweep", "load_record", "table_rows", "write_table", "evaluate_task", "evaluate_batch"]
 
 TABLE = "sweep.csv"
 
@@ -41,6 +41,32 @@ def evaluate_task(task: tuple[str, dict, str | None]) -> dict[str, Any]:
     t0 = time.perf_counter()
     outputs = run_point(task)
     return {"outputs": outputs, "seconds": time.perf_counter() - t0}
+
+
+def evaluate_batch(tasks: list[tuple[str, dict, str | None]]) -> list[tuple[bool, Any]]:
+    """Worker function for several points: ``[(ok, evaluate_task(t) or the exception)]``.
+
+    A failing point never stops the others of the batch.
+    """
+    out: list[tuple[bool, Any]] = []
+    for t in tasks:
+        try:
+            out.append((True, evaluate_task(t)))
+        except Exception as exc:  # noqa: BLE001 (recorded as the point's failure)
+            out.append((False, exc))
+    return out
+
+
+def _batches(n: int, kind: str, workers: int) -> list[list[int]]:
+    """Point indices grouped into tasks.
+
+    At most the kind's batch size, and at least four tasks per worker thread so that the
+    workers stay busy to the end.
+    """
+    from grainmech.sweep.kinds import SWEEP_KINDS
+
+    size = max(1, min(SWEEP_KINDS[kind].batch, n // (4 * max(workers, 1))))
+    return [list(range(k, min(n, k + size))) for k in range(0, n, size)]
 
 
 def _normalise(obj: Any) -> Any:
@@ -238,14 +264,19 @@ def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, wo
         tasks = [(sweep.kind, pt.config, base_dir) for pt in todo]
 
         def consume(cl: Any) -> None:
-            for i, value, ok in map_completed(evaluate_task, tasks, client=cl):
-                pt = todo[i]
-                rec = _record(sweep, pt, value, ok)
-                write_json(pdir / f"{pt.id}.json", rec)
-                records[pt.id] = rec
-                prog.update(rec)
-                if on_record is not None:
-                    on_record(rec)
+            groups = _batches(len(tasks), sweep.kind, sum(cl.nthreads().values()))
+            items = [[tasks[i] for i in g] for g in groups]
+            for b, value, ok in map_completed(evaluate_batch, items, client=cl):
+                # a failed task (lost worker, cancelled) fails each of its points
+                results = value if ok else [(False, value)] * len(groups[b])
+                for i, (pok, pval) in zip(groups[b], results):
+                    pt = todo[i]
+                    rec = _record(sweep, pt, pval, pok)
+                    write_json(pdir / f"{pt.id}.json", rec)
+                    records[pt.id] = rec
+                    prog.update(rec)
+                    if on_record is not None:
+                        on_record(rec)
 
         if client is not None:
             consume(client)
