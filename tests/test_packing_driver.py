@@ -208,3 +208,48 @@ def test_at_stress_then_modulus_reduction(packing):
     assert 0.7 < mr.G_max / g_full < 0.9
     with pytest.raises(ParameterError, match="sigma"):
         PackingPoint.at_stress(packing, MD, -1.0)
+
+
+def test_input_imbalance_held_or_relaxed(packing):
+    """``imbalance="hold"`` keeps the input stress exactly and balances the input's residual
+    forces by constant grain loads; ``"relax"`` removes them by moving the grains; both end
+    in equilibrium (unbalanced ratio of the held/relaxed system below 1e-8)."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(7)
+    f = packing.force * (1.0 + 1e-4 * rng.standard_normal((packing.n_contacts, 1)))  # a DEM-like imbalance
+    net = replace(packing, force=f, _cache={})
+    raw = PackingPoint.from_network(net, MD, imbalance="none")
+    assert 1e-6 < unbalanced_force_ratio(raw) < 1e-3
+    held = PackingPoint.from_network(net, MD, imbalance="hold")
+    assert held.load is not None and unbalanced_force_ratio(held) < 1e-12
+    np.testing.assert_array_equal(held.stress, raw.stress)
+    relaxed = PackingPoint.from_network(net, MD, imbalance="relax")
+    assert relaxed.load is None and unbalanced_force_ratio(relaxed) < 1e-8
+    assert np.abs(relaxed.stress - raw.stress).max() < 1e-3 * np.abs(raw.stress).max()
+    # a step from the held state converges and keeps the loads
+    r = run_packing(held, cyclic_simple_shear(1e-5, 1, 8, constant="volume"), tangent="none")
+    assert r.success and r.final.load is held.load and r.residual[1:].max() < 1e-6
+    with pytest.raises(ParameterError, match="imbalance"):
+        PackingPoint.from_network(net, MD, imbalance="ignore")
+
+
+def test_trust_clip_is_per_grain():
+    """Each grain's update is scaled by itself to the trust limit; grains inside it keep
+    their Newton update (``driver/_packing_step._clip``)."""
+    from grainmech.driver._packing_ops import Kinematics
+    from grainmech.driver._packing_step import _clip
+
+    # three grains in a row, two contacts along x
+    a, b = np.array([0, 1]), np.array([1, 2])
+    n = np.tile([1.0, 0.0, 0.0], (2, 1))
+    kin = Kinematics.build(a, b, n, 2.0 * n, np.ones(2), np.ones(2), 3)
+    R = np.ones(3)
+    dq = np.zeros((3, 6))
+    dq[1, :3] = [0.3, 0.0, 0.0]         # inside the limit 1.0
+    dq[2, :3] = [3.0, 4.0, 0.0]         # translation 5 -> scaled by 1/5
+    dq[2, 3:] = [0.0, 0.0, 2.0]         # rotation scaled with it
+    out = kin.full(_clip(kin, dq.reshape(-1)[kin.free], R, 1.0))
+    np.testing.assert_allclose(out[1], dq[1])
+    np.testing.assert_allclose(out[2], dq[2] / 5.0)
+    assert np.linalg.norm(out[2, :3]) == pytest.approx(1.0)
