@@ -92,6 +92,8 @@ _MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
 #: retries with a larger shift when an update grows the residual more than _PTC_GROWTH times
 _MU_GROWTHS, _PTC_GROWTH = 6, 3.0
 #: an update lowering the residual by less than this factor is a stall
+#: an update closes an open contact to at most this fraction of the mean approach
+_CLOSE_CAP = 0.05
 #: shift of every Newton system: keeps a free grain (no closed contact) where it is
 _MU_FLOOR = 1e-9
 _PTC_STALL = 0.9
@@ -117,8 +119,8 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     # or by twice the affine displacement of the step's largest strain increment over a
     # mean branch, whichever is larger (the fluctuations of a step are of that order)
     closed0 = point.state.approach > 0
-    move = 0.5 * float(np.mean(point.state.approach[closed0] / point.scale[closed0])) if closed0.any() \
-        else 0.01 * float(Rg.mean())
+    abar = float(np.mean(point.state.approach[closed0] / point.scale[closed0])) if closed0.any() else 0.0
+    move = 0.5 * abar if closed0.any() else 0.01 * float(Rg.mean())
     lmean = float(np.mean(np.linalg.norm(kin.l, axis=1)))
     de_max = max(float(np.abs(de_E).max()), float(np.abs(np.where(S, target - point.stress, 0.0)).max())
                  * V / max(float(np.abs(prec.A0).max()), 1e-300))
@@ -131,7 +133,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         de = de_E.copy()
         de[S] = xe
         st, resp, f = _evaluate(point, xq, de)
-        rq = kin.balance(f) if point.load is None else kin.balance(f) - point.load
+        rq = kin.balance(f) if point.load is None else kin.balance(f) - _held_load(point, resp)
         vs = voigt_of(f, kin.l)
         re = vs[S] - V * target[S]
         return st, resp, f, rq, re, vs, de
@@ -230,6 +232,8 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
             if not ctx.energy:
                 dxq = _clip(kin, dxq, Rg, move)
                 dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+                if _CLOSE_CAP > 0 and abar > 0:
+                    dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
             else:
                 lam = 1.0 / _trust(kin, dxq, dxe, S, move)
             ok = False
@@ -272,6 +276,8 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                 # mechanism (sliding away, squeezed out) must not stall the others
                 dxq = _clip(kin, dxq, Rg, move)
                 dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+                if _CLOSE_CAP > 0 and abar > 0:
+                    dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
                 lam = 1.0
                 try:
                     trial = residual(xq + dxq, xe + dxe)
@@ -415,6 +421,48 @@ def _slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarr
     with np.errstate(divide="ignore", invalid="ignore"):
         f = np.where(sl & (tn > cap), cap / np.where(tn > 0, tn, 1.0), 1.0)
     return f
+
+
+def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
+    """The held input imbalance (``PackingPoint.load``) on the grains that touch a neighbour.
+
+    A grain whose contacts have all opened is a rattler: nothing can balance a load on it
+    (it would drift without bound), so its share of the held load is dropped.
+    """
+    kin = point.kinematics
+    if point.load is None:
+        return np.zeros(kin.n_free)
+    closed = ~np.asarray(resp.open, bool)
+    touching = np.zeros(kin.n_grains, bool)
+    touching[kin.a[closed]] = True
+    touching[kin.b[closed]] = True
+    gate = np.repeat(touching, 6)[kin.free]
+    return np.where(gate, point.load, 0.0)
+
+
+def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, approach: np.ndarray,
+                 cap: float) -> np.ndarray:
+    """Grain update with every contact that it closes stopped at an approach of ``cap``.
+
+    An open contact has no stiffness in the Newton matrix (and a Hertz contact none at
+    touch), so an update may drive it far into overlap: at a quarter of the mean approach
+    it carries a quarter of the mean contact force, and the residual jumps by orders of
+    magnitude. Each closing contact's two grains are scaled down together (by the
+    smallest factor over their closing contacts) so that it closes to at most ``cap``
+    [length]; the next iteration sees it closed, with its stiffness.
+    """
+    d6 = np.zeros(6)
+    d6[S] = dxe
+    dn = np.einsum("ij,ij->i", kin.delta(dxq, d6), kin.n)
+    over = (approach <= 0.0) & (approach + dn > cap) & (dn > 0.0)
+    if not over.any():
+        return dxq
+    f = np.ones(kin.n_grains)
+    fc = np.clip((cap - approach[over]) / dn[over], 0.0, 1.0)
+    np.minimum.at(f, kin.a[over], fc)
+    np.minimum.at(f, kin.b[over], fc)
+    mv = kin.full(dxq) * f[:, None]
+    return mv.reshape(-1)[kin.free]
 
 
 def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:

@@ -40,7 +40,7 @@ from grainmech.contact import (
 )
 from grainmech.driver import DriverResult, LoadPath, cyclic_simple_shear
 from grainmech.driver._packing_ops import Kinematics, Preconditioner, contact_tangent, voigt_of
-from grainmech.driver._packing_step import _Context, _frictional, _law_kw, _StepFailure, _subdivided
+from grainmech.driver._packing_step import _Context, _frictional, _held_load, _law_kw, _StepFailure, _subdivided
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
 
@@ -546,7 +546,7 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     Returns 0 for a packing without contact forces.
     """
     b = point.kinematics.balance(point.forces)
-    g = point.kinematics.full(b if point.load is None else b - point.load)
+    g = point.kinematics.full(b if point.load is None else b - _held_load(point, point.response))
     fm = np.linalg.norm(point.forces, axis=1)
     fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
     if fmean == 0.0:
