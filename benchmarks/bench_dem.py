@@ -26,6 +26,7 @@ import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from _yardstick import dgemm_seconds
 
 
 def _write_big_dump(path: Path, ppath: Path, n_contacts: int) -> None:
@@ -56,16 +57,6 @@ def _write_big_dump(path: Path, ppath: Path, n_contacts: int) -> None:
                    fmt=["%d", "%d", "%.10g", "%.10g", "%.10g", "%.10g"])
 
 
-def _dgemm_seconds(n: int = 2048, repeat: int = 3) -> float:
-    """Best-of-``repeat`` time of an OpenBLAS dgemm of size n (the yardstick)."""
-    a = np.random.default_rng(0).random((n, n))
-    b = np.random.default_rng(1).random((n, n))
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        a @ b
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _child_read(cpath: str, ppath: str, n_contacts: int, repeat: int) -> None:
@@ -76,7 +67,7 @@ def _child_read(cpath: str, ppath: str, n_contacts: int, repeat: int) -> None:
 
     from grainmech.io.dem import read_network
 
-    dg = _dgemm_seconds()
+    dg = dgemm_seconds()
     pool = pa.default_memory_pool()
     rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     tracemalloc.start()

@@ -22,22 +22,11 @@ import time
 import tracemalloc
 
 import numpy as np
-
-
-def _dgemm_seconds(n: int = 2048, repeat: int = 3) -> float:
-    a = np.random.default_rng(0).random((n, n))
-    b = np.random.default_rng(1).random((n, n))
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        a @ b
-        best = min(best, time.perf_counter() - t0)
-    return best
+from _yardstick import dgemm_seconds
 
 
 def _case(label: str, net, kn, ks, solvers: list[str], repeat: int, budget: float, dg: float) -> dict:
-    from grainmech.network import relaxed_stiffness
-    from grainmech.network import _solvers
+    from grainmech.network import _solvers, relaxed_stiffness
 
     rows = {}
     ref = None
@@ -82,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budget", type=float, default=60.0, help="skip repeats of a solver slower than this [s]")
     ap.add_argument("--solvers", default="auto,cholesky,superlu,amg,cg")
     a = ap.parse_args(argv)
-    dg = _dgemm_seconds()
+    dg = dgemm_seconds()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cpus {os.cpu_count()}, "
           f"dgemm n=2048 {dg:.3f} s")
     solvers = [s for s in a.solvers.split(",") if s == "auto" or _solvers.available(s)]
