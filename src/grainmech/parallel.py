@@ -109,6 +109,7 @@ def open_client(scheduler: str | None = None,
             # Ctrl-C: stop the worker processes now (a task cannot be interrupted; a
             # graceful close would wait for the running ones)
             interrupted = True
+            _quiet_logs()
             _kill_workers(cluster)
             raise
         finally:
@@ -138,6 +139,16 @@ def _close(obj: Any, interrupted: bool) -> None:
         # wait for it again (the process ends, and the task's thread with it)
         if hasattr(obj, "shutdown_on_close"):
             obj.shutdown_on_close = False
+
+
+def _quiet_logs() -> None:
+    """Silence the main process's Dask, Tornado and asyncio loggers after Ctrl-C.
+
+    Killing the workers breaks the client's open connections; the background senders then
+    log tracebacks of closed streams ("grainmech: interrupted" is the one line to print).
+    """
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def _kill_workers(cluster: Any) -> None:
