@@ -86,17 +86,18 @@ def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
     return 0.4 * N * np.maximum(st.approach, 0.0) / point.scale
 
 
-#: pseudo-time shift of the Newton system (Jacobi-scaled: 1 ~ the stiffest grain's own
-#: elastic stiffness): first value after a failed update, growth and shrink factors, floor
+#: pseudo-time shift of the Newton system (Jacobi-scaled: 1 ~ a grain's own elastic
+#: stiffness): first value after a failed line search, growth factor, value below which
+#: Newton takes over again, ceiling
 _MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
 #: retries with a larger shift when an update grows the residual more than _PTC_GROWTH times
 _MU_GROWTHS, _PTC_GROWTH = 6, 3.0
 #: an update lowering the residual by less than this factor is a stall
+_PTC_STALL = 0.9
 #: an update closes an open contact to at most this fraction of the mean approach
 _CLOSE_CAP = 0.05
 #: shift of every Newton system: keeps a free grain (no closed contact) where it is
 _MU_FLOOR = 1e-9
-_PTC_STALL = 0.9
 
 
 def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
@@ -139,6 +140,18 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         return st, resp, f, rq, re, vs, de
 
     w0 = _potential(point, point.state, point.response) if ctx.energy else None
+
+    def limit(dxq: np.ndarray, dxe: np.ndarray, st: ContactState) -> tuple[np.ndarray, np.ndarray]:
+        """The update within the trust limit ``move``, each grain by itself.
+
+        A grain on a mechanism (free, rolling or sliding away) must not cut the others'
+        update; every contact the update closes is stopped near touch (:func:`_closing_cap`).
+        """
+        dxq = _clip(kin, dxq, Rg, move)
+        dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+        if abar > 0:
+            dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
+        return dxq, dxe
 
     def merit(cur: tuple) -> float:
         if ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
@@ -230,10 +243,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
             # mechanism (free, rolling or sliding away) must not cut the others' update
             lam = 1.0
             if not ctx.energy:
-                dxq = _clip(kin, dxq, Rg, move)
-                dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
-                if _CLOSE_CAP > 0 and abar > 0:
-                    dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
+                dxq, dxe = limit(dxq, dxe, st)
             else:
                 lam = 1.0 / _trust(kin, dxq, dxe, S, move)
             ok = False
@@ -272,12 +282,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
             for _grow in range(_MU_GROWTHS + 1):
                 dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx)
-                # each grain's move clipped to the trust limit by itself: a grain on a
-                # mechanism (sliding away, squeezed out) must not stall the others
-                dxq = _clip(kin, dxq, Rg, move)
-                dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
-                if _CLOSE_CAP > 0 and abar > 0:
-                    dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
+                dxq, dxe = limit(dxq, dxe, st)
                 lam = 1.0
                 try:
                     trial = residual(xq + dxq, xe + dxe)
