@@ -55,6 +55,8 @@ class _Context:
     last: tuple | None = None  # (v, S, xq, xe) of the last (sub)step: predictor of the next
     mu_max: float = 0.0  # largest pseudo-time shift used
     ptc: int = 0  # Newton iterations that switched to pseudo-transient continuation
+    relaxed: int = 0  # updates committed by committed relaxation
+    relaxations: int = 0  # substeps solved by committed relaxation
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
     energy: bool = False  # line search on the potential energy (frictionless laws only)
 
@@ -101,8 +103,13 @@ _MU_FLOOR = 1e-9
 
 
 def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
-           counters: list) -> PackingPoint:
-    """Newton-Krylov iterations of one (sub)step with line search; returns the new point."""
+           counters: list, relax: bool = False) -> PackingPoint:
+    """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+
+    With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
+    updates from the start, each one committed to the contact laws' history (see the
+    loop below).
+    """
     opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
     V = point.volume
     nq, ms = kin.n_free, int(S.sum())
@@ -172,15 +179,17 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         return bool(_stress_ambiguity(kin, rq, Rg) <= opts.rtol_accept * sref * V
                     and (ms == 0 or np.all(np.abs(re) <= opts.rtol_accept / opts.rtol * tole)))
 
-    def done(cur: tuple, it: int) -> PackingPoint:
+    def done(cur: tuple, it: int, final: bool = True) -> PackingPoint:
+        """The point of ``cur`` (at the unknowns ``xq``, ``xe``), counted as a (sub)step if ``final``."""
         st, resp, f, rq, re, vs, de = cur
         new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(xq),
                       strain=point.strain + de, stress=vs / V, _cache={})
-        counters[0] += 1
-        counters[1] += it - 1
         counters[2] += float(np.sum(resp.dissipation / point.scale) / V)
         counters[3] += float(np.dot(0.5 * (point.stress + new.stress), de))
-        ctx.last = (v, S.copy(), xq.copy(), xe.copy())
+        if final:
+            counters[0] += 1
+            counters[1] += it - 1
+            ctx.last = None if relax else (v, S.copy(), xq.copy(), xe.copy())
         return new
 
     # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
@@ -195,9 +204,13 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
             fac = float(np.dot(v, vl)) / vv
             xq, xe = fac * ctx.last[2], fac * ctx.last[3]
     # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
-    stiff_first = not ctx.energy and (ctx.stiff_ok or fac < 0)
+    stiff_first = not ctx.energy and not relax and (ctx.stiff_ok or fac < 0)
     cur = residual(xq, xe)
     m = merit(cur)
+    # committed relaxation: out-of-balance forces of the committed point the update starts from
+    base = None
+    if relax:
+        base = kin.balance(point.forces) - (0.0 if point.load is None else _held_load(point, point.response))
     # pseudo-transient continuation (Kelley & Keyes 1998): each update solves
     # (J + mu I) dx = -r in the Jacobi-scaled unknowns. mu = 0 is Newton; a large mu is an
     # implicit step of overdamped grain dynamics (dx ~ -r / mu), which moves the grains
@@ -206,14 +219,23 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     # step is singular). mu grows when an update fails to lower the residual (a branch of
     # the contact law switching: a reversal, a contact reaching or leaving the Coulomb
     # limit) and shrinks after each success, so Newton's convergence comes back.
-    mu = 0.0
+    # Committed relaxation (``relax``): the same updates with mu > 0 from the start, each
+    # committed to the contact laws' history as it is taken (the point moves on; the
+    # strain of the step goes in with the first update). This is implicit overdamped
+    # dynamics of the grains, the relaxation a quasi-static DEM performs: where the
+    # step's equilibrium is not reached from the step's start in one increment of the
+    # laws (a branch of many contacts switching, an instability that rearranges a few
+    # grains), the grains get there along a path whose slips are recorded.
+    mu = _MU_FIRST if relax else 0.0
+    n_iter = opts.relax_iter if relax else opts.max_iter
     dbg = _debug()
     jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
-    for it in range(1, opts.max_iter + 1):
+    for it in range(1, n_iter + 1):
         st, resp, f, rq, re, vs, de = cur
         if dbg:
             dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
                 f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
+            dbg(_grain_report(kin, rq, tolq, resp))
         if converged(rq, re):
             return done(cur, it)
         if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
@@ -269,11 +291,12 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                     raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
                                        f"{rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
                                        f"{int(closed.sum())} closed)")
-                if kr > opts.refactor_after:  # the elastic operator is stale: refactor at this state
-                    ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
-                    ctx.prec = prec = Preconditioner(
-                        kin, contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, ksp, ksp,
-                                             np.zeros_like(ksp), resp.axis), opts.factorization)
+                if kr > opts.refactor_after and prec is not point._cache.get("prec"):
+                    # the elastic operator is stale: refactor at the (sub)step's converged
+                    # start, not at the trial (a trial far from equilibrium, with contacts
+                    # opened or crushed, gives a scaling that weights a few grains'
+                    # residual by orders of magnitude and a poor preconditioner)
+                    ctx.prec = prec = point.preconditioner()
                     ctx.factorizations += 1
                     Dq, De = prec.dq, prec.de[S]
                     m = merit(cur)
@@ -290,9 +313,13 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                     mu *= _MU_GROW
                     continue
                 mt = merit(trial)
+                # committed relaxation: the update must also release energy, i.e. the
+                # out-of-balance forces do positive work on it (trapezoidal rule), as in
+                # overdamped dynamics; the residual norm alone is no Lyapunov function there
+                work = -0.5 * (float(np.dot(rq + trial[3], dxq)) + float(np.dot(re + trial[4], dxe)))
                 if dbg:
-                    dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr}")
-                if mt <= _PTC_GROWTH * m:
+                    dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr} work {work:.3g}")
+                if mt <= _PTC_GROWTH * m and (not relax or work >= 0.0):
                     break
                 if accept(rq, re):
                     ctx.accepted += 1
@@ -308,14 +335,31 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                 return done(cur, it)
             # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
             mu = mu * mt / m
-            mu = 0.0 if mu < _MU_NEWTON else min(mu, _MU_MAX)
+            mu = (_MU_NEWTON if relax else 0.0) if mu < _MU_NEWTON else min(mu, _MU_MAX)
             ctx.mu_max = max(ctx.mu_max, mu)
         xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
+        if relax and base is not None:  # commit the update: the next one starts from it
+            # energy the update removed: work of the out-of-balance forces along it
+            # (trapezoidal rule, from the committed point), what a DEM's damping dissipates
+            # (the stress-controlled strains' work is in the external work, at the actual stress)
+            counters[4] -= 0.5 * float(np.dot(base + cur[3], xq)) / V
+            point = done(cur, it, final=False)
+            ctx.relaxed += 1
+            de_E = np.zeros_like(de_E)
+            xq, xe = np.zeros(nq), np.zeros(ms)
+            # the state again from the committed point: the trial's branch flags (sliding,
+            # reversal) belong to the increment just taken; the next one may unload those
+            # contacts, and a Newton matrix with them sliding moves grains along contacts
+            # that stick
+            cur = residual(xq, xe)
+            m = merit(cur)
+            base = cur[3]
     rq, re = cur[3], cur[4]
     if accept(rq, re):
         ctx.accepted += 1
-        return done(cur, opts.max_iter + 1)
-    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (largest force residual "
+        return done(cur, n_iter + 1)
+    what = "committed relaxation did not converge" if relax else "Newton did not converge"
+    raise _StepFailure(f"{what} in {n_iter} iterations (largest force residual "
                        f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
 
 
@@ -487,6 +531,18 @@ def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.nd
     return (mv * c[:, None]).reshape(-1)[kin.free]
 
 
+def _grain_report(kin: Kinematics, rq: np.ndarray, tolq: np.ndarray, resp: Any) -> str:
+    """Trace line: grains above the force tolerance, the worst ones with their contacts."""
+    g = np.max(kin.full(np.abs(rq) / tolq), axis=1)
+    closed = ~np.asarray(resp.open, bool)
+    sl = np.asarray(resp.sliding, bool) & closed
+    nc = np.bincount(kin.a[closed], minlength=g.size) + np.bincount(kin.b[closed], minlength=g.size)
+    ns = np.bincount(kin.a[sl], minlength=g.size) + np.bincount(kin.b[sl], minlength=g.size)
+    worst = np.argsort(g)[::-1][:5]
+    top = " ".join(f"{p}:{g[p]:.2g}({nc[p]}c,{ns[p]}s)" for p in worst)
+    return f"   grains over tol {int(np.sum(g > 1))} (>100x {int(np.sum(g > 100))}); worst {top}"
+
+
 def _debug() -> Callable[[str], None] | None:
     """Trace printer of the step solver when ``GRAINMECH_PACKING_TRACE`` is set."""
     import os
@@ -509,6 +565,13 @@ def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.nda
         ctx.factorizations += 1
         try:
             return _solve(point, S, de_E, t1, ctx, counters)
+        except _StepFailure as exc:
+            err = exc
+    rd = ctx.opts.relax_depth
+    if rd is not None and depth >= min(rd, ctx.opts.max_depth) and not ctx.energy:  # committed relaxation of this substep
+        ctx.relaxations += 1
+        try:
+            return _solve(point, S, de_E, t1, ctx, counters, relax=True)
         except _StepFailure as exc:
             err = exc
     if depth >= ctx.opts.max_depth:

@@ -76,6 +76,15 @@ class PackingOptions:
     refactor_after : int
         Refactor the elastic preconditioner at the next step when GMRES needed more
         iterations than this.
+    relax_depth : int or None
+        A substep that still does not converge after this many halvings (at most
+        ``max_depth``) is solved by
+        committed relaxation (overdamped pseudo-time stepping whose every update is
+        committed to the contact laws' history, as a quasi-static DEM relaxes; see
+        ``docs/packing-driver.md``); ``None``: never, the step fails after ``max_depth``
+        halvings.
+    relax_iter : int
+        Updates of one committed relaxation.
     max_fluctuation : float
         Small-strain bound: stop (status 2) when a grain's displacement fluctuation
         (rigid translation removed) exceeds this fraction of its radius.
@@ -99,6 +108,8 @@ class PackingOptions:
     krylov_rtol: float = 1e-3
     krylov_max: int = 60
     refactor_after: int = 25
+    relax_depth: int | None = 1
+    relax_iter: int = 100
     max_fluctuation: float = 0.05
     max_strain: float = 0.02
     tangent: str = "ends"
@@ -110,12 +121,14 @@ class PackingOptions:
             raise ParameterError("rtol", self.rtol, "must lie in (0, 1e-2)")
         if not (self.rtol <= self.rtol_accept < 1e-2):
             raise ParameterError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
-        for name in ("max_iter", "krylov_max", "refactor_after"):
+        for name in ("max_iter", "krylov_max", "refactor_after", "relax_iter"):
             if int(getattr(self, name)) < 1:
                 raise ParameterError(name, getattr(self, name), "must be >= 1")
         for name in ("max_depth", "max_backtracks"):
             if not (0 <= int(getattr(self, name)) <= 30):
                 raise ParameterError(name, getattr(self, name), "must lie in [0, 30]")
+        if self.relax_depth is not None and not (0 <= int(self.relax_depth) <= 30):
+            raise ParameterError("relax_depth", self.relax_depth, "must be None or lie in [0, 30]")
         if not (0 < self.krylov_rtol < 1):
             raise ParameterError("krylov_rtol", self.krylov_rtol, "must lie in (0, 1)")
         if not (self.max_fluctuation > 0 and self.max_strain > 0):
@@ -603,6 +616,10 @@ class PackingResult(DriverResult):
     fluctuation : (k+1,) largest grain displacement fluctuation / radius
     closed : (k+1,) int, number of closed contacts
     krylov : (k+1,) int, GMRES iterations of the step
+    relaxation_loss : (k+1,) cumulative energy per unit volume [stress] removed by committed
+        relaxation (``PackingOptions.relax_depth``): the work of the out-of-balance forces
+        on its updates, which a quasi-static DEM dissipates by its numerical damping. The
+        energy balance of a path is ``work = dissipation + stored change + relaxation_loss``.
     factorizations : int, factorisations of the elastic operator in the run
     notes : tuple of str (rattlers, gap pairs, ...)
 
@@ -618,6 +635,7 @@ class PackingResult(DriverResult):
     krylov: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     factorizations: int = 0
     notes: tuple = ()
+    relaxation_loss: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None,
@@ -662,10 +680,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     fresh = "prec" not in point._cache
     ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
     nan66 = np.full((6, 6), np.nan)
-    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss", "stored",
                                              "sub", "it", "res", "fl", "cl", "kr")}
 
-    def record(pt: PackingPoint, diss: float, work: float, sub: int, it: int, kr: int, tang: bool) -> None:
+    def record(pt: PackingPoint, diss: float, work: float, loss: float, sub: int, it: int, kr: int,
+               tang: bool) -> None:
         sl, op = pt.fractions()
         rows["strain"].append(pt.strain.copy())
         rows["stress"].append(pt.stress.copy())
@@ -674,6 +693,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         rows["op"].append(op)
         rows["diss"].append(diss)
         rows["work"].append(work)
+        rows["loss"].append(loss)
         rows["stored"].append(pt.stored_energy())
         rows["sub"].append(sub)
         rows["it"].append(it)
@@ -686,12 +706,13 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     rows["stress"].append(point.stress.copy())
     rows["tangent"].append(nan66 if opts.tangent == "none" else point.tangent)
     sl0, op0 = point.fractions()
-    for key, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("stored", point.stored_energy()),
+    for key, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("loss", 0.0),
+                   ("stored", point.stored_energy()),
                  ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
                  ("fl", point.fluctuation()), ("cl", int(np.sum(~np.asarray(point.response.open, bool)))),
                  ("kr", 0)):
         rows[key].append(v)
-    diss = work = 0.0
+    diss = work = loss = 0.0
     t_stress, t_strain = point.stress.copy(), point.strain.copy()
     prev = None
     success, status, message = True, STATUS_DONE, f"completed {m} steps"
@@ -717,7 +738,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
             ctx.factorizations += 1
             ctx.refactor = False
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
-        counters = [0, 0, 0.0, 0.0]
+        counters = [0, 0, 0.0, 0.0, 0.0]
         kr0 = ctx.krylov
         try:
             new = _subdivided(point, sc, d_strain, np.where(sc, point.stress, 0.0),
@@ -741,8 +762,9 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         t_strain = np.where(~sc, new_t_strain, point.strain)
         diss += counters[2]
         work += counters[3]
+        loss += counters[4]
         last = k == m - 1
-        record(point, diss, work, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
+        record(point, diss, work, loss, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
                opts.tangent == "every" or (opts.tangent == "ends" and last))
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
@@ -753,7 +775,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                          arr["kr"].astype(int), ctx.factorizations,
                          point.notes + ((f"{ctx.accepted} (sub)steps accepted with a residual between rtol = "
                                          f"{opts.rtol:g} and rtol_accept = {opts.rtol_accept:g} (Newton stalled "
-                                         "at a kink of the contact law)",) if ctx.accepted else ()))
+                                         "at a kink of the contact law)",) if ctx.accepted else ())
+                         + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
+                             "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
+                             "quasi-static DEM)",) if ctx.relaxations else ()),
+                         relaxation_loss=arr["loss"])
 
 
 # --------------------------------------------------------------------------- modulus reduction
