@@ -568,7 +568,7 @@ def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.nda
         except _StepFailure as exc:
             err = exc
     rd = ctx.opts.relax_depth
-    if rd is not None and depth >= min(rd, ctx.opts.max_depth) and not ctx.energy:  # committed relaxation of this substep
+    if rd is not None and depth >= min(rd, ctx.opts.max_depth) and not ctx.energy:  # committed relaxation
         ctx.relaxations += 1
         try:
             return _solve(point, S, de_E, t1, ctx, counters, relax=True)

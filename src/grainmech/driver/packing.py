@@ -680,8 +680,8 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     fresh = "prec" not in point._cache
     ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
     nan66 = np.full((6, 6), np.nan)
-    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss", "stored",
-                                             "sub", "it", "res", "fl", "cl", "kr")}
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
+                                             "stored", "sub", "it", "res", "fl", "cl", "kr")}
 
     def record(pt: PackingPoint, diss: float, work: float, loss: float, sub: int, it: int, kr: int,
                tang: bool) -> None:
