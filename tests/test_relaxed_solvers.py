@@ -71,3 +71,28 @@ def test_compiled_auto_falls_back_like_the_reference(monkeypatch):
     monkeypatch.setattr(rel, "AUTO_CG_MAXITER", 5)
     r = relaxed_stiffness(net, kn, ks)
     assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-7
+
+
+@pytest.mark.parametrize("name", ["auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg"])
+def test_config_accepts_every_solver_name_of_the_library(name, monkeypatch):
+    from grainmech.io.config import Section
+    from grainmech.jobs import dem_options
+    from grainmech.network import _solvers
+
+    monkeypatch.setattr(_solvers, "available", lambda method: True)
+    assert dem_options(Section({"relaxed": {"solver": name}}, "material"))["solver"] == name
+
+
+def test_config_rejects_unknown_and_uninstalled_solvers(monkeypatch):
+    from grainmech.errors import ConfigError
+    from grainmech.io.config import Section
+    from grainmech.jobs import dem_options
+    from grainmech.network import _solvers
+
+    with pytest.raises(ConfigError, match=r"material\.relaxed\.solver.*'mumps'.*must be one of 'auto', 'direct', "
+                                          r"'pardiso', 'cholesky', 'superlu', 'amg', 'cg'"):
+        dem_options(Section({"relaxed": {"solver": "mumps"}}, "material"))
+    monkeypatch.setattr(_solvers, "available", lambda method: method != "pardiso")
+    with pytest.raises(ConfigError, match=r"material\.relaxed\.solver.*'pardiso'.*needs the optional package "
+                                          r"pypardiso"):
+        dem_options(Section({"relaxed": {"solver": "pardiso"}}, "material"))
