@@ -30,8 +30,10 @@ def test_matrix_free_product_equals_the_assembled_hessian():
     net, kn, ks, nrm, rA, rB, s = _system()
     x = np.random.default_rng(0).normal(size=(s.P, 6, 6))
     out = np.empty_like(x)
-    kernel.hessian_product(s.ci, s.cj, nrm, kn, ks, rA, rB, x, out)
+    xHx = np.empty(6)
+    kernel.hessian_product(s.ci, s.cj, nrm, kn, ks, rA, rB, x, out, xHx)
     ref = s.hessian() @ x.reshape(-1, 6)
+    np.testing.assert_allclose(xHx, np.einsum("ik,ik->k", x.reshape(-1, 6), ref), rtol=1e-12)
     np.testing.assert_allclose(out.reshape(-1, 6), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
     # the diagonal blocks formed per contact are those of the assembled H
     Hd = s.hessian().toarray()

@@ -30,13 +30,15 @@ __all__ = ["hessian_product", "block_cg3"]
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out):  # pragma: no cover - compiled
+def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out, xHx):  # pragma: no cover - compiled
     """``out = H x`` for ``x`` (P, 6, m): translations ``x[:, :3]``, rotations ``x[:, 3:]``.
 
     ``ci, cj`` (C,) grains of each contact; ``n`` (C, 3) unit normals; ``kn, ks`` (C,)
     [force/length]; ``rA, rB`` (C, 3) centre-to-contact vectors of A and B [length].
+    ``xHx`` (m,) receives ``x_k . (H x)_k = sum_c Delta_c . f_c`` per column.
     """
     out[:] = 0.0
+    xHx[:] = 0.0
     m = x.shape[2]
     for c in range(ci.shape[0]):
         a = ci[c]
@@ -57,6 +59,7 @@ def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out):  # pragma: no cover - co
             f0 = s * d0 + dn * nx
             f1 = s * d1 + dn * ny
             f2 = s * d2 + dn * nz
+            xHx[k] += d0 * f0 + d1 * f1 + d2 * f2
             out[a, 0, k] += f0
             out[a, 1, k] += f1
             out[a, 2, k] += f2
@@ -72,20 +75,29 @@ def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out):  # pragma: no cover - co
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def _precondition(Minv, r, z, rz, rr):  # pragma: no cover - compiled
-    """``z_p = Minv_p r_p`` per grain (six unknowns each); ``rz[k] = r_k . z_k``, ``rr[k] = |r_k|^2``."""
+def _update_precondition(Minv, alpha, p, Hp, x, r, z, rz, rr):  # pragma: no cover - compiled
+    """CG update and block-Jacobi preconditioner in one pass over the grains.
+
+    ``x += alpha p``, ``r -= alpha H p``, ``z_g = Minv_g r_g`` per grain (six unknowns
+    each); ``rz[k] = r_k . z_k``, ``rr[k] = |r_k|^2``. ``alpha = 0``: ``z`` of ``r`` only.
+    """
     P, b, m = r.shape
     rz[:] = 0.0
     rr[:] = 0.0
-    for p in range(P):
+    for g in range(P):
         for k in range(m):
-            r0, r1, r2, r3, r4, r5 = r[p, 0, k], r[p, 1, k], r[p, 2, k], r[p, 3, k], r[p, 4, k], r[p, 5, k]
+            a = alpha[k]
+            if a != 0.0:
+                for i in range(6):
+                    x[g, i, k] += a * p[g, i, k]
+                    r[g, i, k] -= a * Hp[g, i, k]
+            r0, r1, r2, r3, r4, r5 = r[g, 0, k], r[g, 1, k], r[g, 2, k], r[g, 3, k], r[g, 4, k], r[g, 5, k]
             acc_rz = 0.0
             for i in range(6):
-                zi = (Minv[p, i, 0] * r0 + Minv[p, i, 1] * r1 + Minv[p, i, 2] * r2
-                      + Minv[p, i, 3] * r3 + Minv[p, i, 4] * r4 + Minv[p, i, 5] * r5)
-                z[p, i, k] = zi
-                acc_rz += r[p, i, k] * zi
+                zi = (Minv[g, i, 0] * r0 + Minv[g, i, 1] * r1 + Minv[g, i, 2] * r2
+                      + Minv[g, i, 3] * r3 + Minv[g, i, 4] * r4 + Minv[g, i, 5] * r5)
+                z[g, i, k] = zi
+                acc_rz += r[g, i, k] * zi
             rz[k] += acc_rz
             rr[k] += r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3 + r4 * r4 + r5 * r5
 
@@ -103,32 +115,22 @@ def block_cg3(ci, cj, n, kn, ks, rA, rB, Minv, rhs, nb, tol, maxiter, predict_af
     x = np.zeros_like(rhs)
     r = rhs.copy()
     z = np.empty_like(rhs)
-    Hp = np.empty_like(rhs)
+    Hp = np.zeros_like(rhs)
     rz = np.empty(m)
     rr = np.empty(m)
-    _precondition(Minv, r, z, rz, rr)
+    pHp = np.empty(m)
+    alpha = np.zeros(m)
+    beta = np.empty(m)
+    rz_new = np.empty(m)
+    _update_precondition(Minv, alpha, x, Hp, x, r, z, rz, rr)
     p = z.copy()
     res = np.sqrt(rr) / nb
     it = 0
-    pHp = np.empty(m)
-    alpha = np.empty(m)
-    rz_new = np.empty(m)
-    beta = np.empty(m)
     while it < maxiter and res.max() > tol:
-        hessian_product(ci, cj, n, kn, ks, rA, rB, p, Hp)
-        pHp[:] = 0.0
-        for q in range(P):
-            for i in range(b):
-                for k in range(m):
-                    pHp[k] += p[q, i, k] * Hp[q, i, k]
+        hessian_product(ci, cj, n, kn, ks, rA, rB, p, Hp, pHp)
         for k in range(m):
             alpha[k] = rz[k] / pHp[k] if pHp[k] > 0 else 0.0
-        for q in range(P):
-            for i in range(b):
-                for k in range(m):
-                    x[q, i, k] += alpha[k] * p[q, i, k]
-                    r[q, i, k] -= alpha[k] * Hp[q, i, k]
-        _precondition(Minv, r, z, rz_new, rr)
+        _update_precondition(Minv, alpha, p, Hp, x, r, z, rz_new, rr)
         for k in range(m):
             beta[k] = rz_new[k] / rz[k] if rz[k] > 0 else 0.0
             rz[k] = rz_new[k]

@@ -201,7 +201,8 @@ def _apply_hessian(sys_: _System, q: np.ndarray, n: np.ndarray, kn: np.ndarray, 
         return sys_.hessian() @ q
     m = q.shape[1]
     out = np.empty((sys_.P, 6, m))
-    kernel.hessian_product(sys_.ci, sys_.cj, n, kn, ks, rA, rB, np.ascontiguousarray(q.reshape(sys_.P, 6, m)), out)
+    kernel.hessian_product(sys_.ci, sys_.cj, n, kn, ks, rA, rB, np.ascontiguousarray(q.reshape(sys_.P, 6, m)), out,
+                           np.empty(m))
     return out.reshape(q.shape)
 
 
