@@ -98,3 +98,16 @@ def test_config_rejects_unknown_and_uninstalled_solvers(monkeypatch):
     with pytest.raises(ConfigError, match=r"material\.relaxed\.solver.*'pardiso'.*needs the optional package "
                                           r"pypardiso"):
         dem_options(Section({"relaxed": {"solver": "pardiso"}}, "material"))
+
+
+def test_block_inverses_and_the_singular_blocks():
+    kernel = pytest.importorskip("grainmech.network._cg_kernel")
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(5, 6, 6))
+    D = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(6)
+    D[2] = np.diag([1.0, 2, 3, 4, 5, 0])  # a free rotation
+    D[4] = 0.0
+    inv, bad = kernel.block_inverses(D, 1e-12)
+    assert bad.tolist() == [False, False, True, False, True]
+    for g in (0, 1, 3):
+        np.testing.assert_allclose(inv[g] @ D[g], np.eye(6), atol=1e-9)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["hessian_product", "block_cg3"]
+__all__ = ["hessian_product", "block_inverses", "block_cg3"]
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
@@ -72,6 +72,56 @@ def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out, xHx):  # pragma: no cover
             out[b, 3, k] -= by * f2 - bz * f1
             out[b, 4, k] -= bz * f0 - bx * f2
             out[b, 5, k] -= bx * f1 - by * f0
+
+
+@njit(cache=True, error_model="numpy")
+def block_inverses(D, rel):  # pragma: no cover - compiled
+    """Inverses of the symmetric blocks ``D`` (P, b, b) by Cholesky factorisation.
+
+    Returns the inverses and a mask of the blocks whose Cholesky pivot falls to ``rel``
+    times their largest diagonal entry or below (singular or nearly so: the caller takes
+    their pseudo-inverse instead; their rows of the result are left undefined).
+    """
+    P, b, _ = D.shape
+    out = np.empty_like(D)
+    bad = np.zeros(P, dtype=np.bool_)
+    L = np.empty((b, b))
+    y = np.empty(b)
+    for g in range(P):
+        dmax = 0.0
+        for i in range(b):
+            dmax = max(dmax, abs(D[g, i, i]))
+        ok = dmax > 0.0
+        for j in range(b):
+            if not ok:
+                break
+            acc = D[g, j, j]
+            for k in range(j):
+                acc -= L[j, k] * L[j, k]
+            if acc <= rel * dmax:
+                ok = False
+                break
+            L[j, j] = np.sqrt(acc)
+            for i in range(j + 1, b):
+                acc = D[g, i, j]
+                for k in range(j):
+                    acc -= L[i, k] * L[j, k]
+                L[i, j] = acc / L[j, j]
+        if not ok:
+            bad[g] = True
+            continue
+        for c in range(b):  # column c of D^-1: L y = e_c, L^T x = y
+            for i in range(b):
+                acc = 1.0 if i == c else 0.0
+                for k in range(i):
+                    acc -= L[i, k] * y[k]
+                y[i] = acc / L[i, i]
+            for i in range(b - 1, -1, -1):
+                acc = y[i]
+                for k in range(i + 1, b):
+                    acc -= L[k, i] * out[g, k, c]
+                out[g, i, c] = acc / L[i, i]
+    return out, bad
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)

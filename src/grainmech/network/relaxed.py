@@ -186,7 +186,11 @@ def _block_cg(sys_: _System, rhs: np.ndarray, n: np.ndarray, kn: np.ndarray, ks:
     m = rhs.shape[1]
     nb = np.maximum(np.linalg.norm(rhs, axis=0), ref)
     nb[nb == 0] = 1.0
-    Minv = np.linalg.pinv(sys_.diag_blocks, hermitian=True)
+    # block inverses by Cholesky; the (nearly) singular blocks, e.g. a grain free to spin
+    # about the line through its two contacts, by pseudo-inverse as the NumPy reference
+    Minv, bad = kernel.block_inverses(sys_.diag_blocks, 1e-12)
+    if bad.any():
+        Minv[bad] = np.linalg.pinv(sys_.diag_blocks[bad], hermitian=True)
     x, it, res = kernel.block_cg3(sys_.ci, sys_.cj, n, kn, ks, rA, rB, Minv,
                                   np.ascontiguousarray(rhs.reshape(sys_.P, 6, m)), nb, float(tol),
                                   int(maxiter), int(predict_after or 0))
