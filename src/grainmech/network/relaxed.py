@@ -187,8 +187,11 @@ def _block_cg(sys_: _System, rhs: np.ndarray, n: np.ndarray, kn: np.ndarray, ks:
     nb = np.maximum(np.linalg.norm(rhs, axis=0), ref)
     nb[nb == 0] = 1.0
     # block inverses by Cholesky; the (nearly) singular blocks, e.g. a grain free to spin
-    # about the line through its two contacts, by pseudo-inverse as the NumPy reference
-    Minv, bad = kernel.block_inverses(sys_.diag_blocks, 1e-12)
+    # about the line through its two contacts, by pseudo-inverse as the NumPy reference.
+    # A singular block's last pivot is a rounding residue that may reach 1e-11 of the
+    # diagonal: blocks with a pivot below 1e-8 of it count as singular (above, the
+    # Cholesky inverse is accurate to ~1e-8, which a preconditioner does not notice)
+    Minv, bad = kernel.block_inverses(sys_.diag_blocks, 1e-8)
     if bad.any():
         Minv[bad] = np.linalg.pinv(sys_.diag_blocks[bad], hermitian=True)
     x, it, res = kernel.block_cg3(sys_.ci, sys_.cj, n, kn, ks, rA, rB, Minv,
