@@ -9,7 +9,7 @@ picks, the time as a multiple of an OpenBLAS dgemm (n = 2048) timed in the same 
 and the peak traced memory (tracemalloc: NumPy/SciPy arrays; the factorisation inside
 cholespy is not traced, the process max RSS is printed as well).
 
-    python benchmarks/bench_relaxed.py [--particles 10000,100000] [--repeat 3]
+    python benchmarks/bench_relaxed.py [--particles 10000,100000] [--repeat 3] [--tol 1e-10]
 """
 
 from __future__ import annotations
@@ -25,18 +25,20 @@ import numpy as np
 from _yardstick import dgemm_seconds
 
 
-def _case(label: str, net, kn, ks, solvers: list[str], repeat: int, budget: float, dg: float) -> dict:
+def _case(label: str, net, kn, ks, solvers: list[str], repeat: int, budget: float, dg: float,
+          tol: float | None) -> dict:
     from grainmech.network import _solvers, relaxed_stiffness
 
     rows = {}
     ref = None
     for s in solvers:
         best, res, peak = np.inf, None, 0
-        for k in range(repeat):
+        for _ in range(repeat):
             tracemalloc.start()
             t0 = time.perf_counter()
             try:
-                res = relaxed_stiffness(net, kn, ks, solver=s, tol=1e-10, maxiter=50000)
+                kw = {} if tol is None else {"tol": tol}
+                res = relaxed_stiffness(net, kn, ks, solver=s, maxiter=50000, **kw)
             except Exception as exc:  # noqa: BLE001 (reported, the others go on)
                 tracemalloc.stop()
                 print(f"  {label:28s} {s:9s} failed: {exc}")
@@ -62,6 +64,7 @@ def _case(label: str, net, kn, ks, solvers: list[str], repeat: int, budget: floa
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Time every installed solver on the shipped packing and the random networks."""
     from grainmech.network import _solvers, contact_stiffnesses, random_network
     from grainmech.packing import load_packing
 
@@ -69,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--particles", default="10000,100000")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--budget", type=float, default=60.0, help="skip repeats of a solver slower than this [s]")
-    ap.add_argument("--solvers", default="auto,cholesky,superlu,amg,cg")
+    ap.add_argument("--solvers", default="auto,pardiso,cholesky,superlu,amg,cg")
+    ap.add_argument("--tol", type=float, default=None, help="CG tolerance (default: the library's)")
     a = ap.parse_args(argv)
     dg = dgemm_seconds()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cpus {os.cpu_count()}, "
@@ -77,12 +81,13 @@ def main(argv: list[str] | None = None) -> int:
     solvers = [s for s in a.solvers.split(",") if s == "auto" or _solvers.available(s)]
     net = load_packing("dense")
     kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15)
-    _case(f"dense packing {net.n_particles} grains", net, kn, ks, solvers, a.repeat, a.budget, dg)
+    _case(f"dense packing {net.n_particles} grains", net, kn, ks, solvers, a.repeat, a.budget, dg, a.tol)
     for n in [int(float(x)) for x in a.particles.split(",") if x]:
         rnet = random_network(n, coordination=7.0, seed=1)
         kn, ks, _ = contact_stiffnesses(rnet, shear_modulus=29e9, poisson=0.15)
         use = [s for s in solvers if s != "superlu"]  # SuperLU: minutes and GBs of fill-in beyond ~20k unknowns
-        _case(f"random network {n} grains", rnet, kn, ks, use, a.repeat if n <= 20000 else 1, a.budget, dg)
+        _case(f"random network {n} grains", rnet, kn, ks, use, a.repeat if n <= 20000 else 1, a.budget, dg,
+              a.tol)
     return 0
 
 

@@ -437,7 +437,10 @@ def test_frictionless_loose_network_names_the_rule_that_removed_everything():
         relaxed_stiffness(net, kn, np.zeros_like(ks))
     # the same network with its tangential stiffness keeps grains (frictional rule: 2)
     rr = relaxed_stiffness(net, kn, ks)
-    assert rr.n_particles > 0 and rr.C_relaxed[0, 0] > 0
+    assert rr.n_particles > 0 and rr.C_affine[0, 0] > 0
+    # what is kept is a mechanism at z = 2: its relaxed stiffness is zero, to rounding
+    # (its sign is that of the rounding errors, about 1e-13 of the affine one)
+    assert np.abs(rr.C_relaxed).max() < 1e-9 * np.abs(rr.C_affine).max()
 
 
 def test_every_installed_solver_gives_the_same_relaxed_tensor():
@@ -454,12 +457,13 @@ def test_every_installed_solver_gives_the_same_relaxed_tensor():
             continue
         r = relaxed_stiffness(net, kn, ks, solver=s, maxiter=50000)
         # AMG-CG solves the shifted system without refinement: its residual against H is
-        # what relaxed_stiffness accepts (<= 1e-6), the others reach ~tol
-        assert r.solver == s and r.residual <= (1e-6 if s == "amg" else 1e-9)
-        np.testing.assert_allclose(r.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-6 * np.abs(ref.C_relaxed).max())
+        # what relaxed_stiffness accepts (<= 1e-6), the others reach the default tol 1e-7
+        assert r.solver == s and r.residual <= (1e-6 if s == "amg" else 1e-7)
+        np.testing.assert_allclose(r.C_relaxed, ref.C_relaxed, rtol=0,
+                                   atol=(1e-6 if s == "amg" else 1e-9) * np.abs(ref.C_relaxed).max())
     auto = relaxed_stiffness(net, kn, ks)
     assert auto.solver in ("cg", _solvers.choose("auto", 6 * auto.n_particles))
-    np.testing.assert_allclose(auto.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-7 * np.abs(ref.C_relaxed).max())
+    np.testing.assert_allclose(auto.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-9 * np.abs(ref.C_relaxed).max())
 
 
 def test_auto_uses_cg_on_a_packing_and_a_factorisation_when_cg_would_be_slow(monkeypatch):
@@ -476,4 +480,4 @@ def test_auto_uses_cg_on_a_packing_and_a_factorisation_when_cg_would_be_slow(mon
     kn, ks, _ = contact_stiffnesses(rnet, shear_modulus=G, poisson=NU)
     monkeypatch.setattr(rel, "AUTO_CG_MAXITER", 5)
     r = relaxed_stiffness(rnet, kn, ks)
-    assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-9
+    assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-7

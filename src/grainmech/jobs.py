@@ -882,7 +882,14 @@ def dem_options(root: Any) -> dict:
     if root.has("relaxed"):
         r = root.section("relaxed")
         opts["relaxed"] = r.boolean("enabled", True)
-        opts["solver"] = r.choice("solver", ("auto", "direct", "cg"), "auto")
+        from grainmech.network import _solvers
+
+        solver = r.choice("solver", _solvers.METHODS, "auto")
+        if not _solvers.available(solver):
+            pkg = _solvers.PACKAGES[solver]
+            raise ConfigError(r.key("solver"), solver, f"needs the optional package {pkg} (pip install {pkg}; "
+                              f"or solver = \"auto\", which uses what is installed)")
+        opts["solver"] = solver
         opts["remove_rattlers"] = r.boolean("remove_rattlers", True)
         if r.has("min_contacts"):
             opts["min_contacts"] = r.integer("min_contacts", min=0)

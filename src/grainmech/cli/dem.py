@@ -17,7 +17,7 @@ Material config (TOML, all tables optional)::
     geometric = false      # add -(N/|l|)(I - nn) to the contact stiffness
     [relaxed]
     enabled = true
-    solver = "auto"        # auto | direct | cg
+    solver = "auto"        # auto | direct | pardiso | cholesky | superlu | amg | cg
     remove_rattlers = true
     min_contacts = 2       # rattler threshold (default: 2 frictional, d + 1 frictionless)
     [fabric]

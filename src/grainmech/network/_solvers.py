@@ -20,13 +20,16 @@ Several right-hand sides at once.
 from __future__ import annotations
 
 import importlib.util
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 
 from grainmech.errors import GrainmechError
 
-__all__ = ["METHODS", "available", "choose", "solve_spd", "block_cg"]
+__all__ = ["METHODS", "PACKAGES", "available", "choose", "solve_spd", "block_cg"]
 
 #: Names accepted by :func:`solve_spd` (``direct``: the best direct method installed).
 METHODS = ("auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg")
@@ -37,12 +40,13 @@ DIRECT_LIMIT_PARDISO = 1_000_000
 DIRECT_LIMIT_CHOLESKY = 150_000
 DIRECT_LIMIT_SUPERLU = 20_000
 
-_PACKAGES = {"pardiso": "pypardiso", "cholesky": "cholespy", "amg": "pyamg"}
+#: Optional package behind each method that needs one.
+PACKAGES = {"pardiso": "pypardiso", "cholesky": "cholespy", "amg": "pyamg"}
 
 
 def available(method: str) -> bool:
     """True if the optional package behind ``method`` is installed."""
-    pkg = _PACKAGES.get(method)
+    pkg = PACKAGES.get(method)
     return pkg is None or importlib.util.find_spec(pkg) is not None
 
 
@@ -70,29 +74,52 @@ def choose(method: str, n: int) -> str:
             return "superlu"
         return "amg" if have_amg else "cg"
     if not available(method):
-        pkg = _PACKAGES[method]
+        pkg = PACKAGES[method]
         raise GrainmechError(f"solver {method!r} needs the optional package {pkg} "
                              f"(pip install {pkg})")
     return method
 
 
-def _factor_solve(A: Any, rhs: np.ndarray, method: str) -> tuple[Any, np.ndarray]:
-    """Factor ``A`` (CSR, SPD) and solve ``A X = rhs`` for all columns; returns the solve."""
+#: One PARDISO handle per process: constructing ``pypardiso.PyPardisoSolver`` searches
+#: for the MKL library (``ctypes.util.find_library`` runs ``ldconfig``/``gcc``, then a
+#: recursive glob of the environment), ~0.25 s each time on the benchmark machine, more
+#: than the factorisation of a 2000-grain packing takes. The lock serialises its use.
+_PARDISO: Any = None
+_PARDISO_LOCK = threading.Lock()
+
+
+@contextmanager
+def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarray]]:
+    """Factor ``A`` (CSR, SPD) and yield ``solve(b)`` for (n, k) right-hand sides.
+
+    The factor is released on exit (PARDISO keeps it in MKL's memory until told).
+    """
     import scipy.sparse as sp
 
     if method == "pardiso":
+        global _PARDISO
         import pypardiso
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
-        ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
-        try:
-            ps.factorize(Au)
-        except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
-            raise GrainmechError(f"relaxed stiffness: PARDISO factorisation failed ({exc})") from None
+        Au.sort_indices()
+        with _PARDISO_LOCK:
+            if _PARDISO is None:
+                _PARDISO = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+            ps = _PARDISO
+            ps.set_matrix_type(2)
+            try:
+                ps.factorize(Au)
+            except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
+                ps.free_memory(everything=True)
+                raise GrainmechError(f"relaxed stiffness: PARDISO factorisation failed ({exc})") from None
 
-        def solve(b: np.ndarray) -> np.ndarray:
-            return np.asarray(ps.solve(Au, np.ascontiguousarray(b, dtype=float))).reshape(b.shape)
-        return solve, solve(rhs)
+            def solve_p(b: np.ndarray) -> np.ndarray:
+                return np.asarray(ps.solve(Au, np.ascontiguousarray(b, dtype=float))).reshape(b.shape)
+            try:
+                yield solve_p
+            finally:
+                ps.free_memory(everything=True)
+        return
     if method == "cholesky":
         from cholespy import CholeskySolverD, MatrixType
 
@@ -103,21 +130,21 @@ def _factor_solve(A: Any, rhs: np.ndarray, method: str) -> tuple[Any, np.ndarray
         except (ValueError, RuntimeError) as exc:
             raise GrainmechError(f"relaxed stiffness: Cholesky factorisation failed ({exc})") from None
 
-        def solve(b: np.ndarray) -> np.ndarray:
+        def solve_c(b: np.ndarray) -> np.ndarray:
             b = np.ascontiguousarray(b, dtype=float)
             x = np.zeros_like(b)
             f.solve(b, x)
             return x
-    else:
-        import scipy.sparse.linalg as spla
+        yield solve_c
+        return
+    import scipy.sparse.linalg as spla
 
-        try:
-            lu = spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                           options={"SymmetricMode": True})
-        except RuntimeError as exc:  # exactly singular even after regularisation
-            raise GrainmechError(f"relaxed stiffness: factorisation failed ({exc})") from None
-        solve = lu.solve
-    return solve, solve(rhs)
+    try:
+        lu = spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    except RuntimeError as exc:  # exactly singular even after regularisation
+        raise GrainmechError(f"relaxed stiffness: factorisation failed ({exc})") from None
+    yield lu.solve
 
 
 def _amg_cg(A: Any, rhs: np.ndarray, dof_type: np.ndarray, tol: float, maxiter: int
@@ -224,16 +251,17 @@ def solve_spd(A: Any, rhs: np.ndarray, method: str, *, dof_type: np.ndarray, shi
 
     As = A if shift is None else (A + sp.diags(shift)).tocsr()
     if method in ("pardiso", "cholesky", "superlu"):
-        solve, X = _factor_solve(As, rhs, method)
         nb = np.linalg.norm(rhs, axis=0)
         nb[nb == 0] = 1.0
         steps = 1
-        for _ in range(refine):
-            R = rhs - A @ X
-            if np.max(np.linalg.norm(R, axis=0) / nb) <= tol:
-                break
-            X = X + solve(R)
-            steps += 1
+        with _factorised(As, method) as solve:
+            X = solve(rhs)
+            for _ in range(refine):
+                R = rhs - A @ X
+                if np.max(np.linalg.norm(R, axis=0) / nb) <= tol:
+                    break
+                X = X + solve(R)
+                steps += 1
         return X, steps
     if method == "amg":
         return _amg_cg(As, rhs, dof_type, tol, maxiter)

@@ -61,17 +61,63 @@ def _cross_matrix(r: np.ndarray) -> np.ndarray:
     return X
 
 
+@dataclass
+class _System:
+    """The relaxed-stiffness system of one network, per contact and per grain.
+
+    ``Delta_c = G_A q_A + G_B q_B + E_c e`` with ``G_A = [I, -[r_A]x]``, ``G_B = [-I,
+    [r_B]x]`` (``GA, GB`` (C, d, b)), contact stiffness ``K`` (C, d, d); the coupling
+    ``B = G^T K E`` (``P b``, m), its size per column before cancellation between
+    contacts ``bref`` (m,), and the ``b x b`` diagonal blocks of ``H = G^T K G`` (P, b,
+    b) are formed from the per-contact blocks; the sparse ``H`` itself only when a
+    solver asks for it (:meth:`hessian`).
+    """
+
+    P: int
+    b: int
+    ci: np.ndarray
+    cj: np.ndarray
+    GA: np.ndarray
+    GB: np.ndarray
+    K: np.ndarray
+    B: np.ndarray
+    bref: np.ndarray
+    diag_blocks: np.ndarray
+    _H: object = None
+
+    def hessian(self):
+        """``H = G^T K G`` (CSR, ``P b`` square, exactly symmetric), built once.
+
+        ``G`` (``C d`` x ``P b``) is one vectorised COO matrix, ``K`` block diagonal; both
+        products run in SciPy's sparse kernels.
+        """
+        if self._H is not None:
+            return self._H
+        import scipy.sparse as sp
+
+        C, d, b = self.GA.shape
+        row = np.broadcast_to((np.arange(C)[:, None] * d + np.arange(d))[:, :, None], (C, d, b))
+        k = np.arange(b)
+        colA = np.broadcast_to((self.ci[:, None] * b + k)[:, None, :], (C, d, b))
+        colB = np.broadcast_to((self.cj[:, None] * b + k)[:, None, :], (C, d, b))
+        vals = np.concatenate([self.GA.ravel(), self.GB.ravel()])
+        keep = vals != 0
+        G = sp.csr_matrix((vals[keep], (np.concatenate([row.ravel(), row.ravel()])[keep],
+                                        np.concatenate([colA.ravel(), colB.ravel()])[keep])),
+                          shape=(C * d, self.P * b))
+        Kb = sp.bsr_matrix((self.K, np.arange(C), np.arange(C + 1)), shape=(C * d, C * d)).tocsr()
+        H = (G.T.tocsr() @ (Kb @ G)).tocsr()
+        self._H = (0.5 * (H + H.T)).tocsr()  # exactly symmetric for the Cholesky factorisation
+        return self._H
+
+
 def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndarray, kn: np.ndarray,
-              ks: np.ndarray, rA: np.ndarray, rB: np.ndarray, rotations: bool):
-    """Hessian and coupling of the relaxed stiffness.
+              ks: np.ndarray, rA: np.ndarray, rB: np.ndarray, rotations: bool) -> _System:
+    """Per-contact blocks, coupling ``B`` and diagonal blocks of the relaxed stiffness.
 
-    ``H = G^T K G`` (CSR, ``P b`` square), ``B = G^T K E`` (``P b``, m), the gross size of
-    ``B`` per column and ``b`` (unknowns per particle).
-
-    ``G`` (``C d`` x ``P b``) maps the particle unknowns to the contact displacements
-    ``Delta_c = G_A q_A + G_B q_B`` with ``G_A = [I, -[r_A]x]``, ``G_B = [-I, [r_B]x]``; it is
-    built as one vectorised COO matrix, ``K`` is block diagonal (``d x d`` per contact) and
-    both products run in SciPy's sparse kernels.
+    ``b`` unknowns per particle: ``2 d`` in 3D with rotations, ``d + 1`` in 2D with
+    rotations, ``d`` without. Per-grain sums of per-contact blocks are sparse incidence
+    products (grain x contact), which scale linearly.
     """
     import scipy.sparse as sp
 
@@ -90,39 +136,81 @@ def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndar
         else:  # theta e_z x r = theta (-r_y, r_x)
             GA[:, 0, 2], GA[:, 1, 2] = -rA[:, 1], rA[:, 0]
             GB[:, 0, 2], GB[:, 1, 2] = rB[:, 1], -rB[:, 0]
-    row = np.broadcast_to((np.arange(C)[:, None] * d + np.arange(d))[:, :, None], (C, d, b))
-    k = np.arange(b)
-    colA = np.broadcast_to((ci[:, None] * b + k)[:, None, :], (C, d, b))
-    colB = np.broadcast_to((cj[:, None] * b + k)[:, None, :], (C, d, b))
-    vals = np.concatenate([GA.ravel(), GB.ravel()])
-    keep = vals != 0
-    G = sp.csr_matrix((vals[keep], (np.concatenate([row.ravel(), row.ravel()])[keep],
-                                    np.concatenate([colA.ravel(), colB.ravel()])[keep])),
-                      shape=(C * d, P * b))
-    Kb = sp.bsr_matrix((K, np.arange(C), np.arange(C + 1)), shape=(C * d, C * d)).tocsr()
-    GT = G.T.tocsr()
-    H = (GT @ (Kb @ G)).tocsr()
-    H = (0.5 * (H + H.T)).tocsr()  # exactly symmetric for the Cholesky factorisation
     KE = np.matmul(K, strain_map(l_))  # (C, d, m)
     m = KE.shape[2]
-    B = np.asarray(GT @ KE.reshape(C * d, m))
+    one, cols = np.ones(C), np.arange(C)
+    SA = sp.csr_matrix((one, (ci, cols)), shape=(P, C))
+    SB = sp.csr_matrix((one, (cj, cols)), shape=(P, C))
+    XA = np.matmul(GA.transpose(0, 2, 1), KE)  # (C, b, m): G_A^T K E
+    XB = np.matmul(GB.transpose(0, 2, 1), KE)
+    B = np.asarray(SA @ XA.reshape(C, b * m) + SB @ XB.reshape(C, b * m)).reshape(P * b, m)
     # size of B before cancellation between contacts (scale for residuals)
-    bref2 = np.zeros(m)
-    for Gx in (GA, GB):
-        for s in range(0, C, 65536):
-            X = np.einsum("cik,cia->cka", Gx[s:s + 65536], KE[s:s + 65536])
-            bref2 += np.einsum("cka,cka->a", X, X)
-    return H, B, np.sqrt(bref2), b
+    bref = np.sqrt(np.einsum("cka,cka->a", XA, XA) + np.einsum("cka,cka->a", XB, XB))
+    DA = np.matmul(GA.transpose(0, 2, 1), np.matmul(K, GA)).reshape(C, b * b)
+    DB = np.matmul(GB.transpose(0, 2, 1), np.matmul(K, GB)).reshape(C, b * b)
+    diag = np.asarray(SA @ DA + SB @ DB).reshape(P, b, b)
+    diag = 0.5 * (diag + diag.transpose(0, 2, 1))
+    return _System(P, b, ci, cj, GA, GB, K, B, bref, diag)
 
 
-def _diagonal_blocks(H, P: int, b: int) -> np.ndarray:
-    """The ``b x b`` diagonal blocks of ``H`` (P, b, b)."""
-    Hb = H.tobsr(blocksize=(b, b))
-    rows = np.repeat(np.arange(P), np.diff(Hb.indptr))
-    on = Hb.indices == rows
-    out = np.zeros((P, b, b))
-    out[rows[on]] = Hb.data[on]
-    return out
+_KERNEL = None  # grainmech.network._cg_kernel once imported, False without numba
+
+
+def _cg_kernel():
+    """The compiled CG module, or ``None`` when numba is not installed."""
+    global _KERNEL
+    if _KERNEL is None:
+        try:
+            from grainmech.network import _cg_kernel as kernel
+        except ImportError:
+            _KERNEL = False
+        else:
+            _KERNEL = kernel
+    return _KERNEL or None
+
+
+def _block_cg(sys_: _System, rhs: np.ndarray, n: np.ndarray, kn: np.ndarray, ks: np.ndarray,
+              rA: np.ndarray, rB: np.ndarray, tol: float, maxiter: int, predict_after: int | None
+              ) -> tuple[np.ndarray, int, float]:
+    """Block-Jacobi CG on ``H q = rhs``; returns ``q``, the iterations and the residual.
+
+    The compiled matrix-free kernel for 3D grains with rotations
+    (:mod:`grainmech.network._cg_kernel`, when numba is installed), else the NumPy
+    reference :func:`grainmech.network._solvers.block_cg` on the assembled ``H``.
+    """
+    kernel = _cg_kernel()
+    ref = 1e-6 * sys_.bref
+    if kernel is None or sys_.b != 6:
+        return _solvers.block_cg(sys_.hessian(), rhs, sys_.diag_blocks, tol, maxiter, ref,
+                                 predict_after=predict_after)
+    m = rhs.shape[1]
+    nb = np.maximum(np.linalg.norm(rhs, axis=0), ref)
+    nb[nb == 0] = 1.0
+    # block inverses by Cholesky; the (nearly) singular blocks, e.g. a grain free to spin
+    # about the line through its two contacts, by pseudo-inverse as the NumPy reference.
+    # A singular block's last pivot is a rounding residue that may reach 1e-11 of the
+    # diagonal: blocks with a pivot below 1e-8 of it count as singular (above, the
+    # Cholesky inverse is accurate to ~1e-8, which a preconditioner does not notice)
+    Minv, bad = kernel.block_inverses(sys_.diag_blocks, 1e-8)
+    if bad.any():
+        Minv[bad] = np.linalg.pinv(sys_.diag_blocks[bad], hermitian=True)
+    x, it, res = kernel.block_cg3(sys_.ci, sys_.cj, n, kn, ks, rA, rB, Minv,
+                                  np.ascontiguousarray(rhs.reshape(sys_.P, 6, m)), nb, float(tol),
+                                  int(maxiter), int(predict_after or 0))
+    return x.reshape(sys_.P * 6, m), int(it), float(res)
+
+
+def _apply_hessian(sys_: _System, q: np.ndarray, n: np.ndarray, kn: np.ndarray, ks: np.ndarray,
+                   rA: np.ndarray, rB: np.ndarray) -> np.ndarray:
+    """``H q`` for ``q`` (P b, m): matrix-free when compiled and ``H`` was not built."""
+    kernel = _cg_kernel()
+    if sys_._H is not None or kernel is None or sys_.b != 6:
+        return sys_.hessian() @ q
+    m = q.shape[1]
+    out = np.empty((sys_.P, 6, m))
+    kernel.hessian_product(sys_.ci, sys_.cj, n, kn, ks, rA, rB, np.ascontiguousarray(q.reshape(sys_.P, 6, m)), out,
+                           np.empty(m))
+    return out.reshape(q.shape)
 
 
 #: ``solver="auto"``: iterations after which block CG predicts its total, and the most
@@ -130,11 +218,16 @@ def _diagonal_blocks(H, P: int, b: int) -> np.ndarray:
 AUTO_CG_PREDICT = 40
 AUTO_CG_MAXITER = 600
 
+#: Relative residual to which a factorisation (of the shifted Hessian) is refined at
+#: least: its residual lies in the softest modes, where it weighs most in the tensor (a
+#: CG residual lies in the stiff ones), so ``tol`` alone does not bound the tensor's error
+DIRECT_REFINE_TOL = 1e-10
+
 
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
                       remove_rattlers: bool = True, min_contacts: int | None = None,
                       rotations: bool = True, geometric: bool = False, solver: str = "auto",
-                      tol: float = 1e-10, maxiter: int = 20000,
+                      tol: float = 1e-7, maxiter: int = 20000,
                       return_displacements: bool = False) -> RelaxedResult:
     """Relaxed (non-affine) small-strain stiffness of a contact network.
 
@@ -187,7 +280,15 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         installed packages (:func:`grainmech.network._solvers.choose`; measurements in
         ``docs/performance.md``).  The result names the solver that ran
         and its relative residual.
-    tol, maxiter : CG tolerance (relative residual) and iteration cap.
+    tol : float
+        Relative residual at which CG stops (a factorisation is refined to
+        ``min(tol, DIRECT_REFINE_TOL)``). The tensor is evaluated in its energy form
+        ``C_affine + (B^T q + q^T B + q^T H q)/V``, which is stationary at the solution:
+        its error is quadratic in the residual (measured on the shipped packings and on
+        random networks: ``tol = 1e-7`` gives the tensor to better than 1e-12 relative,
+        ``1e-6`` to 1e-10, ``docs/performance.md``).
+    maxiter : int
+        CG iteration cap.
 
     Returns
     -------
@@ -242,30 +343,32 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     rA = RA[:, None] * n
     rB = -RB[:, None] * n
     P = alive_idx.size
-    H, B, bref, b = _assemble(P, ci, cj, n, l_, kn[csel], ks_e[csel], rA, rB, rotations)
+    knc, ksc = kn[csel], ks_e[csel]
+    sys_ = _assemble(P, ci, cj, n, l_, knc, ksc, rA, rB, rotations)
+    b, B = sys_.b, sys_.B
     V = net.volume
     ndof = P * b
     rhs = -B
     name = _solvers.choose(solver, ndof)
-    q = None
+    q: np.ndarray | None = None
     if solver == "auto":
         # block CG first: on packings it converges in a few hundred iterations and beats
         # every factorisation; when its first iterations predict more than AUTO_CG_MAXITER
         # (ill-conditioned networks) it stops and the factorisation runs instead
-        q, iters, res_cg = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, AUTO_CG_MAXITER,
-                                             1e-6 * bref, predict_after=AUTO_CG_PREDICT)
+        q, iters, res_cg = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, AUTO_CG_MAXITER, AUTO_CG_PREDICT)
         if res_cg <= tol:
             name = "cg"
         else:
             q = None
     if name == "cg" and q is None:
-        q, iters, _ = _solvers.block_cg(H, rhs, _diagonal_blocks(H, P, b), tol, maxiter, 1e-6 * bref)
+        q, iters, _ = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, maxiter, None)
     elif name != "cg":
         # pin the translation of particle 0 (global translation mode); the other zero modes
         # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
         # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
         # of the translational one, times the squared mean lever arm for rotations), then
         # removed again by iterative refinement against H itself
+        H = sys_.hessian()
         free = np.ones(ndof, dtype=bool)
         free[:d] = False
         Hf = H[free][:, free].tocsr()
@@ -277,12 +380,19 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         typemax = np.maximum(typemax, 1e-6 * ref)
         q = np.zeros((ndof, m))
         q[free], iters = _solvers.solve_spd(Hf, rhs[free], name, dof_type=kind, shift=1e-10 * typemax[kind],
-                                            tol=tol, maxiter=maxiter)
-    R = H @ q - rhs
-    nb = np.maximum(np.linalg.norm(rhs, axis=0), 1e-6 * bref)
+                                            tol=min(tol, DIRECT_REFINE_TOL), maxiter=maxiter)
+    assert q is not None
+    Hq = _apply_hessian(sys_, q, n, knc, ksc, rA, rB)
+    R = Hq - rhs
+    nb = np.maximum(np.linalg.norm(rhs, axis=0), 1e-6 * sys_.bref)
     scale_r = np.where(nb > 0, nb, 1.0)
     residual = float(np.max(np.linalg.norm(R, axis=0) / scale_r))
-    corr = B.T @ q  # = -B^T H^+ B  (q solves H q = -B)
+    # the energy of the strain e with the grains at q e minimised over q: e^T (C_affine +
+    # (B^T q + q^T B + q^T H q)/V) e. At the solution the bracket is -B^T H^+ B; an error
+    # dq of the solve changes it by dq^T H dq only (the energy is stationary), where B^T q
+    # alone would change by B^T dq: the tensor's error is quadratic in the residual
+    corr = B.T @ q
+    corr = corr + corr.T + q.T @ Hq
     Ca = affine_stiffness(net.subset(csel), kn[csel], ks_e[csel])
     Cr = Ca + corr / V
     Cr = 0.5 * (Cr + Cr.T)

@@ -1,0 +1,130 @@
+"""The relaxed-stiffness solvers: the compiled matrix-free CG against the NumPy reference,
+and the solver names accepted by the API and by the config file.
+
+The system is ``H q = -B`` (Lemaitre & Maloney 2006, Eq. 12); the reference for ``H`` is
+the assembled sparse ``G^T K G``, for the tensor the SuperLU factorisation."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainmech.network import contact_stiffnesses, random_network, relaxed_stiffness
+from grainmech.network import relaxed as rel
+
+G, NU = 29e9, 0.15
+
+
+def _system(n=150, seed=4):
+    net = random_network(n, seed=seed)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    ci, cj, nrm = net.i, net.j, net.normals
+    rA = net.radii[ci][:, None] * nrm
+    rB = -net.radii[cj][:, None] * nrm
+    s = rel._assemble(net.n_particles, ci, cj, nrm, net.branch, kn, ks, rA, rB, rotations=True)
+    return net, kn, ks, nrm, rA, rB, s
+
+
+def test_matrix_free_product_equals_the_assembled_hessian():
+    kernel = pytest.importorskip("grainmech.network._cg_kernel")
+    net, kn, ks, nrm, rA, rB, s = _system()
+    x = np.random.default_rng(0).normal(size=(s.P, 6, 6))
+    out = np.empty_like(x)
+    xHx = np.empty(6)
+    kernel.hessian_product(s.ci, s.cj, nrm, kn, ks, rA, rB, x, out, xHx)
+    ref = s.hessian() @ x.reshape(-1, 6)
+    np.testing.assert_allclose(xHx, np.einsum("ik,ik->k", x.reshape(-1, 6), ref), rtol=1e-12)
+    np.testing.assert_allclose(out.reshape(-1, 6), ref, rtol=0, atol=1e-12 * np.abs(ref).max())
+    # the diagonal blocks formed per contact are those of the assembled H
+    Hd = s.hessian().toarray()
+    for p in (0, 7, s.P - 1):
+        np.testing.assert_allclose(s.diag_blocks[p], Hd[6 * p:6 * p + 6, 6 * p:6 * p + 6], rtol=0,
+                                   atol=1e-12 * np.abs(Hd).max())
+
+
+def test_compiled_cg_equals_the_numpy_block_cg(monkeypatch):
+    """Same iteration, same tensor: the compiled kernel and the NumPy reference
+    (``_solvers.block_cg`` on the assembled H) agree to 1e-9 and with SuperLU."""
+    pytest.importorskip("grainmech.network._cg_kernel")
+    net = random_network(200, seed=5)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    fast = relaxed_stiffness(net, kn, ks, solver="cg", return_displacements=True)
+    ref = relaxed_stiffness(net, kn, ks, solver="superlu")
+    monkeypatch.setattr(rel, "_KERNEL", False)
+    slow = relaxed_stiffness(net, kn, ks, solver="cg", return_displacements=True)
+    scale = np.abs(ref.C_relaxed).max()
+    assert fast.solver == slow.solver == "cg"
+    assert abs(fast.iterations - slow.iterations) <= 1
+    assert fast.residual <= 1e-7 and slow.residual <= 1e-7
+    np.testing.assert_allclose(fast.C_relaxed, slow.C_relaxed, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(fast.C_relaxed, ref.C_relaxed, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(fast.displacements, slow.displacements, rtol=0,
+                               atol=1e-7 * np.abs(slow.displacements).max())
+
+
+def test_compiled_auto_falls_back_like_the_reference(monkeypatch):
+    """auto with a tiny CG budget: the compiled CG stops after its prediction and the
+    factorisation runs, as with the NumPy reference."""
+    pytest.importorskip("grainmech.network._cg_kernel")
+    from grainmech.network import _solvers
+
+    net = random_network(100, seed=5)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    monkeypatch.setattr(rel, "AUTO_CG_MAXITER", 5)
+    r = relaxed_stiffness(net, kn, ks)
+    assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-7
+
+
+@pytest.mark.parametrize("name", ["auto", "direct", "pardiso", "cholesky", "superlu", "amg", "cg"])
+def test_config_accepts_every_solver_name_of_the_library(name, monkeypatch):
+    from grainmech.io.config import Section
+    from grainmech.jobs import dem_options
+    from grainmech.network import _solvers
+
+    monkeypatch.setattr(_solvers, "available", lambda method: True)
+    assert dem_options(Section({"relaxed": {"solver": name}}, "material"))["solver"] == name
+
+
+def test_config_rejects_unknown_and_uninstalled_solvers(monkeypatch):
+    from grainmech.errors import ConfigError
+    from grainmech.io.config import Section
+    from grainmech.jobs import dem_options
+    from grainmech.network import _solvers
+
+    with pytest.raises(ConfigError, match=r"material\.relaxed\.solver.*'mumps'.*must be one of 'auto', 'direct', "
+                                          r"'pardiso', 'cholesky', 'superlu', 'amg', 'cg'"):
+        dem_options(Section({"relaxed": {"solver": "mumps"}}, "material"))
+    monkeypatch.setattr(_solvers, "available", lambda method: method != "pardiso")
+    with pytest.raises(ConfigError, match=r"material\.relaxed\.solver.*'pardiso'.*needs the optional package "
+                                          r"pypardiso"):
+        dem_options(Section({"relaxed": {"solver": "pardiso"}}, "material"))
+
+
+def test_block_inverses_and_the_singular_blocks():
+    kernel = pytest.importorskip("grainmech.network._cg_kernel")
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(5, 6, 6))
+    D = A @ A.transpose(0, 2, 1) + 0.1 * np.eye(6)
+    D[2] = np.diag([1.0, 2, 3, 4, 5, 0])  # a free rotation
+    D[4] = 0.0
+    inv, bad = kernel.block_inverses(D, 1e-8)
+    assert bad.tolist() == [False, False, True, False, True]
+    for g in (0, 1, 3):
+        np.testing.assert_allclose(inv[g] @ D[g], np.eye(6), atol=1e-9)
+
+
+def test_block_inverses_flag_the_numerically_singular_blocks_of_a_network():
+    """A grain whose contacts leave one rotation free has a singular 6x6 block; its last
+    Cholesky pivot is a rounding residue (up to ~1e-11 of the diagonal in this network),
+    which must not be inverted."""
+    kernel = pytest.importorskip("grainmech.network._cg_kernel")
+    net = random_network(2000, coordination=7.0, seed=1)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    nrm = net.normals
+    rA, rB = net.radii[net.i][:, None] * nrm, -net.radii[net.j][:, None] * nrm
+    D = rel._assemble(net.n_particles, net.i, net.j, nrm, net.branch, kn, ks, rA, rB, rotations=True).diag_blocks
+    inv, bad = kernel.block_inverses(D, 1e-8)
+    err = np.abs(inv[~bad] @ D[~bad] - np.eye(6)).max()
+    assert err < 1e-6
+    ev = np.linalg.eigvalsh(D[bad])
+    assert np.all(ev[:, 0] <= 1e-7 * np.abs(ev).max(axis=1))  # the flagged ones are (nearly) singular
