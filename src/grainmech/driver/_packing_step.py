@@ -48,7 +48,6 @@ class _Context:
 
     prec: Preconditioner
     opts: PackingOptions
-    refactor: bool = False
     factorizations: int = 0
     krylov: int = 0
     accepted: int = 0
@@ -96,6 +95,9 @@ _MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
 _MU_GROWTHS, _PTC_GROWTH = 6, 3.0
 #: an update lowering the residual by less than this factor is a stall
 _PTC_STALL = 0.9
+#: continuation that has not lowered the residual below _PTC_PROGRESS times its value at
+#: the switch within _PTC_PATIENCE iterations gives up (the substep is halved or relaxed)
+_PTC_PATIENCE, _PTC_PROGRESS = 6, 0.5
 #: an update closes an open contact to at most this fraction of the mean approach
 _CLOSE_CAP = 0.05
 #: shift of every Newton system: keeps a free grain (no closed contact) where it is
@@ -227,6 +229,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     # laws (a branch of many contacts switching, an instability that rearranges a few
     # grains), the grains get there along a path whose slips are recorded.
     mu = _MU_FIRST if relax else 0.0
+    ptc_from = (0, 0.0)  # iteration and merit where continuation started
     n_iter = opts.relax_iter if relax else opts.max_iter
     dbg = _debug()
     jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
@@ -302,6 +305,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                     m = merit(cur)
                 mu = _MU_FIRST  # switch to pseudo-transient continuation
                 ctx.ptc += 1
+                ptc_from = (it, m)
         if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
             for _grow in range(_MU_GROWTHS + 1):
                 dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx)
@@ -333,6 +337,11 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
             if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
                 ctx.accepted += 1
                 return done(cur, it)
+            if not relax and it - ptc_from[0] >= _PTC_PATIENCE and mt > _PTC_PROGRESS * ptc_from[1]:
+                # continuation makes no headway: stop here, so that the substep is halved
+                # or relaxed without spending the rest of max_iter
+                raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled residual "
+                                   f"{mt:.3g}, {mt / ptc_from[1]:.2f} x where it started)")
             # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
             mu = mu * mt / m
             mu = (_MU_NEWTON if relax else 0.0) if mu < _MU_NEWTON else min(mu, _MU_MAX)
@@ -560,7 +569,7 @@ def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.nda
         return _solve(point, S, de_E, t1, ctx, counters)
     except _StepFailure as exc:
         err = exc
-    if depth == 0 and ctx.refactor is False:  # maybe a stale preconditioner: refactor once
+    if depth == 0 and ctx.prec is not point._cache.get("prec"):  # maybe a stale preconditioner: refactor once
         ctx.prec = point.preconditioner()
         ctx.factorizations += 1
         try:

@@ -733,10 +733,6 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                        f"max_strain = {opts.max_strain:g} (small-strain, fixed-geometry model); results kept "
                        f"up to step {k}")
             break
-        if ctx.refactor:
-            ctx.prec = point.preconditioner()
-            ctx.factorizations += 1
-            ctx.refactor = False
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
         counters = [0, 0, 0.0, 0.0, 0.0]
         kr0 = ctx.krylov
