@@ -95,11 +95,15 @@ _MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
 _MU_GROWTHS, _PTC_GROWTH = 6, 3.0
 #: an update lowering the residual by less than this factor is a stall
 _PTC_STALL = 0.9
-#: continuation that has not lowered the residual below _PTC_PROGRESS times its value at
-#: the switch within _PTC_PATIENCE iterations gives up (the substep is halved or relaxed)
+#: continuation that has not lowered the residual below _PTC_PROGRESS times its value
+#: _PTC_PATIENCE iterations before gives up (the substep is halved or relaxed)
 _PTC_PATIENCE, _PTC_PROGRESS = 6, 0.5
 #: an update closes an open contact to at most this fraction of the mean approach
 _CLOSE_CAP = 0.05
+#: committed relaxation: the shift shrinks by at least this factor after each update taken;
+#: GMRES tolerance of its updates (each update is committed and the next one corrects it,
+#: so a rough direction does; inexact Newton forcing term, Eisenstat & Walker 1996)
+_RELAX_MU_CUT, _RELAX_KRYLOV_RTOL = 0.3, 0.1
 #: shift of every Newton system: keeps a free grain (no closed contact) where it is
 _MU_FLOOR = 1e-9
 
@@ -305,10 +309,12 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                     m = merit(cur)
                 mu = _MU_FIRST  # switch to pseudo-transient continuation
                 ctx.ptc += 1
-                ptc_from = (it, m)
+                if ptc_from[0] == 0:
+                    ptc_from = (it, m)
         if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
             for _grow in range(_MU_GROWTHS + 1):
-                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx)
+                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx,
+                                                       _RELAX_KRYLOV_RTOL if relax else None)
                 dxq, dxe = limit(dxq, dxe, st)
                 lam = 1.0
                 try:
@@ -337,13 +343,18 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
             if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
                 ctx.accepted += 1
                 return done(cur, it)
-            if not relax and it - ptc_from[0] >= _PTC_PATIENCE and mt > _PTC_PROGRESS * ptc_from[1]:
-                # continuation makes no headway: stop here, so that the substep is halved
-                # or relaxed without spending the rest of max_iter
-                raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled residual "
-                                   f"{mt:.3g}, {mt / ptc_from[1]:.2f} x where it started)")
+            if not relax and it - ptc_from[0] >= _PTC_PATIENCE:
+                if mt > _PTC_PROGRESS * ptc_from[1]:
+                    # continuation makes no headway: stop here, so that the substep is
+                    # halved or relaxed without spending the rest of max_iter
+                    raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
+                                       f"residual {mt:.3g}, {mt / ptc_from[1]:.2f} x that of {_PTC_PATIENCE} "
+                                       "iterations before)")
+                ptc_from = (it, mt)
             # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
-            mu = mu * mt / m
+            # (in committed relaxation faster: every update taken released energy, and one
+            # that does not is refused and retried with a larger shift)
+            mu = mu * (min(mt / m, _RELAX_MU_CUT) if relax else mt / m)
             mu = (_MU_NEWTON if relax else 0.0) if mu < _MU_NEWTON else min(mu, _MU_MAX)
             ctx.mu_max = max(ctx.mu_max, mu)
         xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
@@ -373,7 +384,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
 
 
 def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
-               shift: float, m: float, opts: PackingOptions, ctx: _Context) -> tuple:
+               shift: float, m: float, opts: PackingOptions, ctx: _Context, rtol: float | None = None) -> tuple:
     """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
 
     ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)
@@ -410,7 +421,7 @@ def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq
         count[0] += 1
 
     z, _info = spla.gmres(spla.LinearOperator((n, n), matvec=lambda v: matvec(psolve(v)), dtype=float),
-                          rhs, rtol=opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
+                          rhs, rtol=rtol or opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
                           callback=cb, callback_type="pr_norm")
     y = psolve(z)
     ctx.krylov += count[0]

@@ -108,7 +108,7 @@ class PackingOptions:
     krylov_rtol: float = 1e-3
     krylov_max: int = 60
     refactor_after: int = 25
-    relax_depth: int | None = 1
+    relax_depth: int | None = 0
     relax_iter: int = 100
     max_fluctuation: float = 0.05
     max_strain: float = 0.02
