@@ -57,6 +57,7 @@ class _Context:
     relaxed: int = 0  # updates committed by committed relaxation
     relaxations: int = 0  # substeps solved by committed relaxation
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
+    newton_ok: bool = True  # the last (sub)step's consistent-tangent updates worked
     energy: bool = False  # line search on the potential energy (frictionless laws only)
 
 
@@ -104,6 +105,8 @@ _CLOSE_CAP = 0.05
 #: GMRES tolerance of its updates (each update is committed and the next one corrects it,
 #: so a rough direction does; inexact Newton forcing term, Eisenstat & Walker 1996)
 _RELAX_MU_CUT, _RELAX_KRYLOV_RTOL = 0.3, 0.1
+#: backtracking steps of the elastic operator's update after a failed Newton line search
+_STIFF_BACKTRACKS = 4
 #: shift of every Newton system: keeps a free grain (no closed contact) where it is
 _MU_FLOOR = 1e-9
 
@@ -187,6 +190,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
 
     def done(cur: tuple, it: int, final: bool = True) -> PackingPoint:
         """The point of ``cur`` (at the unknowns ``xq``, ``xe``), counted as a (sub)step if ``final``."""
+        ctx.newton_ok = newton_ok
         st, resp, f, rq, re, vs, de = cur
         new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(xq),
                       strain=point.strain + de, stress=vs / V, _cache={})
@@ -234,6 +238,9 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     # grains), the grains get there along a path whose slips are recorded.
     mu = _MU_FIRST if relax else 0.0
     ptc_from = (0, 0.0)  # iteration and merit where continuation started
+    # consistent-tangent updates still worth their Krylov solve (not after they failed in
+    # the last (sub)step: the same few mechanism grains make them fail again)
+    newton_ok = ctx.newton_ok
     n_iter = opts.relax_iter if relax else opts.max_iter
     dbg = _debug()
     jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
@@ -267,7 +274,10 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                                 ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
         Kb = block_diagonal(K)
         if mu == 0.0:  # Newton with a backtracking line search
-            dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
+            if newton_ok:
+                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
+            else:  # Newton failed in this (sub)step: elastic updates (below) until they stall
+                dxq, dxe, slope, pred, kr = np.zeros(nq), np.zeros(ms), 0.0, 0.0, 0
             # trust limit (see `move` above) on each grain by itself: a grain on a
             # mechanism (free, rolling or sliding away) must not cut the others' update
             lam = 1.0
@@ -276,7 +286,10 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
             else:
                 lam = 1.0 / _trust(kin, dxq, dxe, S, move)
             ok = False
-            for _nb in range(opts.max_backtracks + 1):
+            # a Krylov solve that lowered the linear model's residual by less than 10 %
+            # gives no useful direction (the Jacobian is near singular on a few mechanism
+            # grains): no line search along it
+            for _nb in range(opts.max_backtracks + 1 if pred > 0.1 * m or ctx.energy else 0):
                 trial = residual(xq + lam * dxq, xe + lam * dxe)
                 mt = merit(trial)
                 if ctx.energy:
@@ -289,6 +302,28 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                 if ok:
                     break
                 lam *= 0.5
+            if not ok and not ctx.energy:
+                # the consistent tangent's update fails at a kink of the law (a mechanism
+                # grain moved along a sliding contact that then sticks): the elastic
+                # operator's update, stiffer than every branch of the laws, with its own
+                # backtracking (initial-stiffness iteration), for the rest of the substep
+                newton_ok = False
+                dxq, dxe = limit(*prec.apply(-rq, -re, S), st)
+                lam = 1.0
+                for _nb in range(_STIFF_BACKTRACKS):
+                    trial = residual(xq + lam * dxq, xe + lam * dxe)
+                    mt = merit(trial)
+                    if dbg:
+                        dbg(f"   elastic lam {lam:.3g} decrease {1 - mt / m:.3e}")
+                    if mt <= (1.0 - 1e-4 * lam) * m or converged(trial[3], trial[4]):
+                        ok = True
+                        break
+                    lam *= 0.5
+                if ok and mt > _PTC_STALL * m and accept(rq, re):  # crawling, stress settled
+                    ctx.accepted += 1
+                    return done(cur, it)
+                if ok and mt > _PTC_STALL * m:  # crawling: Newton again next time
+                    newton_ok = True
             if not ok:
                 if accept(rq, re):  # stalled at a kink of the law, already below rtol_accept
                     ctx.accepted += 1
