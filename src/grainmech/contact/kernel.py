@@ -308,7 +308,7 @@ def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
 # z sqrt(z), y**(1/3) = cbrt(y) -- the same values to a few ulp, several times cheaper
 # than the general power (which dominated the kernel's time).
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _pow_q(y, q, sph):
     """``y**q`` with ``q = 1 - p``."""
     if sph:
@@ -317,7 +317,7 @@ def _pow_q(y, q, sph):
     return y ** q
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _pow_m(z, m, sph):
     """``z**m`` with ``m = 1/(1 - p)``."""
     if sph:
@@ -325,7 +325,7 @@ def _pow_m(z, m, sph):
     return z ** m
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _pow_p(y, p, sph):
     """``y**p`` (theta, seed Eq. 3.13-3.15)."""
     if sph:
@@ -335,7 +335,7 @@ def _pow_p(y, p, sph):
 # ---------------------------------------------------------------------------------------
 # Energy functions of the Iwan representation (module notes of grainmech.contact.law)
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _H(z, m, hcoef, sph):
     """``H(z) = int_z^1 g`` of the Mindlin-Deresiewicz branch integral.
 
@@ -362,7 +362,7 @@ def _H(z, m, hcoef, sph):
     return G1 - (z + (m - 1.0) * zm1 / (m + 1.0) - zm)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
@@ -384,7 +384,7 @@ def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
 # ---------------------------------------------------------------------------------------
 # Mindlin–Deresiewicz law along the memory axis (one contact)
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _top(P, row, k, back):
     """``P[row, k - back]`` if ``k - back >= 0`` else 0."""
     col = k - back
@@ -411,7 +411,7 @@ def _merge_closest_loop(P, row, k, Q, muN):
     return k - 2
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _reverse(Q, k, muN, P, row, maxrev):
     """Start a branch in the opposite direction at force level ``muN``.
 
@@ -570,7 +570,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, kc):
     return Q, s, k, diss, True
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, kc):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
 
@@ -693,7 +693,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
 # ---------------------------------------------------------------------------------------
 # One contact: 3D treatment, Coulomb cap, tangents
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _dot_rows(A, i, B, j):
     out = A[i, 0] * B[j, 0]
     for c in range(1, A.shape[1]):
@@ -701,7 +701,7 @@ def _dot_rows(A, i, B, j):
     return out
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
     """Step tangent of the form ``ks e e + ks_perp (I - e e)``, ``dT/d alpha = ktn e``."""
     dim = e.shape[1]
@@ -711,7 +711,7 @@ def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
             tdel[i, c, c2] = (ks - ksp) * e[i, c] * e[i, c2] + (ksp if c == c2 else 0.0)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
     """Step derivatives through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]``.
 
