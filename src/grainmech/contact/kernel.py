@@ -363,7 +363,7 @@ def _H(z, m, hcoef, sph):
 
 
 @njit(**_JIT)
-def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
+def _g_of_y(y, p, gcoef, theta, sph):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
     ``theta``: ``y**p`` if already known (``< 0``: compute it).
@@ -532,7 +532,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, kc):
                     zg = _clip01(1.0 / c + (z0 - 1.0 / c) * (rt * rt))
                     th = math.sqrt(zg)
                     yg = zg * th
-                gg = _g_of_y(yg, p, gcoef, th)
+                gg = _g_of_y(yg, p, gcoef, th, sph)
                 kt = k8 * tg
             else:
                 if sliding_now:
