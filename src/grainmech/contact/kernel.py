@@ -46,9 +46,9 @@ Agreement with the reference, precisely:
 Structure: ``_rows`` advances a chunk of contacts; the kernel runs the chunks in a loop
 (serial) or a ``prange`` (parallel, from :data:`PARALLEL_THRESHOLD` contacts). The law's
 functions allocate nothing and are compiled without numba's reference counting (no atomic
-increments of the arrays passed between them); only the few small helpers taking arrays
-are inlined at numba-IR level. Inlining everything there made the first run compile the
-law for ~16 s instead of ~6 s; LLVM inlines the scalar helpers anyway.
+increments of the arrays passed between them), and none is inlined at numba-IR level:
+that made the first run compile the law for ~16 s instead of ~5 s, and LLVM inlines the
+small helpers anyway.
 
 Notation (as in :mod:`grainmech.contact.law`): ``Q = mu N - s tau`` is the distance of
 the current state from the friction limit it moves towards; ``P_j = mu N + s_j tau_j``
@@ -390,7 +390,7 @@ def _g_of_y(y, p, gcoef, theta, sph):
 # ---------------------------------------------------------------------------------------
 # Mindlin–Deresiewicz law along the memory axis (one contact)
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)  # numba-IR inlined: no reference counting of its arrays
+@njit(**_JIT_NO_NRT)
 def _top(P, row, k, back):
     """``P[row, k - back]`` if ``k - back >= 0`` else 0."""
     col = k - back
@@ -707,7 +707,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
 # ---------------------------------------------------------------------------------------
 # One contact: 3D treatment, Coulomb cap, tangents
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)  # numba-IR inlined: no reference counting of its arrays
+@njit(**_JIT_NO_NRT)
 def _dot_rows(A, i, B, j):
     out = A[i, 0] * B[j, 0]
     for c in range(1, A.shape[1]):
@@ -715,7 +715,7 @@ def _dot_rows(A, i, B, j):
     return out
 
 
-@njit(inline="always", **_JIT)  # numba-IR inlined: no reference counting of its arrays
+@njit(**_JIT_NO_NRT)
 def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
     """Step tangent of the form ``ks e e + ks_perp (I - e e)``, ``dT/d alpha = ktn e``."""
     dim = e.shape[1]
@@ -725,7 +725,7 @@ def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
             tdel[i, c, c2] = (ks - ksp) * e[i, c] * e[i, c2] + (ksp if c == c2 else 0.0)
 
 
-@njit(inline="always", **_JIT)  # numba-IR inlined: no reference counting of its arrays
+@njit(**_JIT_NO_NRT)
 def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
     """Step derivatives through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]``.
 

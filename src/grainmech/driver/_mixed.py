@@ -92,7 +92,7 @@ def _b(q, i, lx, ly, lz):
     return 0.5 * ly if i == 0 else (0.5 * lx if i == 1 else 0.0)
 
 
-@njit(inline="always", cache=True, error_model="numpy")  # numba-IR inlined: no reference counting
+@njit(cache=True, error_model="numpy", _nrt=False)  # allocates nothing: no reference counting
 def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
     """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
 
