@@ -32,6 +32,7 @@ iterations.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
@@ -50,6 +51,9 @@ __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_webe
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 _CH = 128  # contacts per chunk (work item of the prange)
+# functions that allocate nothing: compiled without numba's reference counting (atomic
+# increments of the arrays they are passed, per contact)
+_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False}
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
 
 #: failure causes reported by the compiled loop (``info[1]``)
@@ -92,7 +96,7 @@ def _b(q, i, lx, ly, lz):
     return 0.5 * ly if i == 0 else (0.5 * lx if i == 1 else 0.0)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)  # allocates nothing: no reference counting
+@njit(**_NO_NRT)
 def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
     """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
 
