@@ -15,9 +15,19 @@ The main objects are available from the package itself and are imported on first
 from __future__ import annotations
 
 import importlib
+import os
 from typing import Any
 
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
+
+# The compiled kernels' parallel loops run on OpenMP (numba's "omp" layer) in regions of
+# ~0.5-3 ms. With OpenMP's default active waiting, a thread that finishes its share spins
+# on its core; on a machine whose cores are shared with other jobs the spinning thread
+# takes the core from the one it waits for, and the threaded mixed-control driver ran 4x
+# slower than the serial one (docs/performance.md). Passive waiting costs ~10-50 us per
+# region on an idle machine. A value the user set is kept; read once by the OpenMP runtime
+# when numba first starts its threads, i.e. after this import.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 __version__ = "0.1.0"
 

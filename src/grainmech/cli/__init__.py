@@ -93,7 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 #: printed once, when numba starts compiling (not when it loads a cached kernel)
 COMPILE_NOTICE = ("grainmech: compiling the contact-law kernels with numba (first run after installing or "
-                  "upgrading, about 20 s; later runs load them from the cache)")
+                  "upgrading, 10-20 s; later runs load them from the cache)")
 
 
 _NOTICE: list = []  # the one listener of this process

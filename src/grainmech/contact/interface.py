@@ -151,9 +151,16 @@ class ContactLaw:
         return update(self.params, state, d_normal, d_tangential, backend=self.backend)
 
     def response(self, state: ContactState) -> ContactResponse:
-        """Forces and tangent at a state (a zero increment of the law)."""
+        """Forces and tangent at a state (a zero increment of the law).
+
+        With ``backend="auto"`` evaluated by the NumPy reference: one call, cheap in NumPy,
+        which spares a run that needs no other call of the per-call compiled kernel (the
+        drivers' compiled loops call the law inside) from compiling it.
+        """
         n = state.approach.shape[0]
-        _, r = self.update(state, np.zeros(n), np.zeros((n, state.tangential_force.shape[1])))
+        backend = "numpy" if self.backend == "auto" else self.backend
+        _, r = update(self.params, state, np.zeros(n), np.zeros((n, state.tangential_force.shape[1])),
+                      backend=backend)
         return r._replace(dissipation=np.zeros(n))
 
     def stored_energy(self, state: ContactState) -> np.ndarray:

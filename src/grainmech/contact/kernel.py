@@ -44,9 +44,11 @@ Agreement with the reference, precisely:
   different rounding.
 
 Structure: ``_rows`` advances a chunk of contacts; the kernel runs the chunks in a loop
-(serial) or a ``prange`` (parallel, from :data:`PARALLEL_THRESHOLD` contacts). The
-helpers taking arrays are inlined at numba-IR level, which removes per-call reference
-counting from the per-contact loop.
+(serial) or a ``prange`` (parallel, from :data:`PARALLEL_THRESHOLD` contacts). The law's
+functions allocate nothing and are compiled without numba's reference counting (no atomic
+increments of the arrays passed between them), and none is inlined at numba-IR level:
+that made the first run compile the law for ~16 s instead of ~5 s, and LLVM inlines the
+small helpers anyway.
 
 Notation (as in :mod:`grainmech.contact.law`): ``Q = mu N - s tau`` is the distance of
 the current state from the friction limit it moves towards; ``P_j = mu N + s_j tau_j``
@@ -92,6 +94,10 @@ _REV_TOL = _law._REV_TOL
 _MERGE_TOL = _law._MERGE_TOL
 _CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
 _JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False}
+# the per-contact law allocates nothing: compiled without numba's reference counting (the
+# atomic increments and decrements of the arrays passed between its functions took ~12 %
+# of the mixed-control driver's time)
+_JIT_NO_NRT: dict[str, Any] = {**_JIT, "_nrt": False}
 
 
 # ---------------------------------------------------------------------------------------
@@ -308,7 +314,7 @@ def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
 # z sqrt(z), y**(1/3) = cbrt(y) -- the same values to a few ulp, several times cheaper
 # than the general power (which dominated the kernel's time).
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _pow_q(y, q, sph):
     """``y**q`` with ``q = 1 - p``."""
     if sph:
@@ -317,7 +323,7 @@ def _pow_q(y, q, sph):
     return y ** q
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _pow_m(z, m, sph):
     """``z**m`` with ``m = 1/(1 - p)``."""
     if sph:
@@ -325,7 +331,7 @@ def _pow_m(z, m, sph):
     return z ** m
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _pow_p(y, p, sph):
     """``y**p`` (theta, seed Eq. 3.13-3.15)."""
     if sph:
@@ -335,7 +341,7 @@ def _pow_p(y, p, sph):
 # ---------------------------------------------------------------------------------------
 # Energy functions of the Iwan representation (module notes of grainmech.contact.law)
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT)
 def _H(z, m, hcoef, sph):
     """``H(z) = int_z^1 g`` of the Mindlin-Deresiewicz branch integral.
 
@@ -362,8 +368,8 @@ def _H(z, m, hcoef, sph):
     return G1 - (z + (m - 1.0) * zm1 / (m + 1.0) - zm)
 
 
-@njit(inline="always", **_JIT)
-def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
+@njit(**_JIT)
+def _g_of_y(y, p, gcoef, theta, sph):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
     ``theta``: ``y**p`` if already known (``< 0``: compute it).
@@ -384,7 +390,7 @@ def _g_of_y(y, p, gcoef, theta=-1.0, sph=False):
 # ---------------------------------------------------------------------------------------
 # Mindlin–Deresiewicz law along the memory axis (one contact)
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT_NO_NRT)
 def _top(P, row, k, back):
     """``P[row, k - back]`` if ``k - back >= 0`` else 0."""
     col = k - back
@@ -393,7 +399,7 @@ def _top(P, row, k, back):
     return 0.0
 
 
-@njit(**_JIT)
+@njit(**_JIT_NO_NRT)
 def _merge_closest_loop(P, row, k, Q, muN):
     """Full memory: forget the loop that came closest to closing (law._merge_closest_loop)."""
     best = -1
@@ -411,7 +417,7 @@ def _merge_closest_loop(P, row, k, Q, muN):
     return k - 2
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT_NO_NRT)
 def _reverse(Q, k, muN, P, row, maxrev):
     """Start a branch in the opposite direction at force level ``muN``.
 
@@ -447,15 +453,17 @@ def _z_of_n(Nv, na, z0, c, q, sph=False):
     return _clip01(1.0 / c + (z0 - 1.0 / c) * ratio)
 
 
-@njit(**_JIT)
-def _falling_n(Q, s, k, P, row, N0, N1, kc):
+@njit(**_JIT_NO_NRT)
+def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc):
     """Exact integration of a fall of ``N`` (``N0 -> N1``) at fixed tangential displacement.
 
     Thornton & Randall's rate law (seed Eq. 3.11 with ``d delta = 0``,
     ``d tau = s mu dN (1 - theta)``, every ``P_j`` constant; seed Eq. 3.16 for the
     shifted reversal points). Events located exactly within the fall: sliding on the
     virgin branch, erasure of the last reversal, Masing closure (bisection). Dissipation
-    by 12-point Gauss–Legendre in ``N^(1/3)``. Returns ``(Q, s, k, dissipation, ok)``.
+    by 12-point Gauss–Legendre in ``N^(1/3)``; ``cb0``, ``cb1``: ``N0^(1/3)``, ``N1^(1/3)``
+    if the caller knows them (spheres: ``kt0 / k8``, seed Eq. 3.2, 3.11), else negative.
+    Returns ``(Q, s, k, dissipation, ok)``.
     """
     mu, p, m_exp, maxrev, sph, k8 = kc.mu, kc.p, kc.m_exp, kc.maxrev, kc.sph, kc.k8
     linear, E, R, Gs, ks_lin = kc.linear, kc.E, kc.R, kc.Gs, kc.ks_lin
@@ -513,8 +521,8 @@ def _falling_n(Q, s, k, P, row, N0, N1, kc):
         n_stop = max(n_event, nb)
 
         # dissipation on [n_stop, na]: rate mu N g(y) w / kt0 with w = -mu dN
-        ta = np.cbrt(na)
-        tb = np.cbrt(n_stop)
+        ta = cb0 if (na == N0 and cb0 >= 0.0) else np.cbrt(na)
+        tb = cb1 if (n_stop == N1 and cb1 >= 0.0) else np.cbrt(n_stop)
         half = 0.5 * (ta - tb)
         mid = 0.5 * (ta + tb)
         acc = 0.0
@@ -532,7 +540,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, kc):
                     zg = _clip01(1.0 / c + (z0 - 1.0 / c) * (rt * rt))
                     th = math.sqrt(zg)
                     yg = zg * th
-                gg = _g_of_y(yg, p, gcoef, th)
+                gg = _g_of_y(yg, p, gcoef, th, sph)
                 kt = k8 * tg
             else:
                 if sliding_now:
@@ -570,8 +578,8 @@ def _falling_n(Q, s, k, P, row, N0, N1, kc):
     return Q, s, k, diss, True
 
 
-@njit(inline="always", **_JIT)
-def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, kc):
+@njit(**_JIT_NO_NRT)
+def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falling, kc):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
 
     Seed Eq. 3.11, ``d tau = 8 G* a theta d delta + s mu dN (1 - theta)``, with theta from
@@ -615,7 +623,13 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
 
     # falling N at fixed displacement (exact), then the displacement
     if falling:
-        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, kc)
+        if sph and kc.k8 > 0.0:  # N^(1/3) = kt0(N) / k8 (seed Eq. 3.2, 3.11): no cube roots
+            cb0 = kt0 / kc.k8
+            cb1 = kt1 / kc.k8
+        else:
+            cb0 = -1.0
+            cb1 = -1.0
+        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc)
         if not ok:
             return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
         diss += dd
@@ -693,7 +707,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt1, d, rising, falling, k
 # ---------------------------------------------------------------------------------------
 # One contact: 3D treatment, Coulomb cap, tangents
 # ---------------------------------------------------------------------------------------
-@njit(inline="always", **_JIT)
+@njit(**_JIT_NO_NRT)
 def _dot_rows(A, i, B, j):
     out = A[i, 0] * B[j, 0]
     for c in range(1, A.shape[1]):
@@ -701,7 +715,7 @@ def _dot_rows(A, i, B, j):
     return out
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT_NO_NRT)
 def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
     """Step tangent of the form ``ks e e + ks_perp (I - e e)``, ``dT/d alpha = ktn e``."""
     dim = e.shape[1]
@@ -711,7 +725,7 @@ def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
             tdel[i, c, c2] = (ks - ksp) * e[i, c] * e[i, c2] + (ksp if c == c2 else 0.0)
 
 
-@njit(inline="always", **_JIT)
+@njit(**_JIT_NO_NRT)
 def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
     """Step derivatives through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]``.
 
@@ -735,7 +749,7 @@ def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
             tdel[i, c, c2] = g * (tdel[i, c, c2] - T[i, c] * inv * tc)
 
 
-@njit(**_JIT)
+@njit(**_JIT_NO_NRT)
 def rows(lo, hi, kc, state, inc, out, scratch):
     """Advance contacts ``lo <= i < hi`` by one increment (the per-contact law).
 
@@ -901,7 +915,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         elastic = False
         if mu > 0.0:
             tau, s, k, d_diss, elastic, flag, dPn, kpush = _md_axis(
-                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt01, d_par, rising, falling, kc)
+                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt00, kt01, d_par, rising, falling, kc)
             if flag != 0:
                 flags[i] = flag
                 continue

@@ -32,6 +32,7 @@ iterations.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit, prange
@@ -50,6 +51,9 @@ __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_webe
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 _CH = 128  # contacts per chunk (work item of the prange)
+# functions that allocate nothing: compiled without numba's reference counting (atomic
+# increments of the arrays they are passed, per contact)
+_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False}
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
 
 #: failure causes reported by the compiled loop (``info[1]``)
@@ -59,7 +63,7 @@ FAIL_NO_CONVERGENCE = 3  # max_iter iterations, no iterate within rtol_accept
 FAIL_LAW = 4             # the law could not advance a contact (index in info[3], flag in info[4])
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _pick(q, u0, u1, u2, u3, u4, u5):
     """The ``q``-th of six scalars (a register-held 6-vector)."""
     if q == 0:
@@ -75,7 +79,7 @@ def _pick(q, u0, u1, u2, u3, u4, u5):
     return u5
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _b(q, i, lx, ly, lz):
     """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``.
 
@@ -92,7 +96,7 @@ def _b(q, i, lx, ly, lz):
     return 0.5 * ly if i == 0 else (0.5 * lx if i == 1 else 0.0)
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(**_NO_NRT)
 def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
     """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
 
@@ -130,20 +134,30 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
 
 @njit(cache=True, error_model="numpy")
 def _copy_state(src, src_resp, dst, dst_resp):
-    """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows."""
-    dst.approach[:] = src.approach
-    dst.normal_force[:] = src.normal_force
-    dst.tangential_force[:] = src.tangential_force
-    dst.axis[:] = src.axis
-    dst.direction[:] = src.direction
-    dst.depth[:] = src.depth
-    dst.reversals[:] = src.reversals
-    dst.dissipated_energy[:] = src.dissipated_energy
-    for f in range(len(src_resp)):
-        dst_resp[f][:] = src_resp[f]
+    """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows.
+
+    Element loops over C-contiguous arrays (a slice assignment compiles numba's
+    shape-checking machinery, seconds of the first run's compilation).
+    """
+    n = src.approach.shape[0]
+    dim = src.tangential_force.shape[1]
+    nrev = src.reversals.shape[1]
+    for i in range(n):
+        dst.approach[i] = src.approach[i]
+        dst.normal_force[i] = src.normal_force[i]
+        dst.direction[i] = src.direction[i]
+        dst.depth[i] = src.depth[i]
+        dst.dissipated_energy[i] = src.dissipated_energy[i]
+        for c in range(dim):
+            dst.tangential_force[i, c] = src.tangential_force[i, c]
+            dst.axis[i, c] = src.axis[i, c]
+        for c in range(nrev):
+            dst.reversals[i, c] = src.reversals[i, c]
+        for f in range(len(src_resp)):
+            dst_resp[f][i] = src_resp[f][i]
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
     """One contact's step input from a strain increment.
 
@@ -166,7 +180,7 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
             hertz_radius(N1, E, R))
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
     """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T``.
 
@@ -177,6 +191,90 @@ def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
     fz = (N * nz + tz) * w
     return (fx * lx, fy * ly, fz * lz, 0.5 * (fy * lz + fz * ly), 0.5 * (fx * lz + fz * lx),
             0.5 * (fx * ly + fy * lx))
+
+
+@njit(cache=True, error_model="numpy")
+def _solve_small(A, b):
+    """Solve ``A x = b`` for a small dense (n, n) ``A`` (n <= 6); ``A`` and ``b`` are overwritten.
+
+    Gaussian elimination with partial pivoting (the algorithm of LAPACK's ``dgesv``),
+    written out because ``np.linalg.solve`` costs seconds of numba compilation on the
+    first run. Returns ``(x, ok)``; ``ok`` is False for an exactly zero pivot (LAPACK's
+    ``info > 0``, ``np.linalg.solve`` raises then).
+    """
+    n = A.shape[0]
+    for k in range(n):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > amax:
+                amax = abs(A[i, k])
+                p = i
+        if A[p, k] == 0.0:
+            return b, False
+        if p != k:
+            for j in range(n):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            b[k], b[p] = b[p], b[k]
+        for i in range(k + 1, n):
+            f = A[i, k] / A[k, k]
+            for j in range(k + 1, n):
+                A[i, j] -= f * A[k, j]
+            b[i] -= f * b[k]
+    for k in range(n - 1, -1, -1):
+        acc = b[k]
+        for j in range(k + 1, n):
+            acc -= A[k, j] * b[j]
+        b[k] = acc / A[k, k]
+    return b, True
+
+
+@njit(cache=True, error_model="numpy")
+def _cond2(J):
+    """2-norm condition number ``s_max / s_min`` of a small finite (n, n) matrix (n <= 6).
+
+    As ``np.linalg.cond(J)`` (``inf`` for a singular ``J``), with the singular values by
+    one-sided Jacobi rotations (Hestenes 1958; Demmel & Veselic 1992: high relative
+    accuracy, also for the smallest one), written out because numba's SVD costs a second
+    of compilation on the first run.
+    """
+    n = J.shape[0]
+    U = J.copy()
+    for _sweep in range(60):
+        rotated = False
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for i in range(n):
+                    alpha += U[i, p] * U[i, p]
+                    beta += U[i, q] * U[i, q]
+                    gamma += U[i, p] * U[i, q]
+                if gamma == 0.0 or abs(gamma) <= 1e-16 * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                c = 1.0 / math.sqrt(1.0 + t * t)
+                s = c * t
+                for i in range(n):
+                    up = U[i, p]
+                    uq = U[i, q]
+                    U[i, p] = c * up - s * uq
+                    U[i, q] = s * up + c * uq
+        if not rotated:
+            break
+    smax = 0.0
+    smin = math.inf
+    for j in range(n):
+        sj = 0.0
+        for i in range(n):
+            sj += U[i, j] * U[i, j]
+        sj = math.sqrt(sj)
+        smax = max(smax, sj)
+        smin = min(smin, sj)
+    return smax / smin if smin > 0.0 else math.inf
 
 
 @njit(cache=True, error_model="numpy")
@@ -202,7 +300,7 @@ def _reduce(part, sig, jac):
     return s_sl, s_op, s_di
 
 
-@njit(inline="always", cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
     """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`.
 
@@ -289,326 +387,350 @@ def _make(parallel: bool):
                 return bad_c[ch]
         return -1
 
-    evaluate = njit(parallel=parallel, cache=True, error_model="numpy")(_evaluate)
+    return njit(parallel=parallel, cache=True, error_model="numpy")(_evaluate)
 
-    def _commit(kc, normals, branch, weights, st, out, resp, Cout):
-        # accept the trial state: out -> st (dissipated energy accumulated), the response
-        # kept in ``resp``; returns the stored energy and writes the reported tangent
-        # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout
-        (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
-         glx, glw, sph, k8) = kc
-        n = normals.shape[0]
-        nrev = st.reversals.shape[1]
-        for q in range(36):
-            Cout[q] = 0.0
+
+@njit(cache=True, error_model="numpy")
+def _commit(kc, normals, branch, weights, st, out, resp, Cout):
+    # accept the trial state: out -> st (dissipated energy accumulated), the response
+    # kept in ``resp``; returns the stored energy and writes the reported tangent
+    # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout
+    (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
+     glx, glw, sph, k8) = kc
+    n = normals.shape[0]
+    nrev = st.reversals.shape[1]
+    for q in range(36):
+        Cout[q] = 0.0
+    wst = 0.0
+    for i in range(n):
+        st.approach[i] = out.approach[i]
+        st.normal_force[i] = out.normal_force[i]
+        for c in range(3):
+            st.tangential_force[i, c] = out.tangential_force[i, c]
+            st.axis[i, c] = out.axis[i, c]
+        st.direction[i] = out.direction[i]
+        st.depth[i] = out.depth[i]
+        for c in range(nrev):
+            st.reversals[i, c] = out.reversals[i, c]
+        st.dissipated_energy[i] += out.dissipation[i]
+        resp[0][i] = out.kn[i]
+        resp[1][i] = out.ks[i]
+        resp[2][i] = out.ks_perp[i]
+        resp[3][i] = out.ktn[i]
+        resp[4][i] = out.dissipation[i]
+        resp[5][i] = 1.0 if out.sliding[i] else 0.0
+        resp[6][i] = 1.0 if out.open[i] else 0.0
+        w = weights[i]
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
+        kn = out.kn[i] if out.kn[i] > 0.0 else 0.0
+        ks = out.ks[i] if out.ks[i] > 0.0 else 0.0
+        # u = B^T n, the tangent w B^T (ks I + (kn - ks) n n) B
+        u0 = nx * lx
+        u1 = ny * ly
+        u2 = nz * lz
+        u3 = 0.5 * (ny * lz + nz * ly)
+        u4 = 0.5 * (nx * lz + nz * lx)
+        u5 = 0.5 * (nx * ly + ny * lx)
+        cn = w * (kn - ks)
+        cs = w * ks
+        for q in range(6):
+            uq = _pick(q, u0, u1, u2, u3, u4, u5)
+            bq0 = _b(q, 0, lx, ly, lz)
+            bq1 = _b(q, 1, lx, ly, lz)
+            bq2 = _b(q, 2, lx, ly, lz)
+            for q2 in range(q, 6):
+                uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
+                btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
+                Cout[6 * q + q2] += cs * btb + cn * uq * uq2
+        wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
+                                      out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
+                                      ks_lin, R, Gs)
+    for q in range(6):
+        for q2 in range(q):
+            Cout[6 * q + q2] = Cout[6 * q2 + q]
+    return wst
+
+
+def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
+             rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
+             rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
+    # the step/Newton loop of a segment (compiled by _specialised, with _evaluate_pass the
+    # serial or the parallel evaluation pass)
+    # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
+    # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
+    # finfo = (condition or residual, tolerance, sliding, open)
+    m = incs.shape[0]
+    ns = 0
+    for q in range(6):
+        if sc[q]:
+            ns += 1
+    idx = np.empty(ns, dtype=np.int64)
+    jdx = np.empty(6 - ns, dtype=np.int64)
+    a = 0
+    b = 0
+    for q in range(6):
+        if sc[q]:
+            idx[a] = q
+            a += 1
+        else:
+            jdx[b] = q
+            b += 1
+    stress = stress0.copy()
+    strain = strain0.copy()
+    C = C0.copy()
+    t_stress = t_stress0  # advanced in place (the caller continues from them)
+    t_strain = t_strain0
+    Cflat = np.empty(36)
+    jac = np.zeros((6, 6))
+    sig = np.zeros(6)
+    hist = np.zeros(max_iter + 1)
+    best_de = np.zeros(6)
+    de = np.zeros(6)
+    # substep stack (depth first): strain increment, stress targets at start/end, depth
+    sk_d = np.zeros((max_depth + 2, 6))
+    sk_t0 = np.zeros((max_depth + 2, 6))
+    sk_t1 = np.zeros((max_depth + 2, 6))
+    sk_dep = np.zeros(max_depth + 2, dtype=np.int64)
+    n_loose = 0
+    for k in range(m):
+        new_ts = np.empty(6)
+        new_te = np.empty(6)
+        for q in range(6):
+            new_ts[q] = t_stress[q] + incs[k, q] if sc[q] else stress[q]
+            new_te[q] = strain[q] if sc[q] else t_strain[q] + incs[k, q]
+        nsk = 1
+        for q in range(6):
+            sk_d[0, q] = 0.0 if sc[q] else new_te[q] - strain[q]
+            sk_t0[0, q] = stress[q] if sc[q] else 0.0
+            sk_t1[0, q] = new_ts[q] if sc[q] else 0.0
+        sk_dep[0] = 0
+        n_sub = 0
+        n_it = 0
+        diss = 0.0
+        work = 0.0
+        wsl = 0.0
+        wop = 0.0
         wst = 0.0
-        for i in range(n):
-            st.approach[i] = out.approach[i]
-            st.normal_force[i] = out.normal_force[i]
-            for c in range(3):
-                st.tangential_force[i, c] = out.tangential_force[i, c]
-                st.axis[i, c] = out.axis[i, c]
-            st.direction[i] = out.direction[i]
-            st.depth[i] = out.depth[i]
-            for c in range(nrev):
-                st.reversals[i, c] = out.reversals[i, c]
-            st.dissipated_energy[i] += out.dissipation[i]
-            resp[0][i] = out.kn[i]
-            resp[1][i] = out.ks[i]
-            resp[2][i] = out.ks_perp[i]
-            resp[3][i] = out.ktn[i]
-            resp[4][i] = out.dissipation[i]
-            resp[5][i] = 1.0 if out.sliding[i] else 0.0
-            resp[6][i] = 1.0 if out.open[i] else 0.0
-            w = weights[i]
-            nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
-            lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
-            kn = out.kn[i] if out.kn[i] > 0.0 else 0.0
-            ks = out.ks[i] if out.ks[i] > 0.0 else 0.0
-            # u = B^T n, the tangent w B^T (ks I + (kn - ks) n n) B
-            u0 = nx * lx
-            u1 = ny * ly
-            u2 = nz * lz
-            u3 = 0.5 * (ny * lz + nz * ly)
-            u4 = 0.5 * (nx * lz + nz * lx)
-            u5 = 0.5 * (nx * ly + ny * lx)
-            cn = w * (kn - ks)
-            cs = w * ks
+        backed = False
+        while nsk > 0:
+            nsk -= 1
+            dep = sk_dep[nsk]
+            d_strain = sk_d[nsk].copy()
+            t0 = sk_t0[nsk].copy()
+            target = sk_t1[nsk].copy()
+            # ---- solver._solve: one (sub)step of Newton iterations
+            cause = 0
             for q in range(6):
-                uq = _pick(q, u0, u1, u2, u3, u4, u5)
-                bq0 = _b(q, 0, lx, ly, lz)
-                bq1 = _b(q, 1, lx, ly, lz)
-                bq2 = _b(q, 2, lx, ly, lz)
-                for q2 in range(q, 6):
-                    uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
-                    btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
-                    Cout[6 * q + q2] += cs * btb + cn * uq * uq2
-            wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
-                                          out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
-                                          ks_lin, R, Gs)
-        for q in range(6):
-            for q2 in range(q):
-                Cout[6 * q + q2] = Cout[6 * q2 + q]
-        return wst
-
-    commit = njit(cache=True, error_model="numpy")(_commit)
-
-    def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
-                 rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
-                 rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
-        # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
-        # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
-        # finfo = (condition or residual, tolerance, sliding, open)
-        m = incs.shape[0]
-        ns = 0
-        for q in range(6):
-            if sc[q]:
-                ns += 1
-        idx = np.empty(ns, dtype=np.int64)
-        jdx = np.empty(6 - ns, dtype=np.int64)
-        a = 0
-        b = 0
-        for q in range(6):
-            if sc[q]:
-                idx[a] = q
-                a += 1
-            else:
-                jdx[b] = q
-                b += 1
-        stress = stress0.copy()
-        strain = strain0.copy()
-        C = C0.copy()
-        t_stress = t_stress0  # advanced in place (the caller continues from them)
-        t_strain = t_strain0
-        Cflat = np.empty(36)
-        jac = np.zeros((6, 6))
-        sig = np.zeros(6)
-        hist = np.zeros(max_iter + 1)
-        best_de = np.zeros(6)
-        de = np.zeros(6)
-        # substep stack (depth first): strain increment, stress targets at start/end, depth
-        sk_d = np.zeros((max_depth + 2, 6))
-        sk_t0 = np.zeros((max_depth + 2, 6))
-        sk_t1 = np.zeros((max_depth + 2, 6))
-        sk_dep = np.zeros(max_depth + 2, dtype=np.int64)
-        n_loose = 0
-        for k in range(m):
-            new_ts = np.empty(6)
-            new_te = np.empty(6)
+                de[q] = 0.0 if sc[q] else d_strain[q]
+            scale = 0.0
             for q in range(6):
-                new_ts[q] = t_stress[q] + incs[k, q] if sc[q] else stress[q]
-                new_te[q] = strain[q] if sc[q] else t_strain[q] + incs[k, q]
-            nsk = 1
-            for q in range(6):
-                sk_d[0, q] = 0.0 if sc[q] else new_te[q] - strain[q]
-                sk_t0[0, q] = stress[q] if sc[q] else 0.0
-                sk_t1[0, q] = new_ts[q] if sc[q] else 0.0
-            sk_dep[0] = 0
-            n_sub = 0
-            n_it = 0
-            diss = 0.0
-            work = 0.0
-            wsl = 0.0
-            wop = 0.0
-            wst = 0.0
-            backed = False
-            while nsk > 0:
-                nsk -= 1
-                dep = sk_dep[nsk]
-                d_strain = sk_d[nsk].copy()
-                t0 = sk_t0[nsk].copy()
-                target = sk_t1[nsk].copy()
-                # ---- solver._solve: one (sub)step of Newton iterations
-                cause = 0
-                for q in range(6):
-                    de[q] = 0.0 if sc[q] else d_strain[q]
-                scale = 0.0
-                for q in range(6):
-                    scale = max(scale, abs(stress[q]))
-                ts = 0.0
-                for a in range(ns):
-                    ts = max(ts, abs(target[idx[a]]))
-                scale = max(scale, ts)
-                if scale == 0.0:
-                    cm = 0.0
-                    dm = 0.0
-                    for q in range(36):
-                        cm = max(cm, abs(C[q // 6, q % 6]))
-                    for q in range(6):
-                        dm = max(dm, abs(de[q]))
-                    scale = cm * dm
-                    if scale == 0.0:
-                        scale = 1.0
-                tol = rtol * scale
-                loose = rtol_accept * scale
-                if ns > 0:
-                    A = np.empty((ns, ns))
-                    rhs = np.empty(ns)
-                    for a in range(ns):
-                        acc = target[idx[a]] - stress[idx[a]]
-                        for b in range(6 - ns):
-                            acc -= C[idx[a], jdx[b]] * de[jdx[b]]
-                        rhs[a] = acc
-                        for b in range(ns):
-                            A[a, b] = C[idx[a], idx[b]]
-                    ok = True
-                    try:
-                        x = np.linalg.solve(A, rhs)
-                    except Exception:  # singular predictor: start from zero
-                        ok = False
-                        x = np.zeros(ns)
-                    for a in range(ns):
-                        de[idx[a]] = x[a] if ok else 0.0
-                    fin = True
-                    for q in range(6):
-                        if not math.isfinite(de[q]):
-                            fin = False
-                    if not fin:
-                        for a in range(ns):
-                            de[idx[a]] = 0.0
-                have_best = False
-                best_r = 0.0
-                nh = 0
-                it_done = 0
-                loose_acc = False
-                rmax = 0.0
-                for it in range(1, max_iter + 1):
-                    bad = evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
-                    if bad >= 0:
-                        cause = FAIL_LAW
-                        info[3] = bad
-                        info[4] = scratch.flags[bad]
-                        break
-                    s_sl, s_op, s_di = _reduce(part, sig, jac)
-                    rmax = 0.0
-                    for a in range(ns):
-                        rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
-                    if rmax <= loose:
-                        if rmax <= tol:
-                            it_done = it
-                            break
-                        if (not have_best) or rmax < best_r:
-                            have_best = True
-                            best_r = rmax
-                            best_de[:] = de
-                        if nh >= 2 and abs(rmax - hist[nh - 2]) <= 1e-6 * rmax:  # two-cycle at a tie
-                            it_done = it
-                            loose_acc = True
-                            break
-                    hist[nh] = rmax
-                    nh += 1
-                    J = np.empty((ns, ns))
-                    r = np.empty(ns)
-                    for a in range(ns):
-                        r[a] = sig[idx[a]] - target[idx[a]]
-                        for b in range(ns):
-                            J[a, b] = jac[idx[a], idx[b]]
-                    jfin = True
-                    for a in range(ns):
-                        for b in range(ns):
-                            if not math.isfinite(J[a, b]):
-                                jfin = False
-                    cond = np.linalg.cond(J) if jfin else np.nan
-                    if not math.isfinite(cond) or cond > 1e13:
-                        cause = FAIL_SINGULAR
-                        finfo[0] = cond
-                        break
-                    x = np.linalg.solve(J, r)
-                    fin = True
-                    for a in range(ns):
-                        de[idx[a]] = de[idx[a]] - x[a]
-                    for q in range(6):
-                        if not math.isfinite(de[q]):
-                            fin = False
-                    if not fin:
-                        cause = FAIL_NOT_FINITE
-                        break
-                if cause == 0 and it_done == 0:  # max_iter iterations
-                    if have_best:
-                        it_done = max_iter
-                        loose_acc = True
-                    else:
-                        cause = FAIL_NO_CONVERGENCE
-                        finfo[0] = rmax
-                        finfo[1] = tol
-                if cause == 0 and loose_acc and best_r < rmax:
-                    # the best iterate is not the last one: evaluate it again (same state)
-                    de[:] = best_de
-                    evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
-                    s_sl, s_op, s_di = _reduce(part, sig, jac)
-                if cause != 0:
-                    wtot = 0.0
-                    for i in range(weights.shape[0]):
-                        wtot += weights[i]
-                    finfo[2] = s_sl / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
-                    finfo[3] = s_op / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
-                    if dep >= max_depth:
-                        if backed:  # substeps of this step were committed: back to its start
-                            _copy_state(bk_st, bk_resp, st, resp)
-                        info[0] = k
-                        info[1] = cause
-                        info[2] = dep
-                        info[5] = n_loose
-                        return k
-                    if not backed and n_sub == 0:  # nothing committed in this step yet
-                        _copy_state(st, resp, bk_st, bk_resp)
-                        backed = True
-                    # ---- solver._subdivided: two halves, the first on top of the stack
-                    tm = 0.5 * (t0 + target)
-                    hd = 0.5 * d_strain
-                    sk_d[nsk] = hd
-                    sk_t0[nsk] = tm
-                    sk_t1[nsk] = target
-                    sk_dep[nsk] = dep + 1
-                    sk_d[nsk + 1] = hd
-                    sk_t0[nsk + 1] = t0
-                    sk_t1[nsk + 1] = tm
-                    sk_dep[nsk + 1] = dep + 1
-                    nsk += 2
-                    continue
-                # ---- accepted: commit the state, counters as solver._subdivided
-                new_strain = strain + de
-                wst = commit(kc, normals, branch, weights, st, out, resp, Cflat)
-                n_sub += 1
-                n_it += it_done
-                if loose_acc:
-                    n_loose += 1
-                diss += s_di
-                dw = 0.0
-                for q in range(6):
-                    dw += 0.5 * (stress[q] + sig[q]) * (new_strain[q] - strain[q])
-                work += dw
-                strain = new_strain
-                stress = sig.copy()
+                scale = max(scale, abs(stress[q]))
+            ts = 0.0
+            for a in range(ns):
+                ts = max(ts, abs(target[idx[a]]))
+            scale = max(scale, ts)
+            if scale == 0.0:
+                cm = 0.0
+                dm = 0.0
                 for q in range(36):
-                    C[q // 6, q % 6] = Cflat[q]
-                wsl = s_sl
-                wop = s_op
-            # ---- record the step
+                    cm = max(cm, abs(C[q // 6, q % 6]))
+                for q in range(6):
+                    dm = max(dm, abs(de[q]))
+                scale = cm * dm
+                if scale == 0.0:
+                    scale = 1.0
+            tol = rtol * scale
+            loose = rtol_accept * scale
+            if ns > 0:
+                A = np.empty((ns, ns))
+                rhs = np.empty(ns)
+                for a in range(ns):
+                    acc = target[idx[a]] - stress[idx[a]]
+                    for b in range(6 - ns):
+                        acc -= C[idx[a], jdx[b]] * de[jdx[b]]
+                    rhs[a] = acc
+                    for b in range(ns):
+                        A[a, b] = C[idx[a], idx[b]]
+                x, ok = _solve_small(A, rhs)  # singular predictor: start from zero
+                for a in range(ns):
+                    de[idx[a]] = x[a] if ok else 0.0
+                fin = True
+                for q in range(6):
+                    if not math.isfinite(de[q]):
+                        fin = False
+                if not fin:
+                    for a in range(ns):
+                        de[idx[a]] = 0.0
+            have_best = False
+            best_r = 0.0
+            nh = 0
+            it_done = 0
+            loose_acc = False
+            rmax = 0.0
+            for it in range(1, max_iter + 1):
+                bad = _evaluate_pass(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                if bad >= 0:
+                    cause = FAIL_LAW
+                    info[3] = bad
+                    info[4] = scratch.flags[bad]
+                    break
+                s_sl, s_op, s_di = _reduce(part, sig, jac)
+                rmax = 0.0
+                for a in range(ns):
+                    rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
+                if rmax <= loose:
+                    if rmax <= tol:
+                        it_done = it
+                        break
+                    if (not have_best) or rmax < best_r:
+                        have_best = True
+                        best_r = rmax
+                        for q in range(6):
+                            best_de[q] = de[q]
+                    if nh >= 2 and abs(rmax - hist[nh - 2]) <= 1e-6 * rmax:  # two-cycle at a tie
+                        it_done = it
+                        loose_acc = True
+                        break
+                hist[nh] = rmax
+                nh += 1
+                J = np.empty((ns, ns))
+                r = np.empty(ns)
+                for a in range(ns):
+                    r[a] = sig[idx[a]] - target[idx[a]]
+                    for b in range(ns):
+                        J[a, b] = jac[idx[a], idx[b]]
+                jfin = True
+                for a in range(ns):
+                    for b in range(ns):
+                        if not math.isfinite(J[a, b]):
+                            jfin = False
+                cond = _cond2(J) if jfin else np.nan
+                if not math.isfinite(cond) or cond > 1e13:
+                    cause = FAIL_SINGULAR
+                    finfo[0] = cond
+                    break
+                x, _ = _solve_small(J, r)  # not singular (condition checked)
+                fin = True
+                for a in range(ns):
+                    de[idx[a]] = de[idx[a]] - x[a]
+                for q in range(6):
+                    if not math.isfinite(de[q]):
+                        fin = False
+                if not fin:
+                    cause = FAIL_NOT_FINITE
+                    break
+            if cause == 0 and it_done == 0:  # max_iter iterations
+                if have_best:
+                    it_done = max_iter
+                    loose_acc = True
+                else:
+                    cause = FAIL_NO_CONVERGENCE
+                    finfo[0] = rmax
+                    finfo[1] = tol
+            if cause == 0 and loose_acc and best_r < rmax:
+                # the best iterate is not the last one: evaluate it again (same state)
+                for q in range(6):
+                    de[q] = best_de[q]
+                _evaluate_pass(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                s_sl, s_op, s_di = _reduce(part, sig, jac)
+            if cause != 0:
+                wtot = 0.0
+                for i in range(weights.shape[0]):
+                    wtot += weights[i]
+                finfo[2] = s_sl / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
+                finfo[3] = s_op / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
+                if dep >= max_depth:
+                    if backed:  # substeps of this step were committed: back to its start
+                        _copy_state(bk_st, bk_resp, st, resp)
+                    info[0] = k
+                    info[1] = cause
+                    info[2] = dep
+                    info[5] = n_loose
+                    return k
+                if not backed and n_sub == 0:  # nothing committed in this step yet
+                    _copy_state(st, resp, bk_st, bk_resp)
+                    backed = True
+                # ---- solver._subdivided: two halves, the first on top of the stack
+                for q in range(6):
+                    tm = 0.5 * (t0[q] + target[q])
+                    hd = 0.5 * d_strain[q]
+                    sk_d[nsk, q] = hd
+                    sk_t0[nsk, q] = tm
+                    sk_t1[nsk, q] = target[q]
+                    sk_d[nsk + 1, q] = hd
+                    sk_t0[nsk + 1, q] = t0[q]
+                    sk_t1[nsk + 1, q] = tm
+                sk_dep[nsk] = dep + 1
+                sk_dep[nsk + 1] = dep + 1
+                nsk += 2
+                continue
+            # ---- accepted: commit the state, counters as solver._subdivided
+            new_strain = strain + de
+            wst = _commit(kc, normals, branch, weights, st, out, resp, Cflat)
+            n_sub += 1
+            n_it += it_done
+            if loose_acc:
+                n_loose += 1
+            diss += s_di
+            dw = 0.0
             for q in range(6):
-                t_stress[q] = new_ts[q] if sc[q] else stress[q]
-                t_strain[q] = strain[q] if sc[q] else new_te[q]
-                rec_strain[k, q] = strain[q]
-                rec_stress[k, q] = stress[q]
+                dw += 0.5 * (stress[q] + sig[q]) * (new_strain[q] - strain[q])
+            work += dw
+            strain = new_strain
+            stress = sig.copy()
             for q in range(36):
-                rec_tan[k, q // 6, q % 6] = C[q // 6, q % 6]
-            rec_scal[k, 0] = wsl
-            rec_scal[k, 1] = wop
-            rec_scal[k, 2] = diss
-            rec_scal[k, 3] = work
-            rec_scal[k, 4] = wst
-            rec_int[k, 0] = n_sub
-            rec_int[k, 1] = n_it
-        info[0] = m
-        info[1] = 0
-        info[5] = n_loose
-        return m
+                C[q // 6, q % 6] = Cflat[q]
+            wsl = s_sl
+            wop = s_op
+        # ---- record the step
+        for q in range(6):
+            t_stress[q] = new_ts[q] if sc[q] else stress[q]
+            t_strain[q] = strain[q] if sc[q] else new_te[q]
+            rec_strain[k, q] = strain[q]
+            rec_stress[k, q] = stress[q]
+        for q in range(36):
+            rec_tan[k, q // 6, q % 6] = C[q // 6, q % 6]
+        rec_scal[k, 0] = wsl
+        rec_scal[k, 1] = wop
+        rec_scal[k, 2] = diss
+        rec_scal[k, 3] = work
+        rec_scal[k, 4] = wst
+        rec_int[k, 0] = n_sub
+        rec_int[k, 1] = n_it
+    info[0] = m
+    info[1] = 0
+    info[5] = n_loose
+    return m
 
-    return njit(cache=True, error_model="numpy")(_segment), evaluate
+
+_evaluate_serial = _make(False)
+_evaluate_parallel = _make(True)
+_evaluate_pass = _evaluate_serial  # the pass _segment calls (replaced in each compiled copy)
 
 
-_segment_serial, _evaluate_serial = _make(False)
-_segment_parallel, _evaluate_parallel = _make(True)
+def _specialised(fn, name: str, **names):
+    """``fn`` compiled with the module globals ``names`` replaced, under its own name.
+
+    The serial and the parallel segment loop differ only in the evaluation pass they
+    call. The pass is a global of the copy, not a closure variable: numba keys its
+    on-disk cache on the closure's contents, and a dispatcher pickles with a new id in
+    every process, so a closure over one would be compiled again by every run. The own
+    qualified name gives each copy its own cache file.
+    """
+    import types
+
+    g = dict(fn.__globals__)
+    g.update(names)
+    f = types.FunctionType(fn.__code__, g, name, fn.__defaults__, fn.__closure__)
+    f.__qualname__ = name
+    f.__module__ = fn.__module__
+    f.__doc__ = fn.__doc__
+    return njit(cache=True, error_model="numpy")(f)
+
+
+_segment_serial = _specialised(_segment, "_segment_serial", _evaluate_pass=_evaluate_serial)
+_segment_parallel = _specialised(_segment, "_segment_parallel", _evaluate_pass=_evaluate_parallel)
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,
