@@ -249,7 +249,9 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         if dbg:
             dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
                 f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
-            dbg(_grain_report(kin, rq, tolq, resp))
+            dbg(_grain_report(kin, rq, tolq, resp)
+                + f"; stress ambiguity {_stress_ambiguity(kin, rq, Rg) / (sref * V):.2g}"
+                + (f", stress residual {float(np.max(np.abs(re))) / (sref * V):.2g}" if ms else ""))
         if converged(rq, re):
             return done(cur, it)
         if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
