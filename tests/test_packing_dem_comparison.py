@@ -10,15 +10,20 @@ cycle of sixteen increments. The packing driver runs the same strain path with
 ``HertzMindlin`` (the same contact model) on the same network.
 
 Tolerances are those of the packing-driver specification: secant G within 5 %, damping
-ratio within 0.01 (absolute). Only γ = 1e-5 is run: at 1e-4 the driver does not yet get
-through the first strain reversal on this packing (step 7 of 20 fails; measured and
-explained in ``docs/packing-driver.md``), and a test that fails by design after several
-minutes would only slow the suite down.
+ratio within 0.01 (absolute). Seen (``docs/packing-driver.md``): γ = 1e-5, G 195.84 vs
+195.77 MPa, D 0.104 % vs 0.069 %; γ = 1e-4, G 180.01 vs 179.83 MPa, D 2.77 % vs 2.54 %.
+At 1e-4 about a third of the steps need committed relaxation (the grains relax along a
+recorded path, as in the DEM run), and one grain's out-of-balance force may stay at a
+few per cent of the mean contact force where its imbalance no longer changes the stress.
+The 1e-4 case takes about 6 minutes (374 s seen on 2 cores) and runs only with
+``GRAINMECH_LONG_TESTS=1``; the figure ``docs/packing-dem-comparison.png``
+(``benchmarks/plot_dem_comparison.py``) shows both loops against LAMMPS'.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -47,10 +52,18 @@ def point(reference: dict) -> PackingPoint:
     return PackingPoint.from_network(net, law, options=PackingOptions(law_backend="auto", tangent="none"))
 
 
-def test_cyclic_simple_shear_matches_lammps_at_1e_5(point: PackingPoint, reference: dict) -> None:
-    k = 0
+#: the 1e-4 run takes about 6 minutes on 2 cores (20 steps, a third of them by committed
+#: relaxation): too long for the default suite, which has to stay well inside 15 minutes.
+#: ``GRAINMECH_LONG_TESTS=1 python -m pytest tests/test_packing_dem_comparison.py`` runs it.
+LONG = os.environ.get("GRAINMECH_LONG_TESTS", "") not in ("", "0")
+
+
+@pytest.mark.parametrize("k", [0, pytest.param(1, marks=[pytest.mark.slow, pytest.mark.skipif(
+    not LONG, reason="gamma = 1e-4 against LAMMPS takes ~6 min: set GRAINMECH_LONG_TESTS=1")])],
+    ids=["gamma=1e-5", "gamma=1e-4"])
+def test_cyclic_simple_shear_matches_lammps(point: PackingPoint, reference: dict, k: int) -> None:
     amp = reference["amplitudes"][k]
-    assert amp == 1e-5
+    assert amp == [1e-5, 1e-4][k]
     ref = reference["runs"]["reference"]
     assert ref["settings"]["constant"] == "volume" and ref["settings"]["points_per_cycle"] == 16
     e = np.zeros(6)
@@ -62,5 +75,6 @@ def test_cyclic_simple_shear_matches_lammps_at_1e_5(point: PackingPoint, referen
     g_ref, d_ref = ref["G_Pa"][k], ref["damping"][k]
     assert lp.secant_modulus == pytest.approx(g_ref, rel=0.05)
     assert abs(lp.damping - d_ref) <= 0.01
-    # every step ends in equilibrium or within the accepted stress tolerance
-    assert np.all(res.residual[1:] < 1e-2)
+    # every step ends in equilibrium or within the accepted stress tolerance (the residual
+    # is the largest grain's out-of-balance force over the mean contact force)
+    assert np.all(res.residual[1:] < [1e-2, 0.1][k])
