@@ -274,3 +274,26 @@ steps_per_cycle = 16
     assert r.rc == 0, r.err
     assert "affine model (completed)" in r.err and "packing model (completed)" in r.err
     assert (tmp_path / "out" / "packing_modulus_reduction.csv").exists()
+
+
+def test_packing_step_reporter_throttles_and_restarts_per_run():
+    """The progress line of a long packing run: at most one per interval, never after the
+    last step, and the seconds counted from the start of the current run (amplitude)."""
+    from grainmech.jobs import _step_reporter
+
+    clock = iter([0.0, 1.0, 5.0, 21.0, 30.0, 45.0, 50.0, 80.0])
+    said: list[str] = []
+    import grainmech.jobs as jobs
+
+    real = jobs.time.perf_counter
+    jobs.time.perf_counter = lambda: next(clock)
+    try:
+        rep = _step_reporter(said.append, "[packing]", every=20.0)  # created at t = 0
+        for k, n in ((1, 4), (2, 4), (3, 4), (4, 4)):  # steps end at 1, 5, 21, 30
+            rep(k, n)
+        for k, n in ((1, 3), (2, 3), (3, 3)):  # second run, from t = 30: steps end at 45, 50, 80
+            rep(k, n)
+    finally:
+        jobs.time.perf_counter = real
+    # 21 s after the start; then 20 s after the second run began (t = 30); the last step is silent
+    assert said == ["[packing]   step 3/4, 21 s", "[packing]   step 2/3, 20 s"]

@@ -618,6 +618,7 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
                    message=f"preparing the packing failed: {exc}", seconds=time.perf_counter() - t0,
                    point=None, method="packing",
                    details={"packing": src.label, "void_ratio": src.void_ratio})
+    on_step = _step_reporter(say, "[packing]")
     details = {"packing": src.label, "grains": int(pt.n_grains), "rattlers": int(pt.n_rattlers),
                "contacts_tracked": int(pt.n_contacts), "contacts_closed": int(np.sum(pt.initially_closed)),
                "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),
@@ -632,16 +633,42 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         t1 = time.perf_counter()
         mr = packing_modulus_reduction(pt, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                        waveform=spec.waveform, constant=spec.constant, progress=each,
-                                       raise_on_failure=False, options=opts)
+                                       raise_on_failure=False, options=opts, on_step=on_step)
         details["max_residual"] = _max_residual(mr.results)
         return _cyclic_outcome(spec, "packing", mr, time.perf_counter() - t1, pt, src.void_ratio, details)
     say(f"[packing] path: {len(spec.path)} steps, {pt.n_grains} grains")
     t1 = time.perf_counter()
-    r = run_packing(pt, spec.path, opts)
+    r = run_packing(pt, spec.path, opts, on_step=on_step)
     details["max_residual"] = _max_residual([r])
     return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
                        message=r.message, seconds=time.perf_counter() - t1, point=pt,
                        envelope=envelope_check(r.stress), method="packing", details=details)
+
+
+#: seconds between two progress lines of a long packing run
+PACKING_PROGRESS_EVERY = 20.0
+
+
+def _step_reporter(say: Callable[[str], None], tag: str,
+                   every: float = PACKING_PROGRESS_EVERY) -> Callable[[int, int], None]:
+    """``on_step(k, n)`` that says ``"<tag>   step k/n, t s"`` at most once every ``every`` seconds.
+
+    The packing driver can take minutes per amplitude (committed relaxation at the strain
+    reversals); the line tells the user that it is working and how far it is.
+    """
+    start = time.perf_counter()
+    state = {"t0": start, "last": start, "end": start, "k": 0.0}
+
+    def on_step(k: int, n: int) -> None:
+        now = time.perf_counter()
+        if k <= state["k"]:  # a new run (next amplitude): it started when the last one ended
+            state["t0"] = state["last"] = state["end"]
+        state["k"], state["end"] = k, now
+        if now - state["last"] >= every and k < n:
+            state["last"] = now
+            say(f"{tag}   step {k}/{n}, {now - state['t0']:.0f} s")
+
+    return on_step
 
 
 def _max_residual(results: list) -> float:

@@ -638,8 +638,8 @@ class PackingResult(DriverResult):
     relaxation_loss: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None,
-                **kwargs: Any) -> PackingResult:
+def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None, *,
+                on_step: Callable[[int, int], None] | None = None, **kwargs: Any) -> PackingResult:
     """Drive a packing along a loading path (mixed strain/stress control).
 
     Same path semantics as :func:`grainmech.driver.run`: per step and component a control
@@ -654,6 +654,8 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
     point : PackingPoint
     path : LoadPath
     options : PackingOptions, optional
+    on_step : callable, optional
+        Called as ``on_step(k, n)`` after step ``k`` of ``n`` is done (progress reports).
     **kwargs : fields of :class:`PackingOptions` as a shortcut.
 
     Returns
@@ -665,10 +667,11 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
     opts = options or PackingOptions(law_backend=point.law_backend, factorization=point.factorization)
     if kwargs:
         opts = replace(opts, **kwargs)
-    return _run(point, path, opts)
+    return _run(point, path, opts, on_step=on_step)
 
 
-def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False) -> PackingResult:
+def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
+         on_step: Callable[[int, int], None] | None = None) -> PackingResult:
     """:func:`run_packing` with its options resolved (``energy``: potential-energy line search)."""
     if not isinstance(path, LoadPath):
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
@@ -762,6 +765,8 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         last = k == m - 1
         record(point, diss, work, loss, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
                opts.tangent == "every" or (opts.tangent == "ends" and last))
+        if on_step is not None:
+            on_step(k + 1, m)
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
         arr["tangent"][-1] = _relaxed_tangent(point, ctx.prec, opts.krylov_max)
@@ -784,7 +789,7 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
                               steps_per_cycle: int = 40, waveform: str = "triangle", constant: str = "stress",
                               progress: Callable[[int, float, Any], None] | None = None,
                               raise_on_failure: bool = True, options: PackingOptions | None = None,
-                              **kwargs: Any):
+                              on_step: Callable[[int, int], None] | None = None, **kwargs: Any):
     """G/Gmax and damping of a packing: strain-controlled cyclic simple shear per amplitude.
 
     As :func:`grainmech.analysis.modulus_reduction` (each amplitude starts from ``point``;
@@ -823,7 +828,7 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
         path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
         if progress is not None:
             progress(i, float(a), path)
-        r = run_packing(point, path, options, **{"tangent": "start", **kwargs})
+        r = run_packing(point, path, options, on_step=on_step, **{"tangent": "start", **kwargs})
         res.append(r)
         if not r.success:
             message = f"amplitude {a:g}: {r.message}"
