@@ -30,7 +30,9 @@ class RelaxedResult:
         strain column; zero rows for rattlers.
     n_particles, n_contacts, n_rattlers : int
     solver : str
-        ``"direct"`` (SuperLU) or ``"cg"`` (block-Jacobi preconditioned CG).
+        The method that produced the tensor (``"pardiso"``, ``"cholesky"``, ``"superlu"``,
+        ``"amg"`` or ``"cg"``); with ``solver="auto"`` ``"cg"`` also when a factorisation
+        did not reach its residual target and block CG was run instead.
     iterations : int
     residual : float
         ``max_k |H q_k + B_k| / max(|B_k|, 1e-6 |B_k|_gross)`` where the gross norm is
@@ -223,6 +225,12 @@ AUTO_CG_MAXITER = 600
 #: CG residual lies in the stiff ones), so ``tol`` alone does not bound the tensor's error
 DIRECT_REFINE_TOL = 1e-10
 
+#: Most CG steps preconditioned by the factorisation that refine a direct solve: each
+#: removes about one near-floppy mode left by the regularising shift (four on the
+#: 1e4-grain random network of ``docs/performance.md``); more means the factor is a poor
+#: preconditioner and ``auto`` goes to block CG instead
+DIRECT_REFINE_STEPS = 50
+
 
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
                       remove_rattlers: bool = True, min_contacts: int | None = None,
@@ -360,14 +368,13 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
             name = "cg"
         else:
             q = None
-    if name == "cg" and q is None:
-        q, iters, _ = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, maxiter, None)
-    elif name != "cg":
+    direct_left: tuple[str, int, float, float] | None = None  # a factorisation short of its target
+    if name != "cg" and q is None:
         # pin the translation of particle 0 (global translation mode); the other zero modes
         # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
         # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
         # of the translational one, times the squared mean lever arm for rotations), then
-        # removed again by iterative refinement against H itself
+        # removed again by CG on H itself preconditioned by the factor (solve_spd)
         H = sys_.hessian()
         free = np.ones(ndof, dtype=bool)
         free[:d] = False
@@ -378,9 +385,20 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         ref = np.full(b, float(typemax[:d].max()) or 1.0)
         ref[d:] *= float(np.mean(np.r_[RA, RB]) ** 2)
         typemax = np.maximum(typemax, 1e-6 * ref)
+        target = min(tol, DIRECT_REFINE_TOL)
         q = np.zeros((ndof, m))
-        q[free], iters = _solvers.solve_spd(Hf, rhs[free], name, dof_type=kind, shift=1e-10 * typemax[kind],
-                                            tol=min(tol, DIRECT_REFINE_TOL), maxiter=maxiter)
+        q[free], iters, res_d = _solvers.solve_spd(Hf, rhs[free], name, dof_type=kind,
+                                                   shift=1e-10 * typemax[kind], tol=target, maxiter=maxiter,
+                                                   refine=DIRECT_REFINE_STEPS)
+        if name != "amg" and float(res_d.max()) > target:
+            # the residual of a shifted factorisation lies in the softest modes, where it
+            # weighs most in the tensor (7.8e-4 of it at a residual of 1.7e-8 on a 1e4-grain
+            # network, docs/performance.md): never keep it silently
+            direct_left = (name, iters, float(res_d.max()), target)
+            if solver == "auto":
+                q, name = None, "cg"  # block CG resolves these modes (in more iterations)
+    if name == "cg" and q is None:
+        q, iters, _ = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, maxiter, None)
     assert q is not None
     Hq = _apply_hessian(sys_, q, n, knc, ksc, rA, rB)
     R = Hq - rhs
@@ -401,6 +419,13 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     if return_displacements:
         disp = np.zeros((net.n_particles, b, m))
         disp[alive_idx] = np.asarray(q).reshape(P, b, m)
+    if direct_left is not None and solver != "auto":
+        dname, dits, dres, dtarget = direct_left
+        raise GrainmechError(
+            f"relaxed stiffness: solver {dname!r}: the factorisation, refined by {dits - 1} steps of "
+            f"CG preconditioned by it, left a relative residual {dres:.3g} above {dtarget:.3g} "
+            "(ill-conditioned network with near-floppy modes, where the residual weighs most in "
+            "the tensor); try solver='cg' or 'auto'")
     if residual > max(tol * 100, 1e-6):
         what = (f"CG did not converge in {iters} iterations" if name in ("cg", "amg") else
                 "the factorisation is not accurate (ill-conditioned network)")
