@@ -66,6 +66,31 @@ def test_small_strain_secant_equals_relaxed_c55(packing, point):
     assert r.residual.max() < 1e-6
 
 
+@pytest.mark.parametrize("backend", ["pardiso", "cholespy", "superlu"])
+def test_factorisations_agree(packing, point, backend):
+    """Every factorisation of the elastic operator solves it to round-off (checked by the
+    residual of the assembled operator, independent of the factor) and gives the same
+    relaxed tangent as ``relaxed_stiffness`` (the check above)."""
+    import importlib.util
+
+    if backend != "superlu" and importlib.util.find_spec({"pardiso": "pypardiso"}.get(backend, backend)) is None:
+        pytest.skip(f"{backend} not installed")
+    pt = PackingPoint.from_network(packing, MD, options=PackingOptions(factorization=backend))
+    prec = pt.preconditioner()
+    assert prec.factor.name == backend
+    b = np.random.default_rng(3).standard_normal(pt.kinematics.n_free)
+    x = prec.factor.solve(b)
+    np.testing.assert_allclose(prec.factor.solve(b), x, rtol=1e-12, atol=0)  # the factor is kept
+    K0 = pt.contact_stiffness()[1]
+    from grainmech.driver._packing_ops import block_diagonal
+
+    kin = pt.kinematics
+    H = (kin.Gt @ (block_diagonal(K0) @ kin.G)).tocsr()
+    # the factor is of H + 1e-10 diag(H): the residual against H is of that order
+    assert np.linalg.norm(H @ x - b) <= 1e-8 * np.linalg.norm(b)
+    assert pt.tangent[4, 4] == pytest.approx(point.tangent[4, 4], rel=1e-8)
+
+
 @pytest.mark.parametrize("ks_ratio", [0.0, 0.5])
 def test_linear_springs_follow_relaxed_tensor(packing, ks_ratio):
     """(b) linear springs, no Coulomb limit: stress change = relaxed C . strain at every amplitude."""
