@@ -199,11 +199,12 @@ class _Factor:
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
         ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        ps.factorize(Au)
         # no iterative refinement in the solve phase (iparm(8), 1-based): the elastic
         # operator is regularised and well scaled, a solve is accurate to ~1e-14 without
-        # it, and two refinement steps cost 2.5x the solve
+        # it, and the two default steps cost 2.5x the solve. Set after the factorisation:
+        # with iparm(1) = 0 on the first call PARDISO fills in its defaults, overwriting it.
         ps.set_iparm(8, 0)
-        ps.factorize(Au)
         self._Au, self._ps, self.name = Au, ps, "pardiso"
         # the solve phase directly: pypardiso's solve() compares the matrix with the
         # factorised one entry by entry at every call (a third of a solve here)
