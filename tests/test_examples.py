@@ -76,3 +76,21 @@ def test_readme_python_example_runs():
     assert C[0, 0] == pytest.approx(C[0, 1] + 2 * C[3, 3], rel=1e-10)
     assert mr.G_ratio[0] > 0.99 and np.all(np.diff(mr.G_ratio) < 0) and mr.G_ratio[-1] < 0.6
     assert np.all(np.diff(mr.damping) > 0)
+
+
+def test_both_models_example_is_valid():
+    """examples/both_models_affine_vs_packing.toml (both kinematic models on one page) takes
+    minutes, so it is not run here: it must read, with both models, the shipped 'dense'
+    packing, and an affine void ratio equal to the packing's (0.568, within 0.005)."""
+    import tomllib
+
+    from grainmech.jobs import prepare_run
+    from grainmech.packing import packing_info
+
+    path = EX / "both_models_affine_vs_packing.toml"
+    cfg = tomllib.loads(path.read_text())
+    spec = prepare_run(cfg, base_dir=EX)
+    assert spec.methods == ("affine", "packing")
+    assert spec.grains is not None and "dense" in spec.grains.label
+    assert abs(cfg["packing"]["void_ratio"] - packing_info("dense")["void_ratio"]) < 0.005
+    assert spec.kind == "cyclic-simple-shear" and list(spec.amplitudes) == [1e-6, 1e-5, 1e-4]
