@@ -176,6 +176,7 @@ class RunSpec:
     methods: tuple = ("affine",)
     grains: PackingSource | None = None
     packing_law: Any = None
+    gmax_grains: PackingSource | None = None
 
 
 @dataclass
@@ -215,6 +216,22 @@ def _read_methods(model: Any) -> tuple:
         raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them "
                           "(each at most once)")
     return tuple(items)
+
+
+class _GmaxKey:
+    """``[model]`` seen by :func:`_read_grains` with ``gmax_packing`` in place of ``packing``."""
+
+    def __init__(self, model: Any) -> None:
+        self._m = model
+
+    def has(self, k: str) -> bool:
+        return self._m.has("gmax_packing") if k == "packing" else False
+
+    def raw(self, k: str, default: Any = None) -> Any:
+        return self._m.raw("gmax_packing", default) if k == "packing" else default
+
+    def key(self, k: str) -> str:
+        return self._m.key("gmax_packing" if k == "packing" else k)
 
 
 def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
@@ -318,6 +335,13 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     model = root.section("model", {})
     methods = _read_methods(model)
     grains = _read_grains(model, base_dir) if "packing" in methods else None
+    gmax_grains = None
+    if model.has("gmax_packing"):
+        if "packing" in methods:
+            raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
+                              "is for method = 'affine' alone (the small-strain Gmax of a packing beside the "
+                              "affine model's); with method 'packing' the packing model reports its own Gmax")
+        gmax_grains = _read_grains(_GmaxKey(model), base_dir)
     for k in ("packing", "network", "particles", "format"):
         if grains is None and model.has(k):
             raise ConfigError(model.key(k), model.raw(k), "names the packing of method = 'packing', "
@@ -342,6 +366,12 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             raise ConfigError("model.method", list(methods), "the packing model needs model.packing or model.network")
         law = build_law(root.section("contacts"), float(np.median(grains.network.require_radii("the packing model"))))
     packing_law = None
+    if gmax_grains is not None:
+        from grainmech.contact import Hertz, LinearSpring
+
+        if not isinstance(law, (Hertz, LinearSpring)):
+            raise ConfigError("contacts.law", type(law).__name__, "model.gmax_packing needs a law for spheres "
+                              "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
     if grains is not None:
         from grainmech.contact import Hertz, LinearSpring
 
@@ -365,7 +395,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     kind = test.choice("kind", RUN_TEST_KINDS)
     ref = root.section("reference", {})
     spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
-                   methods=methods, grains=grains, packing_law=packing_law)
+                   methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains)
     pk = cfg.get("packing", {})
     if isinstance(pk, dict) and "void_ratio" in pk:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
@@ -563,13 +593,74 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                waveform=spec.waveform, constant=spec.constant, progress=each,
                                raise_on_failure=False)
-        return _cyclic_outcome(spec, "affine", mr, time.perf_counter() - t0, point, spec.void_ratio)
+        seconds = time.perf_counter() - t0
+        details = {"packing_gmax": packing_gmax(spec, say)} if spec.gmax_grains is not None else None
+        return _cyclic_outcome(spec, "affine", mr, seconds, point, spec.void_ratio, details)
     say(f"[affine] path: {len(spec.path)} steps, {len(point.contacts)} directions")
     t0 = time.perf_counter()
     r = run(point, spec.path, engineering=True)
     return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
                        message=r.message, seconds=time.perf_counter() - t0, point=point,
                        warnings=list(spec.warnings), envelope=envelope_check(r.stress), method="affine")
+
+
+def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:
+    """Small-strain shear modulus of the packing ``spec.gmax_grains`` (``[model] gmax_packing``).
+
+    The packing driver's ``Gmax`` (:func:`grainmech.driver.packing.packing_modulus_reduction`):
+    ``C_55`` of :attr:`PackingPoint.elastic_tangent` (every grain in force and moment
+    equilibrium, every closed contact at its no-slip stiffness, Mindlin & Deresiewicz
+    1953), condensed with the test's control (``sigma_zz`` free at constant stress), at
+    the run's mean stress, with the run's contact law; beside it Hardin & Richart's
+    empirical value at the packing's own void ratio (:func:`empirical_gmax_check`). Only
+    the small-strain modulus: no cyclic run of the packing (``method = "packing"`` does
+    that, in minutes rather than seconds).
+
+    Returns a JSON-ready dict: ``packing``, ``void_ratio``, ``grains``, ``G_max_Pa``,
+    ``empirical_G_max`` (or ``error`` when the packing cannot be prepared).
+    """
+    from grainmech.analysis import condensed_modulus
+    from grainmech.driver.packing import PackingOptions, PackingPoint
+
+    src = spec.gmax_grains
+    if src is None:
+        raise ValueError("spec.gmax_grains is None")
+    say(f"[packing Gmax] {src.label}: small-strain shear modulus with every grain in equilibrium")
+    out: dict[str, Any] = {"packing": src.label, "void_ratio": src.void_ratio}
+    opts = PackingOptions(law_backend="auto", tangent="none")
+    try:
+        pt = PackingPoint.from_network(src.network, spec.law, options=opts)
+        p0 = float(np.mean(pt.stress[:3]))
+        if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
+            pt = PackingPoint.at_stress(src.network, spec.law, spec.pressure, options=opts)
+        g = condensed_modulus(pt.elastic_tangent, 4, [bool(b) for b in cyclic_control(spec.constant)])
+    except GrainmechError as exc:
+        out["error"] = f"preparing the packing failed: {exc}"
+        return out
+    out.update(grains=int(pt.n_grains), G_max_Pa=float(g),
+               empirical_G_max=empirical_gmax_check(g, src.void_ratio, spec.pressure, "packing"))
+    return out
+
+
+def packing_gmax_line(pg: dict, g_affine: float) -> str:
+    """The report line of :func:`packing_gmax` beside the affine model's ``g_affine``."""
+    if "error" in pg:
+        return f"  packing Gmax ({pg['packing']}): not computed: {pg['error']}"
+    g = pg["G_max_Pa"]
+    line = (f"  packing Gmax ({pg['packing']}, {pg['grains']} grains in equilibrium, void ratio "
+            f"{pg['void_ratio']:.3f}, small strain only) = {g:.4g} Pa: the affine Gmax is {g_affine / g:.2f} x this")
+    emp = pg.get("empirical_G_max")
+    if emp:
+        line += (f"; Hardin-Richart (1963) at e = {pg['void_ratio']:.3f}: {emp['G_round_Pa']:.4g} Pa round, "
+                 f"{emp['G_angular_Pa']:.4g} Pa angular grains")
+    return line
+
+
+def cyclic_control(constant: str) -> np.ndarray:
+    """Stress-controlled components (bool (6,)) of cyclic simple shear at ``constant`` stress or volume."""
+    from grainmech.driver import cyclic_simple_shear
+
+    return np.asarray(cyclic_simple_shear(1e-6, 1, 8, constant=constant).stress_control[0], dtype=bool)
 
 
 def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: Any,

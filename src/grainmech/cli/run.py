@@ -40,7 +40,7 @@ def main(args: argparse.Namespace) -> int:
     from grainmech.io.config import load_toml
     from grainmech.io.outdir import output_folder
     from grainmech.io.reports import write_run_outputs
-    from grainmech.jobs import CyclicOutcome, RunComparison, compute_run
+    from grainmech.jobs import CyclicOutcome, RunComparison, compute_run, packing_gmax_line
 
     def say(msg: str) -> None:
         if not args.quiet:
@@ -80,6 +80,9 @@ def main(args: argparse.Namespace) -> int:
                 say(f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
                     f"{emp['G_angular_Pa']:.4g} Pa angular grains")
                 say(("  WARNING: " if emp["flag"] else "  ") + emp["note"])
+            pg = (det or {}).get("packing_gmax")
+            if pg:
+                say(packing_gmax_line(pg, o.G_max))
             for a, g, dd, c in zip(o.amplitudes, o.G_ratio, o.damping, o.mean_stress_change):
                 say(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
                     f"   change of p {100 * c:+6.1f} %")

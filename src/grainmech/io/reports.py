@@ -279,6 +279,14 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                          f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
                          f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
                          f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
+            pg = (det or {}).get("packing_gmax")
+            if pg:
+                from grainmech.jobs import packing_gmax_line
+
+                head += ("<p>" + html.escape(packing_gmax_line(pg, m["G_max_Pa"]).strip()) + ". The packing's "
+                         "Gmax is the small-strain shear modulus with every grain in force and moment "
+                         "equilibrium (packing driver, docs/packing-driver.md); the affine model makes every "
+                         "contact follow the mean strain, an upper bound.</p>")
             head += table
             sections.append(PageSection(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),
                                     d / f"{pre}loops.png",
