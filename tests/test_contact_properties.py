@@ -236,3 +236,22 @@ def test_initial_state_is_virgin_and_open_contacts_carry_nothing():
     assert s.reversals.shape == (4, 64)
     new, r = update(MD, s, np.full(4, -1e-6), np.ones((4, 3)) * 1e-6)
     assert np.all(r.open) and np.all(new.tangential_force == 0) and np.all(r.kn == 0)
+
+
+@pytest.mark.parametrize("backend", [None, "numpy"])
+@pytest.mark.parametrize("law", sorted(LAWS))
+def test_subnormal_approach_gives_a_finite_tangent(law, backend):
+    """A first step to a subnormal approach (2.2e-311 of the reference, found by the
+    property test above on the 'rod' law) overflowed ``kt0 / (2 alpha)`` in the step
+    derivative and returned ``t_alpha = NaN``; the force, stiffness and tangent must stay
+    finite (the contact is at touch: a force of order 1e-316)."""
+    import warnings
+
+    p = LAWS[law]
+    state = state_from_normal_force(p, [0.0], dim=1)
+    kw = {} if backend is None else {"backend": backend}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no overflow warning either
+        new, r = update(p, state, [2.225073858507e-311 * ALPHA_REF[law]], np.zeros((1, 1)), **kw)
+    assert _finite_state(new) and _finite_state(r)
+    assert 0.0 <= float(r.normal_force[0]) < 1e-300

@@ -161,10 +161,13 @@ def test_calibrate_error_writes_a_failed_summary(tmp_path, monkeypatch, capsys):
     assert s["success"] is False and s["command"] == "calibrate" and "NaN at start 3" in s["message"]
 
 
+# 64 points of several seconds each: the interrupt must land while points are left (with 8
+# points the compiled driver finished the whole sweep before the signal on a loaded
+# machine once, status 0)
 _SWEEP = """[sweep]
 kind = "run"
 design = "latin-hypercube"
-samples = 8
+samples = 64
 seed = 3
 [base.packing]
 void_ratio = 0.65

@@ -227,13 +227,17 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
     # derivatives of kbar and rho with respect to the approach a1 (Hertz: kt0 = kn / r,
     # ~ a1**(1/2), d kt0 / d a1 = kt0 / (2 a1); linear springs: 0)
     linear = law_forms(params).linear
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         dkt1 = np.where(linear | ~(a1 > 0), 0.0, kt0_1 / (2.0 * np.where(a1 > 0, a1, 1.0)))
         da = a1 - a0
         sec_ok = np.abs(da) > 1e-14 * np.maximum(np.abs(a0), np.abs(a1))
         dkbar_r = np.where(linear, 0.0, np.where(sec_ok, (kt0_1 - kbar) / np.where(sec_ok, da, 1.0), 0.5 * dkt1))
         dkbar = np.where(rising, dkbar_r, dkt1)
         drr = np.where(~rising & (kt0_0 > 0) & (kt0_1 < kt0_0), dkt1 / np.where(kt0_1 > 0, kt0_1, 1.0), 0.0)
+    # a subnormal approach (at touch) overflows kt0 / (2 a1): the derivative of a
+    # Hertz-type stiffness is singular there; its terms are dropped, not made NaN
+    dkbar = np.where(np.isfinite(dkbar), dkbar, 0.0)
+    drr = np.where(np.isfinite(drr), drr, 0.0)
 
     # ---- along the axis: the 1D Mindlin–Deresiewicz / Thornton–Randall law
     if mu > 0.0:

@@ -910,6 +910,12 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         else:
             dkbar = dkt1
             drr = dkt1 / kt01 if ((kt00 > 0.0) and (kt01 < kt00) and (kt01 > 0.0)) else 0.0  # (d rho / d a1) / rho
+        # a subnormal approach (at touch) overflows kt0 / (2 a1): the derivative of a
+        # Hertz-type stiffness is singular there; its terms are dropped, not made NaN
+        if not abs(dkbar) < np.inf:
+            dkbar = 0.0
+        if not abs(drr) < np.inf:
+            drr = 0.0
 
         # along the axis: the 1D Mindlin-Deresiewicz / Thornton-Randall law
         elastic = False
