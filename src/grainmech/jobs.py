@@ -627,7 +627,9 @@ def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:
         raise ValueError("spec.gmax_grains is None")
     say(f"[packing Gmax] {src.label}: small-strain shear modulus with every grain in equilibrium")
     out: dict[str, Any] = {"packing": src.label, "void_ratio": src.void_ratio}
-    opts = PackingOptions(law_backend="auto", tangent="none")
+    # the NumPy law: a few evaluations only, and no compilation of the packing driver's
+    # kernel variant in the first run
+    opts = PackingOptions(law_backend="numpy", tangent="none")
     try:
         pt = PackingPoint.from_network(src.network, spec.law, options=opts)
         p0 = float(np.mean(pt.stress[:3]))
