@@ -306,3 +306,17 @@ def test_committed_relaxation_agrees_with_newton(point):
     lr, lp = (loop_properties(x.strain[16:, 4], x.stress[16:, 4]) for x in (ref, r))
     assert lp.secant_modulus == pytest.approx(lr.secant_modulus, rel=1e-2)
     assert lp.damping == pytest.approx(lr.damping, rel=0.1, abs=1e-4)
+
+
+def test_elastic_tangent_from_the_factorisation_equals_gmres(packing):
+    """``elastic_tangent`` from the factorised elastic operator (``(A0 - B0^T H0^-1 B0)/V``,
+    no further solve) equals the GMRES condensation of the same operator to 1e-7, and the
+    packing's relaxed C55 from ``relaxed_stiffness`` (independent assembly) to 1e-6."""
+    from grainmech.driver.packing import _relaxed_tangent
+
+    pt = PackingPoint.from_network(packing, MD)
+    C = pt.elastic_tangent
+    Cg = _relaxed_tangent(pt, pt.preconditioner(), 60, elastic=True)
+    assert np.abs(C - Cg).max() <= 1e-7 * np.abs(Cg).max()
+    kn, ks, _ = contact_stiffnesses(packing, shear_modulus=G_GRAIN, poisson=NU, source="overlap")
+    assert C[4, 4] == pytest.approx(relaxed_stiffness(packing, kn, ks).C_relaxed[4, 4], rel=1e-6)
