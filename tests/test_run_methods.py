@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,6 +23,8 @@ from grainmech.driver.packing import equilibrate_network, perturbed_fcc_network
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.jobs import CyclicOutcome, PathOutcome, RunComparison, compute_run, prepare_run
 from grainmech.network import contact_stiffnesses, relaxed_stiffness
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 G_GRAIN, NU = 29e9, 0.15
 
@@ -340,3 +343,8 @@ def test_gmax_packing_is_for_the_affine_model_alone():
     cfg["model"] = {"gmax_packing": "no-such"}
     with pytest.raises(ConfigError, match=r"model\.gmax_packing"):
         prepare_run(cfg)
+    # beside G/Gmax curves only: a path test would silently leave it out
+    path_cfg = tomllib.loads((EXAMPLES / "run_triaxial_path.toml").read_text())
+    path_cfg.setdefault("model", {})["gmax_packing"] = "medium"
+    with pytest.raises(ConfigError, match=r"model\.gmax_packing.*not with test\.kind"):
+        prepare_run(path_cfg)

@@ -366,18 +366,14 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             raise ConfigError("model.method", list(methods), "the packing model needs model.packing or model.network")
         law = build_law(root.section("contacts"), float(np.median(grains.network.require_radii("the packing model"))))
     packing_law = None
-    if gmax_grains is not None:
+    if grains is not None or gmax_grains is not None:
         from grainmech.contact import Hertz, LinearSpring
 
         if not isinstance(law, (Hertz, LinearSpring)):
-            raise ConfigError("contacts.law", type(law).__name__, "model.gmax_packing needs a law for spheres "
+            who = "method = 'packing'" if grains is not None else "model.gmax_packing"
+            raise ConfigError("contacts.law", type(law).__name__, f"{who} needs a law for spheres "
                               "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
     if grains is not None:
-        from grainmech.contact import Hertz, LinearSpring
-
-        if not isinstance(law, (Hertz, LinearSpring)):
-            raise ConfigError("contacts.law", type(law).__name__, "method = 'packing' needs a law for spheres "
-                              "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
         # the packing driver evaluates every contact at its own radius R_A R_B / (R_A + R_B)
         # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
         # own radius is only a reference
@@ -393,6 +389,9 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
                              if density.order else " (the highest Lebedev rule)"))
     test = root.section("test")
     kind = test.choice("kind", RUN_TEST_KINDS)
+    if gmax_grains is not None and kind != "cyclic-simple-shear":
+        raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
+                          f"is reported beside the G/Gmax curves of a cyclic test, not with test.kind = {kind!r}")
     ref = root.section("reference", {})
     spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
                    methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains)
