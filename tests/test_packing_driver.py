@@ -320,3 +320,19 @@ def test_elastic_tangent_from_the_factorisation_equals_gmres(packing):
     assert np.abs(C - Cg).max() <= 1e-7 * np.abs(Cg).max()
     kn, ks, _ = contact_stiffnesses(packing, shear_modulus=G_GRAIN, poisson=NU, source="overlap")
     assert C[4, 4] == pytest.approx(relaxed_stiffness(packing, kn, ks).C_relaxed[4, 4], rel=1e-6)
+
+
+def test_named_factorisation_not_installed_says_how_to_install(monkeypatch):
+    """factorization = 'pardiso' (or 'cholespy') without the package: a GrainmechError naming
+    the option and the install command, not an ImportError from deep inside."""
+    import sys
+
+    import scipy.sparse as sp
+
+    from grainmech.driver._packing_ops import _Factor
+
+    for backend, module in (("pardiso", "pypardiso"), ("cholespy", "cholespy")):
+        monkeypatch.setitem(sys.modules, module, None)  # import raises ImportError
+        with pytest.raises(GrainmechError, match=rf"factorization = '{backend}' needs {module}.*grainmech\[sparse\]"):
+            _Factor(sp.eye(4).tocsr(), backend)
+    assert _Factor(sp.eye(4).tocsr(), "auto").name == "superlu"  # auto falls back

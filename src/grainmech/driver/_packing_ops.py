@@ -171,7 +171,8 @@ class _Factor:
                 return
             except ImportError:
                 if backend == "pardiso":
-                    raise
+                    raise GrainmechError("factorization = 'pardiso' needs pypardiso, which is not installed: "
+                                         "pip install \"grainmech[sparse]\" (or factorization = 'auto')") from None
             except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
                 if backend == "pardiso":
                     raise GrainmechError(f"PARDISO factorisation of the elastic operator failed ({exc})") from None
@@ -180,7 +181,8 @@ class _Factor:
                 import cholespy
             except ImportError:
                 if backend == "cholespy":
-                    raise
+                    raise GrainmechError("factorization = 'cholespy' needs cholespy, which is not installed: "
+                                         "pip install \"grainmech[sparse]\" (or factorization = 'auto')") from None
             else:
                 c = A.tocoo()
                 self._s = cholespy.CholeskySolverD(A.shape[0], c.row.astype(np.int32),
