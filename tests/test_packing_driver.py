@@ -318,7 +318,7 @@ def test_elastic_tangent_from_the_factorisation_equals_gmres(packing):
 
     pt = PackingPoint.from_network(packing, MD)
     C = pt.elastic_tangent
-    Cg = _relaxed_tangent(pt, pt.preconditioner(), 60, elastic=True)
+    Cg = _relaxed_tangent(pt, pt.preconditioner(), 60, elastic=True, direct=False)
     assert np.abs(C - Cg).max() <= 1e-7 * np.abs(Cg).max()
     kn, ks, _ = contact_stiffnesses(packing, shear_modulus=G_GRAIN, poisson=NU, source="overlap")
     assert C[4, 4] == pytest.approx(relaxed_stiffness(packing, kn, ks).C_relaxed[4, 4], rel=1e-6)

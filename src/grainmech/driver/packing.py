@@ -97,9 +97,9 @@ class PackingOptions:
     factorization : {"auto", "pardiso", "cholespy", "superlu"}
         Factorisation of the elastic operator: Intel MKL PARDISO (``pypardiso``, optional),
         sparse Cholesky (``cholespy``, optional) or SciPy's SuperLU; ``auto`` takes the
-        first installed in that order (PARDISO: 0.5 s to factor the 11 673-unknown operator
-        of ``benchmarks/bench_packing_driver.py`` and 9.5 ms per solve, cholespy 4.5 s and
-        13 ms, SuperLU 8.6 s and 37 ms).
+        first installed in that order (PARDISO: 0.2-0.5 s to factor the 11 673-unknown
+        operator of ``benchmarks/bench_packing_driver.py`` and 3.9 ms per solve, cholespy
+        3.5-4.5 s and 11-13 ms, SuperLU 7.4 s and 37 ms).
     law_backend : str or None
         ``backend`` passed to :func:`grainmech.contact.update` (``None``: its default).
     """
@@ -524,18 +524,7 @@ class PackingPoint:
         2e-10 (dense), 6e-9 (loose); GMRES needed 0.4-4 s there (one iteration per
         near-floppy mode: grains held by two contacts), the direct form 2 ms.
         """
-        from grainmech.driver._packing_ops import block_diagonal
-
-        prec = self.preconditioner()
-        kin = self.kinematics
-        Kb = block_diagonal(self.contact_stiffness()[1])
-        KE = Kb @ kin.E
-        B = kin.Gt @ KE
-        if prec.Y.shape == B.shape:
-            R = kin.Gt @ (Kb @ (kin.G @ prec.Y)) - B
-            if np.all(np.linalg.norm(R, axis=0) <= 1e-8 * np.linalg.norm(B, axis=0)):
-                return (kin.E.T @ KE - B.T @ prec.Y) / self.volume
-        return _relaxed_tangent(self, prec, PackingOptions().krylov_max, elastic=True)
+        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max, elastic=True)
 
     def fluctuation(self) -> float:
         """Largest grain displacement fluctuation over its radius (mean translation removed)."""
@@ -598,10 +587,13 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     return float(np.mean(np.hypot(F, M)) / fmean)
 
 
-def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False) -> np.ndarray:
+def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False,
+                     direct: bool = True) -> np.ndarray:
     """Relaxed tangent (6, 6) of ``point`` by GMRES per column.
 
-    With its consistent contact tangent, or with the elastic one (``elastic``).
+    With its consistent contact tangent, or with the elastic one (``elastic``); the
+    elastic one straight from the preconditioner's ``Y = H0^-1 B0`` when that solves this
+    point's operator (``direct``, see :attr:`PackingPoint.elastic_tangent`).
     """
     import scipy.sparse.linalg as spla
 
@@ -613,6 +605,12 @@ def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int,
     KE = Kb @ kin.E
     B = kin.Gt @ KE
     A = kin.E.T @ KE
+    if elastic and direct and prec.Y.shape == B.shape:
+        # the preconditioner factorised this operator and holds Y = H0^-1 B0: no solve
+        # when Y is accurate for it (PackingPoint.elastic_tangent)
+        R = kin.Gt @ (Kb @ (kin.G @ prec.Y)) - B
+        if np.all(np.linalg.norm(R, axis=0) <= 1e-8 * np.linalg.norm(B, axis=0)):
+            return (A - B.T @ prec.Y) / point.volume
     D = prec.dq
     nq = kin.n_free
     S0 = np.zeros(6, bool)
