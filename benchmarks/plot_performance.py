@@ -14,8 +14,11 @@ import sys
 
 #: (size, seconds, dgemm seconds of that run) per series
 DEM_READ = {  # read_network of a LIGGGHTS dump: contacts
-    "grainmech reader (pyarrow path)": [(1e5, 0.13, 0.336), (1e6, 0.86, 0.335), (1e7, 9.97, 0.338)],
-    "pyarrow.csv.read_csv, same file": [(1e5, 0.06, 0.336), (1e6, 0.63, 0.335), (1e7, 12.26, 0.338)],
+    # best of 2, single-threaded dgemm, load ~2.5 (docs/performance.md, "Large DEM files"; a
+    # second 1e7 run under load 2.7-4.6 took 11.37 s with a dgemm of 0.265 s)
+    "grainmech reader (pyarrow path)": [(1e5, 0.08, 0.201), (1e6, 0.64, 0.190), (1e7, 7.25, 0.186)],
+    "pyarrow.csv.read_csv, same file": [(1e5, 0.06, 0.201), (1e6, 0.77, 0.190), (1e7, 13.62, 0.186)],
+    "previous pyarrow path (commit 9bb090f)": [(1e6, 1.04, 0.215), (1e7, 11.27, 0.225)],
     "before (NumPy line parser)": [(1e6, 1.55, 0.230)],
 }
 RELAXED = {  # relaxed tensor: grains (2000: shipped dense packing; 1e4, 1e5: random networks)

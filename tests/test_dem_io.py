@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -241,6 +243,37 @@ def test_dump_errors(tmp_path):
         read_network(c, p)
     with pytest.raises(GrainmechError, match="file not found"):
         read_network(tmp_path / "nope.dump", p)
+
+
+@pytest.mark.parametrize("pids", [(3, 7), (3, 7_000_000_000)], ids=["id-table", "binary-search"])
+@pytest.mark.parametrize("bad", [1, 5, 9, 8_000_000_000])
+def test_unknown_particle_id_with_both_lookups(tmp_path, pids, bad):
+    """Ids 3..7 are looked up in a table indexed by id, ids 3 and 7e9 by binary search:
+    an unknown id below, between, above the listed ones is named with its line."""
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    a, b = pids
+    _particles(p, rows=f"{a} 1 1 5 5 1.0\n{b} 1 2.9 5 5 1.0\n")
+    _two_particle_dump(c, -50.0)
+    c.write_text(c.read_text().replace(" 3 7 0 ", f" {a} {b} 0 "))
+    net = read_network(c, p)
+    assert net.ids[net.i].tolist() == [a] and net.ids[net.j].tolist() == [b]
+    c.write_text(c.read_text().replace(f" {a} {b} 0 ", f" {a} {bad} 0 "))
+    with pytest.raises(GrainmechError, match=rf"c\.dump:10: particle id {bad} \(column id2\) is not listed"):
+        read_network(c, p)
+
+
+def test_lookup_table_and_binary_search_agree():
+    """The two look-ups of _lookup give the rows a dict gives, unknown ids rejected."""
+    rng = np.random.default_rng(7)
+    for ids in (rng.permutation(np.arange(1, 5001)), rng.choice(10**12, 5000, replace=False)):
+        order = np.argsort(ids, kind="stable")
+        rows = {int(v): r for r, v in enumerate(ids)}
+        q = ids[rng.integers(0, len(ids), 200_000)]
+        got = demio._lookup(ids[order], order, q.copy(), Path("c"), 1, "id1", Path("p"))
+        assert got.tolist() == [rows[int(v)] for v in q]
+        q[150_000] = ids.max() + 1
+        with pytest.raises(GrainmechError, match=rf"c:150001: particle id {ids.max() + 1} \(column id1\)"):
+            demio._lookup(ids[order], order, q, Path("c"), 1, "id1", Path("p"))
 
 
 def test_chunked_reading_matches(tmp_path, monkeypatch):

@@ -481,3 +481,30 @@ def test_auto_uses_cg_on_a_packing_and_a_factorisation_when_cg_would_be_slow(mon
     monkeypatch.setattr(rel, "AUTO_CG_MAXITER", 5)
     r = relaxed_stiffness(rnet, kn, ks)
     assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-7
+
+
+def test_network_checks_name_the_row_across_blocks(monkeypatch):
+    """ContactNetwork checks its arrays in blocks of rows: a bad value in a later block is
+    still reported with its own row (blocks of 7 rows here)."""
+    from grainmech.network import data as netdata
+
+    monkeypatch.setattr(netdata, "_CHECK_BLOCK", 7)
+    net = lattice_network("sc", 3, 1.0, 1e-3)
+    assert net.n_contacts > 30
+
+    def with_(**kw):
+        a = {k: getattr(net, k) for k in ("ids", "positions", "radii", "box", "i", "j", "force", "branch",
+                                          "overlap", "contact_point", "kn", "ks", "source")}
+        a.update(kw)
+        return ContactNetwork(**a)
+
+    f = net.force.copy()
+    f[23, 2] = np.nan
+    with pytest.raises(GrainmechError, match="force has a non-finite value at row 23"):
+        with_(force=f)
+    b = net.branch.copy()
+    b[17] = 0.0
+    with pytest.raises(GrainmechError, match=rf"contact 17 \({net.ids[net.i[17]]}-{net.ids[net.j[17]]}\) has a "
+                                             "zero branch vector"):
+        with_(branch=b)
+    with_()  # the unchanged arrays pass

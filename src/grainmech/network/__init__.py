@@ -39,23 +39,26 @@ volume are not included in either tensor. See ``docs/dem.md``.
 from __future__ import annotations
 
 import importlib
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from grainmech.network.builders import lattice_network, random_network
 from grainmech.network.data import Box, ContactNetwork
-from grainmech.network.measures import (
-    CoordinationResult,
-    FabricResult,
-    contact_stiffnesses,
-    coordination,
-    network_fabric,
-    network_stress,
-    rattler_threshold,
-    rattlers,
-)
-from grainmech.network.relaxed import RelaxedResult, relaxed_stiffness
-from grainmech.network.report import NetworkReport, closed_form_from_fit, network_report, network_report_json
-from grainmech.network.stiffness import affine_stiffness, contact_matrix, effective_ks, strain_map
+
+if TYPE_CHECKING:
+    from grainmech.network.measures import (
+        CoordinationResult,
+        FabricResult,
+        contact_stiffnesses,
+        coordination,
+        network_fabric,
+        network_stress,
+        rattler_threshold,
+        rattlers,
+    )
+    from grainmech.network.plotting import plot_normal_density, plot_rose
+    from grainmech.network.relaxed import RelaxedResult, relaxed_stiffness
+    from grainmech.network.report import NetworkReport, closed_form_from_fit, network_report, network_report_json
+    from grainmech.network.stiffness import affine_stiffness, contact_matrix, effective_ks, strain_map
 
 __all__ = [
     "Box",
@@ -84,10 +87,31 @@ __all__ = [
     "plot_normal_density",
 ]
 
-_PLOTS = ("plot_rose", "plot_normal_density")
+#: public name -> module that defines it, imported on first use: the measures pull in
+#: grainmech.assembly and with it numba (~66 MB of resident memory, 0.2 s), which a
+#: reader of DEM files (``grainmech.io.dem`` needs only Box and ContactNetwork) does not
+#: need; matplotlib only for the plots
+_LAZY: dict[str, str] = {
+    **dict.fromkeys(("CoordinationResult", "FabricResult", "contact_stiffnesses", "coordination",
+                     "network_fabric", "network_stress", "rattler_threshold", "rattlers"),
+                    "grainmech.network.measures"),
+    **dict.fromkeys(("RelaxedResult", "relaxed_stiffness"), "grainmech.network.relaxed"),
+    **dict.fromkeys(("NetworkReport", "closed_form_from_fit", "network_report", "network_report_json"),
+                    "grainmech.network.report"),
+    **dict.fromkeys(("affine_stiffness", "contact_matrix", "effective_ks", "strain_map"),
+                    "grainmech.network.stiffness"),
+    **dict.fromkeys(("plot_rose", "plot_normal_density"), "grainmech.network.plotting"),
+}
 
 
 def __getattr__(name: str) -> Any:
-    if name in _PLOTS:
-        return getattr(importlib.import_module("grainmech.network.plotting"), name)
-    raise AttributeError(f"module 'grainmech.network' has no attribute {name!r}")
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'grainmech.network' has no attribute {name!r}")
+    value = getattr(importlib.import_module(mod), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -15,6 +15,9 @@ from grainmech.errors import GrainmechError
 
 __all__ = ["Box", "ContactNetwork"]
 
+#: rows per block of the input checks of ContactNetwork (bounded temporaries)
+_CHECK_BLOCK = 1 << 16
+
 
 @dataclass(frozen=True)
 class Box:
@@ -151,18 +154,26 @@ class ContactNetwork:
             v = getattr(self, name)
             if v is not None and np.shape(v) != (C,):
                 raise GrainmechError(f"{name} must have shape ({C},), got {np.shape(v)}")
+        # the checks run over blocks of rows: whole-array temporaries (norm's squares are
+        # (C, d) floats) would add 0.3x the kept arrays to the peak memory of a reader
         for name in ("positions", "radii", "force", "branch", "overlap", "contact_point", "kn", "ks"):
             v = getattr(self, name)
-            if v is not None and not np.all(np.isfinite(v)):
-                bad = np.argwhere(~np.isfinite(np.asarray(v, float)))[0]
-                raise GrainmechError(f"{name} has a non-finite value at row {int(bad[0])}")
+            if v is None:
+                continue
+            for a in range(0, len(v), _CHECK_BLOCK):
+                blk = np.asarray(v[a:a + _CHECK_BLOCK], float)
+                if not np.isfinite(blk).all():
+                    bad = np.argwhere(~np.isfinite(blk))[0]
+                    raise GrainmechError(f"{name} has a non-finite value at row {a + int(bad[0])}")
         if C and (self.i.min() < 0 or self.j.max() >= P or self.j.min() < 0 or self.i.max() >= P):
             raise GrainmechError("contact particle indices out of range")
-        L = np.linalg.norm(self.branch, axis=1)
-        if C and not np.all(L > 0):
-            k = int(np.flatnonzero(~(L > 0))[0])
-            raise GrainmechError(f"contact {k} ({self.ids[self.i[k]]}-{self.ids[self.j[k]]}) has a zero "
-                                 "branch vector (coincident centres)")
+        for a in range(0, C, _CHECK_BLOCK):
+            b = np.asarray(self.branch[a:a + _CHECK_BLOCK], float)
+            zero = np.flatnonzero(~(np.einsum("ij,ij->i", b, b) > 0))
+            if zero.size:
+                k = a + int(zero[0])
+                raise GrainmechError(f"contact {k} ({self.ids[self.i[k]]}-{self.ids[self.j[k]]}) has a zero "
+                                     "branch vector (coincident centres)")
 
     @property
     def dim(self) -> int:
