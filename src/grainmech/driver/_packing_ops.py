@@ -236,16 +236,19 @@ class _Factor:
 
 
 class Preconditioner:
-    """Exact inverse of the bordered elastic operator ``[[H0, B0_S], [B0_S^T, A0_SS]]``.
+    """Exact inverse of the bordered elastic operator ``[[H0 + S, B0_S], [B0_S^T, A0_SS]]``.
 
     ``H0 = G^T K0 G`` with the symmetric elastic contact stiffness ``K0 = kn n n +
-    ks_perp (I - n n)`` (no slip) of the state it was built from, regularised by
-    ``1e-10 diag`` (floppy modes: free rotations of frictionless grains, a grain held by
-    two contacts); ``B0 = G^T K0 E``, ``A0 = E^T K0 E``. The stress-controlled strains
-    are eliminated by the Schur complement. Also provides the Jacobi scaling ``D``.
+    ks_perp (I - n n)`` (no slip) of the state it was built from, shifted by
+    ``S = reg diag(H0)`` (``PackingOptions.regularization``: floppy and near-floppy
+    modes, i.e. free rotations of frictionless grains, a grain held by two or three weak
+    contacts, get a bounded update; a floor of ``1e-6`` of the median diagonal where the
+    diagonal itself vanishes); ``B0 = G^T K0 E``, ``A0 = E^T K0 E``. The
+    stress-controlled strains are eliminated by the Schur complement. Also provides the
+    Jacobi scaling ``D`` and :meth:`exact_Y`, ``H0^-1 B0`` without the shift.
     """
 
-    def __init__(self, kin: Kinematics, K0: np.ndarray, backend: str = "auto") -> None:
+    def __init__(self, kin: Kinematics, K0: np.ndarray, backend: str = "auto", reg: float = 1e-4) -> None:
         Kb = block_diagonal(K0)
         KG = (Kb @ kin.G).tocsr()
         H = (kin.Gt @ KG).tocsr()
@@ -259,17 +262,33 @@ class Preconditioner:
         okr = dr > 1e-8 * ft * r2
         fr = float(np.median(dr[okr])) if okr.any() else ft * r2
         floor = np.where(rot, fr, ft)
-        reg = np.where(dg > 1e-6 * floor, 1e-10 * dg, 1e-6 * floor)
-        H = (H + sp.diags(reg)).tocsr()
-        H = 0.5 * (H + H.T)
-        self.factor = _Factor(H, backend)
+        self.H0 = H = 0.5 * (H + H.T)
+        self.shift = np.where(dg > 1e-6 * floor, reg * dg, 1e-6 * floor)
+        self.factor = _Factor((H + sp.diags(self.shift)).tocsr(), backend)
         KE = Kb @ kin.E
         self.B0 = kin.Gt @ KE                     # (n_free, 6)
         self.A0 = kin.E.T @ KE                     # (6, 6)
         self.Y = self.factor.solve(self.B0)        # H0^-1 B0
-        self.dq = 1.0 / np.sqrt(dg + reg)
+        self.dq = 1.0 / np.sqrt(dg + self.shift)
         self.de = 1.0 / np.sqrt(np.maximum(np.diag(self.A0), 1e-300))
         self.solves = 0
+        self._exact: tuple | None = None
+
+    def exact_Y(self, tol: float = 1e-10, maxiter: int = 200) -> tuple[np.ndarray, np.ndarray]:
+        """``H0^-1 B0`` of the unshifted operator and its relative residual per column.
+
+        Conjugate gradients on ``H0 Y = B0`` preconditioned by the shifted factor and
+        warm-started from ``Y`` (:func:`grainmech.network._solvers.refine_pcg`: each
+        near-floppy mode the shift holds costs about one iteration). ``B0`` lies in the
+        range of ``H0`` (``G^T`` of contact forces), so the floppy modes themselves do not
+        enter. Cached.
+        """
+        if self._exact is None:
+            from grainmech.network._solvers import refine_pcg
+
+            Y, _it, res = refine_pcg(self.H0, self.B0, self.Y, self.factor.solve, tol, maxiter)
+            self._exact = (Y, res)
+        return self._exact
 
     def apply(self, rq: np.ndarray, re: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``M^-1 (rq, re)`` for the stress-controlled components ``S`` (bool (6,))."""
