@@ -16,6 +16,8 @@ is ``G^T f`` and ``V sigma = E^T f`` (Love-Weber, seed Eq. 2.6).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -201,7 +203,15 @@ class _Factor:
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
         ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
-        ps.factorize(Au)
+        # one MKL thread for PARDISO (thread-local, restored after each call): its
+        # multithreaded factorisation and solve sum in a schedule-dependent order, and the
+        # packing driver's path through kinks of the contact laws amplified those
+        # round-off differences into runs of 51 s and 126 s for the same input. One thread
+        # costs ~20 % on the 11 211-unknown 'medium' operator (factor 0.29 vs 0.23 s,
+        # solve 2.9 vs 2.4 ms) and makes a run reproducible
+        self._threads = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None)
+        with self._one_thread():
+            ps.factorize(Au)
         # no iterative refinement in the solve phase (iparm(8), 1-based): the elastic
         # operator is regularised and well scaled, a solve is accurate to ~1e-14 without
         # it, and the two default steps cost 2.5x the solve. Set after the factorisation:
@@ -212,13 +222,26 @@ class _Factor:
         # factorised one entry by entry at every call (a third of a solve here)
         self._raw = hasattr(ps, "_call_pardiso") and hasattr(ps, "set_phase")
 
+    @contextmanager
+    def _one_thread(self) -> Iterator[None]:
+        """MKL on one thread in this thread while the block runs (PARDISO: reproducible)."""
+        if self._threads is None:
+            yield
+            return
+        prev = self._threads(1)
+        try:
+            yield
+        finally:
+            self._threads(prev)  # 0: back to the global setting
+
     def solve(self, b: np.ndarray) -> np.ndarray:
         if self.name == "pardiso":
             bf = np.asfortranarray(b, dtype=float)
-            if self._raw:
-                self._ps.set_phase(33)
-                return np.asarray(self._ps._call_pardiso(self._Au, bf))
-            return np.asarray(self._ps.solve(self._Au, bf)).reshape(b.shape)
+            with self._one_thread():
+                if self._raw:
+                    self._ps.set_phase(33)
+                    return np.asarray(self._ps._call_pardiso(self._Au, bf))
+                return np.asarray(self._ps.solve(self._Au, bf)).reshape(b.shape)
         if self.name == "cholespy":
             b = np.ascontiguousarray(b, dtype=float)
             x = np.zeros_like(b)
