@@ -285,6 +285,49 @@ def test_input_imbalance_held_or_relaxed(packing):
         PackingPoint.from_network(net, MD, imbalance="ignore")
 
 
+def test_held_load_drops_what_no_contact_resists(packing):
+    """The held input imbalance of a grain is kept only where its closed contacts resist
+    (``driver/_packing_step._held_load``): the part dropped lies in the grain's mechanisms
+    (null space of its columns of ``G`` over its closed contacts, by SVD of the assembled
+    kinematic matrix: an independent computation), and the part kept does no work on them.
+    Grains held by 0, 1, 2 and 3+ closed contacts are made by opening contacts."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from grainmech.driver._packing_step import _held_load
+
+    pt = PackingPoint.from_network(packing, MD)
+    kin = pt.kinematics
+    rng = np.random.default_rng(11)
+    pt = replace(pt, load=rng.standard_normal(kin.n_free), _cache={})
+    opened = np.zeros(kin.n_contacts, bool)
+    # grain 5: every contact but two opened; grain 9: all but one; grain 20: none left
+    for g, keep in ((5, 2), (9, 1), (20, 0)):
+        cs = np.flatnonzero((kin.a == g) | (kin.b == g))
+        opened[cs[keep:]] = True
+    kept = kin.full(_held_load(pt, SimpleNamespace(open=opened)))
+    load = kin.full(pt.load)
+    G = kin.G.toarray()
+    seen = set()
+    for g in range(kin.n_grains):
+        cols = np.flatnonzero(np.isin(np.flatnonzero(kin.free) // 6, [g]))
+        dof = np.flatnonzero(kin.free)[cols] % 6
+        rows = np.repeat(~opened & ((kin.a == g) | (kin.b == g)), 3)
+        W = G[np.ix_(rows, cols)] if rows.any() else np.zeros((0, cols.size))
+        R = pt.radii[g]
+        Ws = W * np.where(dof >= 3, 1.0 / R, 1.0)  # rotations scaled by the radius
+        sv = np.linalg.svd(Ws, compute_uv=False) if Ws.size else np.zeros(0)
+        rank = int(np.sum(sv > 1e-6 * max(sv.max(initial=0.0), 1.0)))
+        _, _, Vt = np.linalg.svd(Ws if Ws.size else np.zeros((1, cols.size)))
+        N = Vt[rank:].T  # mechanisms of the grain, scaled coordinates
+        sc = np.where(dof >= 3, R, 1.0)
+        ls, ks = load[g][dof] / sc, kept[g][dof] / sc
+        seen.add(N.shape[1] if g in (5, 9, 20) else -1)
+        assert np.abs(N.T @ ks).max(initial=0.0) <= 1e-9 * np.abs(ls).max()          # no work on them
+        np.testing.assert_allclose(ks, ls - N @ (N.T @ ls), rtol=0, atol=1e-9 * np.abs(ls).max())
+    assert {1, 3, 6} <= seen  # rolling about two contact points; rotations about one; free
+
+
 def test_trust_clip_is_per_grain():
     """Each grain's update is scaled by itself to the trust limit; grains inside it keep
     their Newton update (``driver/_packing_step._clip``)."""
