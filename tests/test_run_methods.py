@@ -348,3 +348,29 @@ def test_gmax_packing_is_for_the_affine_model_alone():
     path_cfg.setdefault("model", {})["gmax_packing"] = "medium"
     with pytest.raises(ConfigError, match=r"model\.gmax_packing.*not with test\.kind"):
         prepare_run(path_cfg)
+
+
+def test_failed_amplitude_is_written_with_the_rest(network_files, tmp_path):
+    """A packing run that fails at its second amplitude (3 %: beyond the packing driver's
+    small-strain bound of 2 %, so it stops during the ramp) keeps and writes everything:
+    the first amplitude's loops and curves, and the failed amplitude's steps up to the
+    failure in its own CSV (the writer used to index the completed amplitudes with the
+    runs and crash with an IndexError, losing the finished results)."""
+    from grainmech.io.reports import write_run_outputs
+
+    d, net = network_files
+    cfg = _config(d, _packing_pressure(net), ["packing"])
+    cfg["test"]["amplitudes"] = [1e-6, 3e-2]
+    cfg["test"]["steps_per_cycle"] = 16
+    out = compute_run(cfg)
+    assert not out.success and "amplitude 0.03" in out.message and "max_strain" in out.message
+    assert len(out.G) == 1 and len(out.results) == 2
+    np.testing.assert_array_equal(out.run_amplitudes, [1e-6, 3e-2])
+    summary = write_run_outputs(out, tmp_path, cfg, "test")
+    failed = tmp_path / "cycles_gamma_3.0e-02.csv"
+    assert failed.name in summary["files"] and (tmp_path / "cycles_gamma_1.0e-06.csv").is_file()
+    rows = np.loadtxt(failed, delimiter=",", skiprows=1, ndmin=2)
+    assert len(rows) == len(out.results[1].strain) >= 2  # the steps before the strain bound
+    header = failed.read_text().splitlines()[0].split(",")
+    gxz = rows[:, [i for i, h in enumerate(header) if h.startswith("strain_xz")][0]]
+    assert 0.0 < np.abs(gxz).max() <= 0.02  # stopped at the small-strain bound, not beyond

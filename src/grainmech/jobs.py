@@ -489,6 +489,9 @@ class CyclicOutcome(RunOutcome):
         ``frequency``, ``phi`` [rad]).
     empirical_G_max : dict or None
         :func:`empirical_gmax_check`.
+    run_amplitudes : ndarray (len(results),)
+        Amplitude of every run in ``results``: the completed ones and, after a failure,
+        the one that failed (its steps up to the failure are kept).
     """
 
     amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -497,6 +500,7 @@ class CyclicOutcome(RunOutcome):
     G_max: float = float("nan")
     reference: dict = field(default_factory=dict)
     empirical_G_max: dict | None = None
+    run_amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def G_ratio(self) -> np.ndarray:
@@ -674,7 +678,8 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         amplitudes=np.asarray(mr.amplitude, dtype=float), G=np.asarray(mr.G, dtype=float),
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
-        empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method))
+        empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method),
+        run_amplitudes=np.asarray(spec.amplitudes[:len(mr.results)], dtype=float))
 
 
 #: relative difference between a packing's stress and the run's mean stress below which

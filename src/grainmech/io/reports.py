@@ -139,7 +139,9 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         m["details"] = o.details
     for i, r in enumerate(o.results):
         cols, rows = driver_table(r)
-        name = prefix + (amplitude_csv_name(o.amplitudes[i]) if cyclic else "path.csv")
+        # a failed amplitude's steps up to the failure are written too (run_amplitudes
+        # names every run; amplitudes only the completed ones)
+        name = prefix + (amplitude_csv_name(o.run_amplitudes[i]) if cyclic else "path.csv")
         if not cyclic:
             scols, srows, axis = soil_path_table(r)
             cols, rows = cols + scols, np.hstack([rows, srows])
