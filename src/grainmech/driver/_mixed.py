@@ -13,7 +13,9 @@ contacts):
 * kinematics, seed Eq. 2.13 (``delta = d eps . l``) and the normal law at the step's
   end (seed Eq. 3.6, 3.2), exactly as :mod:`grainmech.driver._fused`;
 * the compiled law update :func:`grainmech.contact.kernel.rows` from the last converged
-  state (trial increment, no drift);
+  state (trial increment, no drift), passed in as a first-class function
+  (:func:`grainmech.contact.kernel.law_function`: compiled once for the law at hand, not
+  linked into the pass and the loop);
 * the Love-Weber stress (seed Eq. 2.6, symmetric part), the weighted sliding and open
   fractions and the dissipation;
 * the Newton Jacobian rows and columns of the stress-controlled components,
@@ -45,7 +47,7 @@ from grainmech.contact.geometry import (
     mindlin_kt0,
     spring_energy,
 )
-from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
+from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
@@ -53,7 +55,9 @@ __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_webe
 _CH = 128  # contacts per chunk (work item of the prange)
 # functions that allocate nothing: compiled without numba's reference counting (atomic
 # increments of the arrays they are passed, per contact)
-_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False}
+_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
+                           "no_cfunc_wrapper": True}
+_INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
 
 #: failure causes reported by the compiled loop (``info[1]``)
@@ -63,7 +67,7 @@ FAIL_NO_CONVERGENCE = 3  # max_iter iterations, no iterate within rtol_accept
 FAIL_LAW = 4             # the law could not advance a contact (index in info[3], flag in info[4])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _pick(q, u0, u1, u2, u3, u4, u5):
     """The ``q``-th of six scalars (a register-held 6-vector)."""
     if q == 0:
@@ -79,7 +83,7 @@ def _pick(q, u0, u1, u2, u3, u4, u5):
     return u5
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _b(q, i, lx, ly, lz):
     """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``.
 
@@ -132,7 +136,7 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
                                              + _b(q, 2, lx, ly, lz) * g2)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _copy_state(src, src_resp, dst, dst_resp):
     """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows.
 
@@ -157,7 +161,7 @@ def _copy_state(src, src_resp, dst, dst_resp):
             dst_resp[f][i] = src_resp[f][i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
     """One contact's step input from a strain increment.
 
@@ -180,7 +184,7 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
             hertz_radius(N1, E, R))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
     """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T``.
 
@@ -277,7 +281,7 @@ def _cond2(J):
     return smax / smin if smin > 0.0 else math.inf
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _reduce(part, sig, jac):
     """Sum the per-chunk partial sums.
 
@@ -300,7 +304,7 @@ def _reduce(part, sig, jac):
     return s_sl, s_op, s_di
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
     """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`.
 
@@ -321,7 +325,7 @@ def _make(parallel: bool):
     """Evaluation pass and segment driver, serial or with a ``prange`` over chunks."""
     rng = prange if parallel else range
 
-    def _evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
+    def _evaluate(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
         # trial update of every contact from the converged state ``st`` by the strain
         # increment ``de``; per-chunk sums into ``part``; returns the first contact the
         # law could not advance (-1: none)
@@ -359,7 +363,7 @@ def _make(parallel: bool):
                                                 normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
                                                 s_a[i], s_N[i], linear, kn_lin, E, R)
                 c_fl[i] = 0
-            rows(lo, hi, kcc, st_c, inc_c, out_c, scr_c)
+            law_fn(lo, hi, kcc, st_c, inc_c, out_c, scr_c)  # kernel.rows (kernel.law_function)
             for i in range(lo, hi):
                 if c_fl[i] != 0 and bad_c[ch] < 0:
                     bad_c[ch] = i
@@ -387,10 +391,10 @@ def _make(parallel: bool):
                 return bad_c[ch]
         return -1
 
-    return njit(parallel=parallel, cache=True, error_model="numpy")(_evaluate)
+    return njit(parallel=parallel, **_INNER)(_evaluate)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _commit(kc, normals, branch, weights, st, out, resp, Cout):
     # accept the trial state: out -> st (dissipated energy accumulated), the response
     # kept in ``resp``; returns the stored energy and writes the reported tangent
@@ -452,7 +456,7 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
     return wst
 
 
-def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
+def _segment(law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
              rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
              rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
     # the step/Newton loop of a segment (compiled by _specialised, with _evaluate_pass the
@@ -569,7 +573,7 @@ def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_str
             loose_acc = False
             rmax = 0.0
             for it in range(1, max_iter + 1):
-                bad = _evaluate_pass(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                bad = _evaluate_pass(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
                 if bad >= 0:
                     cause = FAIL_LAW
                     info[3] = bad
@@ -632,7 +636,7 @@ def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_str
                 # the best iterate is not the last one: evaluate it again (same state)
                 for q in range(6):
                     de[q] = best_de[q]
-                _evaluate_pass(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                _evaluate_pass(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
                 s_sl, s_op, s_di = _reduce(part, sig, jac)
             if cause != 0:
                 wtot = 0.0
@@ -803,7 +807,8 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     C0 = np.ascontiguousarray(point.tangent, dtype=float)
     t_stress = c(t_stress)
     t_strain = c(t_strain)
-    done = int(fn(kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
+    law_fn = kernel.law_function(kc, st, inc, out, scratch)
+    done = int(fn(law_fn, kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
                   c(point.stress), c(point.strain), C0, t_stress, t_strain,
                   float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
                   st, out, scratch, inc, part, resp, bk, bk_resp,
