@@ -1141,7 +1141,7 @@ def _make_kernel(parallel):
         return OK
 
     kernel.__doc__ = """Advance ``n`` contacts by one increment (see :func:`update_kernel`)."""
-    return njit(parallel=parallel, **_JIT)(kernel)
+    return njit(parallel=parallel, no_cfunc_wrapper=True, **_JIT)(kernel)  # called from Python only
 
 
 _kernel_serial = _make_kernel(False)

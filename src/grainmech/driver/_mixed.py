@@ -57,7 +57,10 @@ _CH = 128  # contacts per chunk (work item of the prange)
 # increments of the arrays they are passed, per contact)
 _NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
                            "no_cfunc_wrapper": True}
+# functions called only from compiled code: no Python or C wrapper
 _INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+# functions called from Python only: no C wrapper
+_PY_ONLY: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cfunc_wrapper": True}
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
 
 #: failure causes reported by the compiled loop (``info[1]``)
@@ -197,7 +200,7 @@ def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
             0.5 * (fx * ly + fy * lx))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_PY_ONLY)
 def _solve_small(A, b):
     """Solve ``A x = b`` for a small dense (n, n) ``A`` (n <= 6); ``A`` and ``b`` are overwritten.
 
@@ -233,7 +236,7 @@ def _solve_small(A, b):
     return b, True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_PY_ONLY)
 def _cond2(J):
     """2-norm condition number ``s_max / s_min`` of a small finite (n, n) matrix (n <= 6).
 
@@ -670,7 +673,9 @@ def _segment(law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C
                 nsk += 2
                 continue
             # ---- accepted: commit the state, counters as solver._subdivided
-            new_strain = strain + de
+            new_strain = np.empty(6)  # strain + de (an element loop: no array expression to compile)
+            for q in range(6):
+                new_strain[q] = strain[q] + de[q]
             wst = _commit(kc, normals, branch, weights, st, out, resp, Cflat)
             n_sub += 1
             n_it += it_done
@@ -730,7 +735,7 @@ def _specialised(fn, name: str, **names):
     f.__qualname__ = name
     f.__module__ = fn.__module__
     f.__doc__ = fn.__doc__
-    return njit(cache=True, error_model="numpy")(f)
+    return njit(**_PY_ONLY)(f)
 
 
 _segment_serial = _specialised(_segment, "_segment_serial", _evaluate_pass=_evaluate_serial)
