@@ -72,7 +72,8 @@ from grainmech.contact import law as _law
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 from grainmech.contact.params import ContactParams, Hertz, LinearSpring, MindlinDeresiewicz
 
-__all__ = ["update_kernel", "rows", "law_function", "constants", "KernelConstants", "KernelState", "KernelIncrement",
+__all__ = ["update_kernel", "rows", "law_function", "law_signature", "law_key", "compile_law", "law_compiled",
+           "constants", "KernelConstants", "KernelState", "KernelIncrement",
            "KernelOutput", "KernelScratch", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS",
            "PARALLEL_THRESHOLD"]
 
@@ -1068,6 +1069,49 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 _LAW_FUNCTIONS: dict = {}
 
 
+def _law_dispatcher(key: tuple[int, bool]) -> Any:
+    """The copy of :func:`rows` specialised to ``key = (law code, linear)`` (made once)."""
+    disp = _LAW_FUNCTIONS.get(key)
+    if disp is None:
+        import types as pytypes
+
+        f = rows.py_func
+        g = dict(f.__globals__)
+        g.update(_LAW=int(key[0]), _LINEAR=int(key[1]))
+        name = f"rows_law{int(key[0])}_linear{int(key[1])}"
+        fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
+        fc.__qualname__ = name  # its own name: its own cache file
+        fc.__module__ = f.__module__
+        fc.__doc__ = f.__doc__
+        # with the C-callable wrapper: its address is what the callers call
+        disp = njit(**{**_JIT_NO_NRT, "no_cfunc_wrapper": False})(fc)
+        _LAW_FUNCTIONS[key] = disp
+    return disp
+
+
+def law_key(kc: KernelConstants) -> tuple[int, bool]:
+    """What :func:`law_function` specialises on: the law code and the normal law of ``kc``."""
+    return int(kc.law), bool(kc.linear)
+
+
+def law_signature(kc: KernelConstants, state: KernelState, inc: KernelIncrement, out: KernelOutput,
+                  scratch: KernelScratch) -> tuple:
+    """The numba argument types of ``rows(lo, hi, kc, state, inc, out, scratch)`` for these arguments."""
+    from numba import typeof, types
+
+    return (types.int64, types.int64, typeof(kc), typeof(state), typeof(inc), typeof(out), typeof(scratch))
+
+
+def compile_law(key: tuple[int, bool], sig: tuple) -> None:
+    """Compile (or load from numba's cache) the law copy ``key`` for the argument types ``sig``."""
+    _law_dispatcher(key).compile(sig)
+
+
+def law_compiled(key: tuple[int, bool], sig: tuple) -> bool:
+    """The law copy ``key`` is already compiled or loaded in this process for ``sig``."""
+    return sig in _law_dispatcher(key).overloads
+
+
 def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, out: KernelOutput,
                  scratch: KernelScratch) -> Any:
     """:func:`rows` for the law of ``kc``, compiled alone, as a first-class function value.
@@ -1079,30 +1123,14 @@ def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, 
     driver (``docs/performance.md``, "First run"). The copy is specialised to the law
     kind and normal law of ``kc`` (the other laws' branches are not compiled) and is
     cached on disk like the other kernels; one call per chunk of contacts costs nothing
-    measurable.
+    measurable. Its type is ``numba.types.FunctionType(numba.types.none(*law_signature(...)))``.
     """
-    from numba import typeof, types
     from numba.core.types.function_type import CompileResultWAP
 
-    key = (int(kc.law), bool(kc.linear))
-    disp = _LAW_FUNCTIONS.get(key)
-    if disp is None:
-        import types as pytypes
-
-        f = rows.py_func
-        g = dict(f.__globals__)
-        g.update(_LAW=key[0], _LINEAR=int(key[1]))
-        name = f"rows_law{key[0]}_linear{int(key[1])}"
-        fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
-        fc.__qualname__ = name
-        fc.__module__ = f.__module__
-        fc.__doc__ = f.__doc__
-        # the cfunc wrapper is the address the callers call
-        disp = njit(**{**_JIT_NO_NRT, "no_cfunc_wrapper": False})(fc)
-        _LAW_FUNCTIONS[key] = disp
-    sig = (types.int64, types.int64, typeof(kc), typeof(state), typeof(inc), typeof(out), typeof(scratch))
-    disp.compile(sig)
-    return CompileResultWAP(disp.overloads[sig])
+    key = law_key(kc)
+    sig = law_signature(kc, state, inc, out, scratch)
+    compile_law(key, sig)
+    return CompileResultWAP(_law_dispatcher(key).overloads[sig])
 
 
 @njit(**_JIT_INNER)

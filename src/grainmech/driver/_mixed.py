@@ -59,6 +59,8 @@ _NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False,
                            "no_cfunc_wrapper": True}
 # functions called only from compiled code: no Python or C wrapper
 _INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+# functions passed to compiled code as first-class functions: only the C wrapper
+_FIRST_CLASS: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True}
 # functions called from Python only: no C wrapper
 _PY_ONLY: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cfunc_wrapper": True}
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
@@ -394,7 +396,8 @@ def _make(parallel: bool):
                 return bad_c[ch]
         return -1
 
-    return njit(parallel=parallel, **_INNER)(_evaluate)
+    # called by the segment loop through its C-callable wrapper (a first-class function)
+    return njit(parallel=parallel, **_FIRST_CLASS)(_evaluate)
 
 
 @njit(**_INNER)
@@ -459,11 +462,11 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
     return wst
 
 
-def _segment(law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
+def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
              rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
              rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
-    # the step/Newton loop of a segment (compiled by _specialised, with _evaluate_pass the
-    # serial or the parallel evaluation pass)
+    # the step/Newton loop of a segment; eval_fn is the serial or the parallel evaluation
+    # pass and law_fn the law (first-class functions: pass_function, kernel.law_function)
     # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
     # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
     # finfo = (condition or residual, tolerance, sliding, open)
@@ -576,7 +579,7 @@ def _segment(law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C
             loose_acc = False
             rmax = 0.0
             for it in range(1, max_iter + 1):
-                bad = _evaluate_pass(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                bad = eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
                 if bad >= 0:
                     cause = FAIL_LAW
                     info[3] = bad
@@ -639,7 +642,7 @@ def _segment(law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C
                 # the best iterate is not the last one: evaluate it again (same state)
                 for q in range(6):
                     de[q] = best_de[q]
-                _evaluate_pass(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
                 s_sl, s_op, s_di = _reduce(part, sig, jac)
             if cause != 0:
                 wtot = 0.0
@@ -715,31 +718,122 @@ def _segment(law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C
 
 _evaluate_serial = _make(False)
 _evaluate_parallel = _make(True)
-_evaluate_pass = _evaluate_serial  # the pass _segment calls (replaced in each compiled copy)
+# the pass and the law are arguments (first-class functions), not linked into the loop:
+# one compiled loop serves the serial and the parallel pass
+_segment_compiled = njit(**_PY_ONLY)(_segment)
 
 
-def _specialised(fn, name: str, **names):
-    """``fn`` compiled with the module globals ``names`` replaced, under its own name.
+def pass_signature(law_sig: tuple, args: tuple) -> tuple:
+    """The numba argument types of the evaluation pass called by the loop with ``args`` (those after the law)."""
+    from numba import typeof, types
 
-    The serial and the parallel segment loop differ only in the evaluation pass they
-    call. The pass is a global of the copy, not a closure variable: numba keys its
-    on-disk cache on the closure's contents, and a dispatcher pickles with a new id in
-    every process, so a closure over one would be compiled again by every run. The own
-    qualified name gives each copy its own cache file.
+    kc, normals, branch, weights, sc = args[0], args[1], args[2], args[3], args[4]
+    st, out, scratch, inc, part = args[15], args[16], args[17], args[18], args[19]
+    return (types.FunctionType(types.none(*law_sig)), typeof(kc), typeof(normals), typeof(branch), typeof(weights),
+            typeof(np.zeros(6)), typeof(sc), typeof(st), typeof(out), typeof(scratch), typeof(inc), typeof(part))
+
+
+def compile_pass(parallel: bool, sig: tuple) -> None:
+    """Compile (or load from numba's cache) the serial or parallel evaluation pass for ``sig``."""
+    (_evaluate_parallel if parallel else _evaluate_serial).compile(sig)
+
+
+def pass_function(parallel: bool, sig: tuple) -> Any:
+    """The evaluation pass as a first-class function value (compiled or loaded first)."""
+    from numba.core.types.function_type import CompileResultWAP
+
+    fn = _evaluate_parallel if parallel else _evaluate_serial
+    fn.compile(sig)
+    return CompileResultWAP(fn.overloads[sig])
+
+
+#: the worker process that compiles the law while this one compiles the segment loop
+#: (``GRAINMECH_COMPILE_WORKER=0`` switches it off)
+_WORKER = ("import pickle, sys\n"
+           "from grainmech.contact import kernel\n"
+           "from grainmech.driver import _mixed\n"
+           "key, law_sig, parallel, pass_sig = pickle.load(sys.stdin.buffer)\n"
+           "kernel.compile_law(key, law_sig)\n"
+           "_mixed.compile_pass(parallel, pass_sig)\n")
+
+
+def _start_worker(job: tuple) -> Any:
+    """A Python process that compiles the law and the evaluation pass of ``job`` into numba's cache (or None)."""
+    import os
+    import pickle
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import grainmech
+
+    if os.environ.get("GRAINMECH_COMPILE_WORKER", "1") == "0":
+        return None
+    try:
+        ncpu = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        ncpu = os.cpu_count() or 1
+    if ncpu < 2:
+        return None
+    env = dict(os.environ)
+    # the same grainmech as this process, wherever it was imported from
+    here = str(Path(grainmech.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = here + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    try:
+        p = subprocess.Popen([sys.executable, "-c", _WORKER], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL, env=env)
+        assert p.stdin is not None
+        p.stdin.write(pickle.dumps(job))
+        p.stdin.close()
+    except (OSError, pickle.PicklingError):  # pragma: no cover - then this process compiles the law
+        return None
+    return p
+
+
+def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: tuple) -> None:
+    """Compile (or load) the segment loop for ``args``; the law and the pass at the same time elsewhere.
+
+    The loop takes the pass and the law as first-class functions, so compiling it needs
+    only their types, not their code. When the loop has to be compiled (numba starts a
+    compilation: an empty or stale cache), the law and the pass are compiled in a second
+    Python process meanwhile, into numba's on-disk cache, from which
+    :func:`kernel.law_function` and :func:`pass_function` then load them: with a free
+    second core the first run waits for the longer of the two compilations instead of
+    their sum (``docs/performance.md``, "First run"). If the worker fails, they are
+    compiled here as before.
     """
-    import types
+    from numba import typeof, types
+    from numba.core import event
 
-    g = dict(fn.__globals__)
-    g.update(names)
-    f = types.FunctionType(fn.__code__, g, name, fn.__defaults__, fn.__closure__)
-    f.__qualname__ = name
-    f.__module__ = fn.__module__
-    f.__doc__ = fn.__doc__
-    return njit(**_PY_ONLY)(f)
+    from grainmech.contact import kernel
 
+    sig = ((types.FunctionType(types.intp(*pass_sig)), types.FunctionType(types.none(*law_sig)))
+           + tuple(typeof(a) for a in args))
+    if sig in _segment_compiled.overloads:
+        return
+    workers: list = []
 
-_segment_serial = _specialised(_segment, "_segment_serial", _evaluate_pass=_evaluate_serial)
-_segment_parallel = _specialised(_segment, "_segment_parallel", _evaluate_pass=_evaluate_parallel)
+    class _OnCompile(event.Listener):
+        def on_start(self, ev: object) -> None:
+            if not workers:
+                done = kernel.law_compiled(key, law_sig) and pass_sig in (
+                    _evaluate_parallel if parallel else _evaluate_serial).overloads
+                workers.append(None if done else _start_worker((key, law_sig, parallel, pass_sig)))
+
+        def on_end(self, ev: object) -> None:
+            pass
+
+    try:
+        with event.install_listener("numba:compile", _OnCompile()):
+            _segment_compiled.compile(sig)
+    finally:
+        for p in workers:
+            if p is not None:
+                try:
+                    p.wait(timeout=600)
+                except Exception:  # pragma: no cover - a hung worker: this process compiles
+                    p.kill()
+                    p.wait()
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,
@@ -808,16 +902,20 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     info = np.zeros(6, dtype=np.int64)
     finfo = np.zeros(4)
     parallel = n >= kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
-    fn = _segment_parallel if parallel else _segment_serial
     C0 = np.ascontiguousarray(point.tangent, dtype=float)
     t_stress = c(t_stress)
     t_strain = c(t_strain)
+    args = (kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
+            c(point.stress), c(point.strain), C0, t_stress, t_strain,
+            float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
+            st, out, scratch, inc, part, resp, bk, bk_resp,
+            rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo)
+    law_sig = kernel.law_signature(kc, st, inc, out, scratch)
+    pass_sig = pass_signature(law_sig, args)
+    _compile(args, kernel.law_key(kc), law_sig, parallel, pass_sig)
     law_fn = kernel.law_function(kc, st, inc, out, scratch)
-    done = int(fn(law_fn, kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
-                  c(point.stress), c(point.strain), C0, t_stress, t_strain,
-                  float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
-                  st, out, scratch, inc, part, resp, bk, bk_resp,
-                  rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo))
+    eval_fn = pass_function(parallel, pass_sig)
+    done = int(_segment_compiled(eval_fn, law_fn, *args))
     wtot = float(cs.weights.sum())
     sliding = resp[5] > 0.5
     state = ContactState(st.approach, st.normal_force, st.tangential_force, st.axis, st.direction, st.depth,
