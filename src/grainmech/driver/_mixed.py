@@ -26,7 +26,9 @@ contacts):
 
 After a converged (sub)step one more pass commits the state and assembles the reported
 tangent (seed Eq. 2.26 with the laws' ``kn``, ``ks``, full tangential projector) and the
-stored energy. The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
+stored energy. The loop takes the pass (serial or parallel) and the law as first-class functions, so
+the three compile separately, and on an empty cache in two processes at once
+(:func:`_compile`). The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
 ``tests/test_driver_mixed.py`` holds the two to the same success, stresses and Newton
 iterations.
 """
