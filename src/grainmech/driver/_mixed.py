@@ -729,6 +729,7 @@ def pass_signature(law_sig: tuple, args: tuple) -> tuple:
     """The numba argument types of the evaluation pass called by the loop with ``args`` (those after the law)."""
     from numba import typeof, types
 
+    # positions in the argument tuple built by mixed_segment
     kc, normals, branch, weights, sc = args[0], args[1], args[2], args[3], args[4]
     st, out, scratch, inc, part = args[15], args[16], args[17], args[18], args[19]
     return (types.FunctionType(types.none(*law_sig)), typeof(kc), typeof(normals), typeof(branch), typeof(weights),
@@ -752,9 +753,10 @@ def pass_function(parallel: bool, sig: tuple) -> Any:
 #: the worker process that compiles the law while this one compiles the segment loop
 #: (``GRAINMECH_COMPILE_WORKER=0`` switches it off)
 _WORKER = ("import pickle, sys\n"
+           "path, (key, law_sig, parallel, pass_sig) = pickle.load(sys.stdin.buffer)\n"
+           "sys.path[:] = path  # import the same grainmech as the parent\n"
            "from grainmech.contact import kernel\n"
            "from grainmech.driver import _mixed\n"
-           "key, law_sig, parallel, pass_sig = pickle.load(sys.stdin.buffer)\n"
            "kernel.compile_law(key, law_sig)\n"
            "_mixed.compile_pass(parallel, pass_sig)\n")
 
@@ -765,9 +767,6 @@ def _start_worker(job: tuple) -> Any:
     import pickle
     import subprocess
     import sys
-    from pathlib import Path
-
-    import grainmech
 
     if os.environ.get("GRAINMECH_COMPILE_WORKER", "1") == "0":
         return None
@@ -777,15 +776,11 @@ def _start_worker(job: tuple) -> Any:
         ncpu = os.cpu_count() or 1
     if ncpu < 2:
         return None
-    env = dict(os.environ)
-    # the same grainmech as this process, wherever it was imported from
-    here = str(Path(grainmech.__file__).resolve().parents[1])
-    env["PYTHONPATH"] = here + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     try:
         p = subprocess.Popen([sys.executable, "-c", _WORKER], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL, env=env)
+                             stderr=subprocess.DEVNULL)
         assert p.stdin is not None
-        p.stdin.write(pickle.dumps(job))
+        p.stdin.write(pickle.dumps((list(sys.path), job)))
         p.stdin.close()
     except (OSError, pickle.PicklingError):  # pragma: no cover - then this process compiles the law
         return None
