@@ -91,20 +91,24 @@ def _pick(q, u0, u1, u2, u3, u4, u5):
 
 
 @njit(**_INNER)
-def _b(q, i, lx, ly, lz):
-    """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``.
+def _bcol(q, lx, ly, lz):
+    """Column ``q`` of ``B``, ``(B[0, q], B[1, q], B[2, q])``: relative displacement per unit engineering strain ``q``.
 
-    Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy.
+    Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy. (One
+    function returning the column, not one per entry: numba compiled an entry function
+    once per literal row index.)
     """
-    if q < 3:
-        if i == q:
-            return lx if q == 0 else (ly if q == 1 else lz)
-        return 0.0
+    if q == 0:
+        return lx, 0.0, 0.0
+    if q == 1:
+        return 0.0, ly, 0.0
+    if q == 2:
+        return 0.0, 0.0, lz
     if q == 3:
-        return 0.0 if i == 0 else (0.5 * lz if i == 1 else 0.5 * ly)
+        return 0.0, 0.5 * lz, 0.5 * ly
     if q == 4:
-        return 0.5 * lz if i == 0 else (0.0 if i == 1 else 0.5 * lx)
-    return 0.5 * ly if i == 0 else (0.5 * lx if i == 1 else 0.0)
+        return 0.5 * lz, 0.0, 0.5 * lx
+    return 0.5 * ly, 0.5 * lx, 0.0
 
 
 @njit(**_NO_NRT)
@@ -131,16 +135,14 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
             K20, K21, K22 = k0, k1, k2
     for r in range(6):
         if colmask[r]:
-            b0 = _b(r, 0, lx, ly, lz)
-            b1 = _b(r, 1, lx, ly, lz)
-            b2 = _b(r, 2, lx, ly, lz)
+            b0, b1, b2 = _bcol(r, lx, ly, lz)
             g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
             g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
             g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
             for q in range(6):
                 if rowmask[q]:
-                    acc[off + 6 * q + r] += (_b(q, 0, lx, ly, lz) * g0 + _b(q, 1, lx, ly, lz) * g1
-                                             + _b(q, 2, lx, ly, lz) * g2)
+                    c0, c1, c2 = _bcol(q, lx, ly, lz)
+                    acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
 
 
 @njit(**_INNER)
@@ -448,12 +450,11 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
         cs = w * ks
         for q in range(6):
             uq = _pick(q, u0, u1, u2, u3, u4, u5)
-            bq0 = _b(q, 0, lx, ly, lz)
-            bq1 = _b(q, 1, lx, ly, lz)
-            bq2 = _b(q, 2, lx, ly, lz)
+            bq0, bq1, bq2 = _bcol(q, lx, ly, lz)
             for q2 in range(q, 6):
                 uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
-                btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
+                c0, c1, c2 = _bcol(q2, lx, ly, lz)
+                btb = bq0 * c0 + bq1 * c1 + bq2 * c2
                 Cout[6 * q + q2] += cs * btb + cn * uq * uq2
         wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
                                       out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
