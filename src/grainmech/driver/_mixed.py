@@ -800,6 +800,8 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
     their sum (``docs/performance.md``, "First run"). If the worker fails, they are
     compiled here as before.
     """
+    import subprocess
+
     from numba import typeof, types
     from numba.core import event
 
@@ -821,17 +823,22 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
         def on_end(self, ev: object) -> None:
             pass
 
+    ok = False
     try:
         with event.install_listener("numba:compile", _OnCompile()):
             _segment_compiled.compile(sig)
+        ok = True
     finally:
         for p in workers:
-            if p is not None:
-                try:
-                    p.wait(timeout=600)
-                except Exception:  # pragma: no cover - a hung worker: this process compiles
-                    p.kill()
-                    p.wait()
+            if p is None:
+                continue
+            if not ok:  # interrupted or failed: do not wait for the worker
+                p.kill()
+            try:
+                p.wait(timeout=600)
+            except subprocess.TimeoutExpired:  # pragma: no cover - a hung worker: this process compiles
+                p.kill()
+                p.wait()
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,
