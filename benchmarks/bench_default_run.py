@@ -57,15 +57,20 @@ try:
     event.register("numba:compile", _L())
 except ImportError:
     pass
+import grainmech
 from grainmech.cli import main
 rc = main(["run", "--quiet"])
-print(json.dumps({"rc": rc, "wall": time.perf_counter() - t0, "compiles": comp}))
+print(json.dumps({"rc": rc, "wall": time.perf_counter() - t0, "compiles": comp, "package": grainmech.__file__}))
 """
 
 
 def _cli_run(cache_dir: str) -> tuple[float, dict]:
     """Wall time [s] of one ``grainmech run`` process (interpreter start included) and its report."""
     env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    # the child runs in an empty directory: a relative PYTHONPATH (``PYTHONPATH=src``)
+    # would silently import the installed package instead of this source tree
+    if env.get("PYTHONPATH"):
+        env["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) for p in env["PYTHONPATH"].split(os.pathsep) if p)
     with tempfile.TemporaryDirectory() as cwd:
         t0 = time.perf_counter()
         p = subprocess.run([sys.executable, "-c", _CHILD], cwd=cwd, env=env, capture_output=True, text=True)
@@ -93,6 +98,7 @@ def cold(repeat: int) -> None:
     for label, ts in (("first run (empty numba cache)", colds), ("later run (cache loaded)", warms)):
         print(f"{label}: {min(ts):.2f} s = {min(ts) / t_dgemm:.0f} dgemm (best of {repeat}; all: "
               + ", ".join(f"{t:.2f}" for t in ts) + ")")
+    print(f"package run: {report.get('package')}")
     top = [c for c in report["compiles"] if c[0] == 0]
     print(f"compilations of the first run: {len(top)} outermost, {sum(c[3] for c in top):.1f} s")
     for depth, name, args, t in report["compiles"]:

@@ -187,3 +187,31 @@ def test_small_dense_solve_and_condition_match_lapack(n: int) -> None:
     assert n == 1 or np.linalg.cond(S) > 1e13
     _, ok = _solve_small(np.zeros((n, n)), np.ones(n))
     assert not ok
+
+
+def test_loop_is_compiled_once_for_the_law_and_the_pass_it_is_given():
+    """The loop is compiled ahead of its call for the types of the law and of the pass
+    (``kernel.law_signature``, ``_mixed.pass_signature``; meanwhile a worker may compile
+    those two). The first-class function values it is then called with must have exactly
+    these types: otherwise numba compiles the loop a second time, silently, and the first
+    run pays for it twice."""
+    from numba import types
+
+    from grainmech.driver import _mixed
+
+    r = run(_point(23, "auto"), cyclic_simple_shear(1e-4, 1, 20, constant="stress"))
+    assert r.success, r.message
+    sigs = list(_mixed._segment_compiled.overloads)
+    assert sigs
+    assert all(isinstance(s[0], types.FunctionType) and isinstance(s[1], types.FunctionType) for s in sigs)
+    # no two loops that differ only in the types of the functions passed
+    assert len({s[2:] for s in sigs}) == len(sigs)
+
+
+def test_compile_worker_can_be_switched_off(monkeypatch):
+    """``GRAINMECH_COMPILE_WORKER=0``: no worker process; the law and the pass are then
+    compiled in the calling process (the other tests of this file run with the default)."""
+    from grainmech.driver import _mixed
+
+    monkeypatch.setenv("GRAINMECH_COMPILE_WORKER", "0")
+    assert _mixed._start_worker(((0, False), (), False, ())) is None

@@ -48,7 +48,9 @@ Structure: ``_rows`` advances a chunk of contacts; the kernel runs the chunks in
 functions allocate nothing and are compiled without numba's reference counting (no atomic
 increments of the arrays passed between them), and none is inlined at numba-IR level:
 that made the first run compile the law for ~16 s instead of ~5 s, and LLVM inlines the
-small helpers anyway.
+small helpers anyway. The mixed-control driver calls the law through
+:func:`law_function`: a copy of ``rows`` specialised to one law, compiled once and called
+through its address rather than linked (and re-optimised) into every caller.
 
 Notation (as in :mod:`grainmech.contact.law`): ``Q = mu N - s tau`` is the distance of
 the current state from the friction limit it moves towards; ``P_j = mu N + s_j tau_j``
@@ -70,7 +72,8 @@ from grainmech.contact import law as _law
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 from grainmech.contact.params import ContactParams, Hertz, LinearSpring, MindlinDeresiewicz
 
-__all__ = ["update_kernel", "rows", "constants", "KernelConstants", "KernelState", "KernelIncrement",
+__all__ = ["update_kernel", "rows", "law_function", "law_signature", "law_key", "compile_law", "law_compiled",
+           "constants", "KernelConstants", "KernelState", "KernelIncrement",
            "KernelOutput", "KernelScratch", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS",
            "PARALLEL_THRESHOLD"]
 
@@ -89,6 +92,11 @@ FLAG_MEMORY_FLAT = 2     # reversal memory full in the constant/falling-N revers
 FLAG_NO_TERMINATION = 3  # branch integration did not terminate (never observed)
 
 _EPS = 1e-12
+# compile-time specialisation of :func:`rows` (:func:`law_function`): the law code and
+# normal law a copy is compiled for; -1 (the generic ``rows``) decides from ``kc`` at run
+# time. numba prunes the branches of the other laws from a copy before typing them.
+_LAW = -1
+_LINEAR = -1
 # the tolerances of the reference law (values, so that the compiled code is self-contained)
 _REV_TOL = _law._REV_TOL
 _MERGE_TOL = _law._MERGE_TOL
@@ -97,7 +105,11 @@ _JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False
 # the per-contact law allocates nothing: compiled without numba's reference counting (the
 # atomic increments and decrements of the arrays passed between its functions took ~12 %
 # of the mixed-control driver's time)
-_JIT_NO_NRT: dict[str, Any] = {**_JIT, "_nrt": False}
+# Functions only called from compiled code are compiled without the wrappers that make
+# them callable from Python and from C (generating and optimising those took ~15 % of the
+# first run's compilation: the law's arguments are tuples of many arrays).
+_JIT_NO_NRT: dict[str, Any] = {**_JIT, "_nrt": False, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+_JIT_INNER: dict[str, Any] = {**_JIT, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 
 
 # ---------------------------------------------------------------------------------------
@@ -271,12 +283,12 @@ def constants(params: ContactParams) -> KernelConstants:
 # ---------------------------------------------------------------------------------------
 # Closed forms of the normal law and of the no-slip tangential stiffness
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _clip01(x):
     return min(max(x, 0.0), 1.0)
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _kn(N, linear, E, R, kn_lin):
     """Tangent normal stiffness: Hertz ``2 E* a`` (seed Eq. 3.7) or ``kn``; 0 when open."""
     if linear:
@@ -284,7 +296,7 @@ def _kn(N, linear, E, R, kn_lin):
     return hertz_kn(hertz_radius(N, E, R), E)
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _kt0(N, linear, E, R, Gs, ks_lin):
     """No-slip tangential stiffness ``8 G* a`` (seed Eq. 3.11 with theta = 1, Eq. 3.12) or ``ks``."""
     if linear:
@@ -292,7 +304,7 @@ def _kt0(N, linear, E, R, Gs, ks_lin):
     return mindlin_kt0(hertz_radius(N, E, R), Gs)
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
     """Mean no-slip tangential stiffness along a straight step [N/m].
 
@@ -314,7 +326,7 @@ def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
 # z sqrt(z), y**(1/3) = cbrt(y) -- the same values to a few ulp, several times cheaper
 # than the general power (which dominated the kernel's time).
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _pow_q(y, q, sph):
     """``y**q`` with ``q = 1 - p``."""
     if sph:
@@ -323,7 +335,7 @@ def _pow_q(y, q, sph):
     return y ** q
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _pow_m(z, m, sph):
     """``z**m`` with ``m = 1/(1 - p)``."""
     if sph:
@@ -331,7 +343,7 @@ def _pow_m(z, m, sph):
     return z ** m
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _pow_p(y, p, sph):
     """``y**p`` (theta, seed Eq. 3.13-3.15)."""
     if sph:
@@ -341,7 +353,7 @@ def _pow_p(y, p, sph):
 # ---------------------------------------------------------------------------------------
 # Energy functions of the Iwan representation (module notes of grainmech.contact.law)
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _H(z, m, hcoef, sph):
     """``H(z) = int_z^1 g`` of the Mindlin-Deresiewicz branch integral.
 
@@ -368,7 +380,7 @@ def _H(z, m, hcoef, sph):
     return G1 - (z + (m - 1.0) * zm1 / (m + 1.0) - zm)
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _g_of_y(y, p, gcoef, theta, sph):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
@@ -446,7 +458,7 @@ def _reverse(Q, k, muN, P, row, maxrev):
     return 2.0 * muN - Q, k, False, not skeleton_zero and not fresh
 
 
-@njit(**_JIT)
+@njit(**_JIT_INNER)
 def _z_of_n(Nv, na, z0, c, q, sph=False):
     """Falling N at fixed displacement: ``z - 1/c = (z0 - 1/c) (na/N)**(1-p)`` (exact)."""
     ratio = _pow_q(na / max(Nv, 1e-300), q, sph)
@@ -795,7 +807,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         alpha1o[i] = a1
         N1o[i] = N1
         open_o[i] = not (a1 > 0.0)
-        if linear:
+        if _LINEAR == 1 or (_LINEAR < 0 and linear):
             kn = _kn(N1, linear, E, R, kn_lin)
             kt01 = _kt0(N1, linear, E, R, Gs, ks_lin)
         else:
@@ -806,7 +818,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             kt01 = mindlin_kt0(a_1, Gs)
         kn_o[i] = kn
         closed1 = N1 > 0.0
-        if linear:
+        if _LINEAR == 1 or (_LINEAR < 0 and linear):
             kt00 = _kt0(N0, linear, E, R, Gs, ks_lin)
         else:
             kt00 = mindlin_kt0(rad0[i], Gs)
@@ -817,7 +829,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         else:
             rho = 1.0
 
-        if law == LAW_FRICTIONLESS:
+        if _LAW == LAW_FRICTIONLESS or (_LAW < 0 and law == LAW_FRICTIONLESS):
             for c in range(dim):
                 T1[i, c] = 0.0
                 e1[i, c] = 0.0
@@ -831,7 +843,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp)
             continue
 
-        if law == LAW_JENKINS:
+        if _LAW == LAW_JENKINS or (_LAW < 0 and law == LAW_JENKINS):
             # elastic spring (seed Eq. 3.11 with theta = 1), rescaled when the area shrinks,
             # Coulomb cap by radial return
             Tn0 = math.sqrt(_dot_rows(T1, i, T1, i))
@@ -900,7 +912,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         dkt1 = 0.0 if (linear or not (a1 > 0.0)) else kt01 / (2.0 * a1)
         if rising:
             da = a1 - a0e
-            if linear:
+            if _LINEAR == 1 or (_LINEAR < 0 and linear):
                 dkbar = 0.0
             elif abs(da) > 1e-14 * max(abs(a0e), abs(a1)):
                 dkbar = (kt01 - kbar) / da     # d/da1 of the secant (N1 - N0) / (r da)
@@ -1054,7 +1066,74 @@ def rows(lo, hi, kc, state, inc, out, scratch):
                     tdel[i, c, c2] = 0.0
 
 
-@njit(**_JIT)
+_LAW_FUNCTIONS: dict = {}
+
+
+def _law_dispatcher(key: tuple[int, bool]) -> Any:
+    """The copy of :func:`rows` specialised to ``key = (law code, linear)`` (made once)."""
+    disp = _LAW_FUNCTIONS.get(key)
+    if disp is None:
+        import types as pytypes
+
+        f = rows.py_func
+        g = dict(f.__globals__)
+        g.update(_LAW=int(key[0]), _LINEAR=int(key[1]))
+        name = f"rows_law{int(key[0])}_linear{int(key[1])}"
+        fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
+        fc.__qualname__ = name  # its own name: its own cache file
+        fc.__module__ = f.__module__
+        fc.__doc__ = f.__doc__
+        # with the C-callable wrapper: its address is what the callers call
+        disp = njit(**{**_JIT_NO_NRT, "no_cfunc_wrapper": False})(fc)
+        _LAW_FUNCTIONS[key] = disp
+    return disp
+
+
+def law_key(kc: KernelConstants) -> tuple[int, bool]:
+    """What :func:`law_function` specialises on: the law code and the normal law of ``kc``."""
+    return int(kc.law), bool(kc.linear)
+
+
+def law_signature(kc: KernelConstants, state: KernelState, inc: KernelIncrement, out: KernelOutput,
+                  scratch: KernelScratch) -> tuple:
+    """The numba argument types of ``rows(lo, hi, kc, state, inc, out, scratch)`` for these arguments."""
+    from numba import typeof, types
+
+    return (types.int64, types.int64, typeof(kc), typeof(state), typeof(inc), typeof(out), typeof(scratch))
+
+
+def compile_law(key: tuple[int, bool], sig: tuple) -> None:
+    """Compile (or load from numba's cache) the law copy ``key`` for the argument types ``sig``."""
+    _law_dispatcher(key).compile(sig)
+
+
+def law_compiled(key: tuple[int, bool], sig: tuple) -> bool:
+    """The law copy ``key`` is already compiled or loaded in this process for ``sig``."""
+    return sig in _law_dispatcher(key).overloads
+
+
+def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, out: KernelOutput,
+                 scratch: KernelScratch) -> Any:
+    """:func:`rows` for the law of ``kc``, compiled alone, as a first-class function value.
+
+    A compiled caller that takes it as an argument (``law(lo, hi, kc, state, inc, out,
+    scratch)``) calls it through its address instead of linking a copy of the law into
+    its own code: numba re-optimises and re-generates the machine code of every callee
+    linked into each caller, and the law is the largest function of the mixed-control
+    driver (``docs/performance.md``, "First run"). The copy is specialised to the law
+    kind and normal law of ``kc`` (the other laws' branches are not compiled) and is
+    cached on disk like the other kernels; one call per chunk of contacts costs nothing
+    measurable. Its type is ``numba.types.FunctionType(numba.types.none(*law_signature(...)))``.
+    """
+    from numba.core.types.function_type import CompileResultWAP
+
+    key = law_key(kc)
+    sig = law_signature(kc, state, inc, out, scratch)
+    compile_law(key, sig)
+    return CompileResultWAP(_law_dispatcher(key).overloads[sig])
+
+
+@njit(**_JIT_INNER)
 def _finite(a):
     """All entries finite."""
     for v in a.ravel():
@@ -1090,7 +1169,7 @@ def _make_kernel(parallel):
         return OK
 
     kernel.__doc__ = """Advance ``n`` contacts by one increment (see :func:`update_kernel`)."""
-    return njit(parallel=parallel, **_JIT)(kernel)
+    return njit(parallel=parallel, no_cfunc_wrapper=True, **_JIT)(kernel)  # called from Python only
 
 
 _kernel_serial = _make_kernel(False)

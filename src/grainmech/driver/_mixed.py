@@ -13,7 +13,9 @@ contacts):
 * kinematics, seed Eq. 2.13 (``delta = d eps . l``) and the normal law at the step's
   end (seed Eq. 3.6, 3.2), exactly as :mod:`grainmech.driver._fused`;
 * the compiled law update :func:`grainmech.contact.kernel.rows` from the last converged
-  state (trial increment, no drift);
+  state (trial increment, no drift), passed in as a first-class function
+  (:func:`grainmech.contact.kernel.law_function`: compiled once for the law at hand, not
+  linked into the pass and the loop);
 * the Love-Weber stress (seed Eq. 2.6, symmetric part), the weighted sliding and open
   fractions and the dissipation;
 * the Newton Jacobian rows and columns of the stress-controlled components,
@@ -24,7 +26,9 @@ contacts):
 
 After a converged (sub)step one more pass commits the state and assembles the reported
 tangent (seed Eq. 2.26 with the laws' ``kn``, ``ks``, full tangential projector) and the
-stored energy. The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
+stored energy. The loop takes the pass (serial or parallel) and the law as first-class functions, so
+the three compile separately, and on an empty cache in two processes at once
+(:func:`_compile`). The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
 ``tests/test_driver_mixed.py`` holds the two to the same success, stresses and Newton
 iterations.
 """
@@ -45,7 +49,7 @@ from grainmech.contact.geometry import (
     mindlin_kt0,
     spring_energy,
 )
-from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
+from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
@@ -53,7 +57,14 @@ __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_webe
 _CH = 128  # contacts per chunk (work item of the prange)
 # functions that allocate nothing: compiled without numba's reference counting (atomic
 # increments of the arrays they are passed, per contact)
-_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False}
+_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
+                           "no_cfunc_wrapper": True}
+# functions called only from compiled code: no Python or C wrapper
+_INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+# functions passed to compiled code as first-class functions: only the C wrapper
+_FIRST_CLASS: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True}
+# functions called from Python only: no C wrapper
+_PY_ONLY: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cfunc_wrapper": True}
 _NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
 
 #: failure causes reported by the compiled loop (``info[1]``)
@@ -63,7 +74,7 @@ FAIL_NO_CONVERGENCE = 3  # max_iter iterations, no iterate within rtol_accept
 FAIL_LAW = 4             # the law could not advance a contact (index in info[3], flag in info[4])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _pick(q, u0, u1, u2, u3, u4, u5):
     """The ``q``-th of six scalars (a register-held 6-vector)."""
     if q == 0:
@@ -79,21 +90,25 @@ def _pick(q, u0, u1, u2, u3, u4, u5):
     return u5
 
 
-@njit(cache=True, error_model="numpy")
-def _b(q, i, lx, ly, lz):
-    """``B[i, q]``: relative displacement ``delta_i`` per unit engineering strain ``q``.
+@njit(**_INNER)
+def _bcol(q, lx, ly, lz):
+    """Column ``q`` of ``B``, ``(B[0, q], B[1, q], B[2, q])``: relative displacement per unit engineering strain ``q``.
 
-    Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy.
+    Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy. (One
+    function returning the column, not one per entry: numba compiled an entry function
+    once per literal row index.)
     """
-    if q < 3:
-        if i == q:
-            return lx if q == 0 else (ly if q == 1 else lz)
-        return 0.0
+    if q == 0:
+        return lx, 0.0, 0.0
+    if q == 1:
+        return 0.0, ly, 0.0
+    if q == 2:
+        return 0.0, 0.0, lz
     if q == 3:
-        return 0.0 if i == 0 else (0.5 * lz if i == 1 else 0.5 * ly)
+        return 0.0, 0.5 * lz, 0.5 * ly
     if q == 4:
-        return 0.5 * lz if i == 0 else (0.0 if i == 1 else 0.5 * lx)
-    return 0.5 * ly if i == 0 else (0.5 * lx if i == 1 else 0.0)
+        return 0.5 * lz, 0.0, 0.5 * lx
+    return 0.5 * ly, 0.5 * lx, 0.0
 
 
 @njit(**_NO_NRT)
@@ -120,19 +135,17 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
             K20, K21, K22 = k0, k1, k2
     for r in range(6):
         if colmask[r]:
-            b0 = _b(r, 0, lx, ly, lz)
-            b1 = _b(r, 1, lx, ly, lz)
-            b2 = _b(r, 2, lx, ly, lz)
+            b0, b1, b2 = _bcol(r, lx, ly, lz)
             g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
             g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
             g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
             for q in range(6):
                 if rowmask[q]:
-                    acc[off + 6 * q + r] += (_b(q, 0, lx, ly, lz) * g0 + _b(q, 1, lx, ly, lz) * g1
-                                             + _b(q, 2, lx, ly, lz) * g2)
+                    c0, c1, c2 = _bcol(q, lx, ly, lz)
+                    acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _copy_state(src, src_resp, dst, dst_resp):
     """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows.
 
@@ -157,7 +170,7 @@ def _copy_state(src, src_resp, dst, dst_resp):
             dst_resp[f][i] = src_resp[f][i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
     """One contact's step input from a strain increment.
 
@@ -180,7 +193,7 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
             hertz_radius(N1, E, R))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
     """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T``.
 
@@ -193,7 +206,7 @@ def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
             0.5 * (fx * ly + fy * lx))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_PY_ONLY)
 def _solve_small(A, b):
     """Solve ``A x = b`` for a small dense (n, n) ``A`` (n <= 6); ``A`` and ``b`` are overwritten.
 
@@ -229,7 +242,7 @@ def _solve_small(A, b):
     return b, True
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_PY_ONLY)
 def _cond2(J):
     """2-norm condition number ``s_max / s_min`` of a small finite (n, n) matrix (n <= 6).
 
@@ -277,7 +290,7 @@ def _cond2(J):
     return smax / smin if smin > 0.0 else math.inf
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _reduce(part, sig, jac):
     """Sum the per-chunk partial sums.
 
@@ -300,7 +313,7 @@ def _reduce(part, sig, jac):
     return s_sl, s_op, s_di
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
     """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`.
 
@@ -321,7 +334,7 @@ def _make(parallel: bool):
     """Evaluation pass and segment driver, serial or with a ``prange`` over chunks."""
     rng = prange if parallel else range
 
-    def _evaluate(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
+    def _evaluate(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
         # trial update of every contact from the converged state ``st`` by the strain
         # increment ``de``; per-chunk sums into ``part``; returns the first contact the
         # law could not advance (-1: none)
@@ -359,7 +372,7 @@ def _make(parallel: bool):
                                                 normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
                                                 s_a[i], s_N[i], linear, kn_lin, E, R)
                 c_fl[i] = 0
-            rows(lo, hi, kcc, st_c, inc_c, out_c, scr_c)
+            law_fn(lo, hi, kcc, st_c, inc_c, out_c, scr_c)  # kernel.rows (kernel.law_function)
             for i in range(lo, hi):
                 if c_fl[i] != 0 and bad_c[ch] < 0:
                     bad_c[ch] = i
@@ -387,10 +400,11 @@ def _make(parallel: bool):
                 return bad_c[ch]
         return -1
 
-    return njit(parallel=parallel, cache=True, error_model="numpy")(_evaluate)
+    # called by the segment loop through its C-callable wrapper (a first-class function)
+    return njit(parallel=parallel, **_FIRST_CLASS)(_evaluate)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(**_INNER)
 def _commit(kc, normals, branch, weights, st, out, resp, Cout):
     # accept the trial state: out -> st (dissipated energy accumulated), the response
     # kept in ``resp``; returns the stored energy and writes the reported tangent
@@ -436,12 +450,11 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
         cs = w * ks
         for q in range(6):
             uq = _pick(q, u0, u1, u2, u3, u4, u5)
-            bq0 = _b(q, 0, lx, ly, lz)
-            bq1 = _b(q, 1, lx, ly, lz)
-            bq2 = _b(q, 2, lx, ly, lz)
+            bq0, bq1, bq2 = _bcol(q, lx, ly, lz)
             for q2 in range(q, 6):
                 uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
-                btb = bq0 * _b(q2, 0, lx, ly, lz) + bq1 * _b(q2, 1, lx, ly, lz) + bq2 * _b(q2, 2, lx, ly, lz)
+                c0, c1, c2 = _bcol(q2, lx, ly, lz)
+                btb = bq0 * c0 + bq1 * c1 + bq2 * c2
                 Cout[6 * q + q2] += cs * btb + cn * uq * uq2
         wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
                                       out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
@@ -452,11 +465,11 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
     return wst
 
 
-def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
+def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
              rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
              rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
-    # the step/Newton loop of a segment (compiled by _specialised, with _evaluate_pass the
-    # serial or the parallel evaluation pass)
+    # the step/Newton loop of a segment; eval_fn is the serial or the parallel evaluation
+    # pass and law_fn the law (first-class functions: pass_function, kernel.law_function)
     # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
     # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
     # finfo = (condition or residual, tolerance, sliding, open)
@@ -569,7 +582,7 @@ def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_str
             loose_acc = False
             rmax = 0.0
             for it in range(1, max_iter + 1):
-                bad = _evaluate_pass(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                bad = eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
                 if bad >= 0:
                     cause = FAIL_LAW
                     info[3] = bad
@@ -632,7 +645,7 @@ def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_str
                 # the best iterate is not the last one: evaluate it again (same state)
                 for q in range(6):
                     de[q] = best_de[q]
-                _evaluate_pass(kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
                 s_sl, s_op, s_di = _reduce(part, sig, jac)
             if cause != 0:
                 wtot = 0.0
@@ -666,7 +679,9 @@ def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_str
                 nsk += 2
                 continue
             # ---- accepted: commit the state, counters as solver._subdivided
-            new_strain = strain + de
+            new_strain = np.empty(6)  # strain + de (an element loop: no array expression to compile)
+            for q in range(6):
+                new_strain[q] = strain[q] + de[q]
             wst = _commit(kc, normals, branch, weights, st, out, resp, Cflat)
             n_sub += 1
             n_it += it_done
@@ -706,31 +721,124 @@ def _segment(kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_str
 
 _evaluate_serial = _make(False)
 _evaluate_parallel = _make(True)
-_evaluate_pass = _evaluate_serial  # the pass _segment calls (replaced in each compiled copy)
+# the pass and the law are arguments (first-class functions), not linked into the loop:
+# one compiled loop serves the serial and the parallel pass
+_segment_compiled = njit(**_PY_ONLY)(_segment)
 
 
-def _specialised(fn, name: str, **names):
-    """``fn`` compiled with the module globals ``names`` replaced, under its own name.
+def pass_signature(law_sig: tuple, args: tuple) -> tuple:
+    """The numba argument types of the evaluation pass called by the loop with ``args`` (those after the law)."""
+    from numba import typeof, types
 
-    The serial and the parallel segment loop differ only in the evaluation pass they
-    call. The pass is a global of the copy, not a closure variable: numba keys its
-    on-disk cache on the closure's contents, and a dispatcher pickles with a new id in
-    every process, so a closure over one would be compiled again by every run. The own
-    qualified name gives each copy its own cache file.
+    # positions in the argument tuple built by mixed_segment
+    kc, normals, branch, weights, sc = args[0], args[1], args[2], args[3], args[4]
+    st, out, scratch, inc, part = args[15], args[16], args[17], args[18], args[19]
+    return (types.FunctionType(types.none(*law_sig)), typeof(kc), typeof(normals), typeof(branch), typeof(weights),
+            typeof(np.zeros(6)), typeof(sc), typeof(st), typeof(out), typeof(scratch), typeof(inc), typeof(part))
+
+
+def compile_pass(parallel: bool, sig: tuple) -> None:
+    """Compile (or load from numba's cache) the serial or parallel evaluation pass for ``sig``."""
+    (_evaluate_parallel if parallel else _evaluate_serial).compile(sig)
+
+
+def pass_function(parallel: bool, sig: tuple) -> Any:
+    """The evaluation pass as a first-class function value (compiled or loaded first)."""
+    from numba.core.types.function_type import CompileResultWAP
+
+    fn = _evaluate_parallel if parallel else _evaluate_serial
+    fn.compile(sig)
+    return CompileResultWAP(fn.overloads[sig])
+
+
+#: the worker process that compiles the law while this one compiles the segment loop
+#: (``GRAINMECH_COMPILE_WORKER=0`` switches it off)
+_WORKER = ("import pickle, sys\n"
+           "path, (key, law_sig, parallel, pass_sig) = pickle.load(sys.stdin.buffer)\n"
+           "sys.path[:] = path  # import the same grainmech as the parent\n"
+           "from grainmech.contact import kernel\n"
+           "from grainmech.driver import _mixed\n"
+           "kernel.compile_law(key, law_sig)\n"
+           "_mixed.compile_pass(parallel, pass_sig)\n")
+
+
+def _start_worker(job: tuple) -> Any:
+    """A Python process that compiles the law and the evaluation pass of ``job`` into numba's cache (or None)."""
+    import os
+    import pickle
+    import subprocess
+    import sys
+
+    if os.environ.get("GRAINMECH_COMPILE_WORKER", "1") == "0":
+        return None
+    try:
+        ncpu = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        ncpu = os.cpu_count() or 1
+    if ncpu < 2:
+        return None
+    try:
+        p = subprocess.Popen([sys.executable, "-c", _WORKER], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                             stderr=subprocess.DEVNULL)
+        assert p.stdin is not None
+        p.stdin.write(pickle.dumps((list(sys.path), job)))
+        p.stdin.close()
+    except (OSError, pickle.PicklingError):  # pragma: no cover - then this process compiles the law
+        return None
+    return p
+
+
+def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: tuple) -> None:
+    """Compile (or load) the segment loop for ``args``; the law and the pass at the same time elsewhere.
+
+    The loop takes the pass and the law as first-class functions, so compiling it needs
+    only their types, not their code. When the loop has to be compiled (numba starts a
+    compilation: an empty or stale cache), the law and the pass are compiled in a second
+    Python process meanwhile, into numba's on-disk cache, from which
+    :func:`kernel.law_function` and :func:`pass_function` then load them: with a free
+    second core the first run waits for the longer of the two compilations instead of
+    their sum (``docs/performance.md``, "First run"). If the worker fails, they are
+    compiled here as before.
     """
-    import types
+    import subprocess
 
-    g = dict(fn.__globals__)
-    g.update(names)
-    f = types.FunctionType(fn.__code__, g, name, fn.__defaults__, fn.__closure__)
-    f.__qualname__ = name
-    f.__module__ = fn.__module__
-    f.__doc__ = fn.__doc__
-    return njit(cache=True, error_model="numpy")(f)
+    from numba import typeof, types
+    from numba.core import event
 
+    from grainmech.contact import kernel
 
-_segment_serial = _specialised(_segment, "_segment_serial", _evaluate_pass=_evaluate_serial)
-_segment_parallel = _specialised(_segment, "_segment_parallel", _evaluate_pass=_evaluate_parallel)
+    sig = ((types.FunctionType(types.intp(*pass_sig)), types.FunctionType(types.none(*law_sig)))
+           + tuple(typeof(a) for a in args))
+    if sig in _segment_compiled.overloads:
+        return
+    workers: list = []
+
+    class _OnCompile(event.Listener):
+        def on_start(self, ev: object) -> None:
+            if not workers:
+                done = kernel.law_compiled(key, law_sig) and pass_sig in (
+                    _evaluate_parallel if parallel else _evaluate_serial).overloads
+                workers.append(None if done else _start_worker((key, law_sig, parallel, pass_sig)))
+
+        def on_end(self, ev: object) -> None:
+            pass
+
+    ok = False
+    try:
+        with event.install_listener("numba:compile", _OnCompile()):
+            _segment_compiled.compile(sig)
+        ok = True
+    finally:
+        for p in workers:
+            if p is None:
+                continue
+            if not ok:  # interrupted or failed: do not wait for the worker
+                p.kill()
+            try:
+                p.wait(timeout=600)
+            except subprocess.TimeoutExpired:  # pragma: no cover - a hung worker: this process compiles
+                p.kill()
+                p.wait()
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,
@@ -799,15 +907,20 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     info = np.zeros(6, dtype=np.int64)
     finfo = np.zeros(4)
     parallel = n >= kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
-    fn = _segment_parallel if parallel else _segment_serial
     C0 = np.ascontiguousarray(point.tangent, dtype=float)
     t_stress = c(t_stress)
     t_strain = c(t_strain)
-    done = int(fn(kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
-                  c(point.stress), c(point.strain), C0, t_stress, t_strain,
-                  float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
-                  st, out, scratch, inc, part, resp, bk, bk_resp,
-                  rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo))
+    args = (kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
+            c(point.stress), c(point.strain), C0, t_stress, t_strain,
+            float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
+            st, out, scratch, inc, part, resp, bk, bk_resp,
+            rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo)
+    law_sig = kernel.law_signature(kc, st, inc, out, scratch)
+    pass_sig = pass_signature(law_sig, args)
+    _compile(args, kernel.law_key(kc), law_sig, parallel, pass_sig)
+    law_fn = kernel.law_function(kc, st, inc, out, scratch)
+    eval_fn = pass_function(parallel, pass_sig)
+    done = int(_segment_compiled(eval_fn, law_fn, *args))
     wtot = float(cs.weights.sum())
     sliding = resp[5] > 0.5
     state = ContactState(st.approach, st.normal_force, st.tangential_force, st.axis, st.direction, st.depth,
