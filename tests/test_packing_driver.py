@@ -115,6 +115,8 @@ def test_regularization_leaves_the_equilibrium_alone(packing):
     np.testing.assert_allclose(out[1][1], out[0][1], rtol=0, atol=1e-8 * np.abs(out[0][1]).max())
     with pytest.raises(ParameterError, match="regularization"):
         PackingOptions(regularization=0.5)
+    with pytest.raises(ParameterError, match="reproducible"):
+        PackingOptions(reproducible="yes")
 
 
 @pytest.mark.parametrize("ks_ratio", [0.0, 0.5])

@@ -166,10 +166,10 @@ class _Factor:
     ``auto`` and raises under a named backend.
     """
 
-    def __init__(self, A: sp.spmatrix, backend: str) -> None:
+    def __init__(self, A: sp.spmatrix, backend: str, reproducible: bool = True) -> None:
         if backend in ("auto", "pardiso"):
             try:
-                self._init_pardiso(A)
+                self._init_pardiso(A, reproducible)
                 return
             except ImportError:
                 if backend == "pardiso":
@@ -197,19 +197,20 @@ class _Factor:
         self.name = "superlu"
         self._lu = spla.splu(A.tocsc())
 
-    def _init_pardiso(self, A: sp.spmatrix) -> None:
+    def _init_pardiso(self, A: sp.spmatrix, reproducible: bool) -> None:
         import pypardiso
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
         ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
-        # one MKL thread for PARDISO (thread-local, restored after each call): its
-        # multithreaded factorisation and solve sum in a schedule-dependent order, and the
-        # packing driver's path through kinks of the contact laws amplified those
-        # round-off differences into runs of 51 s and 126 s for the same input. One thread
-        # costs ~20 % on the 11 211-unknown 'medium' operator (factor 0.29 vs 0.23 s,
-        # solve 2.9 vs 2.4 ms) and makes a run reproducible
-        self._threads = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None)
+        # ``reproducible``: PARDISO factors on one MKL thread (thread-local, restored after
+        # the call; the factor keeps that thread count for its solves). Its multithreaded
+        # factorisation and solves sum in a schedule-dependent order, and the packing
+        # driver's path through the kinks of the contact laws amplified those round-off
+        # differences into runs of 51 s and 126 s for the same input. One thread costs
+        # ~50 % per solve on the 11 673-unknown benchmark operator (10.3 vs 6.6 ms);
+        # PARDISO's own reproducible mode (iparm(34) with MKL_CBWR) was slower still (12 ms)
+        self._threads = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None) if reproducible else None
         with self._one_thread():
             ps.factorize(Au)
         # no iterative refinement in the solve phase (iparm(8), 1-based): the elastic
@@ -224,7 +225,10 @@ class _Factor:
 
     @contextmanager
     def _one_thread(self) -> Iterator[None]:
-        """MKL on one thread in this thread while the block runs (PARDISO: reproducible)."""
+        """MKL on one thread in this thread while the block runs (PARDISO: reproducible).
+
+        Nothing when ``_threads`` is None (not reproducible, or no such MKL function).
+        """
         if self._threads is None:
             yield
             return
@@ -271,7 +275,8 @@ class Preconditioner:
     Jacobi scaling ``D`` and :meth:`exact_Y`, ``H0^-1 B0`` without the shift.
     """
 
-    def __init__(self, kin: Kinematics, K0: np.ndarray, backend: str = "auto", reg: float = 1e-4) -> None:
+    def __init__(self, kin: Kinematics, K0: np.ndarray, backend: str = "auto", reg: float = 1e-4,
+                 reproducible: bool = True) -> None:
         Kb = block_diagonal(K0)
         KG = (Kb @ kin.G).tocsr()
         H = (kin.Gt @ KG).tocsr()
@@ -287,7 +292,7 @@ class Preconditioner:
         floor = np.where(rot, fr, ft)
         self.H0 = H = 0.5 * (H + H.T)
         self.shift = np.where(dg > 1e-6 * floor, reg * dg, 1e-6 * floor)
-        self.factor = _Factor((H + sp.diags(self.shift)).tocsr(), backend)
+        self.factor = _Factor((H + sp.diags(self.shift)).tocsr(), backend, reproducible)
         KE = Kb @ kin.E
         self.B0 = kin.Gt @ KE                     # (n_free, 6)
         self.A0 = kin.E.T @ KE                     # (6, 6)

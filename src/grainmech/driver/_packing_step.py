@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
+from weakref import WeakKeyDictionary
 
 import numpy as np
 
@@ -557,10 +558,13 @@ def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
     if point.load is None:
         return np.zeros(kin.n_free)
     closed = ~np.asarray(resp.open, bool)
-    key = ("held", closed.tobytes())
-    got = point._cache.get(key)
-    if got is not None:
-        return got
+    # the same contacts stay closed over most updates and steps: cached per kinematics
+    # (shared by every point of a run) and closed set
+    memo = _HELD.setdefault(kin, {})
+    key = closed.tobytes()
+    got = memo.get(key)
+    if got is not None and got[0] is point.load:
+        return got[1]
     P = kin.n_grains
     R = point.radii
     # blocks of the relative displacement of each closed contact in the motion of its grain
@@ -571,18 +575,24 @@ def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
     W[0, :, :, 3:] = -_cross_rows(R[a][:, None] * n) / R[a][:, None, None]
     W[1, :, :, :3] = -np.eye(3)
     W[1, :, :, 3:] = _cross_rows(-R[b][:, None] * n) / R[b][:, None, None]
-    gram = np.zeros((P, 6, 6))
-    np.add.at(gram, a, np.einsum("cki,ckj->cij", W[0], W[0]))
-    np.add.at(gram, b, np.einsum("cki,ckj->cij", W[1], W[1]))
+    ga = np.einsum("cki,ckj->cij", W[0], W[0]).reshape(-1, 36)
+    gb = np.einsum("cki,ckj->cij", W[1], W[1]).reshape(-1, 36)
+    gram = np.stack([np.bincount(a, ga[:, k], P) + np.bincount(b, gb[:, k], P) for k in range(36)],
+                    axis=1).reshape(P, 6, 6)
     w, U = np.linalg.eigh(gram)  # ascending; the grain's mechanisms have w ~ 0 (entries O(1))
     null = w < 1e-9 * np.maximum(w[:, -1:], 1.0)
     scale = np.concatenate([np.ones((P, 3)), np.repeat(R[:, None], 3, axis=1)], axis=1)
     ls = kin.full(point.load) / scale  # (force, moment / R)
     proj = np.einsum("pik,pk,pjk,pj->pi", U, null.astype(float), U, ls)
     kept = ((ls - proj) * scale).reshape(-1)[kin.free]
-    if len(point._cache) < 64:
-        point._cache[key] = kept
+    if len(memo) >= 16:
+        memo.clear()
+    memo[key] = (point.load, kept)
     return kept
+
+
+#: _held_load's results per kinematics (weak: dropped with the run's points)
+_HELD: WeakKeyDictionary = WeakKeyDictionary()
 
 
 def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, approach: np.ndarray,

@@ -113,6 +113,13 @@ class PackingOptions:
         operator whatever this is. On the shipped 'medium' packing at γ = 1e-5 the
         default 1e-4 let 80 steps finish where 1e-10 stopped at step 21
         (``docs/packing-driver.md``).
+    reproducible : bool
+        PARDISO factorises (and then solves) on one thread, so that the same input gives
+        the same run (default). ``False``: on every core, ~1.5x faster solves, but its
+        round-off then depends on the thread schedule, and a path through many kinks of
+        the contact laws (sliding, reversals) can take a different course (other
+        accepted residuals, times of 51 s or 126 s for the same 500-grain run). Other
+        factorisations are reproducible either way.
     """
 
     rtol: float = 1e-8
@@ -131,6 +138,7 @@ class PackingOptions:
     factorization: str = "auto"
     law_backend: str | None = "numpy"
     regularization: float = 1e-4
+    reproducible: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1e-2):
@@ -157,6 +165,8 @@ class PackingOptions:
                                  "must be 'auto', 'pardiso', 'cholespy' or 'superlu'")
         if not (isinstance(self.regularization, (int, float)) and 1e-12 <= self.regularization <= 1e-2):
             raise ParameterError("regularization", self.regularization, "must lie in [1e-12, 1e-2]")
+        if not isinstance(self.reproducible, bool):
+            raise ParameterError("reproducible", self.reproducible, "must be True or False")
 
 
 # --------------------------------------------------------------------------- the point
@@ -278,6 +288,7 @@ class PackingPoint:
     factorization: str = "auto"
     load: np.ndarray | None = None
     regularization: float = 1e-4
+    reproducible: bool = True
     _cache: dict = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ constructor
@@ -414,7 +425,7 @@ class PackingPoint:
         pt = cls(net, params, kin, grains, net.radii[grains], rows, s, st0, resp0, f,
                  np.zeros((grains.size, 6)), np.zeros(6), voigt_of(f, br) / V, V, int(ratt.sum()),
                  np.concatenate([Nk > 0, np.zeros(gi.size, bool)]), tuple(notes), opts.law_backend,
-                 opts.factorization, regularization=opts.regularization)
+                 opts.factorization, regularization=opts.regularization, reproducible=opts.reproducible)
         ufr = unbalanced_force_ratio(pt)
         if not ufr <= max_unbalanced:
             raise GrainmechError(
@@ -506,7 +517,7 @@ class PackingPoint:
         """Factorised elastic operator of this state (cached)."""
         if "prec" not in self._cache:
             self._cache["prec"] = Preconditioner(self.kinematics, self.contact_stiffness()[1], self.factorization,
-                                                 self.regularization)
+                                                 self.regularization, self.reproducible)
         return self._cache["prec"]
 
     @cached_property
@@ -706,7 +717,7 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
         every step done before, with the message naming the step and the cause.
     """
     opts = options or PackingOptions(law_backend=point.law_backend, factorization=point.factorization,
-                                     regularization=point.regularization)
+                                     regularization=point.regularization, reproducible=point.reproducible)
     if kwargs:
         opts = replace(opts, **kwargs)
     return _run(point, path, opts, on_step=on_step)
@@ -719,8 +730,9 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
     if not isinstance(point, PackingPoint):
         raise ParameterError("point", type(point).__name__, "must be a PackingPoint")
-    if opts.regularization != point.regularization:  # the cached factor has another shift
-        point = replace(point, regularization=opts.regularization,
+    if (opts.regularization, opts.reproducible) != (point.regularization, point.reproducible):
+        # the cached factor has another shift or threading
+        point = replace(point, regularization=opts.regularization, reproducible=opts.reproducible,
                         _cache={k: v for k, v in point._cache.items() if k != "prec"})
     point = replace(point, law_backend=opts.law_backend, factorization=opts.factorization, _cache=point._cache) \
         if (opts.law_backend, opts.factorization) != (point.law_backend, point.factorization) else point
