@@ -296,7 +296,7 @@ class Preconditioner:
         KE = Kb @ kin.E
         self.B0 = kin.Gt @ KE                     # (n_free, 6)
         self.A0 = kin.E.T @ KE                     # (6, 6)
-        self.Y = self.factor.solve(self.B0)        # H0^-1 B0
+        self.Y = self.factor.solve(self.B0)        # (H0 + S)^-1 B0 (exact_Y: H0^-1 B0)
         self.dq = 1.0 / np.sqrt(dg + self.shift)
         self.de = 1.0 / np.sqrt(np.maximum(np.diag(self.A0), 1e-300))
         self.solves = 0
