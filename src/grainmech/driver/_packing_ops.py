@@ -16,6 +16,7 @@ is ``G^T f`` and ``V sigma = E^T f`` (Love-Weber, seed Eq. 2.6).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -203,6 +204,12 @@ class _Factor:
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
         ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        # pypardiso looks for the MKL runtime by a recursive glob of sys.prefix at every
+        # solver it makes (0.15 s here; a run refactors many times): name the library it
+        # found for the next ones (its own PYPARDISO_MKL_RT setting, unless the user set it)
+        name = getattr(ps.libmkl, "_name", None)
+        if name and "PYPARDISO_MKL_RT" not in os.environ:
+            os.environ["PYPARDISO_MKL_RT"] = name
         # ``reproducible``: PARDISO factors on one MKL thread (thread-local, restored after
         # the call; the factor keeps that thread count for its solves). Its multithreaded
         # factorisation and solves sum in a schedule-dependent order, and the packing
