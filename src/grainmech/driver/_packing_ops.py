@@ -232,7 +232,7 @@ class _Factor:
 
     @contextmanager
     def _one_thread(self) -> Iterator[None]:
-        """MKL on one thread in this thread while the block runs (PARDISO: reproducible).
+        """MKL on one thread in this thread while the block runs (PARDISO's factorisation: reproducible).
 
         Nothing when ``_threads`` is None (not reproducible, or no such MKL function).
         """
@@ -247,12 +247,11 @@ class _Factor:
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         if self.name == "pardiso":
-            bf = np.asfortranarray(b, dtype=float)
-            with self._one_thread():
-                if self._raw:
-                    self._ps.set_phase(33)
-                    return np.asarray(self._ps._call_pardiso(self._Au, bf))
-                return np.asarray(self._ps.solve(self._Au, bf)).reshape(b.shape)
+            bf = np.asfortranarray(b, dtype=float)  # the factor solves on the threads it was made with
+            if self._raw:
+                self._ps.set_phase(33)
+                return np.asarray(self._ps._call_pardiso(self._Au, bf))
+            return np.asarray(self._ps.solve(self._Au, bf)).reshape(b.shape)
         if self.name == "cholespy":
             b = np.ascontiguousarray(b, dtype=float)
             x = np.zeros_like(b)

@@ -98,8 +98,9 @@ class PackingOptions:
         Factorisation of the elastic operator: Intel MKL PARDISO (``pypardiso``, optional),
         sparse Cholesky (``cholespy``, optional) or SciPy's SuperLU; ``auto`` takes the
         first installed in that order (PARDISO: 0.2-0.5 s to factor the 11 673-unknown
-        operator of ``benchmarks/bench_packing_driver.py`` and 3.9 ms per solve, cholespy
-        3.5-4.5 s and 11-13 ms, SuperLU 7.4 s and 37 ms).
+        operator of ``benchmarks/bench_packing_driver.py`` and 10.3 ms per solve on one
+        thread, 6.6 ms on two (see ``reproducible``), cholespy 3.5-4.5 s and 11-13 ms,
+        SuperLU 7.4 s and 37 ms; measured on different days, the machine's speed varies).
     law_backend : str or None
         ``backend`` passed to :func:`grainmech.contact.update` (``None``: its default).
     regularization : float
@@ -542,12 +543,13 @@ class PackingPoint:
         the small-strain modulus a small cycle or a shear wave measures (``G_max``); it
         equals :attr:`tangent` when no contact carries a tangential force.
 
-        The elastic operator ``H0`` is the one the point's preconditioner factorised, and
-        the factorisation already holds ``Y = H0^-1 B0`` (its Schur complement): the
-        tangent is ``(A0 - B0^T Y) / V`` (the condensation of :func:`_relaxed_tangent`)
-        with no further solve, when the residual ``|H0 Y - B0|`` of every column is below
-        ``1e-8 |B0|`` (the factor is of ``H0 + 1e-10 diag``); otherwise GMRES per column
-        as for :attr:`tangent`. On the shipped packings the two agree to 6e-8 (medium),
+        The elastic operator ``H0`` is the one the point's preconditioner factorised
+        (shifted by ``PackingOptions.regularization``), and the factorisation already
+        holds ``(H0 + S)^-1 B0`` (its Schur complement), refined to ``Y = H0^-1 B0`` by CG
+        with the factor (``Preconditioner.exact_Y``): the tangent is ``(A0 - B0^T Y) / V``
+        (the condensation of :func:`_relaxed_tangent`) with no further factorisation,
+        when the residual ``|H0 Y - B0|`` of every column is below ``1e-8 |B0|``;
+        otherwise GMRES per column as for :attr:`tangent`. On the shipped packings the two agree to 6e-8 (medium),
         2e-10 (dense), 6e-9 (loose); GMRES needed 0.4-4 s there (one iteration per
         near-floppy mode: grains held by two contacts), the direct form 2 ms.
         """
