@@ -62,6 +62,8 @@ class _Context:
     last: tuple | None = None  # (v, S, xq, xe) of the last (sub)step: predictor of the next
     mu_max: float = 0.0  # largest pseudo-time shift used
     ptc: int = 0  # Newton iterations that switched to pseudo-transient continuation
+    anderson: int = 0  # Anderson iterations
+    anderson_ok: int = 0  # (sub)steps the Anderson iterations solved
     relaxed: int = 0  # updates committed by committed relaxation
     relaxations: int = 0  # substeps solved by committed relaxation
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
@@ -244,6 +246,19 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     # step's equilibrium is not reached from the step's start in one increment of the
     # laws (a branch of many contacts switching, an instability that rearranges a few
     # grains), the grains get there along a path whose slips are recorded.
+    newton_ok = ctx.newton_ok
+    if opts.anderson and not relax and not ctx.energy:
+        # Anderson-accelerated elastic iterations first; where they stall (a few grains on
+        # a mechanism, all their contacts sliding) Newton-Krylov goes on from their best point
+        ok, xq, xe, cur, m, it = _anderson(prec, S, np.concatenate([Dq, De]), xq, xe, cur, m, residual, merit,
+                                           limit, converged, accept, opts.anderson, 4 * opts.max_iter, _debug())
+        ctx.anderson += it
+        if ok:
+            ctx.anderson_ok += 1
+            if not converged(cur[3], cur[4]):
+                ctx.accepted += 1
+            return done(cur, it)
+        stiff_first = False
     mu = _MU_FIRST if relax else 0.0
     ptc_from = (0, 0.0)  # iteration and merit where continuation started
     # consistent-tangent updates still worth their Krylov solve (not after they failed in
@@ -426,6 +441,87 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     what = "committed relaxation did not converge" if relax else "Newton did not converge"
     raise _StepFailure(f"{what} in {n_iter} iterations (largest force residual "
                        f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
+
+
+def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
+              m: float, residual: Callable, merit: Callable, limit: Callable, converged: Callable, accept: Callable,
+              mem: int, n_iter: int, dbg: Callable | None) -> tuple:
+    """Anderson-accelerated elastic iteration of one (sub)step.
+
+    The fixed-point map is the elastic (initial-stiffness) update ``x + M^-1 (-r(x))``
+    with ``M`` the factorised elastic operator (stiffer than every branch of the contact
+    laws, so it is a contraction wherever the laws are monotone). Anderson acceleration
+    of type II with ``mem`` differences (Anderson 1965; Walker & Ni 2011, SIAM J. Numer.
+    Anal. 49, Alg. AA with ``beta = 1``): the update is ``f_k - (dX + dF) gamma`` with
+    ``gamma`` minimising ``|D^-1 (f_k - dF gamma)|``, ``f = M^-1 (-r)``, ``D`` the Jacobi
+    scaling of the unknowns. It needs no tangent of the laws, so the branch switches of
+    a step (contacts reaching the Coulomb limit, reversing, opening) do not mislead it
+    as they do a one-sided consistent tangent; it costs one residual and one solve with
+    the factor per iteration, where a Newton-Krylov iteration costs one solve per
+    Krylov vector. An update that raises the scaled residual more than three times
+    restarts the history with a plain elastic update, halved until it does not raise it.
+
+    Returns
+    -------
+    (ok, xq, xe, cur, m, iterations) : ``ok`` when converged (or accepted after a
+    stall); otherwise the best point met, from which the caller's Newton-Krylov goes on.
+    """
+    nq = xq.size
+    X: list = []
+    F: list = []
+    best = (xq, xe, cur, m)
+    ref, stall = m, 0  # merit of the last iteration that made progress, iterations since
+    it = 0
+    for it in range(1, n_iter + 1):
+        st, rq, re = cur[0], cur[3], cur[4]
+        if dbg:
+            dbg(f"anderson it {it} merit {m:.3g} history {len(X)}")
+        if converged(rq, re):
+            return True, xq, xe, cur, m, it
+        fq, fe = prec.apply(-rq, -re, S)
+        X.append(np.concatenate([xq, xe]))
+        F.append(np.concatenate([fq, fe]))
+        if len(X) > mem + 1:
+            X.pop(0)
+            F.pop(0)
+        step = F[-1]
+        if len(X) > 1:
+            dX = np.diff(np.array(X), axis=0).T
+            dF = np.diff(np.array(F), axis=0).T
+            gamma = np.linalg.lstsq(dF / D[:, None], F[-1] / D, rcond=1e-12)[0]
+            step = F[-1] - (dX + dF) @ gamma
+        sq, se = limit(step[:nq], step[nq:], st)
+        try:
+            trial = residual(xq + sq, xe + se)
+            mt = merit(trial)
+        except _StepFailure:
+            mt = np.inf
+        if not mt <= 3.0 * m:  # restart from a plain elastic update, halved until it does not raise r
+            if dbg:
+                dbg(f"   anderson restart (merit {mt:.3g})")
+            X, F = [], []
+            sq, se = limit(fq, fe, st)
+            for _ in range(_STIFF_BACKTRACKS):
+                trial = residual(xq + sq, xe + se)
+                mt = merit(trial)
+                if mt <= m:
+                    break
+                sq, se = 0.5 * sq, 0.5 * se
+        xq, xe, cur, m = xq + sq, xe + se, trial, mt
+        stall += 1
+        if m < best[3]:
+            best = (xq, xe, cur, m)
+        if m < _AA_PROGRESS * ref:
+            ref, stall = m, 0
+        if stall > _AA_PATIENCE:
+            break
+    xq, xe, cur, m = best
+    return accept(cur[3], cur[4]), xq, xe, cur, m, it
+
+
+#: Anderson iterations stop (accepted, or Newton-Krylov takes over) after _AA_PATIENCE
+#: iterations that did not lower the best scaled residual below _AA_PROGRESS times itself
+_AA_PATIENCE, _AA_PROGRESS = 8, 0.9
 
 
 def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,

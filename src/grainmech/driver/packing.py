@@ -140,6 +140,7 @@ class PackingOptions:
     law_backend: str | None = "numpy"
     regularization: float = 1e-4
     reproducible: bool = True
+    anderson: int = 10
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1e-2):
@@ -168,6 +169,8 @@ class PackingOptions:
             raise ParameterError("regularization", self.regularization, "must lie in [1e-12, 1e-2]")
         if not isinstance(self.reproducible, bool):
             raise ParameterError("reproducible", self.reproducible, "must be True or False")
+        if isinstance(self.anderson, bool) or not isinstance(self.anderson, int) or not 0 <= self.anderson <= 50:
+            raise ParameterError("anderson", self.anderson, "must be an integer in [0, 50]")
 
 
 # --------------------------------------------------------------------------- the point
@@ -834,8 +837,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                          arr["it"].astype(int), cast(Any, point), m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
                          arr["kr"].astype(int), ctx.factorizations,
                          point.notes + ((f"{ctx.accepted} (sub)steps accepted with a residual between rtol = "
-                                         f"{opts.rtol:g} and rtol_accept = {opts.rtol_accept:g} (Newton stalled "
-                                         "at a kink of the contact law)",) if ctx.accepted else ())
+                                         f"{opts.rtol:g} and rtol_accept = {opts.rtol_accept:g} (the iterations "
+                                         "stalled at a kink of the contact law)",) if ctx.accepted else ())
+                         + ((f"{ctx.anderson_ok} (sub)steps solved by Anderson-accelerated elastic iterations "
+                             f"({ctx.anderson} iterations), the others by Newton-Krylov",)
+                            if ctx.anderson else ())
                          + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
                              "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
                              "quasi-static DEM)",) if ctx.relaxations else ()),
