@@ -117,6 +117,9 @@ def test_regularization_leaves_the_equilibrium_alone(packing):
         PackingOptions(regularization=0.5)
     with pytest.raises(ParameterError, match="reproducible"):
         PackingOptions(reproducible="yes")
+    for bad in (-1e-3, 0.5, "1e-3"):
+        with pytest.raises(ParameterError, match="rtol_step"):
+            PackingOptions(rtol_step=bad)
 
 
 def test_anderson_and_newton_krylov_reach_the_same_equilibria(point):
@@ -386,7 +389,8 @@ def test_committed_relaxation_agrees_with_newton(point):
     loss 8.2 / 4.0 / 2.0 % of the dissipation (first order), balance error -9.18 / -5.50 /
     -3.42 % (ratios 0.60, 0.62: slower than first order). Asserted: the loss at least
     halves within 0.6, the error falls by at least 30 % per halving of the step."""
-    forced = PackingOptions(max_iter=1, rtol_accept=1e-8, relax_depth=0, relax_iter=300, tangent="none", anderson=0)
+    forced = PackingOptions(max_iter=1, rtol_accept=1e-8, rtol_step=0.0, relax_depth=0, relax_iter=300,
+                            tangent="none", anderson=0)
     err, loss = [], []
     for spc in (8, 16):
         path = cyclic_simple_shear(1e-4, 2, spc, constant="volume")

@@ -69,6 +69,7 @@ class _Context:
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
     newton_ok: bool = True  # the last (sub)step's consistent-tangent updates worked
     energy: bool = False  # line search on the potential energy (frictionless laws only)
+    step_dsig: float | None = None  # stress change of the step being solved (rtol_step)
 
 
 def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
@@ -190,13 +191,30 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     def converged(rq: np.ndarray, re: np.ndarray) -> bool:
         return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
 
+    # stress change of the step: the elastic (affine, an upper bound) response to its
+    # strain increment, or the change of its stress targets
+    # of the whole step, not of a substep: the path's resolution is the user's step
+    dsig = max(float(np.abs(prec.A0 @ de_E).max()) / V,
+               float(np.abs(np.where(S, target - point.stress, 0.0)).max()))
+    if ctx.step_dsig is None:
+        ctx.step_dsig = dsig
+    amb_ok = max(opts.rtol_accept * sref, opts.rtol_step * ctx.step_dsig) * V
+
     def accept(rq: np.ndarray, re: np.ndarray) -> bool:
         # the out-of-balance forces and moments left make the Love-Weber stress uncertain
         # by at most sum_p (|F_p| R_p + |M_p|) / V (the stress of a grain out of balance
         # depends on the point its moments are taken about); accept when that is below
-        # rtol_accept times the stress scale
-        return bool(_stress_ambiguity(kin, rq, Rg) <= opts.rtol_accept * sref * V
-                    and (ms == 0 or np.all(np.abs(re) <= opts.rtol_accept / opts.rtol * tole)))
+        # rtol_accept times the stress scale or rtol_step times the step's stress change
+        # (the imbalance left is not lost: the next step starts from it and removes it)
+        # (the stress-controlled components within the same bound)
+        return bool(_stress_ambiguity(kin, rq, Rg) <= amb_ok and (ms == 0 or np.all(np.abs(re) <= amb_ok)))
+
+    def unsettled(rq: np.ndarray, re: np.ndarray) -> str:
+        """The stress uncertainty left, against what ``accept`` asks, for a failure message."""
+        out = f"stress uncertainty {_stress_ambiguity(kin, rq, Rg) / (sref * V):.3g} of the stress scale"
+        if ms:
+            out += f", stress-control residual {float(np.max(np.abs(re))) / (sref * V):.3g}"
+        return out + f", each accepted below {amb_ok / (sref * V):.3g}"
 
     def done(cur: tuple, it: int, final: bool = True) -> PackingPoint:
         """The point of ``cur`` (at the unknowns ``xq``, ``xe``), counted as a (sub)step if ``final``."""
@@ -399,7 +417,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                 raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
                                    f"{rnorm(cur):.3g}, shift {mu:.3g}; "
                                    f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
-                                   f"{int(closed.sum())} closed contacts sliding)")
+                                   f"{int(closed.sum())} closed contacts sliding; {unsettled(rq, re)})")
             if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
                 ctx.accepted += 1
                 return done(cur, it)
@@ -409,7 +427,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
                     # halved or relaxed without spending the rest of max_iter
                     raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
                                        f"residual {mt:.3g}, {mt / ptc_from[1]:.2f} x that of {_PTC_PATIENCE} "
-                                       "iterations before)")
+                                       f"iterations before; {unsettled(trial[3], trial[4])})")
                 ptc_from = (it, mt)
             # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
             # (in committed relaxation faster: every update taken released energy, and one
@@ -440,7 +458,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         return done(cur, n_iter + 1)
     what = "committed relaxation did not converge" if relax else "Newton did not converge"
     raise _StepFailure(f"{what} in {n_iter} iterations (largest force residual "
-                       f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force)")
+                       f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force; {unsettled(rq, re)})")
 
 
 def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
@@ -774,6 +792,8 @@ def _debug() -> Callable[[str], None] | None:
 def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
                 depth: int, ctx: _Context, counters: list) -> PackingPoint:
     """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure."""
+    if depth == 0:
+        ctx.step_dsig = None  # set by the first solve of the step, at its full size
     try:
         return _solve(point, S, de_E, t1, ctx, counters)
     except _StepFailure as exc:
