@@ -851,9 +851,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                          arr["op"], arr["diss"], arr["work"], arr["stored"], arr["sub"].astype(int),
                          arr["it"].astype(int), cast(Any, point), m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
                          arr["kr"].astype(int), ctx.factorizations,
-                         point.notes + ((f"{ctx.accepted} (sub)steps accepted with a residual between rtol = "
-                                         f"{opts.rtol:g} and rtol_accept = {opts.rtol_accept:g} (the iterations "
-                                         "stalled at a kink of the contact law)",) if ctx.accepted else ())
+                         point.notes + ((f"{ctx.accepted} (sub)steps accepted with their stress settled (uncertainty "
+                                         f"below rtol_accept = {opts.rtol_accept:g} of the stress scale or rtol_step "
+                                         f"= {opts.rtol_step:g} of the step's stress change) before every grain "
+                                         f"reached rtol = {opts.rtol:g} (the iterations stalled at a kink of the "
+                                         "contact laws)",) if ctx.accepted else ())
                          + ((f"{ctx.anderson_ok} (sub)steps solved by Anderson-accelerated elastic iterations "
                              f"({ctx.anderson} iterations), the others by Newton-Krylov",)
                             if ctx.anderson else ())
