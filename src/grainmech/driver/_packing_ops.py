@@ -16,6 +16,7 @@ is ``G^T f`` and ``V sigma = E^T f`` (Love-Weber, seed Eq. 2.6).
 
 from __future__ import annotations
 
+import ctypes
 import os
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -157,6 +158,10 @@ def block_diagonal(K: np.ndarray) -> sp.bsr_matrix:
     return sp.bsr_matrix((K, np.arange(C), np.arange(C + 1)), shape=(3 * C, 3 * C))
 
 
+#: PARDISO's perm argument (unused: iparm(5) = 0)
+_NO_PERM = np.zeros(0, dtype=np.int32)
+
+
 class _Factor:
     """Sparse symmetric positive definite factorisation of the elastic operator.
 
@@ -203,7 +208,7 @@ class _Factor:
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
-        ps = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        ps = pypardiso.PyPardisoSolver(mtype=2)  # loads MKL (real symmetric positive definite)
         # pypardiso looks for the MKL runtime by a recursive glob of sys.prefix at every
         # solver it makes (0.15 s here; a run refactors many times): name the library it
         # found for the next ones (its own PYPARDISO_MKL_RT setting, unless the user set it)
@@ -218,17 +223,47 @@ class _Factor:
         # ~50 % per solve on the 11 673-unknown benchmark operator (10.3 vs 6.6 ms);
         # PARDISO's own reproducible mode (iparm(34) with MKL_CBWR) was slower still (12 ms)
         self._threads = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None) if reproducible else None
+        # PARDISO is called directly (pypardiso's solve() converts the index arrays and
+        # compares the matrix with the factorised one at every call), with its factor in
+        # single precision (iparm(28) = 1: the matrix, right-hand sides and solutions are
+        # float32). The factor is only ever a preconditioner here (Anderson and GMRES
+        # iterations on the true residual) or refined by CG to 1e-10 (exact_Y), and a
+        # solve is accurate to ~3e-5 relative on the benchmark operator; it reads half
+        # the memory: 3.2 ms per solve instead of 6.0 ms (one thread, 11 673 unknowns,
+        # 8.3 million factor entries). iparm (1-based): (1) = 1 our own settings, (2) = 2
+        # nested dissection (METIS), (8) = 0 no iterative refinement (it tripled a solve),
+        # (10) = 8 pivot perturbation 1e-8, (28) = 1 single precision, (35) = 0 one-based indices.
+        self._call = ps._mkl_pardiso
+        self._pt = np.zeros(64, dtype=np.int64)
+        self._iparm = np.zeros(64, dtype=np.int32)
+        for k, v in ((1, 1), (2, 2), (8, 0), (10, 8), (28, 1), (35, 0)):
+            self._iparm[k - 1] = v
+        self._ia = (Au.indptr + 1).astype(np.int32)
+        self._ja = (Au.indices + 1).astype(np.int32)
+        self._a = Au.data.astype(np.float32)
+        self._n = Au.shape[0]
+        self.name = "pardiso-factoring"  # not "pardiso" (solves, and freed at __del__) until it succeeded
         with self._one_thread():
-            ps.factorize(Au)
-        # no iterative refinement in the solve phase (iparm(8), 1-based): the elastic
-        # operator is regularised and well scaled, a solve is accurate to ~1e-14 without
-        # it, and the two default steps cost 2.5x the solve. Set after the factorisation:
-        # with iparm(1) = 0 on the first call PARDISO fills in its defaults, overwriting it.
-        ps.set_iparm(8, 0)
-        self._Au, self._ps, self.name = Au, ps, "pardiso"
-        # the solve phase directly: pypardiso's solve() compares the matrix with the
-        # factorised one entry by entry at every call (a third of a solve here)
-        self._raw = hasattr(ps, "_call_pardiso") and hasattr(ps, "set_phase")
+            z = np.zeros(self._n, dtype=np.float32)
+            err = self._pardiso(12, z, z.copy())
+        if err != 0:
+            self._pardiso(-1, z, z.copy())
+            raise GrainmechError(f"PARDISO error {err} in the factorisation of the elastic operator")
+        self.name = "pardiso"
+
+    def _pardiso(self, phase: int, b: np.ndarray, x: np.ndarray) -> int:
+        """One call of MKL's ``pardiso`` (phase 12: analysis and factorisation, 33: solve, -1: free)."""
+        i32 = ctypes.POINTER(ctypes.c_int32)
+        err = ctypes.c_int32(0)
+        one = ctypes.c_int32(1)
+        self._call(self._pt.ctypes.data_as(ctypes.POINTER(ctypes.c_int64)), ctypes.byref(one), ctypes.byref(one),
+                   ctypes.byref(ctypes.c_int32(2)), ctypes.byref(ctypes.c_int32(phase)),
+                   ctypes.byref(ctypes.c_int32(self._n)), self._a.ctypes.data_as(ctypes.c_void_p),
+                   self._ia.ctypes.data_as(i32), self._ja.ctypes.data_as(i32), _NO_PERM.ctypes.data_as(i32),
+                   ctypes.byref(ctypes.c_int32(1 if b.ndim == 1 else b.shape[1])), self._iparm.ctypes.data_as(i32),
+                   ctypes.byref(ctypes.c_int32(0)), b.ctypes.data_as(ctypes.c_void_p),
+                   x.ctypes.data_as(ctypes.c_void_p), ctypes.byref(err))
+        return int(err.value)
 
     @contextmanager
     def _one_thread(self) -> Iterator[None]:
@@ -247,11 +282,12 @@ class _Factor:
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         if self.name == "pardiso":
-            bf = np.asfortranarray(b, dtype=float)  # the factor solves on the threads it was made with
-            if self._raw:
-                self._ps.set_phase(33)
-                return np.asarray(self._ps._call_pardiso(self._Au, bf))
-            return np.asarray(self._ps.solve(self._Au, bf)).reshape(b.shape)
+            bf = np.asfortranarray(b, dtype=np.float32)  # the factor solves on the threads it was made with
+            x = np.zeros_like(bf)
+            err = self._pardiso(33, bf, x)
+            if err != 0:
+                raise GrainmechError(f"PARDISO error {err} in a solve with the elastic operator")
+            return np.ascontiguousarray(x, dtype=float)
         if self.name == "cholespy":
             b = np.ascontiguousarray(b, dtype=float)
             x = np.zeros_like(b)
@@ -260,10 +296,10 @@ class _Factor:
         return self._lu.solve(b)
 
     def __del__(self) -> None:
-        ps = getattr(self, "_ps", None)
-        if ps is not None:  # MKL keeps the factor until told
+        if getattr(self, "name", None) == "pardiso":  # MKL keeps the factor until told
             try:
-                ps.free_memory(everything=True)
+                z = np.zeros(1, dtype=np.float32)
+                self._pardiso(-1, z, z.copy())
             except Exception:  # noqa: BLE001,S110 (interpreter shutdown: nothing left to free)
                 pass
 
