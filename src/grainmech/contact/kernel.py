@@ -1146,6 +1146,36 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 _LAW_FUNCTIONS: dict = {}
 
 
+def _copy(fn: Any, name: str, extra: dict, **options: Any) -> Any:
+    """A copy of the compiled function ``fn`` named ``name`` (its own cache file), globals updated by ``extra``."""
+    import types as pytypes
+
+    f = fn.py_func
+    g = dict(f.__globals__)
+    g.update(extra)
+    fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
+    fc.__qualname__ = name
+    fc.__module__ = f.__module__
+    fc.__doc__ = f.__doc__
+    return njit(**options)(fc)
+
+
+def _inlined_axis_law() -> Any:
+    """:func:`_md_axis` (with :func:`_falling_n`) marked for inlining into the law copies (made once).
+
+    Called, they took the constants ``kc`` (~60 values, the series and quadrature tables)
+    by value at every contact; inlined, the law of the mixed-control driver took ~15 %
+    less time. Only the law copies inline them: in the generic :func:`rows`, compiled for
+    the per-call kernel on a first run, they stay calls (~1 s less compilation).
+    """
+    md = _LAW_FUNCTIONS.get("md_axis")
+    if md is None:
+        fall = _copy(_falling_n, "_falling_n_inlined", {}, **_JIT_NO_NRT, forceinline=True)
+        md = _copy(_md_axis, "_md_axis_inlined", {"_falling_n": fall}, **_JIT_NO_NRT, forceinline=True)
+        _LAW_FUNCTIONS["md_axis"] = md
+    return md
+
+
 def _law_dispatcher(key: tuple[int, bool, bool, int]) -> Any:
     """The copy of :func:`rows` specialised to ``key = (law code, linear, defer, dim)`` (made once)."""
     disp = _LAW_FUNCTIONS.get(key)
@@ -1154,7 +1184,8 @@ def _law_dispatcher(key: tuple[int, bool, bool, int]) -> Any:
 
         f = rows.py_func
         g = dict(f.__globals__)
-        g.update(_LAW=int(key[0]), _LINEAR=int(key[1]), _DEFER=int(key[2]), _DIM=int(key[3]))
+        g.update(_LAW=int(key[0]), _LINEAR=int(key[1]), _DEFER=int(key[2]), _DIM=int(key[3]),
+                 _md_axis=_inlined_axis_law())
         name = (f"rows_law{int(key[0])}_linear{int(key[1])}" + ("_defer" if key[2] else "")
                 + (f"_dim{int(key[3])}" if key[3] else ""))
         fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
