@@ -505,7 +505,7 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout, inc, fall):
         st.depth[i] = out.depth[i]
         for c in range(nrev):
             st.reversals[i, c] = out.reversals[i, c]
-        dfall = fall_dissipation(i, fall, kc)
+        dfall = fall_dissipation(i, fall, kc) if fall[i, 0] > 0.0 else 0.0
         out.dissipation[i] += dfall
         wfall += weights[i] * dfall
         st.dissipated_energy[i] += out.dissipation[i]
