@@ -37,7 +37,7 @@ from grainmech.fabric import sphere_rule
 
 @njit
 def _passes(k, f, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
-    _mixed._start_radii(kc, st, inc)
+    _mixed._start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for _ in range(k):
         f(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
 
@@ -51,9 +51,11 @@ def _laws(k, law_fn, kc, st, inc, out, scratch):
 
 
 @njit
-def _commits(k, kc, normals, branch, weights, st, out, resp, cflat, inc, fall):
+def _commits(k, law_fn, kc, normals, branch, weights, st, out, resp, cflat, inc, scratch, nfall):
     for _ in range(k):
-        _mixed._commit(kc, normals, branch, weights, st, out, resp, cflat, inc, fall)
+        for i in range(nfall.shape[0]):  # the falls recorded by the pass (the commit consumes them)
+            scratch.fall[i, 0] = nfall[i]
+        _mixed._commit(law_fn, kc, normals, branch, weights, st, out, resp, cflat, inc, scratch)
 
 
 def main() -> None:
@@ -109,7 +111,7 @@ def main() -> None:
     h.update(part.tobytes())
     falling = float(np.mean(inc.N1 < st.normal_force))
     _laws(1, law_fn, kc, st, inc, out, scratch)
-    cargs = (kc, nrm, br, wt, st, out, resp, cflat, inc, scratch.fall)
+    cargs = (law_fn, kc, nrm, br, wt, st, out, resp, cflat, inc, scratch, scratch.fall[:, 0].copy())
     k = a.passes
     best = {"pass": np.inf, "law": np.inf, "commit": np.inf}
     for _ in range(a.repeat):

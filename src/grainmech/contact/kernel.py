@@ -851,6 +851,11 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         a contact the law could not advance (reversal memory full, no termination);
         ``fall`` receives the deferred falling-N segments (copies made with ``defer``,
         :func:`law_function`; untouched otherwise).
+
+    A copy made with ``defer`` called with ``lo < 0`` advances nothing: it adds the
+    falling-N dissipation recorded for contacts ``-lo - 1 <= i < hi`` by its last call
+    (:func:`fall_dissipation`) to ``out.dissipation`` (for the iterate the caller accepts;
+    the quadrature is compiled with the law, not with the caller).
     """
     law, linear, E, R, Gs, kn_lin, ks_lin = kc.law, kc.linear, kc.E, kc.R, kc.Gs, kc.kn_lin, kc.ks_lin
     mu, mu_finite, r = kc.mu, kc.mu_finite, kc.r
@@ -860,6 +865,13 @@ def rows(lo, hi, kc, state, inc, out, scratch):
      tdel, talp) = out
     tp, dp, flags, fall = scratch
     defer = _DEFER == 1
+    if defer and lo < 0:
+        # the accepted iterate of a deferring copy: its falling-N dissipation
+        for i in range(-lo - 1, hi):
+            if fall[i, 0] > 0.0:
+                diss_o[i] += fall_dissipation(i, fall, kc)
+                fall[i, 0] = 0.0
+        return
     p = kc.p
     dim = _DIM if _DIM > 0 else T0s.shape[1]
     for i in range(lo, hi):
@@ -1238,10 +1250,11 @@ def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, 
     ``defer``: the copy leaves the dissipation of a fall of ``N`` at fixed displacement
     (the 12-point quadrature of :func:`_falling_n`, the only costly part of the
     dissipation) out of ``out.dissipation`` and records its segments in ``scratch.fall``
-    (shape (n, :data:`FALL_COLUMNS`)); the caller adds :func:`fall_dissipation` for the
-    iterate it accepts. The mixed-control driver evaluates the law ~2.2 times per step
-    and keeps one. Everything else equals the copy without ``defer`` bit for bit; the
-    dissipation agrees to rounding (the quadrature is added last).
+    (shape (n, :data:`FALL_COLUMNS`)); for the iterate it accepts, the caller calls it
+    once more with ``lo = -1`` (:func:`rows`), which adds that dissipation. The
+    mixed-control driver evaluates the law ~2.2 times per step and keeps one. Everything
+    else equals the copy without ``defer`` bit for bit; the dissipation agrees to
+    rounding (the quadrature is added last).
     """
     from numba.core.types.function_type import CompileResultWAP
 

@@ -55,7 +55,6 @@ from grainmech.contact.kernel import (
     KernelOutput,
     KernelScratch,
     KernelState,
-    fall_dissipation,
 )
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
@@ -252,11 +251,11 @@ def _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, lin
     return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(N1, E, R)
 
 
-@njit(**_INNER)
-def _start_radii(kc, st, inc):
-    """``inc.rad0`` of the converged state ``st`` (:func:`start_radius`; unused for linear springs)."""
-    for i in range(st.approach.shape[0]):
-        inc.rad0[i] = 0.0 if kc.linear else start_radius(st.approach[i], st.normal_force[i], kc.E, kc.R)
+@njit(**_NO_NRT)
+def _start_radii(linear, E, R, approach, normal_force, rad0):
+    """``rad0`` of the converged state (:func:`start_radius`; unused for linear springs)."""
+    for i in range(approach.shape[0]):
+        rad0[i] = 0.0 if linear else start_radius(approach[i], normal_force[i], E, R)
 
 
 @njit(**_INNER)
@@ -478,11 +477,11 @@ def _make(parallel: bool):
 
 
 @njit(**_INNER)
-def _commit(kc, normals, branch, weights, st, out, resp, Cout, inc, fall):
+def _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cout, inc, scratch):
     # accept the trial state: out -> st (dissipated energy accumulated, with the falling-N
-    # dissipation the law deferred to here, kernel.fall_dissipation, added to out.dissipation),
+    # dissipation the law deferred to here added first: law_fn(-1, n, ...), kernel.rows),
     # the response kept in ``resp``; returns the stored energy and the weighted sum of the
-    # deferred dissipation, and writes the reported tangent
+    # dissipation of the step, and writes the reported tangent
     # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout.
     # inc.rad0 becomes the start radius of the new state: start_radius(a1, N1) is
     # hertz_radius(N1) = rad1 of the accepted evaluation when a1 > 0 and N1 > 0, else
@@ -491,10 +490,11 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout, inc, fall):
      glx, glw, sph, k8) = kc
     n = normals.shape[0]
     nrev = st.reversals.shape[1]
+    law_fn(-1, n, kc, st, inc, out, scratch)
     for q in range(36):
         Cout[q] = 0.0
     wst = 0.0
-    wfall = 0.0
+    wdi = 0.0
     for i in range(n):
         st.approach[i] = out.approach[i]
         st.normal_force[i] = out.normal_force[i]
@@ -505,9 +505,7 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout, inc, fall):
         st.depth[i] = out.depth[i]
         for c in range(nrev):
             st.reversals[i, c] = out.reversals[i, c]
-        dfall = fall_dissipation(i, fall, kc) if fall[i, 0] > 0.0 else 0.0
-        out.dissipation[i] += dfall
-        wfall += weights[i] * dfall
+        wdi += weights[i] * out.dissipation[i]
         st.dissipated_energy[i] += out.dissipation[i]
         if not linear:
             inc.rad0[i] = inc.rad1[i] if (out.approach[i] > 0.0 and out.normal_force[i] > 0.0) else 0.0
@@ -546,7 +544,7 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout, inc, fall):
     for q in range(6):
         for q2 in range(q):
             Cout[6 * q + q2] = Cout[6 * q2 + q]
-    return wst, wfall
+    return wst, wdi
 
 
 def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
@@ -590,7 +588,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
     sk_t1 = np.zeros((max_depth + 2, 6))
     sk_dep = np.zeros(max_depth + 2, dtype=np.int64)
     n_loose = 0
-    _start_radii(kc, st, inc)
+    _start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for k in range(m):
         new_ts = np.empty(6)
         new_te = np.empty(6)
@@ -767,12 +765,12 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             new_strain = np.empty(6)  # strain + de (an element loop: no array expression to compile)
             for q in range(6):
                 new_strain[q] = strain[q] + de[q]
-            wst, wfall = _commit(kc, normals, branch, weights, st, out, resp, Cflat, inc, scratch.fall)
+            wst, wdi = _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cflat, inc, scratch)
             n_sub += 1
             n_it += it_done
             if loose_acc:
                 n_loose += 1
-            diss += s_di + wfall
+            diss += wdi  # (s_di of the pass without the deferred falling-N part)
             dw = 0.0
             for q in range(6):
                 dw += 0.5 * (stress[q] + sig[q]) * (new_strain[q] - strain[q])
