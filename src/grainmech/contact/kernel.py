@@ -40,8 +40,13 @@ Agreement with the reference, precisely:
   never depends on the other contacts of the call (one ulp of ``T`` at most).
 * Sphere-only shortcuts in the dissipation integrals (``z^(3/2) = z sqrt(z)`` and, in
   the Gauss–Legendre sum over a fall of ``N``, ``(N_a/N)^(2/3) = (t_a/t)^2``,
-  ``kt0(N) = 8 G* (3 R*/(4 E*))^(1/3) N^(1/3)``) are exact identities evaluated with
-  different rounding.
+  ``kt0(N) = 8 G* (3 R*/(4 E*))^(1/3) N^(1/3)``, hence the integrand
+  ``(3 mu^2/k8) g t^4``, and ``g(y) = (1 - theta)^2 (1 + theta/2)`` for ``p = 1/3``)
+  are exact identities evaluated with different rounding.
+* The copies made by :func:`law_function` for the mixed-control driver (``defer``) add
+  the dissipation of a fall of ``N`` only when the caller accepts the iterate, after the
+  rest of the step's dissipation (rounding only); everything else they compute equals
+  :func:`rows` bit for bit.
 
 Structure: ``_rows`` advances a chunk of contacts; the kernel runs the chunks in a loop
 (serial) or a ``prange`` (parallel, from :data:`PARALLEL_THRESHOLD` contacts). The law's
