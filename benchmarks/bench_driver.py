@@ -29,6 +29,7 @@ import time
 import numpy as np
 from numba import get_num_threads, set_num_threads
 
+import grainmech
 from grainmech.assembly import ContactSet
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, cyclic_simple_shear, run
@@ -52,6 +53,7 @@ def main() -> None:
     A, B = rng.random((2048, 2048)), rng.random((2048, 2048))
     np.dot(A, B)
     t_dgemm = min(_timed(lambda: np.dot(A, B)) for _ in range(3))
+    print(f"grainmech: {grainmech.__file__}")
     print(f"yardstick: OpenBLAS dgemm n=2048 {t_dgemm:.3f} s (best of 3)")
 
     normals, w = sphere_rule(131)  # degree 131 Lebedev rule: 5810 points

@@ -40,8 +40,13 @@ Agreement with the reference, precisely:
   never depends on the other contacts of the call (one ulp of ``T`` at most).
 * Sphere-only shortcuts in the dissipation integrals (``z^(3/2) = z sqrt(z)`` and, in
   the Gauss–Legendre sum over a fall of ``N``, ``(N_a/N)^(2/3) = (t_a/t)^2``,
-  ``kt0(N) = 8 G* (3 R*/(4 E*))^(1/3) N^(1/3)``) are exact identities evaluated with
-  different rounding.
+  ``kt0(N) = 8 G* (3 R*/(4 E*))^(1/3) N^(1/3)``, hence the integrand
+  ``(3 mu^2/k8) g t^4``, and ``g(y) = (1 - theta)^2 (1 + theta/2)`` for ``p = 1/3``)
+  are exact identities evaluated with different rounding.
+* The copies made by :func:`law_function` for the mixed-control driver (``defer``) add
+  the dissipation of a fall of ``N`` only when the caller accepts the iterate, after the
+  rest of the step's dissipation (rounding only); everything else they compute equals
+  :func:`rows` bit for bit.
 
 Structure: ``_rows`` advances a chunk of contacts; the kernel runs the chunks in a loop
 (serial) or a ``prange`` (parallel, from :data:`PARALLEL_THRESHOLD` contacts). The law's
@@ -72,7 +77,8 @@ from grainmech.contact import law as _law
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 from grainmech.contact.params import ContactParams, Hertz, LinearSpring, MindlinDeresiewicz
 
-__all__ = ["update_kernel", "rows", "law_function", "law_signature", "law_key", "compile_law", "law_compiled",
+__all__ = ["update_kernel", "rows", "law_function", "fall_dissipation", "FALL_COLUMNS", "law_signature", "law_key",
+           "compile_law", "law_compiled",
            "constants", "KernelConstants", "KernelState", "KernelIncrement",
            "KernelOutput", "KernelScratch", "LAW_MD", "LAW_JENKINS", "LAW_FRICTIONLESS",
            "PARALLEL_THRESHOLD"]
@@ -97,6 +103,19 @@ _EPS = 1e-12
 # time. numba prunes the branches of the other laws from a copy before typing them.
 _LAW = -1
 _LINEAR = -1
+# 1 in the copies that leave the falling-N dissipation quadrature to fall_dissipation
+# (law_function(..., defer=True), the mixed-control driver): a Newton evaluation that is
+# not accepted does not need it
+_DEFER = 0
+# the dimension of the contact forces a copy is compiled for (0: the arrays' shape): a
+# constant lets the compiler unroll the per-contact vector loops and keep the rows in
+# registers (the law of the mixed-control driver took ~17 % less time)
+_DIM = 0
+#: falling-N segments whose quadrature a deferring copy records per contact (more are
+#: integrated at once), and the values recorded per segment (KernelScratch.fall)
+_FALL_SEGMENTS = 2
+_FALL_FIELDS = 6
+FALL_COLUMNS = 1 + _FALL_SEGMENTS * _FALL_FIELDS
 # the tolerances of the reference law (values, so that the compiled code is self-contained)
 _REV_TOL = _law._REV_TOL
 _MERGE_TOL = _law._MERGE_TOL
@@ -215,12 +234,15 @@ class KernelScratch(NamedTuple):
     """Work rows and per-contact status flags of the compiled kernel.
 
     Work rows (n, dim) ``tp``, ``dp`` and per-contact ``flags`` int8 (n,) (0: done;
-    1/2 reversal memory full on a rising / constant or falling N; 3 no termination).
+    1/2 reversal memory full on a rising / constant or falling N; 3 no termination);
+    ``fall`` (n, :data:`FALL_COLUMNS`) the falling-N segments whose dissipation a
+    deferring law copy left to :func:`fall_dissipation` (any (n, 0) array otherwise).
     """
 
     tp: np.ndarray
     dp: np.ndarray
     flags: np.ndarray
+    fall: np.ndarray
 
 
 def new_output(n: int, dim: int, max_reversals: int) -> KernelOutput:
@@ -234,7 +256,7 @@ def new_output(n: int, dim: int, max_reversals: int) -> KernelOutput:
 
 def new_scratch(n: int, dim: int) -> KernelScratch:
     """:class:`KernelScratch` for ``n`` contacts."""
-    return KernelScratch(np.empty((n, dim)), np.empty((n, dim)), np.zeros(n, dtype=np.int8))
+    return KernelScratch(np.empty((n, dim)), np.empty((n, dim)), np.zeros(n, dtype=np.int8), np.empty((n, 0)))
 
 
 _CONSTANTS: dict = {}
@@ -381,10 +403,12 @@ def _H(z, m, hcoef, sph):
 
 
 @njit(**_JIT_INNER)
-def _g_of_y(y, p, gcoef, theta, sph):
+def _g_of_y(y, p, m, gcoef, theta, sph):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
-    ``theta``: ``y**p`` if already known (``< 0``: compute it).
+    ``m = 1/(1-p)`` (a product instead of a division: the function serves the dissipation
+    quadrature only, which agrees with the reference to rounding); ``theta``: ``y**p`` if
+    already known (``< 0``: compute it).
     """
     y = _clip01(y)
     eps = 1.0 - y
@@ -395,7 +419,7 @@ def _g_of_y(y, p, gcoef, theta, sph):
         v = ser * eps ** 2
     else:
         th = theta if theta >= 0.0 else _pow_p(y, p, sph)
-        v = 1.0 - y - (th - y) / (1.0 - p)
+        v = 1.0 - y - (th - y) * m
     return max(v, 0.0)
 
 
@@ -465,8 +489,74 @@ def _z_of_n(Nv, na, z0, c, q, sph=False):
     return _clip01(1.0 / c + (z0 - 1.0 / c) * ratio)
 
 
+@njit(**_JIT_INNER)
+def _fall_quadrature(ta, tb, na, c, z0, sliding_now, kc):
+    """Dissipation of one segment of a fall of ``N`` (:func:`_falling_n`), ``na -> tb**3``.
+
+    12-point Gauss–Legendre in ``t = N^(1/3)`` of the rate ``mu N g(y) (-mu dN) / kt0``
+    (Thornton & Randall, seed Eq. 3.11 with ``d delta = 0``; ``g`` the slipping fraction
+    of the Iwan representation), with ``ta = na^(1/3)``, ``c`` and ``z0`` of the branch at
+    ``na``, ``sliding_now`` gross sliding throughout.
+    """
+    mu, p, m_exp, sph, k8 = kc.mu, kc.p, kc.m_exp, kc.sph, kc.k8
+    linear, E, R, Gs, ks_lin = kc.linear, kc.E, kc.R, kc.Gs, kc.ks_lin
+    gcoef, glx, glw = kc.gcoef, kc.glx, kc.glw
+    q = 1.0 - p
+    half = 0.5 * (ta - tb)
+    mid = 0.5 * (ta + tb)
+    ic = 1.0 / c
+    acc = 0.0
+    acc_s = 0.0
+    for g in range(len(glx)):
+        tg = mid + half * glx[g]
+        if sph and tg > 1e-100:
+            # (na/N)**(2/3) = (ta/tg)**2, y = z**(3/2), theta = y**(1/3) = z**(1/2),
+            # kt0 = 8 G* a ~ N**(1/3) = k8 tg: the integrand mu^2 N g / kt0 dN/dt
+            # = (3 mu^2 / k8) g tg^4, its constant factor applied once below; with
+            # p = 1/3 the slipping fraction g(y) = 1 - y - (theta - y)/(1 - p) is
+            # (1 - theta)^2 (1 + theta/2) (no cancellation near y = 1, no series)
+            if sliding_now:
+                th = 0.0
+            else:
+                rt = ta / tg
+                zg = _clip01(ic + (z0 - ic) * (rt * rt))
+                th = math.sqrt(zg)
+            om = 1.0 - th
+            gg = om * om * (1.0 + 0.5 * th)
+            tg2 = tg * tg
+            acc_s += glw[g] * gg * (tg2 * tg2)
+        else:
+            Ng = tg * tg * tg
+            if sliding_now:
+                yg = 0.0
+            else:
+                yg = _pow_m(_z_of_n(Ng, na, z0, c, q, sph), m_exp, sph)
+            gg = _g_of_y(yg, p, m_exp, gcoef, -1.0, sph)
+            kt = _kt0(Ng, linear, E, R, Gs, ks_lin)
+            f = mu * mu * Ng * gg / kt if kt > 0.0 else 0.0
+            acc += glw[g] * f * 3.0 * tg * tg
+    if k8 > 0.0:
+        acc += acc_s * (3.0 * mu * mu / k8)
+    return half * acc
+
+
 @njit(**_JIT_NO_NRT)
-def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc):
+def fall_dissipation(i, fall, kc):
+    """The falling-``N`` dissipation :func:`rows` left out of contact ``i`` (``defer``: :func:`law_function`).
+
+    The quadratures of the segments recorded in ``fall[i]`` (``KernelScratch.fall``),
+    as :func:`_falling_n` computes them otherwise; 0 when none.
+    """
+    d = 0.0
+    for j in range(int(fall[i, 0])):
+        b = 1 + _FALL_FIELDS * j
+        d += _fall_quadrature(fall[i, b], fall[i, b + 1], fall[i, b + 2], fall[i, b + 3], fall[i, b + 4],
+                              fall[i, b + 5] != 0.0, kc)
+    return d
+
+
+@njit(**_JIT_NO_NRT)
+def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
     """Exact integration of a fall of ``N`` (``N0 -> N1``) at fixed tangential displacement.
 
     Thornton & Randall's rate law (seed Eq. 3.11 with ``d delta = 0``,
@@ -475,16 +565,17 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc):
     virgin branch, erasure of the last reversal, Masing closure (bisection). Dissipation
     by 12-point Gauss–Legendre in ``N^(1/3)``; ``cb0``, ``cb1``: ``N0^(1/3)``, ``N1^(1/3)``
     if the caller knows them (spheres: ``kt0 / k8``, seed Eq. 3.2, 3.11), else negative.
-    Returns ``(Q, s, k, dissipation, ok)``.
+    ``defer``: the quadratures of the first :data:`_FALL_SEGMENTS` segments are not
+    computed but recorded in ``fall[row]`` (:func:`fall_dissipation`), whose count
+    ``fall[row, 0]`` the caller has zeroed. Returns ``(Q, s, k, dissipation, ok)``.
     """
-    mu, p, m_exp, maxrev, sph, k8 = kc.mu, kc.p, kc.m_exp, kc.maxrev, kc.sph, kc.k8
-    linear, E, R, Gs, ks_lin = kc.linear, kc.E, kc.R, kc.Gs, kc.ks_lin
-    gcoef, glx, glw = kc.gcoef, kc.glx, kc.glw
+    mu, p, m_exp, maxrev, sph = kc.mu, kc.p, kc.m_exp, kc.maxrev, kc.sph
     diss = 0.0
     Na = N0
     Nb = N1
     q = 1.0 - p
     it = 0
+    nrec = 0
     while Na > Nb:
         it += 1
         if it > 2 * max(maxrev, 1) + 6:
@@ -515,6 +606,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc):
 
         # Masing target reached while N falls (Q decreases monotonically with N)
         n_target = 0.0
+        Qb = 0.0
         if k > 0:
             Qb = c * mu * nb * _pow_m(_z_of_n(nb, na, z0, c, q, sph), m_exp, sph) - Pt
             if Qb <= Qt:
@@ -535,39 +627,25 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc):
         # dissipation on [n_stop, na]: rate mu N g(y) w / kt0 with w = -mu dN
         ta = cb0 if (na == N0 and cb0 >= 0.0) else np.cbrt(na)
         tb = cb1 if (n_stop == N1 and cb1 >= 0.0) else np.cbrt(n_stop)
-        half = 0.5 * (ta - tb)
-        mid = 0.5 * (ta + tb)
-        acc = 0.0
-        for g in range(len(glx)):
-            tg = mid + half * glx[g]
-            Ng = tg * tg * tg
-            if sph and tg > 1e-100:
-                # (na/N)**(2/3) = (ta/tg)**2, y = z**(3/2), theta = y**(1/3) = z**(1/2),
-                # kt0 = 8 G* a ~ N**(1/3) = k8 tg
-                if sliding_now:
-                    yg = 0.0
-                    th = 0.0
-                else:
-                    rt = ta / tg
-                    zg = _clip01(1.0 / c + (z0 - 1.0 / c) * (rt * rt))
-                    th = math.sqrt(zg)
-                    yg = zg * th
-                gg = _g_of_y(yg, p, gcoef, th, sph)
-                kt = k8 * tg
-            else:
-                if sliding_now:
-                    yg = 0.0
-                else:
-                    yg = _pow_m(_z_of_n(Ng, na, z0, c, q, sph), m_exp, sph)
-                gg = _g_of_y(yg, p, gcoef, -1.0, sph)
-                kt = _kt0(Ng, linear, E, R, Gs, ks_lin)
-            f = mu * mu * Ng * gg / kt if kt > 0.0 else 0.0
-            acc += glw[g] * f * 3.0 * tg * tg
-        diss += half * acc
+        if defer and nrec < _FALL_SEGMENTS:
+            # the mixed-control driver: only the accepted iterate needs it (fall_dissipation)
+            base = 1 + _FALL_FIELDS * nrec
+            fall[row, base] = ta
+            fall[row, base + 1] = tb
+            fall[row, base + 2] = na
+            fall[row, base + 3] = c
+            fall[row, base + 4] = z0
+            fall[row, base + 5] = 1.0 if sliding_now else 0.0
+            nrec += 1
+            fall[row, 0] = nrec
+        else:
+            diss += _fall_quadrature(ta, tb, na, c, z0, sliding_now, kc)
 
         # state at n_stop
         if sliding_now:
             Qi = 0.0
+        elif k > 0 and n_stop == nb:
+            Qi = Qb  # the same expression at the same N (computed above)
         else:
             z_stop = _z_of_n(n_stop, na, z0, c, q, sph)
             Qi = c * mu * n_stop * _pow_m(z_stop, m_exp, sph) - Pt
@@ -591,7 +669,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc):
 
 
 @njit(**_JIT_NO_NRT)
-def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falling, kc):
+def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falling, kc, defer, fall):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
 
     Seed Eq. 3.11, ``d tau = 8 G* a theta d delta + s mu dN (1 - theta)``, with theta from
@@ -641,7 +719,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
         else:
             cb0 = -1.0
             cb1 = -1.0
-        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc)
+        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall)
         if not ok:
             return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
         diss += dd
@@ -720,17 +798,17 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
 # One contact: 3D treatment, Coulomb cap, tangents
 # ---------------------------------------------------------------------------------------
 @njit(**_JIT_NO_NRT)
-def _dot_rows(A, i, B, j):
+def _dot_rows(A, i, B, j, dim):
+    """``A[i, :dim] . B[j, :dim]`` (``dim`` a compile-time constant in a specialised copy of :func:`rows`)."""
     out = A[i, 0] * B[j, 0]
-    for c in range(1, A.shape[1]):
+    for c in range(1, dim):
         out = out + A[i, c] * B[j, c]
     return out
 
 
 @njit(**_JIT_NO_NRT)
-def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
+def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp, dim):
     """Step tangent of the form ``ks e e + ks_perp (I - e e)``, ``dT/d alpha = ktn e``."""
-    dim = e.shape[1]
     for c in range(dim):
         talp[i, c] = ktn * e[i, c]
         for c2 in range(dim):
@@ -738,13 +816,12 @@ def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp):
 
 
 @njit(**_JIT_NO_NRT)
-def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp):
+def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp, dim):
     """Step derivatives through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]``.
 
     With ``|t| = tn`` the step derivatives become ``mu kn t/|t| + g (I - t t/|t|^2) dT_trial/d alpha`` and
     ``g (I - t t/|t|^2) dT_trial/d d_t`` with ``g = mu N1/|t|``.
     """
-    dim = T.shape[1]
     g = muN1 / tn if tn > 0.0 else 0.0
     inv = 1.0 / tn if tn > 0.0 else 0.0
     # (I - t t) x = x - t (t . x)
@@ -776,7 +853,14 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         Rows ``lo:hi`` of every array are written.
     scratch : KernelScratch
         Rows ``lo:hi`` of ``tp``, ``dp`` are work space; ``flags[i]`` is set non-zero for
-        a contact the law could not advance (reversal memory full, no termination).
+        a contact the law could not advance (reversal memory full, no termination);
+        ``fall`` receives the deferred falling-N segments (copies made with ``defer``,
+        :func:`law_function`; untouched otherwise).
+
+    A copy made with ``defer`` called with ``lo < 0`` advances nothing: it adds the
+    falling-N dissipation recorded for contacts ``-lo - 1 <= i < hi`` by its last call
+    (:func:`fall_dissipation`) to ``out.dissipation`` (for the iterate the caller accepts;
+    the quadrature is compiled with the law, not with the caller).
     """
     law, linear, E, R, Gs, kn_lin, ks_lin = kc.law, kc.linear, kc.E, kc.R, kc.Gs, kc.kn_lin, kc.ks_lin
     mu, mu_finite, r = kc.mu, kc.mu_finite, kc.r
@@ -784,9 +868,17 @@ def rows(lo, hi, kc, state, inc, out, scratch):
     dn, dt, N1s, rad0, rad1 = inc
     (alpha1o, N1o, T1, e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, kn_o, open_o,
      tdel, talp) = out
-    tp, dp, flags = scratch
+    tp, dp, flags, fall = scratch
+    defer = _DEFER == 1
+    if defer and lo < 0:
+        # the accepted iterate of a deferring copy: its falling-N dissipation
+        for i in range(-lo - 1, hi):
+            if fall[i, 0] > 0.0:
+                diss_o[i] += fall_dissipation(i, fall, kc)
+                fall[i, 0] = 0.0
+        return
     p = kc.p
-    dim = T0s.shape[1]
+    dim = _DIM if _DIM > 0 else T0s.shape[1]
     for i in range(lo, hi):
         a0 = alpha0[i]
         a1 = a0 + dn[i]
@@ -803,6 +895,8 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             T1[i, c] = 0.0 if virgin else T0s[i, c]       # T0 (an open contact has no force)
         for c in range(P0.shape[1]):
             P1[i, c] = P0[i, c]
+        if defer:
+            fall[i, 0] = 0.0
 
         alpha1o[i] = a1
         N1o[i] = N1
@@ -840,17 +934,17 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             ks_o[i] = 0.0
             ksp_o[i] = 0.0
             ktn_o[i] = 0.0
-            _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp)
+            _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp, dim)
             continue
 
         if _LAW == LAW_JENKINS or (_LAW < 0 and law == LAW_JENKINS):
             # elastic spring (seed Eq. 3.11 with theta = 1), rescaled when the area shrinks,
             # Coulomb cap by radial return
-            Tn0 = math.sqrt(_dot_rows(T1, i, T1, i))
+            Tn0 = math.sqrt(_dot_rows(T1, i, T1, i, dim))
             diss = (1.0 - rho) * Tn0 ** 2 / (2.0 * kt00) if kt00 > 0.0 else 0.0
             for c in range(dim):
                 T1[i, c] = rho * T1[i, c] + kbar * dp[i, c]
-            tn = math.sqrt(_dot_rows(T1, i, T1, i))
+            tn = math.sqrt(_dot_rows(T1, i, T1, i, dim))
             cap = mu * N1 if mu_finite else math.inf
             if not closed1:
                 cap = 0.0
@@ -862,7 +956,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
                 diss = diss + cap * slip
             for c in range(dim):
                 T1[i, c] = T1[i, c] * scale if closed1 else 0.0
-            t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+            t1n = math.sqrt(_dot_rows(T1, i, T1, i, dim))
             for c in range(dim):
                 e1[i, c] = T1[i, c] / t1n if t1n > 0.0 else 0.0
             slide = closed1 and (cap > 0.0) and (t1n >= cap * (1.0 - 1e-12))
@@ -875,15 +969,15 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             ks_o[i] = 0.0 if (slide or not closed1) else kt01
             ksp_o[i] = kt01 if closed1 else 0.0
             ktn_o[i] = ((mu if mu_finite else 0.0) if slide else 0.0) * kn
-            _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp)
+            _axis_tangent(i, e1, ks_o[i], ksp_o[i], ktn_o[i], tdel, talp, dim)
             continue
 
         # ---- hysteretic law (seed Eq. 3.9-3.16): memory axis, split along/across it
         s = 1 if virgin else int(dir0[i])
         k = 0 if virgin else int(depth0[i])
         diss = 0.0
-        tn0 = math.sqrt(_dot_rows(T1, i, T1, i))
-        dtn = math.sqrt(_dot_rows(dp, i, dp, i))
+        tn0 = math.sqrt(_dot_rows(T1, i, T1, i, dim))
+        dtn = math.sqrt(_dot_rows(dp, i, dp, i, dim))
         fresh = (k == 0) and (tn0 == 0.0) and (dtn > 0.0)
         for c in range(dim):
             if fresh:
@@ -894,15 +988,15 @@ def rows(lo, hi, kc, state, inc, out, scratch):
                 e1[i, c] = e0s[i, c]
         if fresh:
             s = 1
-        tau = _dot_rows(T1, i, e1, i)
-        d_par = _dot_rows(dp, i, e1, i)
+        tau = _dot_rows(T1, i, e1, i, dim)
+        d_par = _dot_rows(dp, i, e1, i, dim)
         for c in range(dim):
             tp[i, c] = T1[i, c] - tau * e1[i, c]
             dp[i, c] = dp[i, c] - d_par * e1[i, c]
         falling = N1 < N0
 
         # across the axis: elastic (no-slip) with rescaling when the area shrinks
-        tp2 = _dot_rows(tp, i, tp, i)
+        tp2 = _dot_rows(tp, i, tp, i, dim)
         if kt00 > 0.0:
             diss += (1.0 - rho) * tp2 / (2.0 * kt00)
         for c in range(dim):
@@ -933,7 +1027,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         elastic = False
         if mu > 0.0:
             tau, s, k, d_diss, elastic, flag, dPn, kpush = _md_axis(
-                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt00, kt01, d_par, rising, falling, kc)
+                tau, s, k, P1, i, N0, N1, a0e, a1, kbar, kt00, kt01, d_par, rising, falling, kc, defer, fall)
             if flag != 0:
                 flags[i] = flag
                 continue
@@ -983,17 +1077,17 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         # recombine; Coulomb cap on the total force by radial return (wipes the memory)
         for c in range(dim):
             T1[i, c] = tau * e1[i, c] + tp[i, c]
-        t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+        t1n = math.sqrt(_dot_rows(T1, i, T1, i, dim))
         if closed1 and (t1n > muN1 * (1.0 + 1e-12)):
             tha_ok = False
             # radial return T = mu N1 t / |t|: dT = mu dN t + (mu N1/|t|) (I - t t) dT_trial
-            _cap_tangent(i, T1, t1n, muN1, mu * kn, tdel, talp)
+            _cap_tangent(i, T1, t1n, muN1, mu * kn, tdel, talp, dim)
             scale = muN1 / t1n if t1n > 0.0 else muN1
             slip = (t1n - muN1) / kt01 if kt01 > 0.0 else 0.0
             diss += muN1 * slip
             for c in range(dim):
                 T1[i, c] = T1[i, c] * scale
-            t1n = math.sqrt(_dot_rows(T1, i, T1, i))
+            t1n = math.sqrt(_dot_rows(T1, i, T1, i, dim))
             for c in range(dim):
                 e1[i, c] = T1[i, c] / t1n if t1n > 0.0 else T1[i, c]
                 tp[i, c] = 0.0
@@ -1012,10 +1106,10 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             s = 1
 
         # no reversal remembered: the memory axis follows the force
-        if closed1 and (k == 0) and (_dot_rows(tp, i, tp, i) > 0.0):
+        if closed1 and (k == 0) and (_dot_rows(tp, i, tp, i, dim) > 0.0):
             tha_ok = False
-            t1n = math.sqrt(_dot_rows(T1, i, T1, i))
-            sg = -1.0 if _dot_rows(T1, i, e1, i) < 0.0 else 1.0
+            t1n = math.sqrt(_dot_rows(T1, i, T1, i, dim))
+            sg = -1.0 if _dot_rows(T1, i, e1, i, dim) < 0.0 else 1.0
             for c in range(dim):
                 e1[i, c] = sg * T1[i, c] / (t1n if t1n > 0.0 else 1.0)
                 tp[i, c] = 0.0
@@ -1069,16 +1163,48 @@ def rows(lo, hi, kc, state, inc, out, scratch):
 _LAW_FUNCTIONS: dict = {}
 
 
-def _law_dispatcher(key: tuple[int, bool]) -> Any:
-    """The copy of :func:`rows` specialised to ``key = (law code, linear)`` (made once)."""
+def _copy(fn: Any, name: str, extra: dict, **options: Any) -> Any:
+    """A copy of the compiled function ``fn`` named ``name`` (its own cache file), globals updated by ``extra``."""
+    import types as pytypes
+
+    f = fn.py_func
+    g = dict(f.__globals__)
+    g.update(extra)
+    fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
+    fc.__qualname__ = name
+    fc.__module__ = f.__module__
+    fc.__doc__ = f.__doc__
+    return njit(**options)(fc)
+
+
+def _inlined_axis_law() -> Any:
+    """:func:`_md_axis` (with :func:`_falling_n`) marked for inlining into the law copies (made once).
+
+    Called, they took the constants ``kc`` (~60 values, the series and quadrature tables)
+    by value at every contact; inlined, the law of the mixed-control driver took ~15 %
+    less time. Only the law copies inline them: in the generic :func:`rows`, compiled for
+    the per-call kernel on a first run, they stay calls (~1 s less compilation).
+    """
+    md = _LAW_FUNCTIONS.get("md_axis")
+    if md is None:
+        fall = _copy(_falling_n, "_falling_n_inlined", {}, **_JIT_NO_NRT, forceinline=True)
+        md = _copy(_md_axis, "_md_axis_inlined", {"_falling_n": fall}, **_JIT_NO_NRT, forceinline=True)
+        _LAW_FUNCTIONS["md_axis"] = md
+    return md
+
+
+def _law_dispatcher(key: tuple[int, bool, bool, int]) -> Any:
+    """The copy of :func:`rows` specialised to ``key = (law code, linear, defer, dim)`` (made once)."""
     disp = _LAW_FUNCTIONS.get(key)
     if disp is None:
         import types as pytypes
 
         f = rows.py_func
         g = dict(f.__globals__)
-        g.update(_LAW=int(key[0]), _LINEAR=int(key[1]))
-        name = f"rows_law{int(key[0])}_linear{int(key[1])}"
+        g.update(_LAW=int(key[0]), _LINEAR=int(key[1]), _DEFER=int(key[2]), _DIM=int(key[3]),
+                 _md_axis=_inlined_axis_law())
+        name = (f"rows_law{int(key[0])}_linear{int(key[1])}" + ("_defer" if key[2] else "")
+                + (f"_dim{int(key[3])}" if key[3] else ""))
         fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
         fc.__qualname__ = name  # its own name: its own cache file
         fc.__module__ = f.__module__
@@ -1089,9 +1215,9 @@ def _law_dispatcher(key: tuple[int, bool]) -> Any:
     return disp
 
 
-def law_key(kc: KernelConstants) -> tuple[int, bool]:
-    """What :func:`law_function` specialises on: the law code and the normal law of ``kc``."""
-    return int(kc.law), bool(kc.linear)
+def law_key(kc: KernelConstants, defer: bool = False, dim: int = 0) -> tuple[int, bool, bool, int]:
+    """What :func:`law_function` specialises on: the law code and normal law of ``kc``, ``defer``, the dimension."""
+    return int(kc.law), bool(kc.linear), bool(defer), int(dim)
 
 
 def law_signature(kc: KernelConstants, state: KernelState, inc: KernelIncrement, out: KernelOutput,
@@ -1102,18 +1228,18 @@ def law_signature(kc: KernelConstants, state: KernelState, inc: KernelIncrement,
     return (types.int64, types.int64, typeof(kc), typeof(state), typeof(inc), typeof(out), typeof(scratch))
 
 
-def compile_law(key: tuple[int, bool], sig: tuple) -> None:
+def compile_law(key: tuple[int, bool, bool, int], sig: tuple) -> None:
     """Compile (or load from numba's cache) the law copy ``key`` for the argument types ``sig``."""
     _law_dispatcher(key).compile(sig)
 
 
-def law_compiled(key: tuple[int, bool], sig: tuple) -> bool:
+def law_compiled(key: tuple[int, bool, bool, int], sig: tuple) -> bool:
     """The law copy ``key`` is already compiled or loaded in this process for ``sig``."""
     return sig in _law_dispatcher(key).overloads
 
 
 def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, out: KernelOutput,
-                 scratch: KernelScratch) -> Any:
+                 scratch: KernelScratch, defer: bool = False) -> Any:
     """:func:`rows` for the law of ``kc``, compiled alone, as a first-class function value.
 
     A compiled caller that takes it as an argument (``law(lo, hi, kc, state, inc, out,
@@ -1121,13 +1247,23 @@ def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, 
     its own code: numba re-optimises and re-generates the machine code of every callee
     linked into each caller, and the law is the largest function of the mixed-control
     driver (``docs/performance.md``, "First run"). The copy is specialised to the law
-    kind and normal law of ``kc`` (the other laws' branches are not compiled) and is
+    kind and normal law of ``kc`` (the other laws' branches are not compiled) and to the
+    dimension of ``state.tangential_force`` (its vector loops unrolled), and is
     cached on disk like the other kernels; one call per chunk of contacts costs nothing
     measurable. Its type is ``numba.types.FunctionType(numba.types.none(*law_signature(...)))``.
+
+    ``defer``: the copy leaves the dissipation of a fall of ``N`` at fixed displacement
+    (the 12-point quadrature of :func:`_falling_n`, the only costly part of the
+    dissipation) out of ``out.dissipation`` and records its segments in ``scratch.fall``
+    (shape (n, :data:`FALL_COLUMNS`)); for the iterate it accepts, the caller calls it
+    once more with ``lo = -1`` (:func:`rows`), which adds that dissipation. The
+    mixed-control driver evaluates the law ~2.2 times per step and keeps one. Everything
+    else equals the copy without ``defer`` bit for bit; the dissipation agrees to
+    rounding (the quadrature is added last).
     """
     from numba.core.types.function_type import CompileResultWAP
 
-    key = law_key(kc)
+    key = law_key(kc, defer, state.tangential_force.shape[1])
     sig = law_signature(kc, state, inc, out, scratch)
     compile_law(key, sig)
     return CompileResultWAP(_law_dispatcher(key).overloads[sig])

@@ -112,7 +112,7 @@ def _make(parallel: bool):
             inc = KernelIncrement(dn, dt, N1, rad0, rad1)
             res = KernelOutput(a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
                                ksp_out, ktn_out, kn_out, op_out, td_out, ta_out)
-            scratch = KernelScratch(tp, dp, flags)
+            scratch = KernelScratch(tp, dp, flags, np.empty((c, 0)))
             any_rows = False
             for q in range(6):
                 if jrows[q]:

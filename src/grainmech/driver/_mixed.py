@@ -49,7 +49,13 @@ from grainmech.contact.geometry import (
     mindlin_kt0,
     spring_energy,
 )
-from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState
+from grainmech.contact.kernel import (
+    KernelConstants,
+    KernelIncrement,
+    KernelOutput,
+    KernelScratch,
+    KernelState,
+)
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
@@ -145,6 +151,39 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
                     acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
 
 
+@njit(**_NO_NRT)
+def _add_jacobian_sub(acc, off, idx, ns, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
+    """:func:`add_step_jacobian` with rows = columns = ``idx[:ns]`` (the same values).
+
+    The stress-controlled components listed once per pass instead of six mask tests
+    of the rows and of the columns per contact.
+    """
+    knc = kn if kn > 0.0 else 0.0
+    K00 = K01 = K02 = K10 = K11 = K12 = K20 = K21 = K22 = 0.0
+    for a in range(3):
+        ha = knc * (nx if a == 0 else (ny if a == 1 else nz)) + t_alpha[i, a]
+        tn = t_delta[i, a, 0] * nx + t_delta[i, a, 1] * ny + t_delta[i, a, 2] * nz
+        k0 = (ha - tn) * nx + t_delta[i, a, 0]
+        k1 = (ha - tn) * ny + t_delta[i, a, 1]
+        k2 = (ha - tn) * nz + t_delta[i, a, 2]
+        if a == 0:
+            K00, K01, K02 = k0, k1, k2
+        elif a == 1:
+            K10, K11, K12 = k0, k1, k2
+        else:
+            K20, K21, K22 = k0, k1, k2
+    for rr in range(ns):
+        r = idx[rr]
+        b0, b1, b2 = _bcol(r, lx, ly, lz)
+        g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
+        g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
+        g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
+        for qq in range(ns):
+            q = idx[qq]
+            c0, c1, c2 = _bcol(q, lx, ly, lz)
+            acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
+
+
 @njit(**_INNER)
 def _copy_state(src, src_resp, dst, dst_resp):
     """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows.
@@ -178,6 +217,27 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
     normal force at the step end (seed Eq. 3.6, or ``kn alpha``) and the Hertz contact
     radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``.
     """
+    d_n, dtx, dty, dtz, N1, rad1 = _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0,
+                                                  linear, kn_lin, E, R)
+    if linear:
+        return d_n, dtx, dty, dtz, N1, N1, N1
+    return d_n, dtx, dty, dtz, N1, start_radius(a0, N0, E, R), rad1
+
+
+@njit(**_INNER)
+def start_radius(a0, N0, E, R):
+    """Hertz contact radius at the start of a step (seed Eq. 3.2; 0 for an open contact)."""
+    Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
+    return hertz_radius(Nc, E, R)
+
+
+@njit(**_INNER)
+def _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, linear, kn_lin, E, R):
+    """:func:`contact_increment` without the radius at the step's start: ``(d_n, dtx, dty, dtz, N1, rad1)``.
+
+    The mixed-control pass keeps the start radius of the converged state (it changes only
+    when a step is committed) instead of taking its cube root at every evaluation.
+    """
     dx = exx * lx + exy * ly + exz * lz
     dy = exy * lx + eyy * ly + eyz * lz
     dz = exz * lx + eyz * ly + ezz * lz
@@ -186,11 +246,16 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
     ap = a1 if a1 > 0.0 else 0.0
     if linear:
         N1 = kn_lin * ap
-        return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, N1, N1
+        return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, N1
     N1 = hertz_force(ap, E, R)
-    Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
-    return (d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(Nc, E, R),
-            hertz_radius(N1, E, R))
+    return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(N1, E, R)
+
+
+@njit(**_NO_NRT)
+def _start_radii(linear, E, R, approach, normal_force, rad0):
+    """``rad0`` of the converged state (:func:`start_radius`; unused for linear springs)."""
+    for i in range(approach.shape[0]):
+        rad0[i] = 0.0 if linear else start_radius(approach[i], normal_force[i], E, R)
 
 
 @njit(**_INNER)
@@ -349,13 +414,19 @@ def _make(parallel: bool):
         exz = 0.5 * de[4]
         exy = 0.5 * de[5]
         bad_c = np.full(nch, -1, dtype=np.int64)
+        sidx = np.zeros(6, dtype=np.int64)  # the stress-controlled components
+        ns = 0
+        for q in range(6):
+            if sc[q]:
+                sidx[ns] = q
+                ns += 1
         # arrays as plain values into the (parallel) loop: writes through a named tuple's
         # fields inside a prange are lost; the tuples are rebuilt inside
         i_dn, i_dt, i_N1, i_rad0, i_rad1 = inc
         s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en = st
         (o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op, o_td,
          o_ta) = out
-        c_tp, c_dp, c_fl = scratch
+        c_tp, c_dp, c_fl, c_fa = scratch
         for ch in rng(nch):
             lo = ch * _CH
             hi = min(n, lo + _CH)
@@ -365,12 +436,13 @@ def _make(parallel: bool):
             inc_c = KernelIncrement(i_dn, i_dt, i_N1, i_rad0, i_rad1)
             out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op,
                                  o_td, o_ta)
-            scr_c = KernelScratch(c_tp, c_dp, c_fl)
+            scr_c = KernelScratch(c_tp, c_dp, c_fl, c_fa)
+            # (i_rad0, the start radius, is that of the converged state: _start_radii, _commit)
             for i in range(lo, hi):
-                (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i], i_rad0[i],
-                 i_rad1[i]) = contact_increment(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
-                                                normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
-                                                s_a[i], s_N[i], linear, kn_lin, E, R)
+                (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i],
+                 i_rad1[i]) = _increment_end(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
+                                             normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
+                                             s_a[i], linear, kn_lin, E, R)
                 c_fl[i] = 0
             law_fn(lo, hi, kcc, st_c, inc_c, out_c, scr_c)  # kernel.rows (kernel.law_function)
             for i in range(lo, hi):
@@ -394,7 +466,7 @@ def _make(parallel: bool):
                         prow[43] += w
                     prow[44] += w * o_di[i]
                     # Jacobian rows/columns sc: B^T K B with the law's step tangent
-                    add_step_jacobian(prow, 6, sc, sc, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
+                    _add_jacobian_sub(prow, 6, sidx, ns, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
         for ch in range(nch):
             if bad_c[ch] >= 0:
                 return bad_c[ch]
@@ -405,17 +477,24 @@ def _make(parallel: bool):
 
 
 @njit(**_INNER)
-def _commit(kc, normals, branch, weights, st, out, resp, Cout):
-    # accept the trial state: out -> st (dissipated energy accumulated), the response
-    # kept in ``resp``; returns the stored energy and writes the reported tangent
-    # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout
+def _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cout, inc, scratch):
+    # accept the trial state: out -> st (dissipated energy accumulated, with the falling-N
+    # dissipation the law deferred to here added first: law_fn(-1, n, ...), kernel.rows),
+    # the response kept in ``resp``; returns the stored energy and the weighted sum of the
+    # dissipation of the step, and writes the reported tangent
+    # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout.
+    # inc.rad0 becomes the start radius of the new state: start_radius(a1, N1) is
+    # hertz_radius(N1) = rad1 of the accepted evaluation when a1 > 0 and N1 > 0, else
+    # hertz_radius(0) = 0 (the same bits as computing it again)
     (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
      glx, glw, sph, k8) = kc
     n = normals.shape[0]
     nrev = st.reversals.shape[1]
+    law_fn(-1, n, kc, st, inc, out, scratch)
     for q in range(36):
         Cout[q] = 0.0
     wst = 0.0
+    wdi = 0.0
     for i in range(n):
         st.approach[i] = out.approach[i]
         st.normal_force[i] = out.normal_force[i]
@@ -426,7 +505,10 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
         st.depth[i] = out.depth[i]
         for c in range(nrev):
             st.reversals[i, c] = out.reversals[i, c]
+        wdi += weights[i] * out.dissipation[i]
         st.dissipated_energy[i] += out.dissipation[i]
+        if not linear:
+            inc.rad0[i] = inc.rad1[i] if (out.approach[i] > 0.0 and out.normal_force[i] > 0.0) else 0.0
         resp[0][i] = out.kn[i]
         resp[1][i] = out.ks[i]
         resp[2][i] = out.ks_perp[i]
@@ -462,7 +544,7 @@ def _commit(kc, normals, branch, weights, st, out, resp, Cout):
     for q in range(6):
         for q2 in range(q):
             Cout[6 * q + q2] = Cout[6 * q2 + q]
-    return wst
+    return wst, wdi
 
 
 def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
@@ -506,6 +588,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
     sk_t1 = np.zeros((max_depth + 2, 6))
     sk_dep = np.zeros(max_depth + 2, dtype=np.int64)
     n_loose = 0
+    _start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for k in range(m):
         new_ts = np.empty(6)
         new_te = np.empty(6)
@@ -682,12 +765,12 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             new_strain = np.empty(6)  # strain + de (an element loop: no array expression to compile)
             for q in range(6):
                 new_strain[q] = strain[q] + de[q]
-            wst = _commit(kc, normals, branch, weights, st, out, resp, Cflat)
+            wst, wdi = _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cflat, inc, scratch)
             n_sub += 1
             n_it += it_done
             if loose_acc:
                 n_loose += 1
-            diss += s_di
+            diss += wdi  # (s_di of the pass without the deferred falling-N part)
             dw = 0.0
             for q in range(6):
                 dw += 0.5 * (stress[q] + sig[q]) * (new_strain[q] - strain[q])
@@ -893,7 +976,8 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
                        np.empty(n, dtype=np.int32), np.empty((n, nrev)), np.empty(n, dtype=np.bool_), np.empty(n),
                        np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_),
                        np.empty((n, 3, 3)), np.empty((n, 3)))
-    scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8))
+    scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8),
+                            np.zeros((n, kernel.FALL_COLUMNS)))
     inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))
     r0 = point.response
     resp = tuple(c(x) for x in (r0.kn, r0.ks, r0.ks_perp, r0.ktn, r0.dissipation, r0.sliding, r0.open))
@@ -917,8 +1001,8 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
             rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo)
     law_sig = kernel.law_signature(kc, st, inc, out, scratch)
     pass_sig = pass_signature(law_sig, args)
-    _compile(args, kernel.law_key(kc), law_sig, parallel, pass_sig)
-    law_fn = kernel.law_function(kc, st, inc, out, scratch)
+    _compile(args, kernel.law_key(kc, True, 3), law_sig, parallel, pass_sig)
+    law_fn = kernel.law_function(kc, st, inc, out, scratch, defer=True)  # falling-N dissipation at the commit
     eval_fn = pass_function(parallel, pass_sig)
     done = int(_segment_compiled(eval_fn, law_fn, *args))
     wtot = float(cs.weights.sum())
