@@ -478,11 +478,6 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     the factor per iteration, where a Newton-Krylov iteration costs one solve per
     Krylov vector. An update that raises the scaled residual more than three times
     restarts the history with a plain elastic update, halved until it does not raise it.
-    An update longer than ``_AA_GROW`` times the plain elastic one (scaled norm) is
-    shortened towards it: on the shipped 'medium' packing at 1e-6 the unbounded updates
-    were 40-200 times the elastic one, moved one mechanism grain, tripled the residual
-    and restarted the history every second iteration (8 steps: 11.9 s with 38-99
-    iterations per step; bounded at 30: 3.6 s, 10-16 iterations).
     After ``_AA_PATIENCE`` iterations without progress the best point is accepted if
     its stress is settled; otherwise the history restarts from it (at most
     ``_AA_RESTARTS`` times: the differences gathered across a kink of the laws mix two
@@ -518,9 +513,6 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
             dF = np.diff(np.array(F), axis=0).T
             gamma = np.linalg.lstsq(dF / D[:, None], F[-1] / D, rcond=1e-12)[0]
             step = F[-1] - (dX + dF) @ gamma
-            big = float(np.linalg.norm(step / D)) / max(float(np.linalg.norm(F[-1] / D)), 1e-300)
-            if big > _AA_GROW:
-                step = F[-1] + (step - F[-1]) * (_AA_GROW / big)
         sq, se = limit(step[:nq], step[nq:], st)
         try:
             trial = residual(xq + sq, xe + se)
@@ -564,10 +556,6 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
 _AA_PATIENCE, _AA_PROGRESS = 8, 0.9
 #: restarts of the Anderson history from the best point after a stall
 _AA_RESTARTS = 2
-#: the Anderson update is shortened towards the plain elastic update to at most _AA_GROW
-#: times its length (Jacobi-scaled): nearly collinear differences (a grain on a mechanism
-#: whose residual barely changes) make the least-squares coefficients huge
-_AA_GROW = 30.0
 
 
 def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
