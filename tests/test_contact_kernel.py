@@ -424,3 +424,45 @@ def test_deferring_law_copy_equals_per_call_kernel():
     call(law, -1, n, kc, st, inc, out, scratch)
     assert not (scratch.fall[:, 0] > 0).any()
     np.testing.assert_allclose(out.dissipation, ref.dissipation, rtol=1e-13, atol=0)
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_specialised_3d_law_of_update_kernel_equals_generic_rows(monkeypatch, parallel):
+    """``update_kernel`` runs 3D Mindlin-Deresiewicz contacts through the law copy of
+    ``law_function`` (specialised to 3D, axis law inlined); it equals the generic ``rows``
+    (which the other tests check against the NumPy reference) bit for bit, every output,
+    on states with reversals, Masing branches, sliding and falls of ``N``."""
+    from grainmech.contact import kernel as K
+    from grainmech.contact.geometry import hertz_force, hertz_radius
+
+    p = MD
+    aref = ALPHA_REF["md"]
+    rng = np.random.default_rng(23)
+    n = 3000                                   # above the parallel threshold
+    state = state_from_normal_force(p, rng.uniform(0.0, 12.0, n), dim=3)
+    for _ in range(4):
+        dn, dt = _random_increments(rng, n, 3, aref)
+        state, _ = update(p, state, dn, dt, backend="numpy")
+    dn, dt = _random_increments(rng, n, 3, aref, falling_bias=-0.1)
+    kc = K.constants(p)
+    st = K.KernelState(*(np.ascontiguousarray(x, dtype=t) for x, t in zip(
+        (state.approach, state.normal_force, state.tangential_force, state.axis, state.direction, state.depth,
+         state.reversals, state.dissipated_energy), (float, float, float, float, np.int8, np.int32, float, float))))
+    E, R = p.effective_modulus, p.effective_radius
+    N1 = hertz_force(np.maximum(st.approach + dn, 0.0), E, R)
+    N0 = np.where((st.approach > 0) & (st.normal_force > 0), st.normal_force, 0.0)
+    inc = K.KernelIncrement(dn, np.ascontiguousarray(dt), N1, hertz_radius(N0, E, R), hertz_radius(N1, E, R))
+    if not parallel:
+        monkeypatch.setattr(K, "PARALLEL_THRESHOLD", 10**9)
+    status, out, flags = K.update_kernel(kc, st, inc)
+    assert status == 0 and not flags.any()
+    ref = K.new_output(n, 3, st.reversals.shape[1])
+    scratch = K.new_scratch(n, 3)
+    assert (K._kernel_parallel if parallel else K._kernel_serial)(kc, st, inc, ref, scratch) == 0
+    assert not scratch.flags.any()
+    for name in K.KernelOutput._fields:
+        np.testing.assert_array_equal(getattr(out, name), getattr(ref, name), err_msg=name)
+    # the step exercised the law's branches
+    assert ref.sliding.any() and (~ref.sliding & ~ref.open).any() and ref.open.any()
+    assert np.sum((N1 < N0) & (N1 > 0) & (st.depth > 0)) >= 50
+    assert np.any(ref.depth > st.depth) and np.any(ref.depth < st.depth)
