@@ -118,12 +118,11 @@ def _bcol(q, lx, ly, lz):
 
 
 @njit(**_NO_NRT)
-def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
-    """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
+def _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz):
+    """Entries (row by row) of ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` of contact ``i``.
 
-    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)``: the law's step (consistent) tangent
-    of ``f = N n + T`` with respect to the relative displacement ``delta = B d eps``
-    (seed Eq. 2.13, 2.26; :func:`grainmech.driver.point.consistent_tangent`).
+    The law's step (consistent) tangent of ``f = N n + T`` with respect to the relative
+    displacement (seed Eq. 2.13, 2.26); an open contact (``kn <= 0``) has no normal part.
     """
     knc = kn if kn > 0.0 else 0.0
     K00 = K01 = K02 = K10 = K11 = K12 = K20 = K21 = K22 = 0.0
@@ -139,6 +138,18 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
             K10, K11, K12 = k0, k1, k2
         else:
             K20, K21, K22 = k0, k1, k2
+    return K00, K01, K02, K10, K11, K12, K20, K21, K22
+
+
+@njit(**_NO_NRT)
+def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
+    """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
+
+    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)``: the law's step (consistent) tangent
+    of ``f = N n + T`` with respect to the relative displacement ``delta = B d eps``
+    (seed Eq. 2.13, 2.26; :func:`grainmech.driver.point.consistent_tangent`).
+    """
+    K00, K01, K02, K10, K11, K12, K20, K21, K22 = _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz)
     for r in range(6):
         if colmask[r]:
             b0, b1, b2 = _bcol(r, lx, ly, lz)
@@ -158,20 +169,7 @@ def _add_jacobian_sub(acc, off, idx, ns, w, kn, t_alpha, t_delta, i, nx, ny, nz,
     The stress-controlled components listed once per pass instead of six mask tests
     of the rows and of the columns per contact.
     """
-    knc = kn if kn > 0.0 else 0.0
-    K00 = K01 = K02 = K10 = K11 = K12 = K20 = K21 = K22 = 0.0
-    for a in range(3):
-        ha = knc * (nx if a == 0 else (ny if a == 1 else nz)) + t_alpha[i, a]
-        tn = t_delta[i, a, 0] * nx + t_delta[i, a, 1] * ny + t_delta[i, a, 2] * nz
-        k0 = (ha - tn) * nx + t_delta[i, a, 0]
-        k1 = (ha - tn) * ny + t_delta[i, a, 1]
-        k2 = (ha - tn) * nz + t_delta[i, a, 2]
-        if a == 0:
-            K00, K01, K02 = k0, k1, k2
-        elif a == 1:
-            K10, K11, K12 = k0, k1, k2
-        else:
-            K20, K21, K22 = k0, k1, k2
+    K00, K01, K02, K10, K11, K12, K20, K21, K22 = _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz)
     for rr in range(ns):
         r = idx[rr]
         b0, b1, b2 = _bcol(r, lx, ly, lz)
