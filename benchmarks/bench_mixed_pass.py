@@ -30,7 +30,7 @@ from numba import njit, set_num_threads, typeof, types
 import grainmech
 from grainmech.assembly import ContactSet
 from grainmech.contact import MindlinDeresiewicz, kernel
-from grainmech.contact.kernel import KernelIncrement, KernelOutput, KernelScratch, KernelState
+from grainmech.contact.kernel import KernelIncrement, KernelScratch, KernelState
 from grainmech.driver import MaterialPoint, _mixed, cyclic_simple_shear, run
 from grainmech.fabric import sphere_rule
 
@@ -84,10 +84,7 @@ def main() -> None:
     st = KernelState(c(s0.approach), c(s0.normal_force), c(s0.tangential_force), c(s0.axis),
                      c(s0.direction, np.int8), c(s0.depth, np.int32), c(s0.reversals), c(s0.dissipated_energy))
     nrev = st.reversals.shape[1]
-    out = KernelOutput(np.empty(n), np.empty(n), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, dtype=np.int8),
-                       np.empty(n, dtype=np.int32), np.empty((n, nrev)), np.empty(n, dtype=np.bool_), np.empty(n),
-                       np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_),
-                       np.empty((n, 3, 3)), np.empty((n, 3)))
+    out = kernel.new_output(n, 3, nrev)
     scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8),
                             np.zeros((n, kernel.FALL_COLUMNS)))
     inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))

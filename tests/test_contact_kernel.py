@@ -365,6 +365,31 @@ def test_kernel_is_pure_and_parallel_path_equals_serial(monkeypatch):
     assert_same_step(p, state, dn, dt)
 
 
+def _kernel_step_inputs(seed: int, n: int) -> tuple:
+    """Kernel inputs of one step of ``n`` 3D Mindlin-Deresiewicz contacts after four random
+    steps of the reference law (reversals, sliding, opening), with a bias to falls of N:
+    ``(constants, state, increment, N0, N1)``, the normal forces before and after."""
+    from grainmech.contact import kernel as K
+    from grainmech.contact.geometry import hertz_force, hertz_radius
+
+    p = MD
+    aref = ALPHA_REF["md"]
+    rng = np.random.default_rng(seed)
+    state = state_from_normal_force(p, rng.uniform(0.0, 12.0, n), dim=3)
+    for _ in range(4):
+        dn, dt = _random_increments(rng, n, 3, aref)
+        state, _ = update(p, state, dn, dt, backend="numpy")
+    dn, dt = _random_increments(rng, n, 3, aref, falling_bias=-0.1)
+    st = K.KernelState(*(np.ascontiguousarray(x, dtype=t) for x, t in zip(
+        (state.approach, state.normal_force, state.tangential_force, state.axis, state.direction, state.depth,
+         state.reversals, state.dissipated_energy), (float, float, float, float, np.int8, np.int32, float, float))))
+    E, R = p.effective_modulus, p.effective_radius
+    N1 = hertz_force(np.maximum(st.approach + dn, 0.0), E, R)
+    N0 = np.where((st.approach > 0) & (st.normal_force > 0), st.normal_force, 0.0)
+    inc = K.KernelIncrement(dn, np.ascontiguousarray(dt), N1, hertz_radius(N0, E, R), hertz_radius(N1, E, R))
+    return K.constants(p), st, inc, N0, N1
+
+
 def test_deferring_law_copy_equals_per_call_kernel():
     """The mixed-control driver's law copy (``law_function(..., defer=True)``) against ``update_kernel``.
 
@@ -375,26 +400,9 @@ def test_deferring_law_copy_equals_per_call_kernel():
     from numba import njit
 
     from grainmech.contact import kernel as K
-    from grainmech.contact.geometry import hertz_force, hertz_radius
 
-    p = MD
-    aref = ALPHA_REF["md"]
-    rng = np.random.default_rng(17)
     n = 500
-    state = state_from_normal_force(p, rng.uniform(0.0, 12.0, n), dim=3)
-    for _ in range(4):
-        dn, dt = _random_increments(rng, n, 3, aref)
-        state, _ = update(p, state, dn, dt, backend="numpy")
-    dn, dt = _random_increments(rng, n, 3, aref, falling_bias=-0.1)
-    kc = K.constants(p)
-    st = K.KernelState(*(np.ascontiguousarray(x, dtype=t) for x, t in zip(
-        (state.approach, state.normal_force, state.tangential_force, state.axis, state.direction, state.depth,
-         state.reversals, state.dissipated_energy), (float, float, float, float, np.int8, np.int32, float, float))))
-    E, R = p.effective_modulus, p.effective_radius
-    a1 = np.maximum(st.approach + dn, 0.0)
-    N1 = hertz_force(a1, E, R)
-    N0 = np.where((st.approach > 0) & (st.normal_force > 0), st.normal_force, 0.0)
-    inc = K.KernelIncrement(dn, np.ascontiguousarray(dt), N1, hertz_radius(N0, E, R), hertz_radius(N1, E, R))
+    kc, st, inc, N0, N1 = _kernel_step_inputs(17, n)
     status, ref, flags = K.update_kernel(kc, st, inc)
     assert status == 0 and not flags.any()
 
@@ -433,25 +441,9 @@ def test_specialised_3d_law_of_update_kernel_equals_generic_rows(monkeypatch, pa
     (which the other tests check against the NumPy reference) bit for bit, every output,
     on states with reversals, Masing branches, sliding and falls of ``N``."""
     from grainmech.contact import kernel as K
-    from grainmech.contact.geometry import hertz_force, hertz_radius
 
-    p = MD
-    aref = ALPHA_REF["md"]
-    rng = np.random.default_rng(23)
     n = 3000                                   # above the parallel threshold
-    state = state_from_normal_force(p, rng.uniform(0.0, 12.0, n), dim=3)
-    for _ in range(4):
-        dn, dt = _random_increments(rng, n, 3, aref)
-        state, _ = update(p, state, dn, dt, backend="numpy")
-    dn, dt = _random_increments(rng, n, 3, aref, falling_bias=-0.1)
-    kc = K.constants(p)
-    st = K.KernelState(*(np.ascontiguousarray(x, dtype=t) for x, t in zip(
-        (state.approach, state.normal_force, state.tangential_force, state.axis, state.direction, state.depth,
-         state.reversals, state.dissipated_energy), (float, float, float, float, np.int8, np.int32, float, float))))
-    E, R = p.effective_modulus, p.effective_radius
-    N1 = hertz_force(np.maximum(st.approach + dn, 0.0), E, R)
-    N0 = np.where((st.approach > 0) & (st.normal_force > 0), st.normal_force, 0.0)
-    inc = K.KernelIncrement(dn, np.ascontiguousarray(dt), N1, hertz_radius(N0, E, R), hertz_radius(N1, E, R))
+    kc, st, inc, N0, N1 = _kernel_step_inputs(23, n)
     if not parallel:
         monkeypatch.setattr(K, "PARALLEL_THRESHOLD", 10**9)
     status, out, flags = K.update_kernel(kc, st, inc)
