@@ -17,10 +17,11 @@ is ``G^T f`` and ``V sigma = E^T f`` (Love-Weber, seed Eq. 2.6).
 from __future__ import annotations
 
 import ctypes
-import os
+import functools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -162,6 +163,20 @@ def block_diagonal(K: np.ndarray) -> sp.bsr_matrix:
 _NO_PERM = np.zeros(0, dtype=np.int32)
 
 
+@functools.cache
+def _mkl() -> Any:
+    """The solver object of pypardiso, kept for its MKL library (``libmkl``, the typed ``_mkl_pardiso``).
+
+    Made once per process: pypardiso looks for the MKL runtime (``find_library``, then a
+    recursive glob of ``sys.prefix``, 0.15-0.25 s) every time it makes one, and a run
+    refactorises many times. The factors themselves are called directly, each with its
+    own handle (``_Factor._pt``).
+    """
+    import pypardiso
+
+    return pypardiso.PyPardisoSolver(mtype=2)
+
+
 class _Factor:
     """Sparse symmetric positive definite factorisation of the elastic operator.
 
@@ -204,17 +219,11 @@ class _Factor:
         self._lu = spla.splu(A.tocsc())
 
     def _init_pardiso(self, A: sp.spmatrix, reproducible: bool) -> None:
-        import pypardiso
+        import pypardiso  # noqa: F401 (not installed: ImportError here, whatever _mkl() holds)
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
-        ps = pypardiso.PyPardisoSolver(mtype=2)  # loads MKL (real symmetric positive definite)
-        # pypardiso looks for the MKL runtime by a recursive glob of sys.prefix at every
-        # solver it makes (0.15 s here; a run refactors many times): name the library it
-        # found for the next ones (its own PYPARDISO_MKL_RT setting, unless the user set it)
-        name = getattr(ps.libmkl, "_name", None)
-        if name and "PYPARDISO_MKL_RT" not in os.environ:
-            os.environ["PYPARDISO_MKL_RT"] = name
+        ps = _mkl()
         # ``reproducible``: PARDISO factors on one MKL thread (thread-local, restored after
         # the call; the factor keeps that thread count for its solves). Its multithreaded
         # factorisation and solves sum in a schedule-dependent order, and the packing

@@ -69,7 +69,6 @@ class _Context:
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
     newton_ok: bool = True  # the last (sub)step's consistent-tangent updates worked
     energy: bool = False  # line search on the potential energy (frictionless laws only)
-    step_dsig: float | None = None  # stress change of the step being solved (rtol_step)
 
 
 def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
@@ -123,8 +122,11 @@ _MU_FLOOR = 1e-9
 
 
 def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
-           counters: list, relax: bool = False) -> PackingPoint:
+           counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
     """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+
+    ``step_dsig``: the stress change of the whole step this (sub)step belongs to
+    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
 
     With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
     updates from the start, each one committed to the contact laws' history (see the
@@ -191,14 +193,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     def converged(rq: np.ndarray, re: np.ndarray) -> bool:
         return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
 
-    # stress change of the step: the elastic (affine, an upper bound) response to its
-    # strain increment, or the change of its stress targets
-    # of the whole step, not of a substep: the path's resolution is the user's step
-    dsig = max(float(np.abs(prec.A0 @ de_E).max()) / V,
-               float(np.abs(np.where(S, target - point.stress, 0.0)).max()))
-    if ctx.step_dsig is None:
-        ctx.step_dsig = dsig
-    amb_ok = max(opts.rtol_accept * sref, opts.rtol_step * ctx.step_dsig) * V
+    amb_ok = max(opts.rtol_accept * sref, opts.rtol_step * step_dsig) * V
 
     def accept(rq: np.ndarray, re: np.ndarray) -> bool:
         # the out-of-balance forces and moments left make the Love-Weber stress uncertain
@@ -790,30 +785,36 @@ def _debug() -> Callable[[str], None] | None:
 
 
 def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
-                depth: int, ctx: _Context, counters: list) -> PackingPoint:
-    """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure."""
-    if depth == 0:
-        ctx.step_dsig = None  # set by the first solve of the step, at its full size
+                depth: int, ctx: _Context, counters: list, step_dsig: float | None = None) -> PackingPoint:
+    """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure.
+
+    ``step_dsig`` (set at ``depth = 0``, kept by the halves): the step's stress change,
+    the elastic (affine, an upper bound) response to its strain increment or the change
+    of its stress targets; the path's resolution is the user's step, not a substep's.
+    """
+    if step_dsig is None:
+        step_dsig = max(float(np.abs(ctx.prec.A0 @ de_E).max()) / point.volume,
+                        float(np.abs(np.where(S, t1 - point.stress, 0.0)).max()))
     try:
-        return _solve(point, S, de_E, t1, ctx, counters)
+        return _solve(point, S, de_E, t1, ctx, counters, step_dsig)
     except _StepFailure as exc:
         err = exc
     if depth == 0 and ctx.prec is not point._cache.get("prec"):  # maybe a stale preconditioner: refactor once
         ctx.prec = point.preconditioner()
         ctx.factorizations += 1
         try:
-            return _solve(point, S, de_E, t1, ctx, counters)
+            return _solve(point, S, de_E, t1, ctx, counters, step_dsig)
         except _StepFailure as exc:
             err = exc
     rd = ctx.opts.relax_depth
     if rd is not None and depth >= min(rd, ctx.opts.max_depth) and not ctx.energy:  # committed relaxation
         ctx.relaxations += 1
         try:
-            return _solve(point, S, de_E, t1, ctx, counters, relax=True)
+            return _solve(point, S, de_E, t1, ctx, counters, step_dsig, relax=True)
         except _StepFailure as exc:
             err = exc
     if depth >= ctx.opts.max_depth:
         raise _StepFailure(f"{err.cause} (after {ctx.opts.max_depth} halvings)")
     tm = 0.5 * (t0 + t1)
-    mid = _subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters)
-    return _subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters)
+    mid = _subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters, step_dsig)
+    return _subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters, step_dsig)
