@@ -224,3 +224,32 @@ def test_sweep_ctrl_c_stops_the_worker_processes(tmp_path):
     _, alive = psutil.wait_procs(children, timeout=5)
     assert not alive
     assert _names(tmp_path / "out") == {"points"}
+
+
+_LEAK = """
+import sys
+from multiprocessing import resource_tracker
+if sys.argv[1] == "quiet":
+    from grainmech.parallel import _start_quiet_resource_tracker
+    _start_quiet_resource_tracker()
+# what a killed worker process leaves behind: a semaphore registered, never unregistered
+resource_tracker.register("/grainmech-test-no-such-semaphore", "semaphore")
+"""
+
+
+@pytest.mark.parametrize("mode", ["plain", "quiet"])
+def test_resource_tracker_of_the_worker_processes_prints_nothing_after_the_run(tmp_path, mode):
+    """After Ctrl-C the killed workers' semaphores are left to multiprocessing's resource
+    tracker, which printed two warnings on the terminal after "grainmech: interrupted" (CI
+    run of 2026-11-25). The tracker a sweep starts must clean up without a word; the
+    plain tracker shows that the check can fail."""
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    (tmp_path / "leak.py").write_text(_LEAK)
+    # communicate() waits for the end of stderr, which the tracker holds until it has exited
+    p = subprocess.run([sys.executable, "leak.py", mode], cwd=tmp_path, env=env,
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0
+    if mode == "plain":
+        assert "leaked semaphore objects" in p.stderr
+    else:
+        assert p.stderr == ""
