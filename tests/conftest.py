@@ -43,3 +43,18 @@ def cli(capsys) -> Callable[..., CliRun]:
         return CliRun(rc, cap.out, cap.err)
 
     return run
+
+
+def default_run_affine(text: str | None = None) -> str:
+    """The built-in default run config (or ``text``) with the affine model alone.
+
+    The default runs both models; the packing model's curves take ~45 s, so tests of
+    the run's output files and folder rules use the affine model (seconds).
+    """
+    from pathlib import Path
+
+    if text is None:
+        text = (Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "default_run.toml").read_text()
+    head, rest = text.split("[model]", 1)
+    tail = rest[rest.index("\n["):]
+    return head + '[model]\nmethod = "affine"\n' + tail

@@ -109,7 +109,9 @@ def test_mean_stress_change_per_amplitude(tmp_path, cli):
     import tomllib
 
 
-    cfg = (Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "default_run.toml").read_text()
+    from conftest import default_run_affine
+
+    cfg = default_run_affine()
     cfg = cfg.replace("amplitudes = [1e-6, 3e-6, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3]", "amplitudes = [1e-5, 1e-3]")
     assert tomllib.loads(cfg)["test"]["amplitudes"] == [1e-5, 1e-3]
     (tmp_path / "c.toml").write_text(cfg)

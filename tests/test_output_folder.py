@@ -52,12 +52,15 @@ def test_error_keeps_partial_results_with_a_summary_that_says_failed(tmp_path):
 
 
 def test_input_error_before_any_output_keeps_the_previous_run(tmp_path, capsys):
+    from conftest import default_run_affine
+
     out = tmp_path / "out"
-    assert cli.main(["run", "-o", str(out), "--quiet"]) == 0
+    good = tmp_path / "good.toml"
+    good.write_text(default_run_affine())
+    assert cli.main(["run", str(good), "-o", str(out), "--quiet"]) == 0
     before = {p.name: p.read_bytes() for p in out.iterdir()}
     bad = tmp_path / "bad.toml"
-    bad.write_text((Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "default_run.toml")
-                   .read_text().replace("[contacts]", "[contacts]\npoison = 0.2"))
+    bad.write_text(default_run_affine().replace("[contacts]", "[contacts]\npoison = 0.2"))
     assert cli.main(["run", str(bad), "-o", str(out), "--quiet"]) == 2
     assert "poison" in capsys.readouterr().err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before

@@ -177,6 +177,13 @@ class RunSpec:
     grains: PackingSource | None = None
     packing_law: Any = None
     gmax_grains: PackingSource | None = None
+    packing_amplitudes: list[float] | None = None
+
+    def amplitudes_of(self, method: str) -> list[float]:
+        """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` for the packing model)."""
+        if method == "packing" and self.packing_amplitudes is not None:
+            return self.packing_amplitudes
+        return self.amplitudes
 
 
 @dataclass
@@ -404,16 +411,13 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         spec.warnings.append(fit["summary"] + ": the fitted order does not describe the measured normals "
                              "well (raise fabric.fit_order, or check the file)")
     if kind == "cyclic-simple-shear":
-        amps = test.raw("amplitudes")
-        if not isinstance(amps, list) or not amps:
-            raise ConfigError(test.key("amplitudes"), amps, "must be a non-empty list of strains")
-        try:
-            bad = [a for a in amps if isinstance(a, bool) or not np.isfinite(float(a)) or float(a) <= 0]
-        except (TypeError, ValueError):
-            bad = [amps]
-        if bad:
-            raise ConfigError(test.key("amplitudes"), amps, "every amplitude must be a positive strain")
-        spec.amplitudes = [float(a) for a in amps]
+        spec.amplitudes = _read_amplitudes(test, "amplitudes")
+        if model.has("packing_amplitudes"):
+            if "packing" not in methods:
+                raise ConfigError(model.key("packing_amplitudes"), model.raw("packing_amplitudes"),
+                                  f"is for method = 'packing', which this config does not use (method = "
+                                  f"{list(methods)})")
+            spec.packing_amplitudes = _read_amplitudes(model, "packing_amplitudes")
         spec.n_cycles = test.integer("n_cycles", 2, min=2)
         spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
@@ -431,9 +435,26 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             phi=ref.angle("friction_angle", float(np.radians(33.0)), max_deg=90.0))
         root.finish()
         return spec
+    if model.has("packing_amplitudes"):
+        raise ConfigError(model.key("packing_amplitudes"), model.raw("packing_amplitudes"),
+                          f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
     spec.path = _segments(test)
     root.finish()
     return spec
+
+
+def _read_amplitudes(section: Any, key: str) -> list[float]:
+    """A non-empty list of positive strain amplitudes ``section[key]``."""
+    amps = section.raw(key)
+    if not isinstance(amps, list) or not amps:
+        raise ConfigError(section.key(key), amps, "must be a non-empty list of strains")
+    try:
+        bad = [a for a in amps if isinstance(a, bool) or not np.isfinite(float(a)) or float(a) <= 0]
+    except (TypeError, ValueError):
+        bad = [amps]
+    if bad:
+        raise ConfigError(section.key(key), amps, "every amplitude must be a positive strain")
+    return [float(a) for a in amps]
 
 
 @dataclass
@@ -679,7 +700,7 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
         empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method),
-        run_amplitudes=np.asarray(spec.amplitudes[:len(mr.results)], dtype=float))
+        run_amplitudes=np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float))
 
 
 #: relative difference between a packing's stress and the run's mean stress below which
@@ -721,7 +742,13 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
                "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),
                "prepare_seconds": time.perf_counter() - t0}
     if spec.kind == "cyclic-simple-shear":
-        amps = spec.amplitudes
+        amps = spec.amplitudes_of("packing")
+        if spec.packing_amplitudes is not None:
+            others = [a for a in spec.amplitudes if a not in amps]
+            details["amplitudes_note"] = (
+                f"run at model.packing_amplitudes = {[float(f'{a:.3g}') for a in amps]}"
+                + (f"; test.amplitudes {[float(f'{a:.3g}') for a in others]} were not run with this model"
+                   if others else ""))
 
         def each(i: int, a: float, path: Any) -> None:
             say(f"[packing {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "

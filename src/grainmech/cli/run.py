@@ -2,9 +2,10 @@
 
 Without CONFIG it runs the built-in default (``grainmech/data/default_run.toml``): cyclic
 simple shear of an isotropic Hertz-Mindlin/Mindlin-Deresiewicz quartz sand at several
-strain amplitudes, and writes CSV tables, a JSON summary and PNG plots (loops, G/Gmax and
-damping with Darendeli 2001 and Hardin-Drnevich 1972 for the same mean stress) to OUTDIR
-(default ``./grainmech-out/run``).
+strain amplitudes with both kinematic models (the seed's affine model and the shipped
+'dense' packing with every grain in equilibrium, ~50 s), and writes CSV tables, a JSON
+summary and PNG plots (loops, G/Gmax and damping with Darendeli 2001 and Hardin-Drnevich
+1972 for the same mean stress) to OUTDIR (default ``./grainmech-out/run``).
 """
 
 from __future__ import annotations
@@ -73,6 +74,8 @@ def main(args: argparse.Namespace) -> int:
             say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
                 f"{det['void_ratio']:.3f}; largest out-of-balance force ratio "
                 f"{det.get('max_residual', float('nan')):.2g}")
+        if det and "amplitudes_note" in det:
+            say(f"  {det['amplitudes_note']}")
         if isinstance(o, CyclicOutcome) and len(o.G):
             say(f"  Gmax = {o.G_max:.4g} Pa")
             emp = o.empirical_G_max

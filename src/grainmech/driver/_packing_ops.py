@@ -16,6 +16,7 @@ is ``G^T f`` and ``V sigma = E^T f`` (Love-Weber, seed Eq. 2.6).
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 from collections.abc import Iterator
@@ -175,6 +176,23 @@ def _mkl() -> Any:
     import pypardiso
 
     return pypardiso.PyPardisoSolver(mtype=2)
+
+
+def openblas_one_thread() -> Any:
+    """Context manager: OpenBLAS on one thread (threadpoolctl; a no-op without it).
+
+    The packing driver's dense products are small (GMRES' Gram-Schmidt, Anderson's least
+    squares on ~11k x 10, the grains' 6 x 6 blocks) and run beside the law's compiled
+    threads; OpenBLAS' own threads, spinning between them, cost more than they gain: the
+    built-in default run took 56.3 s with them and 52.1 s with one (2 cores,
+    2026-11-26); on a loaded machine Gram-Schmidt took 24 ms per product instead of
+    under 1 ms (``docs/packing-driver.md``). MKL (PARDISO) keeps its own setting.
+    """
+    try:
+        from threadpoolctl import ThreadpoolController
+    except ImportError:
+        return contextlib.nullcontext()
+    return ThreadpoolController().select(internal_api="openblas").limit(limits=1)
 
 
 class _Factor:

@@ -39,7 +39,7 @@ from grainmech.contact import (
     update,
 )
 from grainmech.driver import DriverResult, LoadPath, cyclic_simple_shear
-from grainmech.driver._packing_ops import Kinematics, Preconditioner, contact_tangent, voigt_of
+from grainmech.driver._packing_ops import Kinematics, Preconditioner, contact_tangent, openblas_one_thread, voigt_of
 from grainmech.driver._packing_step import _Context, _frictional, _held_load, _law_kw, _StepFailure, _subdivided
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
@@ -751,7 +751,8 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
                                      regularization=point.regularization, reproducible=point.reproducible)
     if kwargs:
         opts = replace(opts, **kwargs)
-    return _run(point, path, opts, on_step=on_step)
+    with openblas_one_thread():
+        return _run(point, path, opts, on_step=on_step)
 
 
 def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,

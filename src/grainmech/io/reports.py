@@ -263,6 +263,8 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                      f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
                      f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "
                      "(column equilibrium_residual).</p>")
+        if det and "amplitudes_note" in det:
+            head += f"<p>Amplitudes: {html.escape(str(det['amplitudes_note']))}.</p>"
         if "G_max_Pa" in m:
             rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
                            f"<td>{100 * c:+.1f}</td></tr>"
