@@ -50,8 +50,9 @@ def test_relation_errors_name_the_key():
 
 
 def test_run_accepts_the_relation(tmp_path):
-    base = (Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "default_run.toml").read_text()
-    cfg = tomllib.loads(base)
+    from conftest import default_run_affine
+
+    cfg = tomllib.loads(default_run_affine())
     cfg["test"]["amplitudes"] = [1e-5]
     e, p = cfg["packing"]["void_ratio"], 1e5
     from grainmech.jobs import compute_run
