@@ -125,7 +125,11 @@ class Kinematics:
 
     def delta(self, dq: np.ndarray, de: np.ndarray) -> np.ndarray:
         """Relative displacement (C, 3) of ``dq`` (n_free,) and strain ``de`` (6,)."""
-        return (self.G @ dq).reshape(-1, 3) + np.einsum("cj,ij->ci", self.l, strain_tensor(de))
+        return (self.G @ dq).reshape(-1, 3) + self.affine(de)
+
+    def affine(self, de: np.ndarray) -> np.ndarray:
+        """Relative displacement (C, 3) of the strain ``de`` (6,) alone: ``l_c . eps``."""
+        return self.l @ strain_tensor(de)  # eps symmetric: (eps l_c)_i = (l_c eps)_i
 
     def balance(self, f: np.ndarray) -> np.ndarray:
         """Out-of-balance forces and moments ``G^T f`` (n_free,) of forces ``f`` (C, 3)."""

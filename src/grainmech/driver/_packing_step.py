@@ -177,7 +177,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         update; every contact the update closes is stopped near touch (:func:`_closing_cap`).
         """
         dxq = _clip(kin, dxq, Rg, move)
-        dxe = dxe / _trust(kin, np.zeros(nq), dxe, S, move)
+        dxe = dxe / _trust(kin, None, dxe, S, move)
         if abar > 0:
             dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
         return dxq, dxe
@@ -606,10 +606,11 @@ def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq
     return dxq, dxe, slope, pred, count[0]
 
 
-def _trust(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
+def _trust(kin: Kinematics, dxq: np.ndarray | None, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
     """Factor (>= 1) by which an update's largest contact displacement exceeds ``move``.
 
-    ``move`` [length] is the trust limit; the update is ``(dxq, dxe)``.
+    ``move`` [length] is the trust limit; the update is ``(dxq, dxe)`` (``dxq = None``: the
+    strain's part alone).
 
     Measured on the contacts, not on the grains: a grain rolling on its neighbours (a
     mechanism) may move far without loading any contact, and is bounded by the
@@ -617,7 +618,7 @@ def _trust(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, mov
     """
     d6 = np.zeros(6)
     d6[S] = dxe
-    d = kin.delta(dxq, d6)
+    d = kin.affine(d6) if dxq is None else kin.delta(dxq, d6)
     return max(float(np.max(np.linalg.norm(d, axis=1), initial=0.0)) / move, 1.0)
 
 
@@ -692,8 +693,19 @@ def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
         return got[1]
     P = kin.n_grains
     R = point.radii
+    # only a grain with at most two closed contacts has mechanisms (a rigid motion that
+    # moves none of three points of a sphere is zero: no line passes through three of
+    # them); the others' loads are kept whole
+    ncl = np.bincount(kin.a[closed], minlength=P) + np.bincount(kin.b[closed], minlength=P)
+    few = ncl <= 2
+    if len(memo) >= 16:
+        memo.clear()
+    if not few.any():
+        memo[key] = (point.load, point.load)
+        return point.load
     # blocks of the relative displacement of each closed contact in the motion of its grain
     # A ([I, -[r_A]x]) and of its grain B ([-I, [r_B]x]), rotations scaled by the radius
+    closed = closed & (few[kin.a] | few[kin.b])
     a, b, n = kin.a[closed], kin.b[closed], kin.n[closed]
     W = np.zeros((2, a.size, 3, 6))
     W[0, :, :, :3] = np.eye(3)
@@ -704,14 +716,14 @@ def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
     gb = np.einsum("cki,ckj->cij", W[1], W[1]).reshape(-1, 36)
     gram = np.stack([np.bincount(a, ga[:, k], P) + np.bincount(b, gb[:, k], P) for k in range(36)],
                     axis=1).reshape(P, 6, 6)
-    w, U = np.linalg.eigh(gram)  # ascending; the grain's mechanisms have w ~ 0 (entries O(1))
+    g = np.flatnonzero(few)
+    w, U = np.linalg.eigh(gram[g])  # ascending; the grain's mechanisms have w ~ 0 (entries O(1))
     null = w < 1e-9 * np.maximum(w[:, -1:], 1.0)
-    scale = np.concatenate([np.ones((P, 3)), np.repeat(R[:, None], 3, axis=1)], axis=1)
-    ls = kin.full(point.load) / scale  # (force, moment / R)
-    proj = np.einsum("pik,pk,pjk,pj->pi", U, null.astype(float), U, ls)
-    kept = ((ls - proj) * scale).reshape(-1)[kin.free]
-    if len(memo) >= 16:
-        memo.clear()
+    scale = np.concatenate([np.ones((g.size, 3)), np.repeat(R[g][:, None], 3, axis=1)], axis=1)
+    full = kin.full(point.load)
+    ls = full[g] / scale  # (force, moment / R)
+    full[g] -= np.einsum("pik,pk,pjk,pj->pi", U, null.astype(float), U, ls) * scale
+    kept = full.reshape(-1)[kin.free]
     memo[key] = (point.load, kept)
     return kept
 
