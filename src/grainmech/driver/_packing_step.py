@@ -486,6 +486,8 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     nq = xq.size
     X: list = []
     F: list = []
+    dXs: list = []  # X[k+1] - X[k]
+    dFs: list = []  # (F[k+1] - F[k]) / D
     best = (xq, xe, cur, m)
     ref, stall = m, 0  # merit of the last iteration that made progress, iterations since
     restarts = 0
@@ -497,17 +499,22 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
         if converged(rq, re):
             return True, xq, xe, cur, m, it
         fq, fe = prec.apply(-rq, -re, S)
-        X.append(np.concatenate([xq, xe]))
-        F.append(np.concatenate([fq, fe]))
+        x_new, f_new = np.concatenate([xq, xe]), np.concatenate([fq, fe])
+        if X:  # differences with the last iterate, scaled as the least-squares problem needs
+            dXs.append(x_new - X[-1])
+            dFs.append((f_new - F[-1]) / D)
+        X.append(x_new)
+        F.append(f_new)
         if len(X) > mem + 1:
             X.pop(0)
             F.pop(0)
-        step = F[-1]
-        if len(X) > 1:
-            dX = np.diff(np.array(X), axis=0).T
-            dF = np.diff(np.array(F), axis=0).T
-            gamma = np.linalg.lstsq(dF / D[:, None], F[-1] / D, rcond=1e-12)[0]
-            step = F[-1] - (dX + dF) @ gamma
+            dXs.pop(0)
+            dFs.pop(0)
+        step = f_new
+        if dXs:
+            dFm = np.array(dFs).T
+            gamma = np.linalg.lstsq(dFm, f_new / D, rcond=1e-12)[0]
+            step = f_new - np.array(dXs).T @ gamma - (dFm @ gamma) * D
         sq, se = limit(step[:nq], step[nq:], st)
         try:
             trial = residual(xq + sq, xe + se)
@@ -517,7 +524,7 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
         if not mt <= 3.0 * m:  # restart from a plain elastic update, halved until it does not raise r
             if dbg:
                 dbg(f"   anderson restart (merit {mt:.3g})")
-            X, F = [], []
+            X, F, dXs, dFs = [], [], [], []
             sq, se = limit(fq, fe, st)
             for _ in range(_STIFF_BACKTRACKS):
                 trial = residual(xq + sq, xe + se)
@@ -540,7 +547,7 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
             if dbg:
                 dbg(f"   anderson stalled: restart {restarts} from the best point (merit {best[3]:.3g})")
             xq, xe, cur, m = best
-            X, F = [], []
+            X, F, dXs, dFs = [], [], [], []
             ref, stall = m, 0
     xq, xe, cur, m = best
     return accept(cur[3], cur[4]), xq, xe, cur, m, it
