@@ -180,7 +180,7 @@ def test_dem_command_goes_through_jobs(monkeypatch, cli, tmp_path):
 
     calls = []
     real = jobs.execute_dem
-    monkeypatch.setattr(jobs, "execute_dem", lambda spec: calls.append(spec) or real(spec))
+    monkeypatch.setattr(jobs, "execute_dem", lambda spec, *a: calls.append(spec) or real(spec, *a))
     r = cli("dem", EX / "dem_table_contacts.csv", "--particles", EX / "dem_table_particles.csv",
             "--material", EX / "dem_material.toml", "-o", tmp_path / "o", "--no-plots", "--json")
     assert r.rc == 0 and len(calls) == 1

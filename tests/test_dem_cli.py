@@ -75,3 +75,31 @@ def test_cli_dem_errors_exit_2(tmp_path, cli):
     mat = tmp_path / "m.toml"
     mat.write_text("[material]\nshear_modulus = 1e9\npoison = 0.2\n")
     assert cli("dem", str(c), "--particles", str(p), "--material", str(mat)).rc == 2
+
+
+def test_progress_bar_on_a_terminal_only():
+    """`grainmech dem` draws a bar for a large contact file on a terminal: redrawn per percent,
+    ending at 100 % with a newline; nothing for a small file or when stderr is not a terminal."""
+    import io
+
+    from grainmech.cli.dem import PROGRESS_MIN_BYTES, _progress_bar
+
+    class Tty(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    assert _progress_bar(io.StringIO()) is None
+    out = Tty()
+    show = _progress_bar(out)
+    assert show is not None
+    total = 4 * PROGRESS_MIN_BYTES
+    for done in (0, total // 3, total // 3 + 1, total):
+        show(done, total)
+    text = out.getvalue()
+    assert text.count("\r") == 3  # 0 %, 33 % (once), 100 %
+    assert "[########------" in text and " 33 % of 268 MB" in text
+    assert text.endswith(" 100 % of 268 MB\n")
+    small = Tty()
+    show = _progress_bar(small)
+    show(10, PROGRESS_MIN_BYTES - 1)
+    assert small.getvalue() == ""

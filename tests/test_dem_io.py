@@ -293,6 +293,55 @@ def test_chunked_reading_matches(tmp_path, monkeypatch):
         read_network(c, p)
 
 
+def test_pieces_of_the_data_block_are_whole_lines_up_to_the_next_item():
+    """``_windows`` cuts a block into pieces that end at line ends, together the block up to
+    (not including) the first line starting with 'ITEM:', whatever the piece size, also for
+    lines longer than a piece, a stop line at the very start of a piece and no final newline."""
+    import io
+
+    rng = np.random.default_rng(3)
+    rows = [" ".join(["1.5"] * int(n)) for n in rng.integers(1, 40, 300)]
+    block = "".join(r + "\n" for r in rows).encode()
+    for text, want in ((block, block), (block + b"ITEM: TIMESTEP\n5\n1 2\n", block),
+                       (block[:-1], block[:-1]), (b"ITEM: TIMESTEP\n", b"")):
+        for size in (7, 64, 113, 4096, 1 << 20):
+            pieces = list(demio._windows(io.BytesIO(text), size, b"ITEM:"))
+            assert b"".join(pieces) == want
+            assert all(x.endswith(b"\n") for x in pieces[:-1]) and all(pieces)
+            if size >= 200:  # a piece is at most its size plus the line carried over
+                assert all(len(x) <= size + max(map(len, rows)) for x in pieces)
+    # a stop line that starts exactly where a piece starts
+    lines = [b"%d 2\n" % k for k in range(10)]
+    text = b"".join(lines[:5]) + b"ITEM: X\n" + b"".join(lines[5:])
+    for size in range(1, 40):
+        assert b"".join(demio._windows(io.BytesIO(text), size, b"ITEM:")) == b"".join(lines[:5])
+    assert b"".join(demio._windows(io.BytesIO(text), 16, None)) == text
+
+
+def test_a_read_reports_its_progress_and_later_pieces_name_their_lines(tmp_path, monkeypatch, reader):
+    """progress(done, total) rises to the file's size; with small pieces (the pyarrow path's
+    worker threads) a non-integer id in a late piece is named with its line."""
+    net = random_network(300, seed=2)
+    c, p = tmp_path / "c.dump", tmp_path / "p.dump"
+    write_liggghts(net, c, p)
+    monkeypatch.setattr(demio, "ARROW_WINDOW_MIN", 2000)
+    monkeypatch.setattr(demio, "CHUNK_LINES", 50)
+    seen: list[tuple[int, int]] = []
+    back = read_network(c, p, progress=lambda d, t: seen.append((d, t)))
+    np.testing.assert_array_equal(back.force, net.force)
+    size = c.stat().st_size
+    assert len(seen) > 5 and all(t == size for _, t in seen)
+    assert [d for d, _ in seen] == sorted(d for d, _ in seen) and seen[-1][0] == size
+    lines = c.read_text().splitlines()
+    k = 9 + net.n_contacts - 3  # 1-based line of a contact near the end
+    w = lines[k - 1].split()
+    w[6] = "2.5"  # id1 of that contact
+    lines[k - 1] = " ".join(w)
+    c.write_text("\n".join(lines) + "\n")
+    with pytest.raises(GrainmechError, match=rf"c\.dump:{k}: column '[^']+': value 2\.5 is not an integer id"):
+        read_network(c, p)
+
+
 def test_liggghts_keyword_order_is_fixed_by_the_compute(tmp_path):
     """`compute ... pair/gran/local force id pos` still writes pos, id, force (fixed order)."""
     c, p = tmp_path / "c.dump", tmp_path / "p.dump"
@@ -379,6 +428,7 @@ def test_pyarrow_and_line_parser_give_identical_arrays(tmp_path, monkeypatch, va
     if variant == "two-snapshots":
         text = text + text.replace("ITEM: TIMESTEP\n0", "ITEM: TIMESTEP\n100")
     c.write_bytes(text.encode())
+    monkeypatch.setattr(demio, "ARROW_WINDOW_MIN", 1500)  # ~100 pieces parsed on the worker threads
     calls = []
     real = demio._read_block_arrow
     monkeypatch.setattr(demio, "_read_block_arrow", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])

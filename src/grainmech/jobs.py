@@ -1121,18 +1121,23 @@ class DemOutcome:
     report: dict
 
 
-def execute_dem(spec: DemSpec) -> DemOutcome:
-    """Read the network and compute :func:`grainmech.network.network_report`."""
+def execute_dem(spec: DemSpec, progress: Callable[[int, int], None] | None = None) -> DemOutcome:
+    """Read the network and compute :func:`grainmech.network.network_report`.
+
+    ``progress(done, total)`` receives the bytes of the contact file read so far and its
+    size (:func:`grainmech.io.dem.read_network`).
+    """
     from grainmech.io.dem import read_network
     from grainmech.network import network_report_json as network_report
 
-    net = read_network(spec.contacts, spec.particles, **spec.read)
+    net = read_network(spec.contacts, spec.particles, **spec.read, progress=progress)
     return DemOutcome(net, network_report(net, **spec.options))
 
 
-def compute_dem(cfg: dict, base_dir: str | Path | None = None) -> DemOutcome:
-    """Config dict -> network report (see :func:`prepare_dem`)."""
-    return execute_dem(prepare_dem(cfg, base_dir))
+def compute_dem(cfg: dict, base_dir: str | Path | None = None,
+                progress: Callable[[int, int], None] | None = None) -> DemOutcome:
+    """Config dict -> network report (see :func:`prepare_dem`, :func:`execute_dem`)."""
+    return execute_dem(prepare_dem(cfg, base_dir), progress)
 
 
 def dem_scalars(out: DemOutcome) -> dict[str, Any]:

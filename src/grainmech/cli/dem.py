@@ -29,7 +29,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TextIO
 
 import numpy as np
 
@@ -81,6 +82,35 @@ def _config(args: argparse.Namespace) -> dict:
     return {"network": net, **cfg}
 
 
+#: contact files at least this large get a progress bar on a terminal [bytes]
+PROGRESS_MIN_BYTES = 64 << 20
+
+
+def _progress_bar(stream: TextIO) -> Callable[[int, int], None] | None:
+    """A ``progress(done, total)`` that draws a bar on ``stream`` if it is a terminal.
+
+    Files smaller than :data:`PROGRESS_MIN_BYTES` (read in about a second) draw nothing;
+    the bar is redrawn when its percentage changes and ends with a newline.
+    """
+    if not stream.isatty():
+        return None
+    last = [-1]
+
+    def show(done: int, total: int) -> None:
+        if total < PROGRESS_MIN_BYTES:
+            return
+        pct = min(100, 100 * done // total)
+        if pct == last[0]:
+            return
+        last[0] = pct
+        bar = "#" * (pct // 4) + "-" * (25 - pct // 4)
+        stream.write(f"\rreading the contact file [{bar}] {pct:3d} % of {total / 1e6:.0f} MB")
+        if pct == 100:
+            stream.write("\n")
+        stream.flush()
+    return show
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``grainmech dem`` with the parsed ``args``.
 
@@ -96,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = _config(args)
     with output_folder(args.outdir, "dem") as folder:  # checked and locked before the work
-        out = compute_dem(cfg)
+        out = compute_dem(cfg, progress=_progress_bar(sys.stderr))
         rep = out.report
         write_dem_outputs(out, folder.staging, plot=not args.no_plots)
     if args.json:

@@ -14,9 +14,10 @@ DEM sign conventions, converted here and nowhere else:
 * The generic table (and YADE's ``i.phys.normalForce + i.phys.shearForce``, which is the
   force applied on ``id2``) already holds the force on ``id2`` (``force_on="id2"``).
 
-Data blocks are parsed by pyarrow's CSV reader when pyarrow is installed (streamed in
-blocks straight into the kept arrays), else -- and for anything that reader does not take,
-and for every error message -- by a NumPy line parser in chunks of lines; both keep only
+Data blocks are parsed by pyarrow's CSV reader when pyarrow is installed (in pieces of
+whole lines on every core, each copied straight into the kept arrays), else -- and for
+anything that reader does not take, and for every error message -- by a NumPy line
+parser in chunks of lines; both keep only
 the needed columns, so memory is bounded by the output arrays, not by the file. Malformed
 lines, missing columns, NaN/inf values, duplicate or unknown particle ids raise
 :class:`~grainmech.errors.GrainmechError` naming the file, the line, the column and the
@@ -29,10 +30,11 @@ import io
 import itertools
 import os
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
@@ -109,7 +111,7 @@ class _LineReader:
     def __init__(self, path: Path) -> None:
         self.path = path
         try:
-            self.fh: IO[str] = open(path, encoding="utf-8", errors="strict", newline=None)
+            self.fh: io.TextIOWrapper = open(path, encoding="utf-8", errors="strict", newline=None)
         except IsADirectoryError:
             raise GrainmechError(f"{path}: is a directory, not a file") from None
         except FileNotFoundError:
@@ -171,38 +173,6 @@ def _diagnose(lines: Sequence[str], names: Sequence[str], delimiter: str | None,
     raise GrainmechError(f"{path}:{line0}-{line0 + len(lines) - 1}: could not parse the data block")
 
 
-class _UntilItem(io.RawIOBase):
-    """Binary stream of a data block.
-
-    From the current position of ``fh`` up to (not including) the next ``ITEM:`` (the next
-    dump snapshot) or the end of the file.
-    """
-
-    def __init__(self, fh: IO[bytes], stop: bytes | None) -> None:
-        self.fh, self.stop, self.buf, self.done = fh, stop, b"", False
-
-    def readable(self) -> bool:
-        return True
-
-    def readinto(self, b: Any) -> int:
-        n = len(b)
-        while not self.done and len(self.buf) < n + 8:
-            data = self.fh.read(max(n, 1 << 22))
-            if not data:
-                self.done = True
-                break
-            self.buf += data
-            if self.stop is not None:
-                p = self.buf.find(self.stop)
-                if p >= 0:
-                    self.buf, self.done = self.buf[:p], True
-        # keep a short tail back until the stop marker is ruled out across the boundary
-        k = len(self.buf) if self.done else max(0, min(n, len(self.buf) - 8))
-        b[:k] = self.buf[:k]
-        self.buf = self.buf[k:]
-        return k
-
-
 def _arrow_csv() -> Any:
     """``pyarrow.csv``, or None when pyarrow is not installed."""
     try:
@@ -212,11 +182,19 @@ def _arrow_csv() -> Any:
     return pacsv
 
 
-#: block size of the pyarrow CSV reader [bytes]. The streaming reader parses one block at
-#: a time on one core whatever the size (0.45 s per 1e6 16-column rows for 256 kB to 2 MB
-#: blocks), but the memory its threads' allocations keep grows with it: +146 MB of
-#: resident memory at 2 MB, +60 MB at 512 kB, +38 MB at 256 kB (1e6 rows, mimalloc pool)
-ARROW_BLOCK = 1 << 19
+#: block size of the pyarrow CSV reader within one piece [bytes] (a piece is parsed on one
+#: thread; the block size changes neither its speed nor, at this size, its memory)
+ARROW_BLOCK = 1 << 20
+
+#: largest piece of a data block parsed by one worker thread at a time [bytes]
+#: (:func:`_read_block_arrow`): 1e7 16-column rows on 2 cores parsed in 3.8 s with 8 MB
+#: pieces, 3.9-4.1 s with 16 MB, 4.2 s with 64 MB; the streaming reader on one core took 6 s
+ARROW_WINDOW = 1 << 24
+
+#: smallest piece [bytes]; between the two a piece is 1/64 of the block, so that the pieces
+#: in flight (text and parsed table, ~2.5x the piece each) stay a few percent of the arrays
+#: kept (text: ~170 B per contact, arrays ~100 B)
+ARROW_WINDOW_MIN = 1 << 20
 
 
 #: columns read into one (n, 3) array (the arrays the network keeps)
@@ -263,18 +241,66 @@ def _as_ids(a: np.ndarray, name: str, path: Path, first: int) -> np.ndarray:
     return ai
 
 
+def _windows(fh: io.RawIOBase, size: int, stop: bytes | None) -> Iterator[bytearray]:
+    """Consecutive pieces of a data block, each about ``size`` bytes and whole lines.
+
+    Reads ``fh`` from its position to the end of the file or up to (not including) the
+    first line that starts with ``stop`` (the next dump snapshot). A line longer than
+    ``size`` makes its piece longer.
+    """
+    tail = b""
+    while True:
+        buf = bytearray(size + len(tail))
+        buf[:len(tail)] = tail
+        got = fh.readinto(memoryview(buf)[len(tail):])
+        tot = len(tail) + got
+        if tot == 0:
+            return
+        end = tot if got == 0 else buf.rfind(b"\n", 0, tot) + 1
+        if end == 0:  # no line end yet: read on with a larger piece
+            tail, size = bytes(buf[:tot]), 2 * size
+            continue
+        if stop:
+            p = 0 if buf.startswith(stop) else buf.find(b"\n" + stop, 0, end) + 1
+            if p > 0 or buf.startswith(stop):
+                del buf[p:]
+                if buf:
+                    yield buf
+                return
+        tail = bytes(buf[end:tot])
+        del buf[end:]
+        yield buf
+        if got == 0:
+            return
+
+
+def _reader_threads() -> int:
+    """Worker threads of the pyarrow path: the cores this process may use, at most 8."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(n, 8))
+
+
 def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: dict[str, int],
                       count: int | None, delimiter: str | None, stop_prefix: str | None,
-                      int_cols: Iterable[str] = ()) -> dict[str, np.ndarray] | None:
-    """The wanted columns of a data block parsed by pyarrow's multi-threaded CSV reader.
+                      int_cols: Iterable[str] = (),
+                      progress: Callable[[int, int], None] | None = None) -> dict[str, np.ndarray] | None:
+    """The wanted columns of a data block parsed by pyarrow's CSV reader on every core.
 
     The block starts after ``skip_lines`` lines and ends at a line starting with
-    ``stop_prefix`` or at the end of the file.  Record batches are copied into arrays
-    allocated once (``count`` known) or concatenated at the end, so the peak memory is the
-    kept arrays plus a few blocks of ``ARROW_BLOCK`` bytes.  Returns None whenever the
-    block is not in the simple form this path handles (whitespace other than single
-    spaces, a wrong number of fields, a value that is not a number, a short block):
-    the caller then runs the line parser, which reports the exact line and column.
+    ``stop_prefix`` or at the end of the file.  It is cut into pieces of whole lines
+    (1/64 of the block, within ``ARROW_WINDOW_MIN`` … ``ARROW_WINDOW`` bytes) that worker
+    threads parse at the same time (pyarrow releases
+    the GIL), each copied at its row offset into arrays allocated once (``count`` known)
+    or concatenated in order at the end.  At most one piece more than there are threads is
+    held, so the peak memory is the kept arrays plus a few pieces.  ``progress(done,
+    total)`` is called after each piece with the bytes of the file parsed so far and the
+    file's size.  Returns None whenever
+    the block is not in the simple form this path handles (whitespace other than single
+    spaces, a wrong number of fields, a value that is not a number, a short block): the
+    caller then runs the line parser, which reports the exact line and column.
     """
     pacsv = _arrow_csv()
     if pacsv is None:
@@ -288,91 +314,127 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
             fh.readline()
         start = fh.tell()
         head = fh.readline().rstrip(b"\r\n")
-        fh.seek(start)
         if not head or (stop_prefix and head.startswith(stop_prefix.encode())):
             return None
-        if delimiter is None:
-            if b"\t" in head or b"  " in head or head.startswith(b" "):
-                return None
-            sep = " "
-        else:
-            sep = delimiter
-        fields = head.split(sep.encode())
-        extra = len(fields) - len(names)
-        if extra not in (0, 1) or (extra == 1 and fields[-1].strip()):
-            return None  # the line parser reports the column count
-        colnames = [f"c{k}" for k in range(len(fields))]
-        keys = list(want)
-        inc = [colnames[want[k]] for k in keys]
-        ints = set(int_cols)
-        opts = dict(
-            read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK, use_threads=True),
-            parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
-                                             ignore_empty_lines=False),
-            # every column is converted (a non-number anywhere is an error, as in the line
-            # parser); only the wanted ones are kept
-            convert_options=pacsv.ConvertOptions(
-                include_columns=colnames[:len(names)],
-                column_types={c: pa.float64() for c in colnames[:len(names)]},
-                strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
-    # first as a native stream to the end of the file (no Python buffers: the usual single
-    # snapshot); if that fails, bounded at the next 'ITEM:' through a Python stream
-    for bounded in (False, True):
-        if bounded and not stop_prefix:
+    if delimiter is None:
+        if b"\t" in head or b"  " in head or head.startswith(b" "):
             return None
-        with (open(path, "rb") if bounded else pa.OSFile(str(path))) as fh:
-            fh.seek(start)
-            src = _UntilItem(fh, (stop_prefix or "").encode()) if bounded else fh
-            try:
-                out: dict[str, Any] = (_allocate(keys, ints, count) if count is not None
-                                       else {k: [] for k in keys})
-                done = 0
-                for batch in pacsv.open_csv(src, **opts):
-                    m = batch.num_rows
-                    if count is not None and done + m > count:
-                        break
-                    for k, c in zip(keys, inc):
-                        a = batch.column(c).to_numpy(zero_copy_only=False)
-                        if k in ints:
-                            a = _as_ids(a, names[want[k]], path, first + done)
-                        if count is not None:
-                            out[k][done:done + m] = a
-                        else:
-                            out[k].append(a)
-                    done += m
-                    del batch
-                else:
-                    if count is None or done == count:
-                        break
-            except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
-                pass
-            out = {}  # this attempt failed: release its arrays before the next one
+        sep = " "
     else:
-        return None
-    # hand the Arrow pool's freed blocks back to the system (mimalloc keeps them: ~60 MB
-    # of resident memory at 512 kB blocks) before the network is built on top
-    pa.default_memory_pool().release_unused()
-    if count is not None:
-        if done != count:
+        sep = delimiter
+    fields = head.split(sep.encode())
+    extra = len(fields) - len(names)
+    if extra not in (0, 1) or (extra == 1 and fields[-1].strip()):
+        return None  # the line parser reports the column count
+    colnames = [f"c{k}" for k in range(len(fields))]
+    keys = list(want)
+    inc = [colnames[want[k]] for k in keys]
+    ints = set(int_cols)
+    opts = dict(
+        read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK, use_threads=False),
+        parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
+                                         ignore_empty_lines=False),
+        # every column is converted (a non-number anywhere is an error, as in the line
+        # parser); only the wanted ones are kept
+        convert_options=pacsv.ConvertOptions(
+            include_columns=colnames[:len(names)],
+            column_types={c: pa.float64() for c in colnames[:len(names)]},
+            strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
+    out: dict[str, Any] = _allocate(keys, ints, count) if count is not None else {}
+
+    class _Unsuitable(Exception):
+        """A piece this path does not take (the line parser reads the block instead)."""
+
+    def piece(buf: bytearray, before: Future | None, rows: Future) -> dict[str, list[np.ndarray]]:
+        """Parse one piece, publish the row offset after it, copy it into the arrays."""
+        try:
+            try:
+                tb = pacsv.read_csv(pa.py_buffer(buf), **opts)
+            except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
+                raise _Unsuitable from None
+            del buf
+            o0 = before.result() if before is not None else 0
+            m = tb.num_rows
+            rows.set_result(o0 + m)
+        except BaseException as exc:
+            rows.set_exception(exc)
+            raise
+        if count is not None and o0 + m > count:
+            raise _Unsuitable
+        kept: dict[str, list[np.ndarray]] = {k: [] for k in keys}
+        for k, c in zip(keys, inc):
+            o = o0
+            for chunk in tb.column(c).chunks:
+                a = chunk.to_numpy(zero_copy_only=False)
+                if k in ints:
+                    a = _as_ids(a, names[want[k]], path, first + o)
+                if count is not None:
+                    out[k][o:o + a.shape[0]] = a
+                else:
+                    kept[k].append(a)
+                o += a.shape[0]
+        return kept
+
+    total = max(os.path.getsize(path), 1)
+    nthreads = _reader_threads()
+    parts: list[dict[str, list[np.ndarray]]] = []
+    stop = stop_prefix.encode() if stop_prefix else None
+    done_bytes, rows_after = start, None
+    with ThreadPoolExecutor(nthreads, thread_name_prefix="grainmech-csv") as pool:
+        try:
+            flight: list[tuple[Future, int]] = []
+            with open(path, "rb", buffering=0) as raw:
+                raw.seek(start)
+                size = min(ARROW_WINDOW, max(ARROW_WINDOW_MIN, (total - start) // 64))
+                for buf in _windows(raw, size, stop):
+                    rows: Future = Future()
+                    flight.append((pool.submit(piece, buf, rows_after, rows), len(buf)))
+                    rows_after = rows
+                    del buf
+                    while len(flight) > nthreads:
+                        fut, nb = flight.pop(0)
+                        parts.append(fut.result())
+                        done_bytes += nb
+                        if progress is not None:
+                            progress(done_bytes, total)
+            for fut, nb in flight:
+                parts.append(fut.result())
+                done_bytes += nb
+                if progress is not None:
+                    progress(done_bytes, total)
+        except _Unsuitable:
             return None
-        return out
-    return {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in out.items()}
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    # hand the Arrow pool's freed blocks back to the system (mimalloc keeps them) before
+    # the network is built on top
+    pa.default_memory_pool().release_unused()
+    n = rows_after.result() if rows_after is not None else 0
+    if count is not None:
+        return out if n == count else None
+    return {k: (np.concatenate([a for p in parts for a in p[k]]) if parts else np.zeros(0)) for k in keys}
 
 
 def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], count: int | None,
                 delimiter: str | None = None, stop_prefix: str | None = None,
-                int_cols: Iterable[str] = ()) -> tuple[dict[str, np.ndarray], int]:
+                int_cols: Iterable[str] = (),
+                progress: Callable[[int, int], None] | None = None) -> tuple[dict[str, np.ndarray], int]:
     """Read ``count`` data rows (or to EOF / a line starting with ``stop_prefix``).
 
     Returns the wanted columns (by canonical name -> column index) and the line number of
     the first data row.  With pyarrow installed the block is parsed by
     :func:`_read_block_arrow` (same arrays, same checks); the chunked line parser below
-    is the fallback and the source of the error messages.
+    is the fallback and the source of the error messages. ``progress(done, total)`` is
+    called with the bytes of the file read so far and its size.
     """
     first = rd.line + 1
+    total = max(os.path.getsize(rd.path), 1)
     if not rd._pushed:
-        fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix, int_cols)
+        fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix, int_cols,
+                                 progress)
         if fast is not None:
+            if progress is not None:
+                progress(total, total)
             _check_block(fast, names, want, rd.path, first)
             return _int_columns(fast, names, want, set(int_cols), rd.path, first), first
     parts: dict[str, list[np.ndarray]] = {k: [] for k in want}
@@ -413,6 +475,10 @@ def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], cou
             break
         _append_chunk(lines, names, cols, keys, parts, delimiter, rd.path, line0)
         done += len(lines)
+        if progress is not None:
+            progress(min(os.lseek(rd.fh.fileno(), 0, os.SEEK_CUR), total), total)  # bytes read ahead
+    if progress is not None:
+        progress(total, total)
     out = {k: (np.concatenate(parts[k]) if parts[k] else np.zeros(0)) for k in keys}
     return _int_columns(out, names, want, int_set, rd.path, first), first
 
@@ -772,7 +838,8 @@ _CONTACT_WANT = ("id1", "id2", "fx", "fy", "fz", "x1", "y1", "z1", "x2", "y2", "
 
 def read_liggghts(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
                   keywords: Sequence[str] | None = None, columns: Sequence[str] | None = None,
-                  force_on: str = "id1", lammps: bool = False) -> ContactNetwork:
+                  force_on: str = "id1", lammps: bool = False,
+                  progress: Callable[[int, int], None] | None = None) -> ContactNetwork:
     """Read a LIGGGHTS ``dump local`` of ``compute pair/gran/local`` (+ particle ``dump custom``).
 
     Parameters
@@ -794,6 +861,9 @@ def read_liggghts(contacts: str | os.PathLike, particles: str | os.PathLike | No
     force_on : {"id1", "id2"}
         Which particle the file's force acts on; LIGGGHTS reports the force on the first
         particle (default ``"id1"``), which the reader negates.
+    progress : callable, optional
+        ``progress(done, total)``: bytes of the contact file read so far and its size,
+        called after each piece of the data block (a progress bar for large files).
 
     Returns
     -------
@@ -813,14 +883,16 @@ def read_liggghts(contacts: str | os.PathLike, particles: str | os.PathLike | No
             if c not in want:
                 raise GrainmechError(f"{cpath}:{rd.line}: the contact dump has no {c!r} column "
                                      f"(columns: {' '.join(hd.names)} read as {' '.join(canon)})")
-        cols, first = _read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id1", "id2"))
+        cols, first = _read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id1", "id2"),
+                                  progress=progress)
     box = hd.box if hd.box is not None else (parts.box if parts else None)
     src = f"{'LAMMPS' if lammps else 'LIGGGHTS'} {cpath}" + (f" + {ppath}" if ppath else "")
     return _build(cols, cpath, first, parts, box, force_on, src)
 
 
 def read_lammps(contacts: str | os.PathLike, particles: str | os.PathLike, *,
-                columns: Sequence[str] | None = None, force_on: str = "id1") -> ContactNetwork:
+                columns: Sequence[str] | None = None, force_on: str = "id1",
+                progress: Callable[[int, int], None] | None = None) -> ContactNetwork:
     """Read a LAMMPS ``dump local`` of ``compute property/local`` + ``compute pair/local``.
 
     The dump must hold the two particle ids (``patom1 patom2``) and the force components
@@ -829,7 +901,7 @@ def read_lammps(contacts: str | os.PathLike, particles: str | os.PathLike, *,
     ``index`` for the index column) unless the header already uses such names. Positions
     and radii come from the particle ``dump custom`` (``id x y z radius``).
     """
-    return read_liggghts(contacts, particles, columns=columns, force_on=force_on, lammps=True)
+    return read_liggghts(contacts, particles, columns=columns, force_on=force_on, lammps=True, progress=progress)
 
 
 # --------------------------------------------------------------------------- generic table
@@ -924,7 +996,8 @@ def _npz_box(z: dict[str, np.ndarray], path: Path) -> Box | None:
 
 
 def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
-               force_on: str | None = None) -> ContactNetwork:
+               force_on: str | None = None,
+               progress: Callable[[int, int], None] | None = None) -> ContactNetwork:
     """Read the generic contact table (CSV or NPZ) and particle table; see ``docs/dem.md``.
 
     Contact columns (CSV header or NPZ array names): ``id1, id2, fx, fy, fz`` required
@@ -934,7 +1007,8 @@ def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None 
     y, z, radius``. The box comes from comment lines ``# box: xlo xhi ylo yhi zlo zhi`` or
     ``# cell: ax ay az bx by bz cx cy cz`` with ``# origin: x y z``, and
     ``# periodic: 1 1 1`` (NPZ: arrays ``cell``, ``origin``, ``periodic``), in either
-    file. ``# force_on: id1`` declares the opposite force convention.
+    file. ``# force_on: id1`` declares the opposite force convention. ``progress(done,
+    total)`` receives the bytes of a CSV contact file read so far and its size.
     """
     cpath = Path(contacts)
     ppath = Path(particles) if particles is not None else None
@@ -977,7 +1051,8 @@ def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None 
                 if c not in want:
                     raise GrainmechError(f"{cpath}:{rd.line}: contact table has no {c!r} column "
                                          f"(columns: {', '.join(names)})")
-            cols, first = _read_block(rd, names, want, None, delimiter=delim, int_cols=("id1", "id2"))
+            cols, first = _read_block(rd, names, want, None, delimiter=delim, int_cols=("id1", "id2"),
+                                      progress=progress)
         box = _table_box(meta, cpath) or box
         meta_force = meta.get("force_on")
     fo = force_on or meta_force or "id2"
@@ -1006,23 +1081,25 @@ def detect_format(path: str | os.PathLike) -> str:
 
 def read_network(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
                  format: str = "auto", keywords: Sequence[str] | None = None,
-                 columns: Sequence[str] | None = None, force_on: str | None = None) -> ContactNetwork:
+                 columns: Sequence[str] | None = None, force_on: str | None = None,
+                 progress: Callable[[int, int], None] | None = None) -> ContactNetwork:
     """Read a contact network; ``format`` is ``auto``, ``liggghts``, ``lammps``, ``csv`` or ``npz``.
 
     ``auto`` picks ``npz`` by suffix, ``liggghts`` for files starting with ``ITEM:``
     (LAMMPS local dumps are read the same way; their columns must be named with
-    ``columns``), else ``csv``.
+    ``columns``), else ``csv``. ``progress(done, total)`` receives the bytes of the
+    contact file read so far and its size, after each piece of a text file.
     """
     fmt = detect_format(contacts) if format == "auto" else format
     if fmt == "liggghts":
         return read_liggghts(contacts, particles, keywords=keywords, columns=columns,
-                             force_on=force_on or "id1")
+                             force_on=force_on or "id1", progress=progress)
     if fmt == "lammps":
         if particles is None:
             raise GrainmechError("LAMMPS local dumps carry no positions: give the particle dump (--particles)")
-        return read_lammps(contacts, particles, columns=columns, force_on=force_on or "id1")
+        return read_lammps(contacts, particles, columns=columns, force_on=force_on or "id1", progress=progress)
     if fmt in ("csv", "npz"):
-        return read_table(contacts, particles, force_on=force_on)
+        return read_table(contacts, particles, force_on=force_on, progress=progress)
     raise GrainmechError(f"format must be auto, liggghts, lammps, csv or npz, got {format!r}")
 
 
