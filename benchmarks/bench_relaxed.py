@@ -1,7 +1,10 @@
 """Benchmark of the relaxed stiffness tensor, solver against solver (never asserted in tests).
 
 For the shipped 2000-grain frictional packing (``load_packing("dense")``, Hertz-Mindlin
-contacts) and random periodic networks (``--particles``, default 10000,100000) it times
+contacts), copies of it (``--tiles``, default 5x5x2 = 1e5 grains: ``tile_network``, each
+contact's stiffnesses scaled by one random factor in [0.5, 1.5] so that the solve is not
+periodic, i.e. a packing-like network of that size) and random periodic networks
+(``--particles``, default 10000,100000; far worse conditioned than packings) it times
 :func:`grainmech.network.relaxed_stiffness` with every installed solver (best of
 ``--repeat``; a solver is skipped at sizes where one run exceeds ``--budget`` seconds),
 split into the assembly and the solve, and prints the residual, the solver ``auto``
@@ -9,7 +12,7 @@ picks, the time as a multiple of an OpenBLAS dgemm (n = 2048) timed in the same 
 and the peak traced memory (tracemalloc: NumPy/SciPy arrays; the factorisation inside
 cholespy is not traced, the process max RSS is printed as well).
 
-    python benchmarks/bench_relaxed.py [--particles 10000,100000] [--repeat 3] [--tol 1e-10]
+    python benchmarks/bench_relaxed.py [--tiles 5x5x2] [--particles 10000,100000] [--repeat 3] [--tol 1e-10]
 """
 
 from __future__ import annotations
@@ -65,10 +68,11 @@ def _case(label: str, net, kn, ks, solvers: list[str], repeat: int, budget: floa
 
 def main(argv: list[str] | None = None) -> int:
     """Time every installed solver on the shipped packing and the random networks."""
-    from grainmech.network import _solvers, contact_stiffnesses, random_network
+    from grainmech.network import _solvers, contact_stiffnesses, random_network, tile_network
     from grainmech.packing import load_packing
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tiles", default="5x5x2", help="copies of the dense packing, e.g. 5x5x2 (empty: none)")
     ap.add_argument("--particles", default="10000,100000")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--budget", type=float, default=60.0, help="skip repeats of a solver slower than this [s]")
@@ -82,6 +86,13 @@ def main(argv: list[str] | None = None) -> int:
     net = load_packing("dense")
     kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15)
     _case(f"dense packing {net.n_particles} grains", net, kn, ks, solvers, a.repeat, a.budget, dg, a.tol)
+    if a.tiles:
+        big = tile_network(net, [int(x) for x in a.tiles.split("x")])
+        kn, ks, _ = contact_stiffnesses(big, shear_modulus=29e9, poisson=0.15)
+        f = np.random.default_rng(0).uniform(0.5, 1.5, big.n_contacts)
+        use = [s for s in solvers if s in ("auto", "cg", "pardiso")]  # the others: minutes at 1e5 grains
+        _case(f"dense x {a.tiles} {big.n_particles} grains", big, kn * f, ks * f, use, a.repeat, a.budget, dg,
+              a.tol)
     for n in [int(float(x)) for x in a.particles.split(",") if x]:
         rnet = random_network(n, coordination=7.0, seed=1)
         kn, ks, _ = contact_stiffnesses(rnet, shear_modulus=29e9, poisson=0.15)

@@ -23,6 +23,7 @@ from grainmech.network import (
     rattler_threshold,
     rattlers,
     relaxed_stiffness,
+    tile_network,
 )
 
 G, NU = 29e9, 0.15
@@ -481,6 +482,64 @@ def test_auto_uses_cg_on_a_packing_and_a_factorisation_when_cg_would_be_slow(mon
     monkeypatch.setattr(rel, "AUTO_CG_MAXITER", 5)
     r = relaxed_stiffness(rnet, kn, ks)
     assert r.solver == _solvers.choose("auto", 6 * r.n_particles) and r.residual <= 1e-7
+
+
+def test_a_tiled_packing_is_the_same_material():
+    """tile_network: 2 x 1 x 2 copies of a periodic random network (triclinic-free cube) have
+    4x the grains and contacts, the same Love-Weber stress (Eq. 2.6), fabric and affine
+    tensor (the same contacts per volume), and the same relaxed tensor: the fluctuation
+    that solves the small cell solves the large one. The contact ends are checked against
+    an independent minimum-image search in the large box."""
+    net = random_network(300, seed=3)
+    big = tile_network(net, (2, 1, 2))
+    assert big.n_particles == 4 * net.n_particles and big.n_contacts == 4 * net.n_contacts
+    np.testing.assert_allclose(big.box.volume, 4 * net.box.volume, rtol=1e-14)
+    # every contact's branch vector joins the grains it names (minimum image in the big box)
+    L = np.diag(big.box.cell)
+    d = big.positions[big.j] - big.positions[big.i]
+    d -= L * np.round(d / L)
+    np.testing.assert_allclose(d, big.branch, atol=1e-9)
+    assert len(np.unique(big.ids)) == big.n_particles
+    np.testing.assert_allclose(network_stress(big).stress, network_stress(net).stress, rtol=1e-12)
+    np.testing.assert_allclose(network_fabric(big).normal4, network_fabric(net).normal4, rtol=1e-12, atol=1e-15)
+    kn, ks, _ = contact_stiffnesses(net, shear_modulus=G, poisson=NU)
+    kb, sb, _ = contact_stiffnesses(big, shear_modulus=G, poisson=NU)
+    np.testing.assert_allclose(affine_stiffness(big, kb, sb), affine_stiffness(net, kn, ks), rtol=1e-12)
+    small = relaxed_stiffness(net, kn, ks, solver="superlu")
+    large = relaxed_stiffness(big, kb, sb, solver="superlu")
+    np.testing.assert_allclose(large.C_relaxed, small.C_relaxed, rtol=0, atol=1e-9 * np.abs(small.C_relaxed).max())
+    with pytest.raises(GrainmechError, match=r"reps must be 3 positive integers, got \(2, 0, 1\)"):
+        tile_network(net, (2, 0, 1))
+
+
+def test_reordered_cg_in_parts_gives_the_same_tensor(monkeypatch):
+    """The compiled CG on a large network: grains renumbered by reverse Cuthill-McKee, the
+    contacts split between three parts (threads) and the contacts between parts. On 2 x 2
+    x 1 copies of the 'dense' packing (jittered contact stiffnesses, so that the solve is
+    not periodic) it takes the iterations of the plain one-part CG and gives its tensor;
+    unjittered it gives the single packing's tensor (tiling invariance)."""
+    kernel = pytest.importorskip("grainmech.network._cg_kernel")
+    from grainmech.network import relaxed as rel
+    from grainmech.packing import load_packing
+
+    base = load_packing("dense")
+    big = tile_network(base, (2, 2, 1))
+    kn, ks, _ = contact_stiffnesses(big, shear_modulus=G, poisson=NU)
+    f = np.random.default_rng(0).uniform(0.5, 1.5, big.n_contacts)
+    plain = relaxed_stiffness(big, kn * f, ks * f, solver="cg")
+    monkeypatch.setattr(rel, "CG_REORDER_GRAINS", 1000)
+    monkeypatch.setattr(rel, "_thread_parts", lambda P: 3)
+    calls = []
+    real = kernel.block_cg3_parts
+    monkeypatch.setattr(kernel, "block_cg3_parts", lambda *a: calls.append(a[-2]) or real(*a))
+    parts = relaxed_stiffness(big, kn * f, ks * f, solver="cg")
+    assert calls and len(calls[0]) == 4 and calls[0][-1] == big.n_particles - parts.n_rattlers
+    assert abs(parts.iterations - plain.iterations) <= 2 and parts.residual <= 1e-7
+    np.testing.assert_allclose(parts.C_relaxed, plain.C_relaxed, rtol=0, atol=1e-11 * np.abs(plain.C_relaxed).max())
+    kb, sb, _ = contact_stiffnesses(base, shear_modulus=G, poisson=NU)
+    one = relaxed_stiffness(base, kb, sb, solver="cg")
+    tiled = relaxed_stiffness(big, kn, ks, solver="cg")
+    np.testing.assert_allclose(tiled.C_relaxed, one.C_relaxed, rtol=0, atol=1e-11 * np.abs(one.C_relaxed).max())
 
 
 def test_network_checks_name_the_row_across_blocks(monkeypatch):

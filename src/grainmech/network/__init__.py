@@ -22,7 +22,7 @@ Modules
   ``C_relaxed = C_affine - (1/V) B^T H^+ B`` (Lemaitre & Maloney 2006; Agnolin & Roux
   2007; Kruyt & Rothenburg 1998), solved with a sparse Cholesky factorisation or CG.
 * :mod:`~grainmech.network.builders` - synthetic periodic networks
-  :func:`lattice_network` (sc, fcc) and :func:`random_network`.
+  :func:`lattice_network` (sc, fcc), :func:`random_network` and :func:`tile_network`.
 * :mod:`~grainmech.network.report` - :func:`network_report` (a :class:`NetworkReport`
   of arrays; :meth:`NetworkReport.to_json` / :func:`network_report_json` for files) and
   :func:`closed_form_from_fit` (seed Eq. 4.21-4.33 from the fitted fabric).
@@ -41,7 +41,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from grainmech.network.builders import lattice_network, random_network
+from grainmech.network.builders import lattice_network, random_network, tile_network
 from grainmech.network.data import Box, ContactNetwork
 
 if TYPE_CHECKING:
@@ -79,6 +79,7 @@ __all__ = [
     "strain_map",
     "lattice_network",
     "random_network",
+    "tile_network",
     "network_report",
     "network_report_json",
     "NetworkReport",

@@ -16,7 +16,13 @@ translations and three rotations, but
   product with the assembled ``H`` (six times as many stored numbers, read every
   iteration);
 * every right-hand side column is carried through one loop over contacts and one loop
-  over grains per iteration (no temporaries), inside one compiled call.
+  over grains per iteration (no temporaries), inside one compiled call;
+* on large networks (:func:`grainmech.network.relaxed._block_cg`) the grains are numbered
+  by reverse Cuthill-McKee and split into as many ranges ("parts") as there are threads;
+  the contacts inside a part are applied by that part's thread (no two threads write to
+  the same grain), the few contacts between parts afterwards on one thread, and the grain
+  passes run in fixed chunks of :data:`_GCH` grains (per-chunk partial sums added in
+  order, so they do not depend on the number of threads).
 
 Imported only when numba is installed (the optional extra ``fast``).
 """
@@ -24,23 +30,19 @@ Imported only when numba is installed (the optional extra ``fast``).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
-__all__ = ["hessian_product", "block_inverses", "block_cg3"]
+__all__ = ["hessian_product", "block_inverses", "block_cg3", "block_cg3_parts"]
+
+#: grains per work item of the grain passes (the partial sums are per chunk)
+_GCH = 1024
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out, xHx):  # pragma: no cover - compiled
-    """``out = H x`` for ``x`` (P, 6, m): translations ``x[:, :3]``, rotations ``x[:, 3:]``.
-
-    ``ci, cj`` (C,) grains of each contact; ``n`` (C, 3) unit normals; ``kn, ks`` (C,)
-    [force/length]; ``rA, rB`` (C, 3) centre-to-contact vectors of A and B [length].
-    ``xHx`` (m,) receives ``x_k . (H x)_k = sum_c Delta_c . f_c`` per column.
-    """
-    out[:] = 0.0
-    xHx[:] = 0.0
+def _apply_contacts(lo, hi, ci, cj, n, kn, ks, rA, rB, x, out, xHx):  # pragma: no cover - compiled
+    """Add ``G_c^T K_c G_c x`` of contacts ``lo <= c < hi`` to ``out`` and ``Delta . f`` to ``xHx``."""
     m = x.shape[2]
-    for c in range(ci.shape[0]):
+    for c in range(lo, hi):
         a = ci[c]
         b = cj[c]
         nx, ny, nz = n[c, 0], n[c, 1], n[c, 2]
@@ -72,6 +74,19 @@ def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out, xHx):  # pragma: no cover
             out[b, 3, k] -= by * f2 - bz * f1
             out[b, 4, k] -= bz * f0 - bx * f2
             out[b, 5, k] -= bx * f1 - by * f0
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def hessian_product(ci, cj, n, kn, ks, rA, rB, x, out, xHx):  # pragma: no cover - compiled
+    """``out = H x`` for ``x`` (P, 6, m): translations ``x[:, :3]``, rotations ``x[:, 3:]``.
+
+    ``ci, cj`` (C,) grains of each contact; ``n`` (C, 3) unit normals; ``kn, ks`` (C,)
+    [force/length]; ``rA, rB`` (C, 3) centre-to-contact vectors of A and B [length].
+    ``xHx`` (m,) receives ``x_k . (H x)_k = sum_c Delta_c . f_c`` per column.
+    """
+    out[:] = 0.0
+    xHx[:] = 0.0
+    _apply_contacts(0, ci.shape[0], ci, cj, n, kn, ks, rA, rB, x, out, xHx)
 
 
 @njit(cache=True, error_model="numpy")
@@ -124,74 +139,114 @@ def block_inverses(D, rel):  # pragma: no cover - compiled
     return out, bad
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
-def _update_precondition(Minv, alpha, p, Hp, x, r, z, rz, rr):  # pragma: no cover - compiled
-    """CG update and block-Jacobi preconditioner in one pass over the grains.
+def _make(parallel: bool):
+    """Block CG compiled serial or parallel (``prange`` over parts and grain chunks).
 
-    ``x += alpha p``, ``r -= alpha H p``, ``z_g = Minv_g r_g`` per grain (six unknowns
-    each); ``rz[k] = r_k . z_k``, ``rr[k] = |r_k|^2``. ``alpha = 0``: ``z`` of ``r`` only.
+    A closure over ``rng`` only (as in :mod:`grainmech.driver._fused`): two dispatchers of
+    one plain function would share numba's on-disk cache entry, and a closure over other
+    dispatchers gets a new cache key in every process. Both give the same bits for the
+    same ``gsplit``/``csplit``.
     """
-    P, b, m = r.shape
-    rz[:] = 0.0
-    rr[:] = 0.0
-    for g in range(P):
-        for k in range(m):
-            a = alpha[k]
-            if a != 0.0:
-                for i in range(6):
-                    x[g, i, k] += a * p[g, i, k]
-                    r[g, i, k] -= a * Hp[g, i, k]
-            r0, r1, r2, r3, r4, r5 = r[g, 0, k], r[g, 1, k], r[g, 2, k], r[g, 3, k], r[g, 4, k], r[g, 5, k]
-            acc_rz = 0.0
-            for i in range(6):
-                zi = (Minv[g, i, 0] * r0 + Minv[g, i, 1] * r1 + Minv[g, i, 2] * r2
-                      + Minv[g, i, 3] * r3 + Minv[g, i, 4] * r4 + Minv[g, i, 5] * r5)
-                z[g, i, k] = zi
-                acc_rz += r[g, i, k] * zi
-            rz[k] += acc_rz
-            rr[k] += r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3 + r4 * r4 + r5 * r5
+    rng = prange if parallel else range
 
+    def block_cg(ci, cj, n, kn, ks, rA, rB, Minv, rhs, nb, tol, maxiter, predict_after,
+                 gsplit, csplit):  # pragma: no cover - compiled
+        """Block-Jacobi CG on ``H x = rhs``, all columns at once (columns independent).
 
-@njit(cache=True, error_model="numpy", fastmath=True)
-def block_cg3(ci, cj, n, kn, ks, rA, rB, Minv, rhs, nb, tol, maxiter, predict_after):  # pragma: no cover
-    """Block-Jacobi CG on ``H x = rhs``, all columns at once (columns independent).
-
-    ``Minv`` (P, 6, 6) pseudo-inverses of the diagonal blocks, ``rhs`` (P, 6, m), ``nb``
-    (m,) the residual scale per column, ``predict_after`` as in
-    :func:`grainmech.network._solvers.block_cg` (0: never stop early). Returns ``x`` (P,
-    6, m), the iterations and the largest relative residual.
-    """
-    P, b, m = rhs.shape
-    x = np.zeros_like(rhs)
-    r = rhs.copy()
-    z = np.empty_like(rhs)
-    Hp = np.zeros_like(rhs)
-    rz = np.empty(m)
-    rr = np.empty(m)
-    pHp = np.empty(m)
-    alpha = np.zeros(m)
-    beta = np.empty(m)
-    rz_new = np.empty(m)
-    _update_precondition(Minv, alpha, x, Hp, x, r, z, rz, rr)
-    p = z.copy()
-    res = np.sqrt(rr) / nb
-    it = 0
-    while it < maxiter and res.max() > tol:
-        hessian_product(ci, cj, n, kn, ks, rA, rB, p, Hp, pHp)
-        for k in range(m):
-            alpha[k] = rz[k] / pHp[k] if pHp[k] > 0 else 0.0
-        _update_precondition(Minv, alpha, p, Hp, x, r, z, rz_new, rr)
-        for k in range(m):
-            beta[k] = rz_new[k] / rz[k] if rz[k] > 0 else 0.0
-            rz[k] = rz_new[k]
-        for q in range(P):
-            for i in range(b):
+        ``Minv`` (P, 6, 6) pseudo-inverses of the diagonal blocks, ``rhs`` (P, 6, m), ``nb``
+        (m,) the residual scale per column, ``predict_after`` as in
+        :func:`grainmech.network._solvers.block_cg` (0: never stop early). ``H p`` is
+        applied part by part: contacts ``csplit[t] <= c < csplit[t + 1]`` join grains
+        ``gsplit[t] <= g < gsplit[t + 1]`` only (``t < T``, one thread each); contacts
+        from ``csplit[T]`` on join two parts and are applied afterwards, in order, on one
+        thread (one part: the whole network). The grain passes (``x += alpha p``, ``r -=
+        alpha H p``, ``z_g = Minv_g r_g``, ``r . z``, ``|r|^2``; ``p = z + beta p``) run in
+        chunks of :data:`_GCH` grains, their partial sums added in chunk order. Returns
+        ``x`` (P, 6, m), the iterations and the largest relative residual.
+        """
+        P, b, m = rhs.shape
+        T = gsplit.shape[0] - 1
+        nch = (P + _GCH - 1) // _GCH
+        x = np.zeros_like(rhs)
+        r = rhs.copy()
+        z = np.empty_like(rhs)
+        p = np.empty_like(rhs)
+        Hp = np.zeros_like(rhs)
+        part = np.zeros((T, m))
+        prz = np.zeros((nch, m))
+        prr = np.zeros((nch, m))
+        rz = np.zeros(m)
+        rr = np.zeros(m)
+        pHp = np.zeros(m)
+        alpha = np.zeros(m)
+        beta = np.zeros(m)
+        it = -1
+        res = np.zeros(m)
+        while True:
+            if it >= 0:
+                # Hp = H p
+                for t in rng(T):
+                    Hp[gsplit[t]:gsplit[t + 1]] = 0.0
+                    acc = np.zeros(m)
+                    _apply_contacts(csplit[t], csplit[t + 1], ci, cj, n, kn, ks, rA, rB, p, Hp, acc)
+                    part[t] = acc
+                pHp[:] = 0.0
+                for t in range(T):
+                    for k in range(m):
+                        pHp[k] += part[t, k]
+                _apply_contacts(csplit[T], ci.shape[0], ci, cj, n, kn, ks, rA, rB, p, Hp, pHp)
                 for k in range(m):
-                    p[q, i, k] = z[q, i, k] + beta[k] * p[q, i, k]
-        it += 1
-        res = np.sqrt(rr) / nb
-        if predict_after > 0 and it == predict_after and res.max() > tol:
-            rate = res.max() ** (1.0 / it)
-            if rate >= 1.0 or np.log(tol) / np.log(rate) > maxiter:
+                    alpha[k] = rz[k] / pHp[k] if pHp[k] > 0 else 0.0
+            # x += alpha p, r -= alpha Hp, z = Minv r (alpha = 0 at the start)
+            for ch in rng(nch):
+                for k in range(m):
+                    prz[ch, k] = 0.0
+                    prr[ch, k] = 0.0
+                for g in range(ch * _GCH, min(P, (ch + 1) * _GCH)):
+                    for k in range(m):
+                        a = alpha[k]
+                        if a != 0.0:
+                            for i in range(6):
+                                x[g, i, k] += a * p[g, i, k]
+                                r[g, i, k] -= a * Hp[g, i, k]
+                        r0, r1, r2 = r[g, 0, k], r[g, 1, k], r[g, 2, k]
+                        r3, r4, r5 = r[g, 3, k], r[g, 4, k], r[g, 5, k]
+                        acc_rz = 0.0
+                        for i in range(6):
+                            zi = (Minv[g, i, 0] * r0 + Minv[g, i, 1] * r1 + Minv[g, i, 2] * r2
+                                  + Minv[g, i, 3] * r3 + Minv[g, i, 4] * r4 + Minv[g, i, 5] * r5)
+                            z[g, i, k] = zi
+                            acc_rz += r[g, i, k] * zi
+                        prz[ch, k] += acc_rz
+                        prr[ch, k] += r0 * r0 + r1 * r1 + r2 * r2 + r3 * r3 + r4 * r4 + r5 * r5
+            rr[:] = 0.0
+            for k in range(m):
+                acc_rz = 0.0
+                for ch in range(nch):
+                    acc_rz += prz[ch, k]
+                    rr[k] += prr[ch, k]
+                beta[k] = acc_rz / rz[k] if (it >= 0 and rz[k] > 0) else 0.0
+                rz[k] = acc_rz
+            # p = z + beta p (beta = 0 at the start: p = z)
+            for ch in rng(nch):
+                for q in range(ch * _GCH, min(P, (ch + 1) * _GCH)):
+                    for i in range(b):
+                        for k in range(m):
+                            p[q, i, k] = z[q, i, k] + (beta[k] * p[q, i, k] if it >= 0 else 0.0)
+            it += 1
+            for k in range(m):
+                res[k] = np.sqrt(rr[k]) / nb[k]
+            if it >= maxiter or res.max() <= tol:
                 break
-    return x, it, res.max()
+            if predict_after > 0 and it == predict_after:
+                rate = res.max() ** (1.0 / it)
+                if rate >= 1.0 or np.log(tol) / np.log(rate) > maxiter:
+                    break
+        return x, it, res.max()
+
+    return njit(cache=True, error_model="numpy", fastmath=True, parallel=parallel)(block_cg)
+
+
+#: block CG on one thread (one part) and with a ``prange`` over parts and grain chunks
+block_cg3 = _make(False)
+block_cg3_parts = _make(True)

@@ -7,7 +7,7 @@ import numpy as np
 from grainmech.errors import GrainmechError
 from grainmech.network.data import Box, ContactNetwork
 
-__all__ = ["lattice_network", "random_network"]
+__all__ = ["lattice_network", "random_network", "tile_network"]
 
 
 def _hertz_forces(net_pos: np.ndarray, radii: np.ndarray, I: np.ndarray, J: np.ndarray, br: np.ndarray,
@@ -122,3 +122,50 @@ def random_network(n_particles: int, *, coordination: float = 7.0, cell: np.ndar
     f = fN + (tangential * rng.random(target) * Nmag)[:, None] * t
     return ContactNetwork(np.arange(1, n + 1), pos, radii, box, I, J, f, br, alpha,
                           source=f"random network n={n}")
+
+
+def tile_network(net: ContactNetwork, reps: tuple[int, ...] | list[int]) -> ContactNetwork:
+    """Periodic copies of a periodic network: ``reps[k]`` copies along cell vector ``k``.
+
+    Copy ``t`` (multi-index ``(t_0, t_1, t_2)``, C order) of grain ``p`` sits at
+    ``x_p + sum_k t_k a_k`` and gets row ``t P + p`` and id ``t (max id + 1) + id_p``. A
+    contact of copy ``t`` keeps its branch vector, force and geometry; its second grain
+    is the copy the branch vector reaches, ``t + s`` (modulo ``reps``) with ``s`` the
+    whole cells between the minimum image and the stored positions. The result is the
+    same material: its stress, fabric and affine and relaxed tensors equal the original's
+    (a periodic fluctuation of the small cell is one of the large cell), which
+    ``tests/test_dem_network.py`` checks. Used to make large packings for benchmarks.
+
+    Parameters
+    ----------
+    net : ContactNetwork
+        Periodic along every cell vector.
+    reps : sequence of int
+        Copies along each cell vector (``net.dim`` positive integers).
+    """
+    d = net.dim
+    r = np.asarray(reps)
+    if r.shape != (d,) or not np.issubdtype(r.dtype, np.integer) or np.any(r < 1):
+        raise GrainmechError(f"reps must be {d} positive integers, got {reps!r}")
+    if not net.box.periodic.all():
+        raise GrainmechError("tile_network needs a network periodic along every cell vector")
+    cell = net.box.cell
+    P, C, T = net.n_particles, net.n_contacts, int(np.prod(r))
+    idx = np.array(np.unravel_index(np.arange(T), tuple(r))).T  # (T, d)
+    pos = (net.positions[None, :, :] + (idx @ cell)[:, None, :]).reshape(T * P, d)
+    # whole cells between the branch vector's end and grain j's stored position
+    s = np.rint((net.positions[net.i] + net.branch - net.positions[net.j]) @ np.linalg.inv(cell))
+    tj = np.ravel_multi_index(((idx[:, None, :] + s.astype(np.int64)[None, :, :]) % r).reshape(-1, d).T,
+                              tuple(r))
+    I = np.repeat(np.arange(T), C) * P + np.tile(net.i, T)
+    J = tj * P + np.tile(net.j, T)
+    step = int(net.ids.max()) + 1
+
+    def rep(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else np.tile(a, (T,) + (1,) * (a.ndim - 1))
+
+    ids = (np.arange(T)[:, None] * step + net.ids[None, :]).reshape(-1)
+    return ContactNetwork(ids, pos, rep(net.radii), Box(net.box.origin, cell * r[:, None], net.box.periodic),
+                          I, J, np.tile(net.force, (T, 1)), np.tile(net.branch, (T, 1)), rep(net.overlap),
+                          rep(net.contact_point),
+                          rep(net.kn), rep(net.ks), f"{net.source} tiled {'x'.join(map(str, r))}")
