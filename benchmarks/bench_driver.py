@@ -9,6 +9,10 @@ Mindlin-Deresiewicz law, in two variants:
 * ``stress``: constant normal stress sigma_zz (mixed control: Newton iterations per step,
   the whole step/Newton loop in one compiled call, ``driver/_mixed.py``).
 
+The Lebedev set is centrosymmetric, so the compiled driver evaluates one row of each
+antipodal pair with twice its weight (``driver/_fold.py``; ``SolverOptions(fold=False)``
+evaluates all).
+
 Reports the wall time (best of ``--repeat``, serial and with numba's threads), law
 evaluations per step, steps and direction-updates per second (one direction-update = one
 evaluation of the law at one direction, Newton iterations and substeps included), the
@@ -64,6 +68,12 @@ def main() -> None:
     pt = MaterialPoint.isotropic(cs, law, 1e5, backend=a.backend)
     print(f"directions: {len(cs)}  cycles: {a.cycles} x {a.steps} steps  law: Mindlin-Deresiewicz  "
           f"backend: {a.backend}")
+    from grainmech.driver._fold import antipodal_pairs
+
+    folded = a.backend != "numpy" and antipodal_pairs(cs.normals, cs.branch, cs.weights) is not None
+    print(f"rows evaluated by the compiled driver: {len(cs) // 2 if folded else len(cs)} "
+          f"({'one of each antipodal pair, twice its weight' if folded else 'all'}; "
+          "direction-updates/s below count every direction)")
     for constant in a.constant:
         path = cyclic_simple_shear(a.amplitude, a.cycles, a.steps, constant=constant)
         threads = get_num_threads()

@@ -215,3 +215,57 @@ def test_compile_worker_can_be_switched_off(monkeypatch):
 
     monkeypatch.setenv("GRAINMECH_COMPILE_WORKER", "0")
     assert _mixed._start_worker(((0, False), (), False, ())) is None
+
+
+@pytest.mark.parametrize("constant", ["stress", "volume"])
+def test_antipodal_rows_stay_mirrors_and_folding_them_changes_nothing(monkeypatch, constant):
+    """Folding a centrosymmetric set (driver/_fold.py): an unfolded run keeps every row the
+    exact mirror of its antipode (T and the slip axis negated bit for bit, every other field
+    equal: the premise, checked on the law itself), and the folded run -- half the rows,
+    twice the weight -- gives the unfolded run's stresses, tangents, energies and Newton
+    iterations to rounding, and its unfolded final state. Cyclic simple shear to 1e-3 with
+    sigma_zz held (the compiled Newton loop) or at constant volume (the fused pass)."""
+    from grainmech.driver import _fold, _fused, _mixed
+
+    pt = _point(41, "auto")
+    cs = pt.contacts
+    keep, partner = _fold.antipodal_pairs(cs.normals, cs.branch, cs.weights)
+    assert keep.size == partner.size == len(cs) // 2
+    np.testing.assert_array_equal(cs.normals[partner], -cs.normals[keep])
+    path = cyclic_simple_shear(1e-3, 2, 40, constant=constant)
+    full = run(pt, path, options=SolverOptions(fold=False))
+    st = full.final.state
+    for name, a in zip(st._fields, st):
+        want = -a[keep] if name in _fold.FLIPPED_STATE else a[keep]
+        np.testing.assert_array_equal(a[partner], want, err_msg=name)
+    calls = []
+    mod = _mixed if constant == "stress" else _fused
+    real = mod.unfold
+    monkeypatch.setattr(mod, "unfold", lambda *a: calls.append(1) or real(*a))
+    folded = run(pt, path)
+    assert calls, "the folded path was not taken"
+    _agree(folded, full, rtol=1e-10)
+    np.testing.assert_array_equal(folded.iterations, full.iterations)
+    for name, a, b in zip(st._fields, folded.final.state, st):
+        if a.dtype.kind == "f":
+            np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-8 * np.abs(b).max(), err_msg=name)
+        else:
+            np.testing.assert_array_equal(a, b, err_msg=name)
+
+
+def test_no_folding_without_exact_antipodes_or_a_mirrored_state():
+    """A set with a row dropped, or with one weight changed, has no pairing; a state in which
+    one contact's tangential force is not the mirror of its antipode is not folded."""
+    from grainmech.driver import _fold
+
+    pt = _point(41, "auto")
+    cs = pt.contacts
+    assert _fold.antipodal_pairs(cs.normals[1:], cs.branch[1:], cs.weights[1:]) is None
+    w = cs.weights.copy()
+    w[3] *= 1 + 1e-15
+    assert _fold.antipodal_pairs(cs.normals, cs.branch, w) is None
+    keep, partner = _fold.antipodal_pairs(cs.normals, cs.branch, cs.weights)
+    assert _fold.is_mirrored(pt.state, pt.response, keep, partner)
+    T = pt.state.tangential_force.copy()
+    T[partner[5]] = [1e-3, 0.0, 0.0]
+    assert not _fold.is_mirrored(pt.state._replace(tangential_force=T), pt.response, keep, partner)

@@ -37,6 +37,7 @@ from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
 from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
+from grainmech.driver._fold import FLIPPED_STATE, antipodal_pairs, is_mirrored, unfold
 from grainmech.driver._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
 
 __all__ = ["strain_path"]
@@ -236,7 +237,7 @@ def _strain_path_kernel(*args):
     return (_kernel_parallel if parallel else _kernel_serial)(*args)
 
 
-def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = None):
+def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = None, fold: bool = True):
     """Integrate strain increments ``d_strain`` (m, 6) from ``point`` in one compiled pass.
 
     Parameters
@@ -249,6 +250,10 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
         Rows of the consistent (non-symmetric) tangent ``sum w B^T K B`` to assemble at
         each step, ``K`` the law's step tangent (``ContactResponse.t_delta``,
         ``t_alpha``; :func:`grainmech.driver._mixed.add_step_jacobian`) (for Newton).
+    fold : bool
+        Evaluate one row of each antipodal pair of a centrosymmetric contact set with twice
+        its weight when the state is mirrored (:mod:`grainmech.driver._fold`); the state
+        and response returned are unfolded.
 
     Returns
     -------
@@ -266,7 +271,15 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     params = point.law.params
     consts = constants(params)
     st = point.state
-    n = cs.normals.shape[0]
+    normals, branch, weights = cs.normals, cs.branch, cs.weights
+    pairs = antipodal_pairs(normals, branch, weights) if fold else None
+    if pairs is not None and not is_mirrored(st, point.response, *pairs):
+        pairs = None
+    if pairs is not None:
+        keep = pairs[0]
+        normals, branch, weights = normals[keep], branch[keep], 2.0 * weights[keep]
+        st = type(st)(*(x[keep] for x in st))
+    n = normals.shape[0]
     m = d_strain.shape[0]
     nch = (n + _CH - 1) // _CH
 
@@ -289,7 +302,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     jrows = (np.zeros(6, dtype=np.bool_) if jacobian_rows is None
              else np.ascontiguousarray(jacobian_rows, dtype=np.bool_))
     jac_c = np.zeros((nch, m, 6, 6)) if jrows.any() else np.zeros((1, 1, 6, 6))
-    _strain_path_kernel(consts, c(cs.normals), c(cs.branch), c(cs.weights), c(d_strain), jrows,
+    _strain_path_kernel(consts, c(normals), c(branch), c(weights), c(d_strain), jrows,
                         state.approach, state.normal_force, state.tangential_force, state.axis,
                         state.direction, state.depth, state.reversals, state.dissipated_energy,
                         stress_c, mom_c, scal_c, jac_c,
@@ -299,10 +312,18 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     stress = stress_c.sum(axis=0)
     mom = mom_c.sum(axis=0)
     scal = scal_c.sum(axis=0)
-    wtot = float(cs.weights.sum())
+    wtot = float(weights.sum())
     frac = scal[:, :2] / wtot if wtot > 0 else np.zeros((m, 2))
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
     state = state._replace(sliding=f_slide)
+    if pairs is not None:
+        keep, partner = pairs
+        state = type(state)(*(unfold(x, keep, partner, name in FLIPPED_STATE)
+                              for name, x in zip(state._fields, state)))
+        f_slide, f_open = state.sliding, unfold(f_open, keep, partner, False)
+        f_kn, f_ks, f_ksp, f_ktn, f_diss, f_td = (unfold(x, keep, partner, False)
+                                                  for x in (f_kn, f_ks, f_ksp, f_ktn, f_diss, f_td))
+        f_ta = unfold(f_ta, keep, partner, True)  # dT/d alpha changes sign with T
     response = ContactResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_ksp, f_ktn,
                                state.axis, f_slide, f_open, f_diss, f_td, f_ta)
     jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))

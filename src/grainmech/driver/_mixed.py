@@ -56,6 +56,7 @@ from grainmech.contact.kernel import (
     KernelScratch,
     KernelState,
 )
+from grainmech.driver._fold import FLIPPED_STATE, antipodal_pairs, is_mirrored, unfold
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
@@ -956,10 +957,21 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     cs = point.contacts
     params = point.law.params
     kc = kernel.constants(params)
-    n = cs.normals.shape[0]
     m = increments.shape[0]
-    nch = (n + _CH - 1) // _CH
     st0 = point.state
+    r0 = point.response
+    normals, branch, weights = cs.normals, cs.branch, cs.weights
+    # one row of each antipodal pair, twice its weight (driver/_fold.py), when exact
+    fold = antipodal_pairs(normals, branch, weights) if options.fold else None
+    if fold is not None and not is_mirrored(st0, r0, *fold):
+        fold = None
+    if fold is not None:
+        keep = fold[0]
+        normals, branch, weights = normals[keep], branch[keep], 2.0 * weights[keep]
+        st0 = type(st0)(*(x[keep] for x in st0))
+        r0 = type(r0)(*(None if x is None else x[keep] for x in r0))
+    n = normals.shape[0]
+    nch = (n + _CH - 1) // _CH
 
     def c(x, dtype=float):
         return np.array(x, dtype=dtype, order="C")
@@ -977,7 +989,6 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8),
                             np.zeros((n, kernel.FALL_COLUMNS)))
     inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))
-    r0 = point.response
     resp = tuple(c(x) for x in (r0.kn, r0.ks, r0.ks_perp, r0.ktn, r0.dissipation, r0.sliding, r0.open))
     bk_resp = tuple(np.empty(n) for _ in resp)
     part = np.zeros((nch, _NP))
@@ -992,7 +1003,7 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     C0 = np.ascontiguousarray(point.tangent, dtype=float)
     t_stress = c(t_stress)
     t_strain = c(t_strain)
-    args = (kc, c(cs.normals), c(cs.branch), c(cs.weights), c(sc, np.bool_), c(increments),
+    args = (kc, c(normals), c(branch), c(weights), c(sc, np.bool_), c(increments),
             c(point.stress), c(point.strain), C0, t_stress, t_strain,
             float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
             st, out, scratch, inc, part, resp, bk, bk_resp,
@@ -1003,7 +1014,13 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     law_fn = kernel.law_function(kc, st, inc, out, scratch, defer=True)  # falling-N dissipation at the commit
     eval_fn = pass_function(parallel, pass_sig)
     done = int(_segment_compiled(eval_fn, law_fn, *args))
-    wtot = float(cs.weights.sum())
+    wtot = float(weights.sum())
+    if fold is not None:
+        keep, partner = fold
+        st = KernelState(*(unfold(x, keep, partner, name in FLIPPED_STATE) for name, x in zip(st._fields, st)))
+        resp = tuple(unfold(x, keep, partner, False) for x in resp)
+        if info[1] == FAIL_LAW:
+            info[3] = keep[info[3]]
     sliding = resp[5] > 0.5
     state = ContactState(st.approach, st.normal_force, st.tangential_force, st.axis, st.direction, st.depth,
                          st.reversals, sliding, st.dissipated_energy)
