@@ -41,6 +41,7 @@ from grainmech.fabric import sphere_rule
 
 
 def main() -> None:
+    """Time both variants, serial and threaded, against the dgemm yardstick."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--backend", default="auto", choices=["auto", "numpy"],
                     help="contact-law evaluation: compiled kernel when available, or the NumPy reference")
