@@ -14,15 +14,22 @@ import sys
 
 #: (size, seconds, dgemm seconds of that run) per series
 DEM_READ = {  # read_network of a LIGGGHTS dump: contacts
-    # best of 2, single-threaded dgemm, load ~2.5 (docs/performance.md, "Large DEM files"; a
-    # second 1e7 run under load 2.7-4.6 took 11.37 s with a dgemm of 0.265 s)
-    "grainmech reader (pyarrow path)": [(1e5, 0.08, 0.201), (1e6, 0.64, 0.190), (1e7, 7.25, 0.186)],
-    "pyarrow.csv.read_csv, same file": [(1e5, 0.06, 0.201), (1e6, 0.77, 0.190), (1e7, 13.62, 0.186)],
-    "previous pyarrow path (commit 9bb090f)": [(1e6, 1.04, 0.215), (1e7, 11.27, 0.225)],
+    # 2026-11-26, idle machine, best of 3 (docs/performance.md, "Large DEM files"): pieces of
+    # the data block parsed on both cores, and the streaming reader it replaced, same minutes
+    "grainmech reader (pieces on every core)": [(1e5, 0.08, 0.248), (1e6, 0.62, 0.239), (1e7, 6.02, 0.232)],
+    "pyarrow.csv.read_csv, same file": [(1e5, 0.04, 0.248), (1e6, 0.41, 0.239), (1e7, 6.21, 0.232)],
+    "streaming pyarrow reader (one core)": [(1e6, 0.78, 0.239), (1e7, 7.67, 0.248)],
+    # earlier, best of 2, load ~2.5
+    "earlier pyarrow path (commit 9bb090f)": [(1e6, 1.04, 0.215), (1e7, 11.27, 0.225)],
     "before (NumPy line parser)": [(1e6, 1.55, 0.230)],
 }
-RELAXED = {  # relaxed tensor: grains (2000: shipped dense packing; 1e4, 1e5: random networks)
-    "auto": [(2000, 0.320, 0.110), (1e4, 5.108, 0.672), (1e5, 367.7, 0.240)],
+RELAXED = {  # relaxed tensor: grains
+    # 2026-11-26: the shipped 'dense' packing and 5 x 5 x 2 copies of it (tile_network,
+    # stiffnesses scaled by random factors in [0.5, 1.5]); the 1e5-grain random network
+    "auto, packing (2026-11-26)": [(2000, 0.074, 0.231), (1e5, 7.00, 0.231)],
+    "auto, random network (2026-11-26)": [(1e5, 74.18, 0.223)],
+    # earlier (2000: shipped dense packing; 1e4, 1e5: random networks)
+    "auto (earlier)": [(2000, 0.320, 0.110), (1e4, 5.108, 0.672), (1e5, 367.7, 0.240)],
     "PARDISO": [(2000, 1.214, 0.110), (1e4, 4.804, 0.672)],
     "cholespy": [(2000, 2.126, 0.110), (1e4, 19.68, 0.672)],
     "block CG": [(2000, 0.343, 0.110), (1e4, 81.2, 0.672)],
@@ -32,6 +39,7 @@ RELAXED = {  # relaxed tensor: grains (2000: shipped dense packing; 1e4, 1e5: ra
 
 
 def main(out: str = "docs/performance.png") -> None:
+    """Draw both panels (time in dgemm units against size) into ``out``."""
     import matplotlib
 
     matplotlib.use("Agg")
