@@ -442,3 +442,19 @@ def test_pyarrow_and_line_parser_give_identical_arrays(tmp_path, monkeypatch, va
         if a is not None:
             assert a.dtype == b.dtype and np.array_equal(a, b), k
     np.testing.assert_array_equal(fast.force, net.force)  # sign: force by id1 on id2
+
+
+def test_reader_threads_follow_pyarrows_cpu_count(reader):
+    """The pieces are parsed on at most pyarrow's CPU count of threads (OMP_NUM_THREADS=1 in a
+    sweep's worker processes gives 1), and on 1 to 8."""
+    pa = pytest.importorskip("pyarrow")
+    if reader != "pyarrow":
+        pytest.skip("the pyarrow path only")
+    before = pa.cpu_count()
+    try:
+        pa.set_cpu_count(1)
+        assert demio._reader_threads() == 1
+        pa.set_cpu_count(64)
+        assert 1 <= demio._reader_threads() <= 8
+    finally:
+        pa.set_cpu_count(before)

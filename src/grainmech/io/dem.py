@@ -275,12 +275,18 @@ def _windows(fh: io.RawIOBase, size: int, stop: bytes | None) -> Iterator[bytear
 
 
 def _reader_threads() -> int:
-    """Worker threads of the pyarrow path: the cores this process may use, at most 8."""
+    """Worker threads of the pyarrow path: at most 8, the cores this process may use, and pyarrow's count.
+
+    ``pyarrow.cpu_count()`` follows ``OMP_NUM_THREADS`` (set to 1 in a sweep's worker
+    processes, :mod:`grainmech.parallel`) and ``pyarrow.set_cpu_count``.
+    """
+    import pyarrow as pa  # noqa: PLC0415 (optional dependency; only called on the pyarrow path)
+
     try:
         n = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         n = os.cpu_count() or 1
-    return max(1, min(n, 8))
+    return max(1, min(n, int(pa.cpu_count()), 8))
 
 
 def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: dict[str, int],
