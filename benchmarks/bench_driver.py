@@ -22,7 +22,10 @@ holds across machines, the seconds do not), and the ratio of the NumPy reference
 the reference timed on ``--numpy-cycles`` cycles. The first run of each variant is a
 warm-up (numba compilation or cache loading) and is not timed.
 
-Run: ``python benchmarks/bench_driver.py [--constant volume stress] [--backend auto|numpy]``
+``--sizes 1e3,1e4,1e5,1e6`` adds the cost of one mixed-control cycle against the number
+of directions (random sets: nothing to fold).
+
+Run: ``python benchmarks/bench_driver.py [--constant volume stress] [--backend auto|numpy] [--sizes ...]``
 """
 
 from __future__ import annotations
@@ -52,6 +55,10 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3, help="timed runs (the best is reported)")
     ap.add_argument("--numpy-cycles", type=int, default=1,
                     help="cycles of the NumPy reference run (0: skip it)")
+    ap.add_argument("--sizes", default="",
+                    help="cost against size: comma list of direction counts (e.g. 1e3,1e4,1e5,1e6), each "
+                         "a random isotropic set without antipodal pairs, one cycle of --steps steps "
+                         "with sigma_zz held, numba's threads")
     a = ap.parse_args()
 
     rng = np.random.default_rng(0)
@@ -112,6 +119,30 @@ def main() -> None:
                   f"{rr.iterations.sum() / len(ref_path):.2f} evaluations/step; per step "
                   f"{per_ref * 1e3:.2f} ms vs compiled {best / len(path) * 1e3:.3f} ms: "
                   f"compiled {per_ref / (best / len(path)):.0f}x faster")
+    if a.sizes:
+        _sizes([int(float(x)) for x in a.sizes.split(",")], a.amplitude, a.steps, t_dgemm)
+
+
+def _sizes(sizes: list[int], amplitude: float, steps: int, t_dgemm: float) -> None:
+    """Cost of one mixed-control cycle against the number of directions (random sets, nothing folded)."""
+    radius = 1e-3
+    nv = 8 / (2 * (4 / 3 * np.pi * radius ** 3) * 1.6)
+    law = MindlinDeresiewicz(29e9, 0.15, radius, friction=0.5)
+    print(f"\ncost against size: one cycle of {steps} steps, sigma_zz held, gamma {amplitude:g}, "
+          f"{get_num_threads()} thread(s); random directions (no antipodal pairs: every row evaluated)")
+    for n in sizes:
+        v = np.random.default_rng(n).standard_normal((n, 3))
+        normals = v / np.linalg.norm(v, axis=1)[:, None]
+        cs = ContactSet(normals, 2 * radius * normals, np.full(n, nv / n), 0.0, 0.0)
+        pt = MaterialPoint.isotropic(cs, law, 1e5)
+        run(pt, cyclic_simple_shear(amplitude, 1, 4, constant="stress"))  # warm-up (compilation, cache)
+        path = cyclic_simple_shear(amplitude, 1, steps, constant="stress")
+        t0 = time.perf_counter()
+        r = run(pt, path)
+        dt = time.perf_counter() - t0
+        ev = r.iterations.sum() / len(path)
+        print(f"  {n:8d} directions: {dt:8.3f} s = {dt / t_dgemm:7.1f} dgemm  {ev:.2f} evaluations/step  "
+              f"{dt / (n * len(path)) * 1e9:6.0f} ns per direction and step  success {r.success}")
 
 
 def _timed(fn) -> float:
