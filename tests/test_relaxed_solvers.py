@@ -192,3 +192,28 @@ def test_refine_pcg_removes_the_error_left_in_soft_modes():
     X, steps, res = _solvers.refine_pcg(A, b, solve(b), solve, 1e-12, 20)
     assert res.max() <= 1e-12 and steps <= 6
     np.testing.assert_allclose(X, b / a[:, None], rtol=1e-8)
+
+
+def test_pardiso_handle_finds_mkl_from_the_mkl_package(monkeypatch):
+    """pardiso_solver names pypardiso's MKL runtime from the ``mkl`` distribution's files
+    (instead of find_library and a recursive glob); the handle factors and solves; a
+    value the user set is kept."""
+    pytest.importorskip("pypardiso")
+    import os
+
+    import scipy.sparse as sp
+
+    from grainmech.network._solvers import pardiso_solver
+
+    monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
+    s = pardiso_solver(2)
+    path = os.environ.get("PYPARDISO_MKL_RT")
+    assert path is not None and os.path.isfile(path) and "mkl_rt" in os.path.basename(path)
+    A = sp.csr_matrix(np.array([[4.0, 1.0], [1.0, 3.0]]))
+    x = s.solve(sp.triu(A, format="csr"), np.array([1.0, 2.0]))
+    np.testing.assert_allclose(A @ x, [1.0, 2.0], rtol=1e-12)
+    s.free_memory(everything=True)
+    mine = os.path.join(os.path.dirname(path), ".", os.path.basename(path))  # the same file, another name
+    monkeypatch.setenv("PYPARDISO_MKL_RT", mine)
+    pardiso_solver(2).free_memory(everything=True)
+    assert os.environ["PYPARDISO_MKL_RT"] == mine

@@ -177,9 +177,9 @@ def _mkl() -> Any:
     refactorises many times. The factors themselves are called directly, each with its
     own handle (``_Factor._pt``).
     """
-    import pypardiso
+    from grainmech.network._solvers import pardiso_solver
 
-    return pypardiso.PyPardisoSolver(mtype=2)
+    return pardiso_solver(2)
 
 
 def openblas_one_thread() -> Any:

@@ -88,6 +88,35 @@ _PARDISO: Any = None
 _PARDISO_LOCK = threading.Lock()
 
 
+def pardiso_solver(mtype: int = 2) -> Any:
+    """A ``pypardiso.PyPardisoSolver``, its MKL runtime found from the ``mkl`` package's file list.
+
+    pypardiso looks for ``mkl_rt`` with ``ctypes.util.find_library`` (``ldconfig``/``gcc``
+    in subprocesses) and then a recursive glob of ``sys.prefix`` unless the environment
+    variable ``PYPARDISO_MKL_RT`` names it (0.16-0.4 s per process here). The ``mkl``
+    distribution that pypardiso depends on lists the library among its files, so its path
+    is set there first (a value the user set is kept; without such a file pypardiso
+    searches as before).
+    """
+    import os
+
+    import pypardiso
+
+    if "PYPARDISO_MKL_RT" not in os.environ:
+        try:
+            from importlib.metadata import PackageNotFoundError, files
+
+            found = [f for f in (files("mkl") or []) if "mkl_rt" in f.name]
+        except (ImportError, PackageNotFoundError):
+            found = []
+        for f in sorted(found, key=lambda x: len(str(x))):
+            path = os.path.realpath(str(f.locate()))
+            if os.path.isfile(path):
+                os.environ["PYPARDISO_MKL_RT"] = path
+                break
+    return pypardiso.PyPardisoSolver(mtype=mtype)
+
+
 @contextmanager
 def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarray]]:
     """Factor ``A`` (CSR, SPD) and yield ``solve(b)`` for (n, k) right-hand sides.
@@ -98,13 +127,12 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
 
     if method == "pardiso":
         global _PARDISO
-        import pypardiso
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
         with _PARDISO_LOCK:
             if _PARDISO is None:
-                _PARDISO = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+                _PARDISO = pardiso_solver(2)  # real symmetric positive definite
             ps = _PARDISO
             ps.set_matrix_type(2)
             try:
