@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["antipodal_pairs", "is_mirrored", "unfold", "FLIPPED_STATE"]
+__all__ = ["antipodal_pairs", "is_mirrored", "fold", "unfold", "FLIPPED_STATE"]
 
 #: fields of :class:`~grainmech.contact.state.ContactState` that change sign at the antipode
 FLIPPED_STATE = ("tangential_force", "axis")
@@ -56,21 +56,37 @@ def antipodal_pairs(normals: np.ndarray, branch: np.ndarray, weights: np.ndarray
     return keep[s], partner[s]
 
 
+def _mirrored(a: np.ndarray, keep: np.ndarray, partner: np.ndarray, flip: bool) -> bool:
+    return bool(np.array_equal(a[partner], -a[keep] if flip else a[keep]))
+
+
 def is_mirrored(state: Any, response: Any, keep: np.ndarray, partner: np.ndarray) -> bool:
-    """Whether ``state`` and ``response`` of every ``partner`` row mirror its ``keep`` row exactly."""
-    for name, a in zip(state._fields, state):
-        sign = -1 if name in FLIPPED_STATE else 1
-        if not np.array_equal(a[partner], sign * a[keep] if sign < 0 else a[keep]):
-            return False
-    for name, a in zip(response._fields, response):
-        if a is None:
-            continue
-        if name in ("t_delta", "t_alpha"):
-            continue  # step tangents: not used to start a segment
-        sign = -1 if name in ("tangential_force", "axis") else 1
-        if not np.array_equal(a[partner], sign * a[keep] if sign < 0 else a[keep]):
-            return False
-    return True
+    """Whether ``state`` and ``response`` of every ``partner`` row mirror its ``keep`` row exactly.
+
+    The response's step tangents (``t_delta``, ``t_alpha``) are not compared: a segment
+    does not start from them.
+    """
+    return (all(_mirrored(a, keep, partner, name in FLIPPED_STATE) for name, a in zip(state._fields, state))
+            and all(_mirrored(a, keep, partner, name in FLIPPED_STATE)
+                    for name, a in zip(response._fields, response)
+                    if a is not None and name not in ("t_delta", "t_alpha")))
+
+
+def fold(contacts: Any, state: Any, response: Any, enabled: bool = True) -> tuple:
+    """The rows a compiled loop evaluates: one of each antipodal pair, or all of them.
+
+    Returns ``(pairs, normals, branch, weights, state, response)``: ``pairs`` the
+    ``(keep, partner)`` of :func:`antipodal_pairs` when ``enabled``, the set pairs up
+    exactly and the state is mirrored (then the arrays are those of the rows ``keep``,
+    the weights doubled), else None and the arrays as they are.
+    """
+    normals, branch, weights = contacts.normals, contacts.branch, contacts.weights
+    pairs = antipodal_pairs(normals, branch, weights) if enabled else None
+    if pairs is None or not is_mirrored(state, response, *pairs):
+        return None, normals, branch, weights, state, response
+    keep = pairs[0]
+    return (pairs, normals[keep], branch[keep], 2.0 * weights[keep], type(state)(*(x[keep] for x in state)),
+            type(response)(*(None if x is None else x[keep] for x in response)))
 
 
 def unfold(half: np.ndarray, keep: np.ndarray, partner: np.ndarray, flip: bool) -> np.ndarray:

@@ -37,7 +37,8 @@ from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
 from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
-from grainmech.driver._fold import FLIPPED_STATE, antipodal_pairs, is_mirrored, unfold
+from grainmech.driver._fold import FLIPPED_STATE, unfold
+from grainmech.driver._fold import fold as fold_rows
 from grainmech.driver._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
 
 __all__ = ["strain_path"]
@@ -270,15 +271,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     cs = point.contacts
     params = point.law.params
     consts = constants(params)
-    st = point.state
-    normals, branch, weights = cs.normals, cs.branch, cs.weights
-    pairs = antipodal_pairs(normals, branch, weights) if fold else None
-    if pairs is not None and not is_mirrored(st, point.response, *pairs):
-        pairs = None
-    if pairs is not None:
-        keep = pairs[0]
-        normals, branch, weights = normals[keep], branch[keep], 2.0 * weights[keep]
-        st = type(st)(*(x[keep] for x in st))
+    pairs, normals, branch, weights, st, _ = fold_rows(cs, point.state, point.response, fold)
     n = normals.shape[0]
     m = d_strain.shape[0]
     nch = (n + _CH - 1) // _CH

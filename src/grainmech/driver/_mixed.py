@@ -56,7 +56,7 @@ from grainmech.contact.kernel import (
     KernelScratch,
     KernelState,
 )
-from grainmech.driver._fold import FLIPPED_STATE, antipodal_pairs, is_mirrored, unfold
+from grainmech.driver._fold import FLIPPED_STATE, fold, unfold
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
@@ -958,18 +958,8 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     params = point.law.params
     kc = kernel.constants(params)
     m = increments.shape[0]
-    st0 = point.state
-    r0 = point.response
-    normals, branch, weights = cs.normals, cs.branch, cs.weights
     # one row of each antipodal pair, twice its weight (driver/_fold.py), when exact
-    fold = antipodal_pairs(normals, branch, weights) if options.fold else None
-    if fold is not None and not is_mirrored(st0, r0, *fold):
-        fold = None
-    if fold is not None:
-        keep = fold[0]
-        normals, branch, weights = normals[keep], branch[keep], 2.0 * weights[keep]
-        st0 = type(st0)(*(x[keep] for x in st0))
-        r0 = type(r0)(*(None if x is None else x[keep] for x in r0))
+    pairs, normals, branch, weights, st0, r0 = fold(cs, point.state, point.response, options.fold)
     n = normals.shape[0]
     nch = (n + _CH - 1) // _CH
 
@@ -1015,8 +1005,8 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     eval_fn = pass_function(parallel, pass_sig)
     done = int(_segment_compiled(eval_fn, law_fn, *args))
     wtot = float(weights.sum())
-    if fold is not None:
-        keep, partner = fold
+    if pairs is not None:
+        keep, partner = pairs
         st = KernelState(*(unfold(x, keep, partner, name in FLIPPED_STATE) for name, x in zip(st._fields, st)))
         resp = tuple(unfold(x, keep, partner, False) for x in resp)
         if info[1] == FAIL_LAW:
