@@ -261,9 +261,10 @@ def _windows(fh: io.RawIOBase, size: int, stop: bytes | None) -> Iterator[bytear
             tail, size = bytes(buf[:tot]), 2 * size
             continue
         if stop:
-            p = 0 if buf.startswith(stop) else buf.find(b"\n" + stop, 0, end) + 1
-            if p > 0 or buf.startswith(stop):
-                del buf[p:]
+            hit = buf.find(b"\n" + stop, 0, end)
+            cut = 0 if buf.startswith(stop) else (hit + 1 if hit >= 0 else None)
+            if cut is not None:  # the block ends before this line
+                del buf[cut:]
                 if buf:
                     yield buf
                 return
@@ -296,14 +297,13 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
     """The wanted columns of a data block parsed by pyarrow's CSV reader on every core.
 
     The block starts after ``skip_lines`` lines and ends at a line starting with
-    ``stop_prefix`` or at the end of the file.  It is cut into pieces of whole lines
-    (1/64 of the block, within ``ARROW_WINDOW_MIN`` … ``ARROW_WINDOW`` bytes) that worker
-    threads parse at the same time (pyarrow releases
-    the GIL), each copied at its row offset into arrays allocated once (``count`` known)
-    or concatenated in order at the end.  At most one piece more than there are threads is
-    held, so the peak memory is the kept arrays plus a few pieces.  ``progress(done,
-    total)`` is called after each piece with the bytes of the file parsed so far and the
-    file's size.  Returns None whenever
+    ``stop_prefix`` or at the end of the file. It is cut into pieces of whole lines (1/64
+    of the block, within ``ARROW_WINDOW_MIN`` ... ``ARROW_WINDOW`` bytes) that worker
+    threads parse at the same time (pyarrow releases the GIL), each copied at its row
+    offset into arrays allocated once (``count`` known) or concatenated in order at the
+    end. At most one piece more than there are threads is held, so the peak memory is the
+    kept arrays plus a few pieces. ``progress(done, total)`` is called after each piece
+    with the bytes of the file parsed so far and the file's size. Returns None whenever
     the block is not in the simple form this path handles (whitespace other than single
     spaces, a wrong number of fields, a value that is not a number, a short block): the
     caller then runs the line parser, which reports the exact line and column.
