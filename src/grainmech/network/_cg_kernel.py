@@ -22,7 +22,8 @@ translations and three rotations, but
   the contacts inside a part are applied by that part's thread (no two threads write to
   the same grain), the few contacts between parts afterwards on one thread, and the grain
   passes run in fixed chunks of :data:`_GCH` grains (per-chunk partial sums added in
-  order, so they do not depend on the number of threads).
+  order, so they do not depend on the number of threads; ``p . H p`` does, one partial
+  sum per part: results differ in round-off between thread counts).
 
 Imported only when numba is installed (the optional extra ``fast``).
 """
