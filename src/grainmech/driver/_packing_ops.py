@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import functools
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -168,20 +167,6 @@ def block_diagonal(K: np.ndarray) -> sp.bsr_matrix:
 _NO_PERM = np.zeros(0, dtype=np.int32)
 
 
-@functools.cache
-def _mkl() -> Any:
-    """The solver object of pypardiso, kept for its MKL library (``libmkl``, the typed ``_mkl_pardiso``).
-
-    Made once per process: pypardiso looks for the MKL runtime (``find_library``, then a
-    recursive glob of ``sys.prefix``, 0.15-0.25 s) every time it makes one, and a run
-    refactorises many times. The factors themselves are called directly, each with its
-    own handle (``_Factor._pt``).
-    """
-    from grainmech.network._solvers import pardiso_solver
-
-    return pardiso_solver(2)
-
-
 def openblas_one_thread() -> Any:
     """Context manager: OpenBLAS on one thread (threadpoolctl; a no-op without it).
 
@@ -242,11 +227,13 @@ class _Factor:
         self._lu = spla.splu(A.tocsc())
 
     def _init_pardiso(self, A: sp.spmatrix, reproducible: bool) -> None:
-        import pypardiso  # noqa: F401 (not installed: ImportError here, whatever _mkl() holds)
+        import pypardiso  # noqa: F401 (not installed: ImportError here, before the shared handle is asked for)
+
+        from grainmech.network._solvers import shared_pardiso
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
-        ps = _mkl()
+        ps = shared_pardiso()  # for its MKL library; the factor has its own handle (_pt)
         # ``reproducible``: PARDISO factors on one MKL thread (thread-local, restored after
         # the call; the factor keeps that thread count for its solves). Its multithreaded
         # factorisation and solves sum in a schedule-dependent order, and the packing

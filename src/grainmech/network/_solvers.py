@@ -19,6 +19,7 @@ Several right-hand sides at once.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import threading
 from collections.abc import Callable, Iterator
@@ -80,11 +81,7 @@ def choose(method: str, n: int) -> str:
     return method
 
 
-#: One PARDISO handle per process: constructing ``pypardiso.PyPardisoSolver`` searches
-#: for the MKL library (``ctypes.util.find_library`` runs ``ldconfig``/``gcc``, then a
-#: recursive glob of the environment), ~0.25 s each time on the benchmark machine, more
-#: than the factorisation of a 2000-grain packing takes. The lock serialises its use.
-_PARDISO: Any = None
+#: serialises the use of the shared PARDISO handle (:func:`shared_pardiso`) for factors
 _PARDISO_LOCK = threading.Lock()
 
 
@@ -117,6 +114,18 @@ def pardiso_solver(mtype: int = 2) -> Any:
     return pypardiso.PyPardisoSolver(mtype=mtype)
 
 
+@functools.cache
+def shared_pardiso() -> Any:
+    """The one PARDISO handle of this process (real symmetric positive definite).
+
+    It holds the MKL library and its ``pardiso`` entry point: the relaxed tensor factors
+    through it (under ``_PARDISO_LOCK``), the packing driver calls ``pardiso`` directly
+    with its own factor handles (``driver._packing_ops._Factor``). Made once: even with
+    :func:`pardiso_solver`'s look-up, pypardiso's constructor is not free.
+    """
+    return pardiso_solver(2)
+
+
 @contextmanager
 def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarray]]:
     """Factor ``A`` (CSR, SPD) and yield ``solve(b)`` for (n, k) right-hand sides.
@@ -126,14 +135,10 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
     import scipy.sparse as sp
 
     if method == "pardiso":
-        global _PARDISO
-
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
         with _PARDISO_LOCK:
-            if _PARDISO is None:
-                _PARDISO = pardiso_solver(2)  # real symmetric positive definite
-            ps = _PARDISO
+            ps = shared_pardiso()
             ps.set_matrix_type(2)
             try:
                 ps.factorize(Au)
