@@ -124,6 +124,9 @@ def test_regularization_leaves_the_equilibrium_alone(packing):
     for bad in (-1e-3, 0.5, "1e-3"):
         with pytest.raises(ParameterError, match="rtol_step"):
             PackingOptions(rtol_step=bad)
+    for bad in (-0.1, 1.5, True, "0.1", float("nan")):
+        with pytest.raises(ParameterError, match="settle"):
+            PackingOptions(settle=bad)
 
 
 def test_anderson_and_newton_krylov_reach_the_same_equilibria(point):
@@ -151,6 +154,40 @@ def test_anderson_and_newton_krylov_reach_the_same_equilibria(point):
     for bad in (-1, 51, 2.5, True):
         with pytest.raises(ParameterError, match="anderson"):
             PackingOptions(anderson=bad)
+
+
+def test_settled_stress_stops_the_iterations_with_the_same_loop():
+    """PackingOptions.settle (default 0.1) stops a step's Anderson iterations once the
+    stress is settled, before every grain is within rtol; settle = 0 iterates to rtol.
+    On the shipped 'dense' packing (the built-in default's: Mindlin-Deresiewicz, quartz,
+    drained cyclic simple shear at 1e-5, 20 steps) both give the same loop: stresses
+    within 1e-4 of the shear stress amplitude, the same secant modulus to 1e-5 and
+    damping to 1 %, with at most half the iterations (measured: 86 against 206; stress
+    difference 1.3e-5 of the amplitude, damping 0.07 %)."""
+    from grainmech.packing import QUARTZ, load_packing
+
+    net = load_packing("dense")
+    law = MindlinDeresiewicz(QUARTZ.shear_modulus, QUARTZ.poisson, float(net.radii.mean()),
+                             friction=QUARTZ.friction)
+    pt = PackingPoint.from_network(net, law)
+    out = []
+    for settle in (0.0, PackingOptions().settle):
+        r = run_packing(pt, cyclic_simple_shear(1e-5, 1, 20, constant="stress"),
+                        PackingOptions(settle=settle, law_backend="auto", tangent="none"))
+        assert r.success, r.message
+        out.append(r)
+    exact, settled = out
+    assert PackingOptions().settle == 0.1
+    assert not any("settle" in n for n in exact.notes)
+    assert any(n.startswith("20 (sub)steps stopped once the stress uncertainty") for n in settled.notes)
+    assert exact.residual.max() < 1e-7 < settled.residual.max()
+    assert settled.iterations.sum() <= 0.5 * exact.iterations.sum()
+    amp = np.abs(exact.stress[:, 4] - exact.stress[0, 4]).max()
+    assert np.abs(settled.stress - exact.stress).max() <= 1e-4 * amp
+    le = loop_properties(exact.strain[:, 4], exact.stress[:, 4])
+    ls = loop_properties(settled.strain[:, 4], settled.stress[:, 4])
+    assert ls.secant_modulus == pytest.approx(le.secant_modulus, rel=1e-5)
+    assert ls.damping == pytest.approx(le.damping, rel=1e-2)
 
 
 @pytest.mark.parametrize("ks_ratio", [0.0, 0.5])

@@ -69,6 +69,7 @@ class _Context:
     stiff_ok: bool = True  # the last initial-stiffness try contracted well
     newton_ok: bool = True  # the last (sub)step's consistent-tangent updates worked
     energy: bool = False  # line search on the potential energy (frictionless laws only)
+    settled: int = 0  # (sub)steps whose Anderson iterations stopped with the stress settled (settle)
 
 
 def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
@@ -195,14 +196,16 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
 
     amb_ok = max(opts.rtol_accept * sref, opts.rtol_step * step_dsig) * V
 
-    def accept(rq: np.ndarray, re: np.ndarray) -> bool:
+    def accept(rq: np.ndarray, re: np.ndarray, factor: float = 1.0) -> bool:
         # the out-of-balance forces and moments left make the Love-Weber stress uncertain
         # by at most sum_p (|F_p| R_p + |M_p|) / V (the stress of a grain out of balance
         # depends on the point its moments are taken about); accept when that is below
         # rtol_accept times the stress scale or rtol_step times the step's stress change
         # (the imbalance left is not lost: the next step starts from it and removes it)
-        # (the stress-controlled components within the same bound)
-        return bool(_stress_ambiguity(kin, rq, Rg) <= amb_ok and (ms == 0 or np.all(np.abs(re) <= amb_ok)))
+        # (the stress-controlled components within the same bound); ``factor`` scales the
+        # bound (PackingOptions.settle)
+        bound = factor * amb_ok
+        return bool(_stress_ambiguity(kin, rq, Rg) <= bound and (ms == 0 or np.all(np.abs(re) <= bound)))
 
     def unsettled(rq: np.ndarray, re: np.ndarray) -> str:
         """The stress uncertainty left, against what ``accept`` asks, for a failure message."""
@@ -263,12 +266,23 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     if opts.anderson and not relax and not ctx.energy:
         # Anderson-accelerated elastic iterations first; where they stall (a few grains on
         # a mechanism, all their contacts sliding) Newton-Krylov goes on from their best point
+        def settled(rq: np.ndarray, re: np.ndarray, dstress: float) -> bool:
+            # the stress is settled: the stress-controlled components within rtol, and both
+            # the stress uncertainty of the out-of-balance forces and the estimated stress
+            # change still to come (``dstress``, from the contraction of the iterates'
+            # stress changes) below ``settle`` times the acceptance bound
+            return bool(opts.settle > 0 and dstress <= opts.settle * amb_ok and (ms == 0 or np.all(np.abs(re) <= tole))
+                        and accept(rq, re, opts.settle))
+
         ok, xq, xe, cur, m, it = _anderson(prec, S, np.concatenate([Dq, De]), xq, xe, cur, m, residual, merit,
-                                           limit, converged, accept, opts.anderson, 4 * opts.max_iter, _debug())
+                                           limit, converged, settled, accept, opts.anderson, 4 * opts.max_iter,
+                                           _debug())
         ctx.anderson += it
         if ok:
             ctx.anderson_ok += 1
-            if not converged(cur[3], cur[4]):
+            if ok == "settled":
+                ctx.settled += 1
+            elif not converged(cur[3], cur[4]):
                 ctx.accepted += 1
             return done(cur, it)
         stiff_first = False
@@ -457,8 +471,8 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
 
 
 def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
-              m: float, residual: Callable, merit: Callable, limit: Callable, converged: Callable, accept: Callable,
-              mem: int, n_iter: int, dbg: Callable | None) -> tuple:
+              m: float, residual: Callable, merit: Callable, limit: Callable, converged: Callable, settled: Callable,
+              accept: Callable, mem: int, n_iter: int, dbg: Callable | None) -> tuple:
     """Anderson-accelerated elastic iteration of one (sub)step.
 
     The fixed-point map is the elastic (initial-stiffness) update ``x + M^-1 (-r(x))``
@@ -473,15 +487,22 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     the factor per iteration, where a Newton-Krylov iteration costs one solve per
     Krylov vector. An update that raises the scaled residual more than three times
     restarts the history with a plain elastic update, halved until it does not raise it.
-    After ``_AA_PATIENCE`` iterations without progress the best point is accepted if
+    The iterations stop when every grain is within ``rtol`` (``converged``) or as soon
+    as the stress is settled (``settled(rq, re, dstress)``, ``PackingOptions.settle``;
+    ``ok = "settled"``), with ``dstress`` the stress change still to come estimated from
+    the contraction of the iterates' stress changes ``d_k`` (largest component of
+    ``V sigma``): ``d_k rho / (1 - rho)`` with ``rho`` the larger of the last two ratios
+    ``d_k / d_(k-1)`` (the a-posteriori bound of a contraction; infinite until two
+    ratios below 1 are known). After ``_AA_PATIENCE`` iterations without progress the best point is accepted if
     its stress is settled; otherwise the history restarts from it (at most
     ``_AA_RESTARTS`` times: the differences gathered across a kink of the laws mix two
     branches; on 'dense' at 1e-4 this took 10 steps from 24.6 s to 14.5 s).
 
     Returns
     -------
-    (ok, xq, xe, cur, m, iterations) : ``ok`` when converged (or accepted after a
-    stall); otherwise the best point met, from which the caller's Newton-Krylov goes on.
+    (ok, xq, xe, cur, m, iterations) : ``ok`` True when converged (or accepted after a
+    stall), ``"settled"`` when stopped by ``settled``; otherwise (False) the best point
+    met, from which the caller's Newton-Krylov goes on.
     """
     nq = xq.size
     X: list = []
@@ -492,12 +513,25 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     ref, stall = m, 0  # merit of the last iteration that made progress, iterations since
     restarts = 0
     it = 0
+    vs_last: np.ndarray | None = None  # stress (V sigma) of the last iterate
+    dv: list[float] = []  # its changes
     for it in range(1, n_iter + 1):
         st, rq, re = cur[0], cur[3], cur[4]
+        if vs_last is not None:
+            dv.append(float(np.max(np.abs(cur[5] - vs_last))))
+        vs_last = cur[5]
+        dstress = np.inf
+        if len(dv) >= 3 and dv[-2] > 0 and dv[-3] > 0:
+            rho = max(dv[-1] / dv[-2], dv[-2] / dv[-3])
+            if rho < 1:
+                dstress = dv[-1] * rho / (1 - rho)
         if dbg:
-            dbg(f"anderson it {it} merit {m:.3g} history {len(X)}")
+            dbg(f"anderson it {it} merit {m:.3g} history {len(X)} stress change {dv[-1] if dv else 0:.3g} "
+                f"to come {dstress:.3g}")
         if converged(rq, re):
             return True, xq, xe, cur, m, it
+        if settled(rq, re, dstress):
+            return "settled", xq, xe, cur, m, it
         fq, fe = prec.apply(-rq, -re, S)
         x_new, f_new = np.concatenate([xq, xe]), np.concatenate([fq, fe])
         if X:  # differences with the last iterate, scaled as the least-squares problem needs
