@@ -23,6 +23,7 @@ returns a typed result (:class:`StiffnessOutcome`, :class:`CyclicOutcome` or
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -595,7 +596,20 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
     :class:`RunComparison` of them for several.
     """
     say = progress or (lambda msg: None)
-    outs = [_execute_affine(spec, say) if m == "affine" else _execute_packing(spec, say) for m in spec.methods]
+    outs = []
+    for i, m in enumerate(spec.methods):
+        if m == "affine":
+            # a packing run to come: its kernels compile in a second process meanwhile
+            # when this one compiles (the first run after installing)
+            ahead: Any = contextlib.nullcontext()
+            if "packing" in spec.methods[i + 1:] and spec.packing_law is not None and spec.grains is not None:
+                from grainmech.driver.packing import compiling_ahead
+
+                ahead = compiling_ahead(spec.packing_law, spec.grains.network.n_contacts)
+            with ahead:
+                outs.append(_execute_affine(spec, say))
+        else:
+            outs.append(_execute_packing(spec, say))
     return outs[0] if len(outs) == 1 else RunComparison(outs)
 
 

@@ -834,7 +834,7 @@ def pass_function(parallel: bool, sig: tuple) -> Any:
 
 
 #: the worker process that compiles the law while this one compiles the segment loop
-#: (``GRAINMECH_COMPILE_WORKER=0`` switches it off)
+#: (``GRAINMECH_COMPILE_WORKER=0`` switches it off: :mod:`grainmech._workers`)
 _WORKER = ("import pickle, sys\n"
            "path, (key, law_sig, parallel, pass_sig) = pickle.load(sys.stdin.buffer)\n"
            "sys.path[:] = path  # import the same grainmech as the parent\n"
@@ -846,28 +846,9 @@ _WORKER = ("import pickle, sys\n"
 
 def _start_worker(job: tuple) -> Any:
     """A Python process that compiles the law and the evaluation pass of ``job`` into numba's cache (or None)."""
-    import os
-    import pickle
-    import subprocess
-    import sys
+    from grainmech._workers import start_worker
 
-    if os.environ.get("GRAINMECH_COMPILE_WORKER", "1") == "0":
-        return None
-    try:
-        ncpu = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        ncpu = os.cpu_count() or 1
-    if ncpu < 2:
-        return None
-    try:
-        p = subprocess.Popen([sys.executable, "-c", _WORKER], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                             stderr=subprocess.DEVNULL)
-        assert p.stdin is not None
-        p.stdin.write(pickle.dumps((list(sys.path), job)))
-        p.stdin.close()
-    except (OSError, pickle.PicklingError):  # pragma: no cover - then this process compiles the law
-        return None
-    return p
+    return start_worker(_WORKER, job)
 
 
 def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: tuple) -> None:
@@ -882,11 +863,10 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
     their sum (``docs/performance.md``, "First run"). If the worker fails, they are
     compiled here as before.
     """
-    import subprocess
-
     from numba import typeof, types
     from numba.core import event
 
+    from grainmech._workers import finish
     from grainmech.contact import kernel
 
     sig = ((types.FunctionType(types.intp(*pass_sig)), types.FunctionType(types.none(*law_sig)))
@@ -912,15 +892,7 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
         ok = True
     finally:
         for p in workers:
-            if p is None:
-                continue
-            if not ok:  # interrupted or failed: do not wait for the worker
-                p.kill()
-            try:
-                p.wait(timeout=600)
-            except subprocess.TimeoutExpired:  # pragma: no cover - a hung worker: this process compiles
-                p.kill()
-                p.wait()
+            finish(p, ok)  # interrupted or failed: do not wait for the worker
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,

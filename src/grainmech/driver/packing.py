@@ -23,7 +23,8 @@ equilibrium residuals), :class:`PackingOptions`, :func:`packing_modulus_reductio
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any, cast
@@ -1051,3 +1052,75 @@ def perturbed_fcc_network(n_cells: int, *, radius: float = 1.0, overlap: float =
     return ContactNetwork(base.ids[keep], pos, R, box, I, J, np.zeros_like(br), br, alpha,
                           source=f"perturbed fcc {n_cells}^3 (overlap {overlap:g} R, disorder {disorder:g} R, "
                                  f"vacancies {vacancies:g}, seed {seed})")
+
+
+# --------------------------------------------------------------------------- first run
+
+#: the worker that compiles the packing driver's kernels for a law (:func:`compiling_ahead`)
+_AHEAD = ("import pickle, sys\n"
+          "path, (law, n_contacts) = pickle.load(sys.stdin.buffer)\n"
+          "sys.path[:] = path  # import the same grainmech as the parent\n"
+          "from grainmech.driver.packing import precompile\n"
+          "precompile(law, n_contacts)\n")
+
+
+def precompile(law: Any, n_contacts: int) -> None:
+    """Compile (or load from numba's cache) the kernels of a packing run with ``law`` on ``n_contacts`` contacts.
+
+    A few steps of cyclic simple shear of a 108-grain fcc packing with ``law`` and
+    ``law_backend="auto"``: the kernel variants depend on the law's type and the arrays'
+    types, not on the packing's size, except that the law runs on numba's threads from
+    :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD` contacts on (a separate variant,
+    chosen here by ``n_contacts``).
+    """
+    from numba import get_num_threads
+
+    from grainmech.contact import kernel
+
+    opts = PackingOptions(law_backend="auto", tangent="none")
+    net = equilibrate_network(perturbed_fcc_network(3, seed=1), law)
+    pt = PackingPoint.from_network(net, law, options=opts)
+    saved = kernel.PARALLEL_THRESHOLD
+    # the small packing takes the variant the large one will (threads or not)
+    kernel.PARALLEL_THRESHOLD = 0 if (n_contacts >= saved and get_num_threads() > 1) else 2 ** 62
+    try:
+        run_packing(pt, cyclic_simple_shear(1e-6, 1, 4), opts)
+    finally:
+        kernel.PARALLEL_THRESHOLD = saved
+
+
+@contextmanager
+def compiling_ahead(law: Any, n_contacts: int) -> Iterator[None]:
+    """While the block runs, compile a later packing run's kernels in a second process if numba compiles here.
+
+    The first run after installing compiles every kernel it uses. When numba starts
+    compiling inside the block (its cache is cold), a second Python process runs
+    :func:`precompile` for ``law`` and ``n_contacts`` meanwhile, into numba's on-disk
+    cache; on leaving the block this waits for it, so that the packing run that follows
+    loads its kernels instead of compiling them after the block's
+    (``docs/performance.md``, "First run"). Nothing is started when nothing compiles
+    (later runs), on one core, or with ``GRAINMECH_COMPILE_WORKER=0``
+    (:mod:`grainmech._workers`).
+    """
+    from numba.core import event
+
+    from grainmech._workers import finish, start_worker
+
+    started: list = []
+
+    class _OnCompile(event.Listener):
+        def on_start(self, ev: object) -> None:
+            if not started:
+                started.append(start_worker(_AHEAD, (law, int(n_contacts))))
+
+        def on_end(self, ev: object) -> None:
+            pass
+
+    ok = False
+    try:
+        with event.install_listener("numba:compile", _OnCompile()):
+            yield
+        ok = True
+    finally:
+        for p in started:
+            finish(p, ok)
