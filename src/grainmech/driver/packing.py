@@ -156,6 +156,9 @@ class PackingOptions:
         On the built-in default run ('dense', 2 x 40 steps at 1e-6, 1e-5, 1e-4) the
         default 0.1 took 19.8 s instead of 45.4 s, with G/Gmax within 2.6e-5 and damping
         within 0.0016 % (absolute) of iterating to ``rtol`` (``docs/packing-driver.md``).
+        On the looser shipped 'medium' packing at 1e-4, beyond the fixed-geometry model
+        at that amplitude, 0.1 stopped at step 59 ("no equilibrium") where 0 completed
+        the 80 steps: if a run on a loose packing stops, try ``settle=0``.
     """
 
     rtol: float = 1e-8
