@@ -179,7 +179,8 @@ def test_settled_stress_stops_the_iterations_with_the_same_loop():
     exact, settled = out
     assert PackingOptions().settle == 0.1
     assert not any("settle" in n for n in exact.notes)
-    assert any(n.startswith("20 (sub)steps stopped once the stress uncertainty") for n in settled.notes)
+    assert any(n.startswith("20 (sub)steps stopped once the stress uncertainty left and the estimated "
+                                 "stress change still to come") for n in settled.notes)
     assert exact.residual.max() < 1e-7 < settled.residual.max()
     assert settled.iterations.sum() <= 0.5 * exact.iterations.sum()
     amp = np.abs(exact.stress[:, 4] - exact.stress[0, 4]).max()

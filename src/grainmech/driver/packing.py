@@ -886,10 +886,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                                          f"= {opts.rtol_step:g} of the step's stress change) before every grain "
                                          f"reached rtol = {opts.rtol:g} (the iterations stalled at a kink of the "
                                          "contact laws)",) if ctx.accepted else ())
-                         + ((f"{ctx.settled} (sub)steps stopped once the stress uncertainty left was below "
-                             f"settle = {opts.settle:g} times the acceptance bound (rtol_accept = "
-                             f"{opts.rtol_accept:g} of the stress scale or rtol_step = {opts.rtol_step:g} of the "
-                             f"step's stress change), before every grain reached rtol = {opts.rtol:g}",)
+                         + ((f"{ctx.settled} (sub)steps stopped once the stress uncertainty left and the "
+                             f"estimated stress change still to come were below settle = {opts.settle:g} times "
+                             f"the acceptance bound (rtol_accept = {opts.rtol_accept:g} of the stress scale or "
+                             f"rtol_step = {opts.rtol_step:g} of the step's stress change), before every grain "
+                             f"reached rtol = {opts.rtol:g}",)
                             if ctx.settled else ())
                          + ((f"{ctx.anderson_ok} (sub)steps solved by Anderson-accelerated elastic iterations "
                              f"({ctx.anderson} iterations), the others by Newton-Krylov",)
