@@ -12,6 +12,8 @@ import os
 import pickle
 import subprocess
 import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 __all__: list[str] = []
@@ -55,3 +57,34 @@ def finish(p: subprocess.Popen | None, ok: bool = True, timeout: float = 600.0) 
     except subprocess.TimeoutExpired:  # pragma: no cover - a hung worker: the caller compiles
         p.kill()
         p.wait()
+
+
+@contextmanager
+def on_first_compile(start: Callable[[], subprocess.Popen | None]) -> Iterator[None]:
+    """Call ``start()`` at the first numba compilation inside the block; wait for what it started on leaving.
+
+    numba's compile event fires only when something is compiled (not when it is loaded
+    from the cache), so later runs start nothing. ``start`` returns a worker
+    (:func:`start_worker`) or None. On leaving the block the worker is waited for
+    (:func:`finish`), or killed at once if the block raised.
+    """
+    from numba.core import event
+
+    started: list = []
+
+    class _OnCompile(event.Listener):
+        def on_start(self, ev: object) -> None:
+            if not started:
+                started.append(start())
+
+        def on_end(self, ev: object) -> None:
+            pass
+
+    ok = False
+    try:
+        with event.install_listener("numba:compile", _OnCompile()):
+            yield
+        ok = True
+    finally:
+        for p in started:
+            finish(p, ok)

@@ -864,35 +864,22 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
     compiled here as before.
     """
     from numba import typeof, types
-    from numba.core import event
 
-    from grainmech._workers import finish
+    from grainmech._workers import on_first_compile
     from grainmech.contact import kernel
 
     sig = ((types.FunctionType(types.intp(*pass_sig)), types.FunctionType(types.none(*law_sig)))
            + tuple(typeof(a) for a in args))
     if sig in _segment_compiled.overloads:
         return
-    workers: list = []
 
-    class _OnCompile(event.Listener):
-        def on_start(self, ev: object) -> None:
-            if not workers:
-                done = kernel.law_compiled(key, law_sig) and pass_sig in (
-                    _evaluate_parallel if parallel else _evaluate_serial).overloads
-                workers.append(None if done else _start_worker((key, law_sig, parallel, pass_sig)))
+    def start() -> Any:
+        done = kernel.law_compiled(key, law_sig) and pass_sig in (
+            _evaluate_parallel if parallel else _evaluate_serial).overloads
+        return None if done else _start_worker((key, law_sig, parallel, pass_sig))
 
-        def on_end(self, ev: object) -> None:
-            pass
-
-    ok = False
-    try:
-        with event.install_listener("numba:compile", _OnCompile()):
-            _segment_compiled.compile(sig)
-        ok = True
-    finally:
-        for p in workers:
-            finish(p, ok)  # interrupted or failed: do not wait for the worker
+    with on_first_compile(start):
+        _segment_compiled.compile(sig)
 
 
 def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray,

@@ -1106,25 +1106,7 @@ def compiling_ahead(law: Any, n_contacts: int) -> Iterator[None]:
     (later runs), on one core, or with ``GRAINMECH_COMPILE_WORKER=0``
     (:mod:`grainmech._workers`).
     """
-    from numba.core import event
+    from grainmech import _workers
 
-    from grainmech._workers import finish, start_worker
-
-    started: list = []
-
-    class _OnCompile(event.Listener):
-        def on_start(self, ev: object) -> None:
-            if not started:
-                started.append(start_worker(_AHEAD, (law, int(n_contacts))))
-
-        def on_end(self, ev: object) -> None:
-            pass
-
-    ok = False
-    try:
-        with event.install_listener("numba:compile", _OnCompile()):
-            yield
-        ok = True
-    finally:
-        for p in started:
-            finish(p, ok)
+    with _workers.on_first_compile(lambda: _workers.start_worker(_AHEAD, (law, int(n_contacts)))):
+        yield
