@@ -352,48 +352,90 @@ def compiled_kernel(params: ContactParams, backend: str = "auto") -> ModuleType 
     return mod if isinstance(mod, ModuleType) else None
 
 
+def _writeable(x: np.ndarray, dtype: DTypeLike = float) -> np.ndarray:
+    """``x`` C-contiguous and writeable (a read-only array would compile another variant of the kernel)."""
+    x = np.ascontiguousarray(x, dtype=dtype)
+    return x if x.flags.writeable else x.copy()
+
+
+class CompiledUpdate:
+    """The compiled update from one fixed start state, its inputs converted once.
+
+    :func:`update` through the compiled kernel converts the start state to the kernel's
+    contiguous arrays and evaluates the start contact radii on every call. A caller that
+    advances the *same* start state by many trial increments (the Newton or Anderson
+    iterations of one step of the packing driver) builds this once and calls it per
+    trial: the same kernel on the same inputs, so the same results bit for bit as
+    ``update(params, state, dn, dt, backend=...)`` (``normals=None``, no re-projection).
+
+    Parameters
+    ----------
+    kernel : module
+        :func:`compiled_kernel` of the law (not None).
+    params : ContactParams
+    state : ContactState
+        Start state (not modified; the kernel reads copies).
+    """
+
+    def __init__(self, kernel: ModuleType, params: ContactParams, state: ContactState,
+                 T0: np.ndarray | None = None, e0: np.ndarray | None = None) -> None:
+        c = _writeable
+        if state.reversals.shape[1] != max_reversals(params):
+            raise ValueError(f"state was built for max_reversals = {state.reversals.shape[1]}, "
+                             f"params have {max_reversals(params)}; build it with initial_state(params, ...)")
+        self.kernel, self.params, self.forms = kernel, params, law_forms(params)
+        self.n, self.dim = state.n_contacts, state.dim
+        self.alpha0 = c(state.approach, dtype=float)
+        # spheres (the compiled laws other than linear springs): the start radius (seed Eq.
+        # 3.2) of every contact, from the start state's normal force
+        self.hertz = params if isinstance(params, Hertz) else None
+        self.rad0 = (geo.hertz_contact_radius_from_force(np.where(self.alpha0 > 0.0, state.normal_force, 0.0),
+                                                         self.hertz) if self.hertz is not None else None)
+        K = kernel
+        self.st = K.KernelState(self.alpha0, c(state.normal_force, dtype=float),
+                                c(state.tangential_force if T0 is None else T0, dtype=float),
+                                c(state.axis if e0 is None else e0, dtype=float), c(state.direction, dtype=np.int8),
+                                c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),
+                                c(state.dissipated_energy, dtype=float))
+        self.kc = K.constants(params)
+
+    def __call__(self, dn: np.ndarray, dt: np.ndarray) -> tuple[ContactState, ContactResponse]:
+        """New state and response for increments ``dn`` (n,) and ``dt`` (n, dim), float64 arrays."""
+        dn, dt = _writeable(dn), _writeable(dt)
+        if dn.shape != (self.n,) or dt.shape != (self.n, self.dim):
+            raise ValueError(f"increments of shape {dn.shape}, {dt.shape} for {self.n} contacts in {self.dim}D")
+        K, params = self.kernel, self.params
+        # the closed forms of the normal law, vectorised as in the reference path
+        N1 = self.forms.normal_force(self.alpha0 + dn)
+        if self.hertz is not None:
+            rad1 = geo.hertz_contact_radius_from_force(N1, self.hertz)
+            rad0 = self.rad0
+        else:  # linear springs: the kernel does not use the radii
+            rad0 = rad1 = N1
+        st = self.st
+        status, out, flags = K.update_kernel(self.kc, st, K.KernelIncrement(dn, dt, N1, rad0, rad1))
+        if status:
+            _check_finite(dn, dt, status)
+        if flags.any():
+            for code in (1, 2):  # the reference raises for the rising-N reversals first
+                bad = np.nonzero(flags == code)[0]
+                if bad.size:
+                    raise ReversalMemoryError(bad, max_reversals(params))
+            raise RuntimeError("Mindlin-Deresiewicz branch integration did not terminate")  # pragma: no cover
+        new_state = ContactState(out.approach, out.normal_force, out.tangential_force, out.axis,
+                                 out.direction, out.depth, out.reversals, out.sliding,
+                                 st.dissipated_energy + out.dissipation)
+        resp = ContactResponse(out.normal_force, out.tangential_force, out.kn, out.ks, out.ks_perp,
+                               out.ktn, out.axis, out.sliding, out.open, out.dissipation, out.t_delta,
+                               out.t_alpha)
+        return new_state, resp
+
+
 def _update_compiled(kernel: ModuleType, params: ContactParams, state: ContactState, T0: np.ndarray,
                      e0: np.ndarray, dn: np.ndarray, dt: np.ndarray
                      ) -> tuple[ContactState, ContactResponse]:
     """:func:`update` through the compiled kernel (validated, re-projected inputs)."""
-    def c(x: np.ndarray, dtype: DTypeLike) -> np.ndarray:
-        # C-contiguous and writeable (a read-only array would compile another variant)
-        x = np.ascontiguousarray(x, dtype=dtype)
-        return x if x.flags.writeable else x.copy()
-
-    K = kernel
-    forms = law_forms(params)
-    alpha0 = c(state.approach, dtype=float)
-    dn = c(dn, dtype=float)
-    # the closed forms of the normal law, vectorised as in the reference path
-    N1 = forms.normal_force(alpha0 + dn)
-    if isinstance(params, Hertz):  # spheres (the compiled laws other than linear springs)
-        rad1 = geo.hertz_contact_radius_from_force(N1, params)
-        rad0 = geo.hertz_contact_radius_from_force(
-            np.where(alpha0 > 0.0, state.normal_force, 0.0), params)
-    else:  # linear springs: the kernel does not use the radii
-        rad0 = rad1 = N1
-    st = K.KernelState(alpha0, c(state.normal_force, dtype=float), c(T0, dtype=float),
-                       c(e0, dtype=float), c(state.direction, dtype=np.int8),
-                       c(state.depth, dtype=np.int32), c(state.reversals, dtype=float),
-                       c(state.dissipated_energy, dtype=float))
-    status, out, flags = K.update_kernel(K.constants(params), st,
-                                         K.KernelIncrement(dn, c(dt, dtype=float), N1, rad0, rad1))
-    if status:
-        _check_finite(dn, dt, status)
-    if flags.any():
-        for code in (1, 2):  # the reference raises for the rising-N reversals first
-            bad = np.nonzero(flags == code)[0]
-            if bad.size:
-                raise ReversalMemoryError(bad, max_reversals(params))
-        raise RuntimeError("Mindlin-Deresiewicz branch integration did not terminate")  # pragma: no cover
-    new_state = ContactState(out.approach, out.normal_force, out.tangential_force, out.axis,
-                             out.direction, out.depth, out.reversals, out.sliding,
-                             st.dissipated_energy + out.dissipation)
-    resp = ContactResponse(out.normal_force, out.tangential_force, out.kn, out.ks, out.ks_perp,
-                           out.ktn, out.axis, out.sliding, out.open, out.dissipation, out.t_delta,
-                           out.t_alpha)
-    return new_state, resp
+    return CompiledUpdate(kernel, params, state, T0, e0)(dn, dt)
 
 
 # ---------------------------------------------------------------------------------------

@@ -127,8 +127,22 @@ class Kinematics:
         return (self.G @ dq).reshape(-1, 3) + self.affine(de)
 
     def affine(self, de: np.ndarray) -> np.ndarray:
-        """Relative displacement (C, 3) of the strain ``de`` (6,) alone: ``l_c . eps``."""
-        return self.l @ strain_tensor(de)  # eps symmetric: (eps l_c)_i = (l_c eps)_i
+        """Relative displacement (C, 3) of the strain ``de`` (6,) alone: ``l_c . eps``.
+
+        Written out term by term in a fixed order (eps symmetric: ``(eps l_c)_i = (l_c
+        eps)_i``), so that the compiled kinematics (:mod:`grainmech.driver._packing_kernels`)
+        give the same bits; a matrix product may fuse or reorder the terms.
+        """
+        e = np.asarray(de, dtype=float)
+        e01, e02, e12 = 0.5 * e[5], 0.5 * e[4], 0.5 * e[3]
+        lx, ly, lz = self.l[:, 0], self.l[:, 1], self.l[:, 2]
+        return np.stack([lx * e[0] + ly * e01 + lz * e02,
+                         lx * e01 + ly * e[1] + lz * e12,
+                         lx * e02 + ly * e12 + lz * e[2]], axis=1)
+
+    def normal_part(self, d: np.ndarray) -> np.ndarray:
+        """``d_c . n_c`` (C,) of vectors ``d`` (C, 3), term by term in a fixed order (as the compiled kinematics)."""
+        return d[:, 0] * self.n[:, 0] + d[:, 1] * self.n[:, 1] + d[:, 2] * self.n[:, 2]
 
     def balance(self, f: np.ndarray) -> np.ndarray:
         """Out-of-balance forces and moments ``G^T f`` (n_free,) of forces ``f`` (C, 3)."""

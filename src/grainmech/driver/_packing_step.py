@@ -16,6 +16,7 @@ from weakref import WeakKeyDictionary
 import numpy as np
 
 from grainmech.contact import ContactState, HertzMindlin, LinearSpring, MindlinDeresiewicz, update
+from grainmech.contact.law import CompiledUpdate, compiled_kernel
 from grainmech.driver._packing_ops import (
     Kinematics,
     Preconditioner,
@@ -72,16 +73,98 @@ class _Context:
     settled: int = 0  # (sub)steps whose Anderson iterations stopped with the stress settled (settle)
 
 
+def _law_call(point: PackingPoint) -> Callable[[np.ndarray, np.ndarray], tuple]:
+    """``update(params, state, dn, dt)`` of the point's law from its state (cached on the point).
+
+    Every trial of a step starts from the same committed state: with the compiled kernel
+    its inputs are converted once (:class:`grainmech.contact.law.CompiledUpdate`, the same
+    results bit for bit), not at every trial.
+    """
+    hit = point._cache.get("law")
+    if hit is not None and hit[0] is point.state and hit[1] == point.law_backend:
+        return hit[2]
+    kernel = compiled_kernel(point.params, point.law_backend or "auto")
+    params, state, kw = point.params, point.state, _law_kw(point.law_backend)
+    fn = (CompiledUpdate(kernel, params, state) if kernel is not None
+          else lambda dn, dt: update(params, state, dn, dt, **kw))
+    point._cache["law"] = (state, point.law_backend, fn)
+    return fn
+
+
+class _Glue:
+    """The compiled counterparts (:mod:`grainmech.driver._packing_kernels`) of one kinematics' iteration glue.
+
+    :meth:`evaluate` is :func:`_evaluate` with ``G^T f`` and ``V sigma``; :meth:`limit`
+    is the trust limit of ``_solve`` (:func:`_clip`, :func:`_trust`, :func:`_closing_cap`).
+    """
+
+    def __init__(self, kin: Kinematics, mod: Any) -> None:
+        from grainmech.driver._packing_kernels import grain_positions
+
+        self.kin, self.k = kin, mod
+        self.g = (kin.G.indptr, kin.G.indices, kin.G.data)
+        self.gt = (kin.Gt.indptr, kin.Gt.indices, kin.Gt.data)
+        self.pos = grain_positions(kin.free, kin.n_grains)
+        self.l, self.n = np.ascontiguousarray(kin.l, dtype=float), np.ascontiguousarray(kin.n, dtype=float)
+
+    def evaluate(self, point: PackingPoint, dq: np.ndarray, de: np.ndarray) -> tuple:
+        """``(state, response, f, G^T f, V sigma)`` of the trial ``(dq, de)`` from ``point``."""
+        C = self.n.shape[0]
+        dn, dt = np.empty(C), np.empty((C, 3))
+        if not self.k.contact_increments(*self.g, np.ascontiguousarray(dq, dtype=float), self.l, self.n,
+                                         np.ascontiguousarray(de, dtype=float), point.scale, dn, dt):
+            raise _StepFailure("Newton update not finite")
+        try:
+            st, resp = _law_call(point)(dn, dt)
+        except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
+            raise _StepFailure(f"contact law error: {exc}") from None
+        f, rq, vs = np.empty((C, 3)), np.empty(self.kin.n_free), np.empty(6)
+        self.k.forces_balance(resp.normal_force, resp.tangential_force, self.n, self.l, *self.gt, f, rq, vs)
+        return st, resp, f, rq, vs
+
+    def limit(self, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, R: np.ndarray, move: float,
+              approach: np.ndarray | None, cap: float) -> tuple[np.ndarray, np.ndarray]:
+        """The update within the trust limit ``move``, each grain by itself (``approach`` None: no closing cap)."""
+        k = self.k
+        dxq = k.clip_moves(np.ascontiguousarray(dxq, dtype=float), self.pos, R, move)
+        d6 = np.zeros(6)
+        d6[S] = dxe
+        dxe = dxe / max(k.affine_move(self.l, d6) / move, 1.0)
+        if approach is not None:
+            d6[S] = dxe
+            dxq = k.closing_cap(*self.g, dxq, self.l, self.n, d6, np.ascontiguousarray(approach, dtype=float), cap,
+                                self.kin.a, self.kin.b, self.pos, self.kin.n_grains)[0]
+        return dxq, dxe
+
+
+#: _Glue per kinematics (weak: dropped with the run's points); None where numba is missing
+_GLUE: WeakKeyDictionary = WeakKeyDictionary()
+
+
+def _compiled_glue(point: PackingPoint) -> _Glue | None:
+    """The compiled iteration glue when the point's law runs compiled and numba imports, else None (NumPy)."""
+    if point.law_backend == "numpy" or compiled_kernel(point.params, point.law_backend or "auto") is None:
+        return None
+    kin = point.kinematics
+    if kin not in _GLUE:
+        try:
+            from grainmech.driver import _packing_kernels
+        except ImportError:  # pragma: no cover - numba present whenever a compiled law is
+            return None
+        _GLUE[kin] = _Glue(kin, _packing_kernels)
+    return _GLUE[kin]
+
+
 def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
     """Contact law at the trial increment (from the converged ``point``): state, response, forces."""
     kin, s = point.kinematics, point.scale
     D = kin.delta(dq, de)
-    dn = np.einsum("ij,ij->i", D, kin.n)
+    dn = kin.normal_part(D)
     dt = D - dn[:, None] * kin.n
     if not (np.all(np.isfinite(dn)) and np.all(np.isfinite(dt))):
         raise _StepFailure("Newton update not finite")
     try:
-        st, resp = update(point.params, point.state, dn * s, dt * s[:, None], **_law_kw(point.law_backend))
+        st, resp = _law_call(point)(dn * s, dt * s[:, None])
     except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
         raise _StepFailure(f"contact law error: {exc}") from None
     f = resp.normal_force[:, None] * kin.n + resp.tangential_force
@@ -160,12 +243,19 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     tole = opts.rtol * sref * V
     Dq, De = prec.dq, prec.de[S]
 
+    fast = _compiled_glue(point)
+
     def residual(xq: np.ndarray, xe: np.ndarray):
         de = de_E.copy()
         de[S] = xe
-        st, resp, f = _evaluate(point, xq, de)
-        rq = kin.balance(f) if point.load is None else kin.balance(f) - _held_load(point, resp)
-        vs = voigt_of(f, kin.l)
+        if fast is None:
+            st, resp, f = _evaluate(point, xq, de)
+            rq = kin.balance(f)
+            vs = voigt_of(f, kin.l)
+        else:
+            st, resp, f, rq, vs = fast.evaluate(point, xq, de)
+        if point.load is not None:
+            rq = rq - _held_load(point, resp)
         re = vs[S] - V * target[S]
         return st, resp, f, rq, re, vs, de
 
@@ -177,6 +267,9 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         A grain on a mechanism (free, rolling or sliding away) must not cut the others'
         update; every contact the update closes is stopped near touch (:func:`_closing_cap`).
         """
+        if fast is not None:
+            return fast.limit(dxq, dxe, S, Rg, move, st.approach / point.scale if abar > 0 else None,
+                              _CLOSE_CAP * abar)
         dxq = _clip(kin, dxq, Rg, move)
         dxe = dxe / _trust(kin, None, dxe, S, move)
         if abar > 0:
@@ -786,7 +879,7 @@ def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarra
     """
     d6 = np.zeros(6)
     d6[S] = dxe
-    dn = np.einsum("ij,ij->i", kin.delta(dxq, d6), kin.n)
+    dn = kin.normal_part(kin.delta(dxq, d6))
     over = (approach <= 0.0) & (approach + dn > cap) & (dn > 0.0)
     if not over.any():
         return dxq
