@@ -302,3 +302,17 @@ def test_positivity_shortcut_is_sound():
             d2 = FourierDensity(L, a, b, allow_negative=True)
             assert not (d2._certainly_positive() and d2.minimum().normalised <= 0)
     assert certified > 5  # the shortcut does fire
+
+
+@pytest.mark.parametrize("kw", [{"a22": 3.07e154}, {"b22": 5.05e153}, {"a20": -1e200}])
+def test_huge_coefficients_are_refused_without_overflow(kw):
+    """A config value such as a22 = 3e154 (found by tests/test_config_fuzz.py) is refused
+    with the one NegativeDensityError, and the positivity checks do not overflow on the
+    way (the squares of such coefficients exceed the float range: the norms are scaled, and
+    the minimum search runs on values divided by their largest magnitude)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(NegativeDensityError, match="negative"):
+            SphericalDensity.from_seed(**kw)

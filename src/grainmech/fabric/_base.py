@@ -327,6 +327,11 @@ class DensityBase:
             t = np.linspace(0.0, np.pi, max(720, 60 * L), endpoint=False)
             grid = np.stack([np.sin(t), np.cos(t)], axis=-1)
         vals = sign * self._normalised(grid)
+        # the refinements minimise values divided by the grid's largest magnitude: scale
+        # free, so that huge coefficients (a config value of 5e153) do not overflow the
+        # BFGS search's gradient norms (the density is linear in its coefficients)
+        fscale = float(np.max(np.abs(vals))) if np.all(np.isfinite(vals)) else 1.0
+        fscale = fscale if fscale > 0.0 else 1.0
         order_idx = np.argsort(vals)
         spacing = np.sqrt(2 * np.pi / len(grid)) if self.dim == 3 else np.pi / len(grid)
         cands: list[np.ndarray] = []
@@ -348,7 +353,7 @@ class DensityBase:
                     v = c + u[0] * t1 + u[1] * t2
                     return v / np.linalg.norm(v)
 
-                res = minimize(lambda u: float(sign * self._normalised(to_n(u)[None])[0]),
+                res = minimize(lambda u: float(sign * self._normalised(to_n(u)[None])[0]) / fscale,
                                np.zeros(2), method="BFGS", options={"gtol": 1e-12})
                 n_opt = to_n(res.x)
                 v = float(sign * self._normalised(n_opt[None])[0])
@@ -358,7 +363,7 @@ class DensityBase:
                 def g(th: float) -> float:
                     return float(sign * self._normalised(np.array([[np.sin(th), np.cos(th)]]))[0])
 
-                res = minimize_scalar(g, bounds=(th0 - 3 * spacing, th0 + 3 * spacing),
+                res = minimize_scalar(lambda th: g(th) / fscale, bounds=(th0 - 3 * spacing, th0 + 3 * spacing),
                                       method="bounded", options={"xatol": 1e-12})
                 n_opt = np.array([np.sin(res.x), np.cos(res.x)])
                 v = float(g(res.x))
