@@ -3,7 +3,7 @@
 Without CONFIG it runs the built-in default (``grainmech/data/default_run.toml``): cyclic
 simple shear of an isotropic Hertz-Mindlin/Mindlin-Deresiewicz quartz sand at several
 strain amplitudes with both kinematic models (the seed's affine model and the shipped
-'dense' packing with every grain in equilibrium, ~25 s), and writes CSV tables, a JSON
+'dense' packing with every grain in equilibrium, ~20 s), and writes CSV tables, a JSON
 summary and PNG plots (loops, G/Gmax and damping with Darendeli 2001 and Hardin-Drnevich
 1972 for the same mean stress) to OUTDIR (default ``./grainmech-out/run``).
 """
