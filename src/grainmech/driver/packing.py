@@ -158,7 +158,10 @@ class PackingOptions:
         within 0.0016 % (absolute) of iterating to ``rtol`` (``docs/packing-driver.md``).
         On the looser shipped 'medium' packing at 1e-4, beyond the fixed-geometry model
         at that amplitude, 0.1 stopped at step 59 ("no equilibrium") where 0 completed
-        the 80 steps: if a run on a loose packing stops, try ``settle=0``.
+        the 80 steps (session 12); with code that only rounds differently (session 13)
+        0.1 completed them too (G 133.40 against 133.5 MPa, damping 3.156 against 3.158
+        %): round-off picks the path there. If a run on a loose packing stops, try
+        ``settle=0``.
     """
 
     rtol: float = 1e-8
