@@ -376,6 +376,7 @@ class Preconditioner:
         self.de = 1.0 / np.sqrt(np.maximum(np.diag(self.A0), 1e-300))
         self.solves = 0
         self._exact: tuple | None = None
+        self._schur: dict = {}  # per stress-control mask: (B0_S, Y_S, Schur complement)
 
     def exact_Y(self, tol: float = 1e-10, maxiter: int = 200) -> tuple[np.ndarray, np.ndarray]:
         """``H0^-1 B0`` of the unshifted operator and its relative residual per column.
@@ -399,7 +400,10 @@ class Preconditioner:
         z = self.factor.solve(rq)
         if not S.any():
             return z, re[:0]
-        Bs, Ys = self.B0[:, S], self.Y[:, S]
-        Sc = self.A0[np.ix_(S, S)] - np.einsum("ik,il->kl", Bs, Ys)
+        key = tuple(bool(v) for v in S)
+        if key not in self._schur:  # the same for every solve of a run's segment
+            Bs, Ys = self.B0[:, S], self.Y[:, S]
+            self._schur[key] = (Bs, Ys, self.A0[np.ix_(S, S)] - np.einsum("ik,il->kl", Bs, Ys))
+        Bs, Ys, Sc = self._schur[key]
         ye = np.linalg.solve(Sc, re - np.einsum("ik,i->k", Bs, z))
         return z - np.einsum("ik,k->i", Ys, ye), ye
