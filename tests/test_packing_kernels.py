@@ -109,7 +109,7 @@ def test_kinematics_and_balance_equal_the_numpy_reference(point):
     N = rng.uniform(0.0, 2.0, kin.n_contacts)
     T = rng.standard_normal((kin.n_contacts, 3)) * 0.1
     f, rq, vs = np.empty((kin.n_contacts, 3)), np.empty(kin.n_free), np.empty(6)
-    K.forces_balance(N, T, glue.n, glue.l, *glue.gt, f, rq, vs)
+    K.forces_balance(N, T, glue.n, glue.l, *glue.gt, f.reshape(-1), rq, vs)
     f_ref = N[:, None] * kin.n + T
     np.testing.assert_array_equal(f, f_ref)
     np.testing.assert_array_equal(rq, kin.balance(f_ref))
@@ -141,8 +141,9 @@ def test_trust_limit_equals_the_numpy_reference(point):
     # the cap acted somewhere in these cases (else the test would not test it)
     d6 = np.zeros(6)
     big = rng.standard_normal(kin.n_free) * 1e-2
-    out, changed = K.closing_cap(*glue.g, big, glue.l, glue.n, d6, opened, cap, kin.a, kin.b, glue.pos,
-                                 kin.n_grains)
+    out = big.copy()
+    changed = K.closing_cap(*glue.g, big, glue.l, glue.n, d6, opened, cap, kin.a, kin.b, glue.pos,
+                            np.ones(kin.n_grains), out)
     assert changed and not np.array_equal(out, big)
 
 

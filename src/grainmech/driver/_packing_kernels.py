@@ -78,36 +78,47 @@ def contact_increments(indptr, indices, data, dq, l_, n, de, s, dn, dt):
 
 @njit(**_JIT)
 def forces_balance(N, T, n, l_, gt_indptr, gt_indices, gt_data, f, rq, vs):
-    """Contact forces ``f = N n + T`` (C, 3), out-of-balance ``rq = G^T f`` and ``vs = V sigma`` (6,).
+    """Contact forces ``f = N n + T``, out-of-balance ``rq = G^T f`` and ``vs = V sigma`` (6,).
 
-    ``vs`` in library order xx, yy, zz, yz, xz, xy of ``sym(sum_c f_c (x) l_c)``.
+    ``f`` is written as a flat (3C,) array (a view of the caller's (C, 3) array); ``vs``
+    in library order xx, yy, zz, yz, xz, xy of ``sym(sum_c f_c (x) l_c)``. Nothing is
+    allocated (scalar sums: a smaller function, compiled faster on a first run).
     """
-    S = np.zeros((3, 3))
+    s00 = s01 = s02 = s10 = s11 = s12 = s20 = s21 = s22 = 0.0
     for c in range(n.shape[0]):
-        for i in range(3):
-            fi = N[c] * n[c, i] + T[c, i]
-            f[c, i] = fi
-            for j in range(3):
-                S[i, j] += fi * l_[c, j]
-    fl = f.reshape(-1)
+        f0 = N[c] * n[c, 0] + T[c, 0]
+        f1 = N[c] * n[c, 1] + T[c, 1]
+        f2 = N[c] * n[c, 2] + T[c, 2]
+        f[3 * c] = f0
+        f[3 * c + 1] = f1
+        f[3 * c + 2] = f2
+        lx, ly, lz = l_[c, 0], l_[c, 1], l_[c, 2]
+        s00 += f0 * lx
+        s01 += f0 * ly
+        s02 += f0 * lz
+        s10 += f1 * lx
+        s11 += f1 * ly
+        s12 += f1 * lz
+        s20 += f2 * lx
+        s21 += f2 * ly
+        s22 += f2 * lz
     for row in range(rq.shape[0]):
-        rq[row] = _g_row(gt_indptr, gt_indices, gt_data, fl, row)
-    vs[0] = S[0, 0]
-    vs[1] = S[1, 1]
-    vs[2] = S[2, 2]
-    vs[3] = 0.5 * (S[1, 2] + S[2, 1])
-    vs[4] = 0.5 * (S[0, 2] + S[2, 0])
-    vs[5] = 0.5 * (S[0, 1] + S[1, 0])
+        rq[row] = _g_row(gt_indptr, gt_indices, gt_data, f, row)
+    vs[0] = s00
+    vs[1] = s11
+    vs[2] = s22
+    vs[3] = 0.5 * (s12 + s21)
+    vs[4] = 0.5 * (s02 + s20)
+    vs[5] = 0.5 * (s01 + s10)
 
 
 @njit(**_JIT)
-def clip_moves(x, pos, R, move):
+def clip_moves(x, pos, R, move, out):
     """Each grain's update (translation and surface rotation ``R |theta|`` together) cut to ``move``.
 
-    ``x`` (n_free,) free unknowns; ``pos`` (P, 6) index of each grain's unknown in ``x``
-    (-1: pinned). As :func:`grainmech.driver._packing_step._clip`.
+    ``x`` (n_free,) free unknowns, written cut into ``out``; ``pos`` (P, 6) index of each
+    grain's unknown in ``x`` (-1: pinned). As :func:`grainmech.driver._packing_step._clip`.
     """
-    out = x.copy()
     for p in range(pos.shape[0]):
         t2 = 0.0
         r2 = 0.0
@@ -124,7 +135,6 @@ def clip_moves(x, pos, R, move):
             j = pos[p, k]
             if j >= 0:
                 out[j] = x[j] * c
-    return out
 
 
 @njit(**_JIT)
@@ -138,15 +148,15 @@ def affine_move(l_, de):
 
 
 @njit(**_JIT)
-def closing_cap(indptr, indices, data, dxq, l_, n, de, approach, cap, a, b, pos, n_grains):
+def closing_cap(indptr, indices, data, dxq, l_, n, de, approach, cap, a, b, pos, f, out):
     """Grain update with every contact it closes stopped at an approach of ``cap``.
 
     As :func:`grainmech.driver._packing_step._closing_cap`: both grains of a contact
     that is open (``approach <= 0``) and would close beyond ``cap`` are scaled by the
     smallest factor ``(cap - approach)/dn`` (clipped to [0, 1]) over their closing
-    contacts. Returns ``(update, changed)``.
+    contacts. ``f`` (P,) ones on entry (work space). Returns True and the scaled update
+    in ``out`` if any contact closes beyond ``cap``; False (``out`` untouched) otherwise.
     """
-    f = np.ones(n_grains)
     changed = False
     for c in range(n.shape[0]):
         ap = approach[c]
@@ -162,15 +172,13 @@ def closing_cap(indptr, indices, data, dxq, l_, n, de, approach, cap, a, b, pos,
             fc = min(max((cap - ap) / dnc, 0.0), 1.0)
             f[a[c]] = min(f[a[c]], fc)
             f[b[c]] = min(f[b[c]], fc)
-    if not changed:
-        return dxq, False
-    out = dxq.copy()
-    for p in range(pos.shape[0]):
-        for k in range(6):
-            j = pos[p, k]
-            if j >= 0:
-                out[j] = dxq[j] * f[p]
-    return out, True
+    if changed:
+        for p in range(pos.shape[0]):
+            for k in range(6):
+                j = pos[p, k]
+                if j >= 0:
+                    out[j] = dxq[j] * f[p]
+    return changed
 
 
 def grain_positions(free: np.ndarray, n_grains: int) -> np.ndarray:

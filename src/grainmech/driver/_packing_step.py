@@ -119,22 +119,26 @@ class _Glue:
         except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
             raise _StepFailure(f"contact law error: {exc}") from None
         f, rq, vs = np.empty((C, 3)), np.empty(self.kin.n_free), np.empty(6)
-        self.k.forces_balance(resp.normal_force, resp.tangential_force, self.n, self.l, *self.gt, f, rq, vs)
+        self.k.forces_balance(resp.normal_force, resp.tangential_force, self.n, self.l, *self.gt, f.reshape(-1), rq,
+                              vs)
         return st, resp, f, rq, vs
 
     def limit(self, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, R: np.ndarray, move: float,
               approach: np.ndarray | None, cap: float) -> tuple[np.ndarray, np.ndarray]:
         """The update within the trust limit ``move``, each grain by itself (``approach`` None: no closing cap)."""
         k = self.k
-        dxq = k.clip_moves(np.ascontiguousarray(dxq, dtype=float), self.pos, R, move)
+        clipped = np.empty(dxq.size)
+        k.clip_moves(np.ascontiguousarray(dxq, dtype=float), self.pos, R, move, clipped)
         d6 = np.zeros(6)
         d6[S] = dxe
         dxe = dxe / max(k.affine_move(self.l, d6) / move, 1.0)
         if approach is not None:
             d6[S] = dxe
-            dxq = k.closing_cap(*self.g, dxq, self.l, self.n, d6, np.ascontiguousarray(approach, dtype=float), cap,
-                                self.kin.a, self.kin.b, self.pos, self.kin.n_grains)[0]
-        return dxq, dxe
+            capped = np.empty(dxq.size)
+            if k.closing_cap(*self.g, clipped, self.l, self.n, d6, np.ascontiguousarray(approach, dtype=float), cap,
+                             self.kin.a, self.kin.b, self.pos, np.ones(self.kin.n_grains), capped):
+                return capped, dxe
+        return clipped, dxe
 
 
 #: _Glue per kinematics (weak: dropped with the run's points); None where numba is missing
