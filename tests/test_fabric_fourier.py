@@ -123,3 +123,20 @@ def test_isotropic_and_errors():
         d([0.0, 0.0, 1.0])
     with pytest.raises(ParameterError, match="unit"):
         d([0.5, 0.5])
+
+
+@pytest.mark.parametrize(("a", "b"), [([2.5], [0.0]), ([1e308], [1e308]), ([0.0], [-1.7e308]), ([1.5], [1.5])])
+def test_impossible_coefficients_are_refused_before_any_evaluation(a, b):
+    """A coefficient pair of a density xi >= 0 with unit mean has sqrt(a_k^2 + b_k^2) <= 2
+    (twice the mean of a cosine over it): beyond, the error says so without evaluating the
+    series (no overflow warning for 1e308)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(NegativeDensityError, match="exceeds 2"):
+            FourierDensity(2, a, b)
+    # a point mass of unit mean reaches the bound: it is not refused by it
+    th = 0.3
+    assert FourierDensity(2, [2 * np.cos(2 * th)], [2 * np.sin(2 * th)], allow_negative=True)._impossible_coefficient() \
+        is None

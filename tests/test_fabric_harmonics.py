@@ -304,15 +304,39 @@ def test_positivity_shortcut_is_sound():
     assert certified > 5  # the shortcut does fire
 
 
-@pytest.mark.parametrize("kw", [{"a22": 3.07e154}, {"b22": 5.05e153}, {"a20": -1e200}])
+@pytest.mark.parametrize("kw", [{"a22": 3.07e154}, {"b22": 5.05e153}, {"a20": -1e200}, {"a22": 1.7e308},
+                                {"a20": 1.7e308}])
 def test_huge_coefficients_are_refused_without_overflow(kw):
     """A config value such as a22 = 3e154 (found by tests/test_config_fuzz.py) is refused
-    with the one NegativeDensityError, and the positivity checks do not overflow on the
-    way (the squares of such coefficients exceed the float range: the norms are scaled, and
-    the minimum search runs on values divided by their largest magnitude)."""
+    with the one NegativeDensityError before anything is evaluated: a coefficient of a
+    density xi >= 0 with unit integral is the mean of Y_km over xi, so |c_km| <=
+    max|Y_km| <= sqrt((2k+1)/(4 pi)) (addition theorem); no overflow warning on the way."""
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        with pytest.raises(NegativeDensityError, match="negative"):
+        with pytest.raises(NegativeDensityError, match=r"exceeds sqrt\(\(2k\+1\)/\(4 pi\)\) = 0\.6308"):
             SphericalDensity.from_seed(**kw)
+
+
+def test_coefficient_bound_is_attained_by_no_valid_density_and_spares_the_valid_ones():
+    """The bound |c_km| <= sqrt((2k+1)/(4 pi)) never refuses a non-negative density: the
+    seed's extreme valid second-order densities (1 + a20 P2 >= 0 for a20 = 2 and -1) pass
+    it, and so do the coefficients of non-negative measures of unit mass concentrated on a
+    few directions (weighted means of Y_km: the largest coefficients such a measure has),
+    which come within a few per cent of the bound but not over it."""
+    for kw in ({"a20": 2.0}, {"a20": -1.0}, {"a22": 1.0 / 6.0}, {"b22": -1.0 / 6.0}):
+        d = SphericalDensity.from_seed(**kw)
+        assert d._impossible_coefficient() is None
+    ref = SphericalDensity(order=6, coefficients=np.zeros(27))
+    bound = np.sqrt((2 * ref._ks + 1) / (4 * np.pi))
+    rng = np.random.default_rng(4)
+    worst = 0.0
+    for size in (1, 2, 3, 50):
+        for _ in range(200):
+            pts = rng.standard_normal((size, 3))
+            pts /= np.linalg.norm(pts, axis=1)[:, None]
+            w = rng.random(size)
+            c = (w / w.sum()) @ real_sh(pts, ref._ks, ref._ms)
+            worst = max(worst, float(np.max(np.abs(c) / bound)))
+    assert 0.9 < worst <= 1.0 + 1e-12

@@ -405,8 +405,15 @@ class DensityBase:
     def check_nonnegative(self) -> None:
         """Raise :class:`NegativeDensityError` if ``xi < 0`` somewhere (beyond round-off).
 
-        The message gives the minimum value, the direction and the seed's angles.
+        The message gives the minimum value, the direction and the seed's angles, or,
+        for a coefficient that no non-negative density can have
+        (:meth:`_impossible_coefficient`), that coefficient and its bound.
         """
+        bad = self._impossible_coefficient()
+        if bad is not None:
+            raise NegativeDensityError(
+                f"{type(self).__name__} of order {self.order} is negative somewhere: {bad}. Reduce the "
+                f"anisotropy coefficients, or pass allow_negative=True to keep it anyway.")
         if self._certainly_positive():
             return
         m = self.minimum()
@@ -419,7 +426,18 @@ class DensityBase:
     @property
     def is_nonnegative(self) -> bool:
         """True if ``xi >= 0`` everywhere (to round-off)."""
+        if self._impossible_coefficient() is not None:
+            return False
         return self._certainly_positive() or self.minimum().normalised >= -NEGATIVE_TOL
+
+    def _impossible_coefficient(self) -> str | None:
+        """A coefficient larger than any non-negative density of unit mean allows (its description), or None.
+
+        Each coefficient is the mean of a bounded function over the density, so it is
+        bounded by that function's maximum (the subclasses say which). Checked before any
+        evaluation: coefficients of 1e154 and more overflow the grid values.
+        """
+        return None
 
     def _certainly_positive(self) -> bool:
         """True when ``xi > 0`` everywhere is proven without a refined minimum search.

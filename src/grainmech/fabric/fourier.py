@@ -86,6 +86,20 @@ class FourierDensity(DensityBase):
         th = seed_theta(n)[..., None] * self._k
         return 1.0 + np.cos(th) @ self.a + np.sin(th) @ self.b
 
+    def _impossible_coefficient(self) -> str | None:
+        """``sqrt(a_k^2 + b_k^2) > 2``: impossible for ``xi >= 0``.
+
+        ``a_k cos k theta + b_k sin k theta = r_k cos(k theta - phi_k)`` with ``r_k`` twice
+        the mean of ``cos(k theta - phi_k)`` weighted by the normalised density (mean 1),
+        so ``r_k <= 2``. Each of ``|a_k|``, ``|b_k|`` is compared first (no overflow).
+        """
+        for j, k in enumerate(self._k):
+            a, b = float(self.a[j]), float(self.b[j])
+            if abs(a) > 2.0 or abs(b) > 2.0 or np.hypot(a, b) > 2.0 * (1.0 + 1e-12):  # (round-off of a bound attained)
+                return (f"coefficients a_{int(k)} = {a:.4g}, b_{int(k)} = {b:.4g}: sqrt(a^2 + b^2) exceeds 2, "
+                        "the largest any non-negative density allows")
+        return None
+
     def _anisotropy_bound(self) -> float:
         """``sum_k sqrt(a_k^2 + b_k^2)``, the largest possible ``|a_k cos + b_k sin|`` summed."""
         return float(np.sum(np.hypot(self.a, self.b)))

@@ -116,6 +116,21 @@ class SphericalDensity(DensityBase):
             return np.ones(n.shape[:-1])
         return 1.0 + 4.0 * np.pi * (real_sh(n, self._ks, self._ms) @ self.coefficients)
 
+    def _impossible_coefficient(self) -> str | None:
+        """``|c_km| > sqrt((2k + 1) / (4 pi))``: impossible for ``xi >= 0``.
+
+        ``c_km = int xi Y_km dOmega`` with ``int xi dOmega = 1``, so ``|c_km| <= max |Y_km|``,
+        and the addition theorem (``sum_m Y_km^2 = (2k + 1) / (4 pi)``) bounds ``|Y_km|``.
+        """
+        c = np.asarray(self.coefficients)
+        bound = np.sqrt((2 * self._ks + 1) / (4.0 * np.pi))
+        over = np.nonzero(np.abs(c) > bound * (1.0 + 1e-12))[0]  # (round-off: a point mass attains the bound)
+        if over.size == 0:
+            return None
+        j = int(over[0])
+        return (f"coefficient c_({int(self._ks[j])},{int(self._ms[j])}) = {c[j]:.4g} exceeds "
+                f"sqrt((2k+1)/(4 pi)) = {bound[j]:.4g}, the largest any non-negative density allows")
+
     def _anisotropy_bound(self) -> float:
         """``sum_k ||c_k|| sqrt(4 pi (2k + 1))``, a bound of the anisotropic part.
 
