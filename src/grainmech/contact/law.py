@@ -374,7 +374,11 @@ class CompiledUpdate:
         :func:`compiled_kernel` of the law (not None).
     params : ContactParams
     state : ContactState
-        Start state (not modified; the kernel reads copies).
+        Start state (not modified: the kernel only reads it; contiguous arrays of the
+        kernel's dtypes are used as they are, others converted once).
+    T0, e0 : arrays (n, dim), optional
+        The start tangential force and memory axis if they differ from the state's
+        (re-projected onto turned normals by :func:`update`).
     """
 
     def __init__(self, kernel: ModuleType, params: ContactParams, state: ContactState,
