@@ -74,3 +74,30 @@ def test_base_config_is_valid(tmp_path, cli):
     p = tmp_path / "ok.toml"
     p.write_text(_dump(BASE))
     assert cli("stiffness", str(p), "--json").rc == 0
+
+
+import pytest  # noqa: E402
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize(("key", "value", "named"), [
+    (("packing", "coordination"), 2.225073858507e-311, "packing.coordination"),
+    (("packing", "coordination"), 9.638604024989455e+297, "packing.coordination"),
+    (("packing", "coordination"), 1e-4, "packing.coordination"),
+    (("fabric", "a22"), 3.068012262549445e+154, "negative"),
+    (("fabric", "b22"), 1.7e308, "negative"),
+])
+def test_values_found_by_the_fuzzer_are_refused_without_warnings(tmp_path, cli, key, value, named):
+    """Values the hypothesis test above drew (a subnormal and a huge coordination number,
+    fabric coefficients near the float range) gave NaN forces or overflow warnings before
+    the error. The coordination number is now bounded to [1e-3, 1e3] (far outside every
+    packing) and impossible fabric coefficients are refused before any evaluation: one
+    error line, no RuntimeWarning."""
+    cfg = {t: dict(tab) for t, tab in BASE.items()}
+    cfg[key[0]][key[1]] = value
+    path = tmp_path / "found.toml"
+    path.write_text(_dump(cfg), encoding="utf-8")
+    res = cli("stiffness", str(path), "--json")
+    assert res.rc == 2
+    lines = res.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("grainmech: error:") and named in lines[0], res.err

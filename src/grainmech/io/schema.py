@@ -210,6 +210,14 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
     return float(m)
 
 
+#: Mean coordination numbers a config may give (contacts per grain): 1e-3 to 1e3. Far
+#: outside every packing (3-14 for spheres, more only for very unequal sizes), and the
+#: limits keep the contact forces (which go as 1/m) away from floating-point under- and
+#: overflow: a fuzz test's 2e-311 and 9.6e297 gave NaN forces and overflow warnings
+#: before the error.
+COORDINATION_MIN, COORDINATION_MAX = 1e-3, 1e3
+
+
 def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
     """Packing from the ``[packing]`` table and a density.
 
@@ -236,7 +244,7 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
         m = coordination_relation(sec, e, pressure)
     else:
         try:
-            m = sec.number("coordination", None, min=0, min_inclusive=False)
+            m = sec.number("coordination", None, min=COORDINATION_MIN, max=COORDINATION_MAX)
         except ConfigError:
             if isinstance(coord, str):
                 raise ConfigError(sec.key("coordination"), coord, "must be a positive number or one of "
