@@ -50,6 +50,15 @@ def _g_row(indptr, indices, data, x, row):
 
 
 @njit(**_JIT)
+def _delta(indptr, indices, data, x, l_, de, c):
+    """Relative displacement ``G_c x + l_c . eps`` (3 components) of contact ``c`` (seed Eq. 2.13)."""
+    a0, a1, a2 = _affine(l_, de, c)
+    return (_g_row(indptr, indices, data, x, 3 * c) + a0,
+            _g_row(indptr, indices, data, x, 3 * c + 1) + a1,
+            _g_row(indptr, indices, data, x, 3 * c + 2) + a2)
+
+
+@njit(**_JIT)
 def contact_increments(indptr, indices, data, dq, l_, n, de, s, dn, dt):
     """Normal and tangential relative displacement of every contact, in law space.
 
@@ -59,10 +68,7 @@ def contact_increments(indptr, indices, data, dq, l_, n, de, s, dn, dt):
     """
     ok = True
     for c in range(n.shape[0]):
-        a0, a1, a2 = _affine(l_, de, c)
-        d0 = _g_row(indptr, indices, data, dq, 3 * c) + a0
-        d1 = _g_row(indptr, indices, data, dq, 3 * c + 1) + a1
-        d2 = _g_row(indptr, indices, data, dq, 3 * c + 2) + a2
+        d0, d1, d2 = _delta(indptr, indices, data, dq, l_, de, c)
         nx, ny, nz = n[c, 0], n[c, 1], n[c, 2]
         dnc = d0 * nx + d1 * ny + d2 * nz
         t0, t1, t2 = d0 - dnc * nx, d1 - dnc * ny, d2 - dnc * nz
@@ -162,10 +168,7 @@ def closing_cap(indptr, indices, data, dxq, l_, n, de, approach, cap, a, b, pos,
         ap = approach[c]
         if ap > 0.0:
             continue
-        a0, a1, a2 = _affine(l_, de, c)
-        d0 = _g_row(indptr, indices, data, dxq, 3 * c) + a0
-        d1 = _g_row(indptr, indices, data, dxq, 3 * c + 1) + a1
-        d2 = _g_row(indptr, indices, data, dxq, 3 * c + 2) + a2
+        d0, d1, d2 = _delta(indptr, indices, data, dxq, l_, de, c)
         dnc = d0 * n[c, 0] + d1 * n[c, 1] + d2 * n[c, 2]
         if ap + dnc > cap and dnc > 0.0:
             changed = True

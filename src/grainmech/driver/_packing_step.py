@@ -91,6 +91,14 @@ def _law_call(point: PackingPoint) -> Callable[[np.ndarray, np.ndarray], tuple]:
     return fn
 
 
+def _law_step(point: PackingPoint, dn: np.ndarray, dt: np.ndarray) -> tuple:
+    """New contact state and response for law-space increments; a law error fails the step."""
+    try:
+        return _law_call(point)(dn, dt)
+    except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
+        raise _StepFailure(f"contact law error: {exc}") from None
+
+
 class _Glue:
     """The compiled counterparts (:mod:`grainmech.driver._packing_kernels`) of one kinematics' iteration glue.
 
@@ -114,10 +122,7 @@ class _Glue:
         if not self.k.contact_increments(*self.g, np.ascontiguousarray(dq, dtype=float), self.l, self.n,
                                          np.ascontiguousarray(de, dtype=float), point.scale, dn, dt):
             raise _StepFailure("Newton update not finite")
-        try:
-            st, resp = _law_call(point)(dn, dt)
-        except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
-            raise _StepFailure(f"contact law error: {exc}") from None
+        st, resp = _law_step(point, dn, dt)
         f, rq, vs = np.empty((C, 3)), np.empty(self.kin.n_free), np.empty(6)
         self.k.forces_balance(resp.normal_force, resp.tangential_force, self.n, self.l, *self.gt, f.reshape(-1), rq,
                               vs)
@@ -167,10 +172,7 @@ def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
     dt = D - dn[:, None] * kin.n
     if not (np.all(np.isfinite(dn)) and np.all(np.isfinite(dt))):
         raise _StepFailure("Newton update not finite")
-    try:
-        st, resp = _law_call(point)(dn * s, dt * s[:, None])
-    except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
-        raise _StepFailure(f"contact law error: {exc}") from None
+    st, resp = _law_step(point, dn * s, dt * s[:, None])
     f = resp.normal_force[:, None] * kin.n + resp.tangential_force
     return st, resp, f
 

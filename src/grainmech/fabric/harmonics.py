@@ -138,11 +138,7 @@ class SphericalDensity(DensityBase):
         of ``4 pi sum c_km Y_km`` by ``||c_k|| sqrt(4 pi (2k + 1))``.
         """
         c = np.asarray(self.coefficients)
-        big = float(np.max(np.abs(c), initial=0.0))
-        if not big > 0.0:
-            return 0.0
-        # scaled by the largest coefficient: no overflow of the squares for huge values
-        return float(sum(big * np.linalg.norm(c[self._ks == k] / big) * np.sqrt(4.0 * np.pi * (2 * k + 1))
+        return float(sum(np.linalg.norm(c[self._ks == k]) * np.sqrt(4.0 * np.pi * (2 * k + 1))
                          for k in np.unique(self._ks)))
 
     def _degree_part(self, n: np.ndarray, k: int) -> np.ndarray:
