@@ -9,9 +9,12 @@ Mindlin-Deresiewicz law, in two variants:
 * ``stress``: constant normal stress sigma_zz (mixed control: Newton iterations per step,
   the whole step/Newton loop in one compiled call, ``driver/_mixed.py``).
 
-The Lebedev set is centrosymmetric, so the compiled driver evaluates one row of each
-antipodal pair with twice its weight (``driver/_fold.py``; ``SolverOptions(fold=False)``
-evaluates all).
+The Lebedev set is invariant under the antipodal map and the mirrors through the
+coordinate planes, and simple shear in xz (eps_xy = eps_yz = 0) under the mirror
+y -> -y, so the compiled driver evaluates one row per orbit of the four sign maps with
+the orbit's weight (``driver/_fold.py``: 1475 of the 5810 rows; ``SolverOptions(fold=False)``
+evaluates all). ``--antipodal-only`` folds by the antipodal map alone (2905 rows), as
+before the mirrors were used, for a before/after in the same run.
 
 Reports the wall time (best of ``--repeat``, serial and with numba's threads), law
 evaluations per step, steps and direction-updates per second (one direction-update = one
@@ -59,7 +62,14 @@ def main() -> None:
                     help="cost against size: comma list of direction counts (e.g. 1e3,1e4,1e5,1e6), each "
                          "a random isotropic set without antipodal pairs, one cycle of --steps steps "
                          "with sigma_zz held, numba's threads")
+    ap.add_argument("--antipodal-only", action="store_true",
+                    help="fold by the antipodal map alone (no mirrors): the driver before the mirrors")
     a = ap.parse_args()
+    if a.antipodal_only:
+        from grainmech.driver import _fused, _mixed
+
+        for mod in (_fused, _mixed):
+            mod.path_mirrors = lambda *args: ()  # type: ignore[assignment]
 
     rng = np.random.default_rng(0)
     A, B = rng.random((2048, 2048)), rng.random((2048, 2048))
@@ -76,12 +86,15 @@ def main() -> None:
     pt = MaterialPoint.isotropic(cs, law, 1e5, backend=a.backend)
     print(f"directions: {len(cs)}  cycles: {a.cycles} x {a.steps} steps  law: Mindlin-Deresiewicz  "
           f"backend: {a.backend}")
-    from grainmech.driver._fold import antipodal_pairs
+    from grainmech.driver._fold import fold, path_mirrors
 
-    folded = a.backend != "numpy" and antipodal_pairs(cs.normals, cs.branch, cs.weights) is not None
-    print(f"rows evaluated by the compiled driver: {len(cs) // 2 if folded else len(cs)} "
-          f"({'one of each antipodal pair, twice its weight' if folded else 'all'}; "
-          "direction-updates/s below count every direction)")
+    for constant in a.constant:
+        p = cyclic_simple_shear(a.amplitude, 1, 4, constant=constant)
+        mirrors = () if a.antipodal_only else path_mirrors(p.stress_control[0], p.increment, pt.stress)
+        f = fold(cs, pt.state, pt.response, True, mirrors)[0] if a.backend != "numpy" else None
+        print(f"rows evaluated by the compiled driver ({constant}): {len(cs) if f is None else len(f.rows)} "
+              f"({'all' if f is None else f'one per orbit of {len(f.group)} sign maps, the orbit weight'}; "
+              "direction-updates/s below count every direction)")
     for constant in a.constant:
         path = cyclic_simple_shear(a.amplitude, a.cycles, a.steps, constant=constant)
         threads = get_num_threads()

@@ -217,40 +217,150 @@ def test_compile_worker_can_be_switched_off(monkeypatch):
     assert _mixed._start_worker(((0, False), (), False, ())) is None
 
 
-@pytest.mark.parametrize("constant", ["stress", "volume"])
-def test_antipodal_rows_stay_mirrors_and_folding_them_changes_nothing(monkeypatch, constant):
-    """Folding a centrosymmetric set (driver/_fold.py): an unfolded run keeps every row the
-    exact mirror of its antipode (T and the slip axis negated bit for bit, every other field
-    equal: the premise, checked on the law itself), and the folded run -- half the rows,
-    twice the weight -- gives the unfolded run's stresses, tangents, energies and Newton
-    iterations to rounding, and its unfolded final state. Cyclic simple shear to 1e-3 with
-    sigma_zz held (the compiled Newton loop) or at constant volume (the fused pass)."""
-    from grainmech.driver import _fold, _fused, _mixed
+def _assert_images(state, cs, group, rtol=0.0):
+    """Every row of ``state`` is the image of its partner under each sign map of ``group``
+    (vector fields mapped, the others equal), bit for bit (``rtol = 0``) or to ``rtol`` of
+    the field's largest magnitude: the folding's premise."""
+    from grainmech.driver import _fold
 
-    pt = _point(41, "auto")
-    cs = pt.contacts
-    keep, partner = _fold.antipodal_pairs(cs.normals, cs.branch, cs.weights)
-    assert keep.size == partner.size == len(cs) // 2
-    np.testing.assert_array_equal(cs.normals[partner], -cs.normals[keep])
-    path = cyclic_simple_shear(1e-3, 2, 40, constant=constant)
+    for g in group:
+        img = _fold.images(cs.normals, cs.branch, cs.weights, g)
+        assert img is not None, g
+        for name, a in zip(state._fields, state):
+            want = a * np.asarray(g, a.dtype) if name in _fold.VECTOR_FIELDS else a
+            if rtol and a.dtype.kind == "f":
+                np.testing.assert_allclose(a[img], want, rtol=0, atol=rtol * np.abs(a).max(),
+                                           err_msg=f"{name} under {g}")
+            else:
+                np.testing.assert_array_equal(a[img], want, err_msg=f"{name} under {g}")
+
+
+def _folded_equals_unfolded(monkeypatch, pt, path, mod, group_size):
+    """The folded run (one row per orbit) against the unfolded one: stresses, tangents,
+    energies and Newton iterations to rounding, the unfolded final state; the folded path
+    taken (``mod.unfold`` called with a folding of ``group_size`` maps)."""
+    from grainmech.driver import _fold
+
     full = run(pt, path, options=SolverOptions(fold=False))
-    st = full.final.state
-    for name, a in zip(st._fields, st):
-        want = -a[keep] if name in _fold.FLIPPED_STATE else a[keep]
-        np.testing.assert_array_equal(a[partner], want, err_msg=name)
+    assert full.success, full.message
     calls = []
-    mod = _mixed if constant == "stress" else _fused
     real = mod.unfold
-    monkeypatch.setattr(mod, "unfold", lambda *a: calls.append(1) or real(*a))
+    monkeypatch.setattr(mod, "unfold", lambda *a: calls.append(a[0]) or real(*a))
     folded = run(pt, path)
-    assert calls, "the folded path was not taken"
+    assert calls and all(len(c.group) == group_size for c in calls), "the folded path was not taken"
     _agree(folded, full, rtol=1e-10)
     np.testing.assert_array_equal(folded.iterations, full.iterations)
+    st = full.final.state
     for name, a, b in zip(st._fields, folded.final.state, st):
         if a.dtype.kind == "f":
             np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-8 * np.abs(b).max(), err_msg=name)
         else:
             np.testing.assert_array_equal(a, b, err_msg=name)
+    return full, calls[0]
+
+
+@pytest.mark.parametrize("constant", ["stress", "volume"])
+def test_symmetric_rows_stay_images_and_folding_them_changes_nothing(monkeypatch, constant):
+    """Folding by the path's symmetries (driver/_fold.py). Cyclic simple shear in xz
+    (gamma_xz cycled, eps_xy = eps_yz = 0) with sigma_zz held (the compiled Newton loop) or
+    at constant volume (the fused pass) is invariant under the antipodal map and the
+    mirror y -> -y: an unfolded run keeps every row the exact image of its partner under
+    the four maps of that group (T and the slip axis mapped bit for bit, every other field
+    equal: the premise, checked on the law itself), and the folded run -- one row per orbit
+    (5810 -> 1475 rows at degree 131; 194 -> 53 at degree 23), the orbit's weight -- gives the
+    unfolded run's stresses, tangents, energies and Newton iterations to rounding, and its
+    unfolded final state. Cyclic simple shear to 1e-3."""
+    from grainmech.driver import _fold, _fused, _mixed
+
+    pt = _point(41, "auto")
+    cs = pt.contacts
+    path = cyclic_simple_shear(1e-3, 2, 40, constant=constant)
+    assert _fold.path_mirrors(path.stress_control[0], path.increment, pt.stress) == ((1, -1, 1),)
+    mod = _mixed if constant == "stress" else _fused
+    # the isotropic start is symmetric to rounding only (its forces come from a matrix
+    # product): the fold takes it, and the results agree to rounding
+    full, f = _folded_equals_unfolded(monkeypatch, pt, path, mod, 4)
+    assert sorted(map(tuple, f.group.tolist())) == [(-1, -1, -1), (-1, 1, -1), (1, -1, 1), (1, 1, 1)]
+    assert len(f.rows) < len(cs) // 3
+    # the premise, from an exactly symmetric start (the representatives' rows unfolded):
+    # the unfolded run keeps every row the exact image of its partners
+    st0 = type(pt.state)(*(f.unfold(a[f.rows], name) for name, a in zip(pt.state._fields, pt.state)))
+    _assert_images(st0, cs, f.group)
+    exact = MaterialPoint.from_forces(cs, LAW, st0.normal_force, st0.tangential_force)
+    full = run(exact, path, options=SolverOptions(fold=False))
+    assert full.success, full.message
+    _assert_images(full.final.state, cs, f.group)
+    # the folded sums' components: sigma_xy, sigma_yz are odd under y -> -y (zero), and so
+    # are the tangent entries coupling them to the others
+    sym = f.sym
+    np.testing.assert_array_equal(sym[:6], [1, 1, 1, 0, 1, 0])
+    S = sym[6:].reshape(6, 6)
+    assert S[3, 5] == S[5, 3] == S[3, 3] == 1 and S[3, 4] == S[0, 5] == 0 and S[0, 4] == 1
+    assert np.abs(full.stress[:, [3, 5]]).max() <= 1e-12 * np.abs(full.stress).max()
+
+
+def test_triaxial_path_folds_by_all_three_mirrors(monkeypatch):
+    """A drained cyclic triaxial path (eps_zz cycled, lateral and shear stresses held at
+    their zero targets) is invariant under every mirror through a coordinate plane: the
+    group of eight sign maps, ~1/8 of the rows; the folded Newton loop equals the
+    unfolded one, and the unfolded state is the image of itself under all eight maps --
+    to rounding: with the shear stresses held, the unfolded run's Newton corrects the shear
+    strains by rounding-level amounts (its stress sums are symmetric only to rounding),
+    so its rows are images to 1e-12, not bit for bit (the folded run keeps them at zero)."""
+    from grainmech.driver import _mixed
+    from grainmech.driver.paths import cyclic_triaxial
+
+    pt = _point(23, "auto")
+    path = cyclic_triaxial(2e-4, 1, 40)
+    _, f = _folded_equals_unfolded(monkeypatch, pt, path, _mixed, 8)
+    assert len(f.rows) == 31  # of 194
+    st0 = type(pt.state)(*(f.unfold(a[f.rows], name) for name, a in zip(pt.state._fields, pt.state)))
+    exact = MaterialPoint.from_forces(pt.contacts, LAW, st0.normal_force, st0.tangential_force)
+    full = run(exact, path, options=SolverOptions(fold=False))
+    _assert_images(full.final.state, pt.contacts, f.group, rtol=1e-12)
+    np.testing.assert_array_equal(f.sym[:6], [1, 1, 1, 0, 0, 0])
+
+
+def test_path_mirrors_follow_the_zero_shear_components():
+    """Which mirrors a path allows (driver/_fold.path_mirrors)."""
+    from grainmech.driver._fold import path_mirrors
+    from grainmech.driver.paths import Control, parse_mask
+
+    E = parse_mask("EEEEEE").array
+    inc = np.zeros((3, 6))
+    inc[:, 4] = 1e-5   # gamma_xz: x and z mirrors change its sign
+    assert path_mirrors(E, inc) == ((1, -1, 1),)
+    inc[1, 5] = 1e-9   # one step with gamma_xy too: no mirror at all
+    assert path_mirrors(E, inc) == ()
+    inc = np.zeros((3, 6))
+    inc[:, 2] = -1e-5  # axial only: all three
+    assert path_mirrors(E, inc) == ((-1, 1, 1), (1, -1, 1), (1, 1, -1))
+    S = Control.all_stress().array
+    # stress-controlled shear components: only with zero increments and zero targets
+    assert path_mirrors(S, inc, np.array([1e5, 1e5, 1e5, 0, 0, 0])) == ((-1, 1, 1), (1, -1, 1), (1, 1, -1))
+    assert path_mirrors(S, inc, np.array([1e5, 1e5, 1e5, 0, 0, 1.0])) == ((1, 1, -1),)  # sigma_xy = 1
+    assert path_mirrors(S, inc) == ()  # targets unknown
+
+
+def test_a_state_that_breaks_a_mirror_folds_by_the_rest():
+    """A tangential force with a y-component on one row breaks y -> -y but keeps the
+    antipodal symmetry (it is set on the row's antipode too): the group of two is taken."""
+    from grainmech.driver import _fold
+
+    pt = _point(23, "auto")
+    cs = pt.contacts
+    keep, partner = _fold.antipodal_pairs(cs.normals, cs.branch, cs.weights)
+    T = pt.state.tangential_force.copy()
+    T[keep[4]] = [0.0, 1e-3, 0.0]
+    T[partner[4]] = [0.0, -1e-3, 0.0]
+    st = pt.state._replace(tangential_force=T)
+    f = _fold.fold(cs, st, pt.response, True, ((1, -1, 1),))[0]
+    assert f is not None and sorted(map(tuple, f.group.tolist())) == [(-1, -1, -1), (1, 1, 1)]
+    assert len(f.rows) == len(cs) // 2
+    # unfolding the representatives' rows gives the whole state back
+    for name, a in zip(st._fields, st):
+        np.testing.assert_array_equal(f.unfold(a[f.rows], name), a, err_msg=name)
+    assert _fold.fold(cs, st, pt.response, False, ((1, -1, 1),))[0] is None
 
 
 def test_no_folding_without_exact_antipodes_or_a_mirrored_state():

@@ -37,8 +37,8 @@ from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
 from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
-from grainmech.driver._fold import FLIPPED_STATE, unfold
 from grainmech.driver._fold import fold as fold_rows
+from grainmech.driver._fold import path_mirrors, unfold
 from grainmech.driver._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
 
 __all__ = ["strain_path"]
@@ -252,9 +252,10 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
         each step, ``K`` the law's step tangent (``ContactResponse.t_delta``,
         ``t_alpha``; :func:`grainmech.driver._mixed.add_step_jacobian`) (for Newton).
     fold : bool
-        Evaluate one row of each antipodal pair of a centrosymmetric contact set with twice
-        its weight when the state is mirrored (:mod:`grainmech.driver._fold`); the state
-        and response returned are unfolded.
+        Evaluate one row per orbit of the symmetries of the contact set, the state and the
+        path (the antipodal map, mirrors through coordinate planes whose odd shear
+        components the path leaves at zero), with the orbit's weight
+        (:mod:`grainmech.driver._fold`); the state and response returned are unfolded.
 
     Returns
     -------
@@ -271,7 +272,9 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     cs = point.contacts
     params = point.law.params
     consts = constants(params)
-    pairs, normals, branch, weights, st, _ = fold_rows(cs, point.state, point.response, fold)
+    # one row per orbit of the symmetries of the rows, the state and the path (driver/_fold.py)
+    folding, normals, branch, weights, st, _ = fold_rows(cs, point.state, point.response, fold,
+                                                         path_mirrors(np.zeros(6, dtype=bool), d_strain))
     n = normals.shape[0]
     m = d_strain.shape[0]
     nch = (n + _CH - 1) // _CH
@@ -309,16 +312,19 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     frac = scal[:, :2] / wtot if wtot > 0 else np.zeros((m, 2))
     tangent = np.array([moments_to_voigt(mom[k]) for k in range(m)])
     state = state._replace(sliding=f_slide)
-    if pairs is not None:
-        keep, partner = pairs
-        state = type(state)(*(unfold(x, keep, partner, name in FLIPPED_STATE)
-                              for name, x in zip(state._fields, state)))
-        f_slide, f_open = state.sliding, unfold(f_open, keep, partner, False)
-        f_kn, f_ks, f_ksp, f_ktn, f_diss, f_td = (unfold(x, keep, partner, False)
-                                                  for x in (f_kn, f_ks, f_ksp, f_ktn, f_diss, f_td))
-        f_ta = unfold(f_ta, keep, partner, True)  # dT/d alpha changes sign with T
+    jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
+    if folding is not None:
+        state = type(state)(*(unfold(folding, x, name) for name, x in zip(state._fields, state)))
+        f_slide, f_open = state.sliding, unfold(folding, f_open)
+        f_kn, f_ks, f_ksp, f_ktn, f_diss = (unfold(folding, x) for x in (f_kn, f_ks, f_ksp, f_ktn, f_diss))
+        f_td = unfold(folding, f_td, "t_delta")  # dT/d delta: entry ab times g_a g_b
+        f_ta = unfold(folding, f_ta, "t_alpha")  # dT/d alpha: mapped as T
+        # the components the group does not leave invariant sum to zero over each orbit
+        sym = folding.sym
+        stress = stress * sym[:6]
+        tangent = tangent * sym[6:].reshape(6, 6)
+        jac = jac * sym[6:].reshape(6, 6)
     response = ContactResponse(state.normal_force, state.tangential_force, f_kn, f_ks, f_ksp, f_ktn,
                                state.axis, f_slide, f_open, f_diss, f_td, f_ta)
-    jac = jac_c.sum(axis=0) if jrows.any() else np.zeros((m, 6, 6))
     return {"stress": stress, "tangent": tangent, "jacobian": jac, "sliding": frac[:, 0], "open": frac[:, 1],
             "dissipation": scal[:, 2], "stored": scal[:, 3], "state": state, "response": response}

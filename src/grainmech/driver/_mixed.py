@@ -7,8 +7,7 @@ same predictor, same acceptance rules (``rtol``; ``rtol_accept`` on a two-cycle 
 after ``max_iter``), same subdivision, same failure causes -- for every step of a
 segment of constant control mask inside one compiled function, so that no Python runs
 between law evaluations. Per evaluation, one pass over the contacts (chunks of
-``_CH``, a ``prange`` from :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD`
-contacts):
+``_CH``, a ``prange`` from :data:`PARALLEL_ROWS` rows):
 
 * kinematics, seed Eq. 2.13 (``delta = d eps . l``) and the normal law at the step's
   end (seed Eq. 3.6, 3.2), exactly as :mod:`grainmech.driver._fused`;
@@ -56,12 +55,17 @@ from grainmech.contact.kernel import (
     KernelScratch,
     KernelState,
 )
-from grainmech.driver._fold import FLIPPED_STATE, fold, unfold
+from grainmech.driver._fold import fold, path_mirrors, unfold
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 _CH = 128  # contacts per chunk (work item of the prange)
+#: rows from which the evaluation pass runs on numba's threads (with more than one): on
+#: 2 cores the threaded pass was 0.74-0.97x the serial one's speed at 768-1024 rows and
+#: 1.2-1.4x from 1152 rows on (random sets, cyclic simple shear with sigma_zz held;
+#: ``docs/performance.md``, "Mixed-control driver")
+PARALLEL_ROWS = 1152
 # functions that allocate nothing: compiled without numba's reference counting (atomic
 # increments of the arrays they are passed, per contact)
 _NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
@@ -355,10 +359,12 @@ def _cond2(J):
 
 
 @njit(**_INNER)
-def _reduce(part, sig, jac):
+def _reduce(part, sig, jac, sym):
     """Sum the per-chunk partial sums.
 
-    Stress into ``sig`` (6,), Jacobian into ``jac`` (6, 6); returns the (sliding, open,
+    Stress into ``sig`` (6,), Jacobian into ``jac`` (6, 6), each component times its
+    factor in ``sym`` (42,: 1, or 0 for a component a folding's group does not leave
+    invariant, :attr:`grainmech.driver._fold.Folding.sym`); returns the (sliding, open,
     dissipation) weighted sums.
     """
     sig[:] = 0.0
@@ -374,6 +380,10 @@ def _reduce(part, sig, jac):
         s_sl += part[ch, 42]
         s_op += part[ch, 43]
         s_di += part[ch, 44]
+    for q in range(6):
+        sig[q] *= sym[q]
+    for q in range(36):
+        jac[q // 6, q % 6] *= sym[6 + q]
     return s_sl, s_op, s_di
 
 
@@ -548,12 +558,12 @@ def _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cout, inc, scra
 
 def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
              rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
-             rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo):
+             rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo, sym):
     # the step/Newton loop of a segment; eval_fn is the serial or the parallel evaluation
     # pass and law_fn the law (first-class functions: pass_function, kernel.law_function)
     # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
     # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
-    # finfo = (condition or residual, tolerance, sliding, open)
+    # finfo = (condition or residual, tolerance, sliding, open); sym: Folding.sym (42,)
     m = incs.shape[0]
     ns = 0
     for q in range(6):
@@ -670,7 +680,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
                     info[3] = bad
                     info[4] = scratch.flags[bad]
                     break
-                s_sl, s_op, s_di = _reduce(part, sig, jac)
+                s_sl, s_op, s_di = _reduce(part, sig, jac, sym)
                 rmax = 0.0
                 for a in range(ns):
                     rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
@@ -728,7 +738,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
                 for q in range(6):
                     de[q] = best_de[q]
                 eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
-                s_sl, s_op, s_di = _reduce(part, sig, jac)
+                s_sl, s_op, s_di = _reduce(part, sig, jac, sym)
             if cause != 0:
                 wtot = 0.0
                 for i in range(weights.shape[0]):
@@ -765,6 +775,8 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             for q in range(6):
                 new_strain[q] = strain[q] + de[q]
             wst, wdi = _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cflat, inc, scratch)
+            for q in range(36):
+                Cflat[q] *= sym[6 + q]
             n_sub += 1
             n_it += it_done
             if loose_acc:
@@ -917,8 +929,11 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     params = point.law.params
     kc = kernel.constants(params)
     m = increments.shape[0]
-    # one row of each antipodal pair, twice its weight (driver/_fold.py), when exact
-    pairs, normals, branch, weights, st0, r0 = fold(cs, point.state, point.response, options.fold)
+    # one row per orbit of the symmetries of the rows, the state and the segment's path
+    # (the antipodal map, mirrors), its weight times the orbit's size (driver/_fold.py)
+    folding, normals, branch, weights, st0, r0 = fold(cs, point.state, point.response, options.fold,
+                                                      path_mirrors(sc, increments, t_stress))
+    sym = folding.sym if folding is not None else np.ones(42)
     n = normals.shape[0]
     nch = (n + _CH - 1) // _CH
 
@@ -948,15 +963,18 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     rec_int = np.zeros((m, 2), dtype=np.int64)
     info = np.zeros(6, dtype=np.int64)
     finfo = np.zeros(4)
-    parallel = n >= kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
-    C0 = np.ascontiguousarray(point.tangent, dtype=float)
-    t_stress = c(t_stress)
+    parallel = n >= PARALLEL_ROWS and get_num_threads() > 1
+    # the start's stress and tangent as the folded sums give them: the components the
+    # group does not leave invariant (zero to rounding for the symmetric state) set to 0,
+    # so that a stress-controlled one stays at its zero target with a zero increment
+    C0 = np.ascontiguousarray(point.tangent * sym[6:].reshape(6, 6), dtype=float)
+    t_stress = c(t_stress * sym[:6])  # a held component the group maps to minus itself: zero target
     t_strain = c(t_strain)
     args = (kc, c(normals), c(branch), c(weights), c(sc, np.bool_), c(increments),
-            c(point.stress), c(point.strain), C0, t_stress, t_strain,
+            c(point.stress * sym[:6]), c(point.strain), C0, t_stress, t_strain,
             float(options.rtol), float(options.rtol_accept), int(options.max_iter), int(options.max_depth),
             st, out, scratch, inc, part, resp, bk, bk_resp,
-            rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo)
+            rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo, sym)
     law_sig = kernel.law_signature(kc, st, inc, out, scratch)
     pass_sig = pass_signature(law_sig, args)
     _compile(args, kernel.law_key(kc, True, 3), law_sig, parallel, pass_sig)
@@ -964,12 +982,11 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     eval_fn = pass_function(parallel, pass_sig)
     done = int(_segment_compiled(eval_fn, law_fn, *args))
     wtot = float(weights.sum())
-    if pairs is not None:
-        keep, partner = pairs
-        st = KernelState(*(unfold(x, keep, partner, name in FLIPPED_STATE) for name, x in zip(st._fields, st)))
-        resp = tuple(unfold(x, keep, partner, False) for x in resp)
+    if folding is not None:
+        st = KernelState(*(unfold(folding, x, name) for name, x in zip(st._fields, st)))
+        resp = tuple(unfold(folding, x) for x in resp)
         if info[1] == FAIL_LAW:
-            info[3] = keep[info[3]]
+            info[3] = folding.rows[info[3]]
     sliding = resp[5] > 0.5
     state = ContactState(st.approach, st.normal_force, st.tangential_force, st.axis, st.direction, st.depth,
                          st.reversals, sliding, st.dissipated_energy)
