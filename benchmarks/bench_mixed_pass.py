@@ -7,8 +7,8 @@ pieces that ``driver/_mixed.py`` runs per step:
 * the evaluation pass (kinematics, the law, Love-Weber stress, Newton Jacobian) for one
   strain increment, run ``--passes`` times (2.18 passes per step in the benchmark);
 * the law alone (``kernel.law_function``, chunks of 128 contacts) on the same input;
-* the commit of the accepted iterate (state copy, deferred falling-N dissipation,
-  reported tangent, stored energy; once per step).
+* the commit of the accepted iterate (the pass with ``commit``: state copy, deferred
+  falling-N dissipation, reported tangent, stored energy; once per step).
 
 Prints ns per contact (best of ``--repeat``) and a hash of the pass's outputs (forces,
 state, tangents, per-chunk sums; dissipation excluded), to check that a change of the
@@ -36,10 +36,10 @@ from grainmech.fabric import sphere_rule
 
 
 @njit
-def _passes(k, f, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
+def _passes(k, f, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp):
     _mixed._start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for _ in range(k):
-        f(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+        f(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
 
 
 @njit
@@ -51,11 +51,12 @@ def _laws(k, law_fn, kc, st, inc, out, scratch):
 
 
 @njit
-def _commits(k, law_fn, kc, normals, branch, weights, st, out, resp, cflat, inc, scratch, nfall):
+def _commits(k, f, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, cflat, nfall):
     for _ in range(k):
         for i in range(nfall.shape[0]):  # the falls recorded by the pass (the commit consumes them)
             scratch.fall[i, 0] = nfall[i]
-        _mixed._commit(law_fn, kc, normals, branch, weights, st, out, resp, cflat, inc, scratch)
+        f(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, True)
+        _mixed._commit_sums(part, cflat)
 
 
 def main() -> None:
@@ -93,12 +94,13 @@ def main() -> None:
     nrm, br, wt = c(cs.normals), c(cs.branch), c(cs.weights)
     law_fn = kernel.law_function(kc, st, inc, out, scratch, defer=True)
     law_sig = kernel.law_signature(kc, st, inc, out, scratch)
+    resp = tuple(np.zeros(n) for _ in range(7))
     pass_sig = (types.FunctionType(types.none(*law_sig)), typeof(kc), typeof(nrm), typeof(br), typeof(wt),
-                typeof(np.zeros(6)), typeof(sc), typeof(st), typeof(out), typeof(scratch), typeof(inc), typeof(part))
+                typeof(np.zeros(6)), typeof(sc), typeof(st), typeof(out), typeof(scratch), typeof(inc), typeof(part),
+                typeof(resp), types.boolean)
     eval_fn = _mixed.pass_function(False, pass_sig)
     de = np.array([0.0, 0.0, -1e-7, 0.0, a.shear, 0.0])  # a shear step, sigma_zz roughly held
-    args = (kc, nrm, br, wt, de, sc, st, out, scratch, inc, part)
-    resp = tuple(np.zeros(n) for _ in range(7))
+    args = (kc, nrm, br, wt, de, sc, st, out, scratch, inc, part, resp)
     cflat = np.empty(36)
     _passes(1, eval_fn, law_fn, *args)
     h = hashlib.sha1()
@@ -108,7 +110,7 @@ def main() -> None:
     h.update(part.tobytes())
     falling = float(np.mean(inc.N1 < st.normal_force))
     _laws(1, law_fn, kc, st, inc, out, scratch)
-    cargs = (law_fn, kc, nrm, br, wt, st, out, resp, cflat, inc, scratch, scratch.fall[:, 0].copy())
+    cargs = (eval_fn, law_fn, *args, cflat, scratch.fall[:, 0].copy())
     k = a.passes
     best = {"pass": np.inf, "law": np.inf, "commit": np.inf}
     for _ in range(a.repeat):

@@ -23,7 +23,8 @@ between law evaluations. Per evaluation, one pass over the contacts (chunks of
   normal-tangential coupling ``mu dN (1 - theta)`` of seed Eq. 3.11 included;
   :func:`grainmech.driver.point.consistent_tangent` is the NumPy form).
 
-After a converged (sub)step one more pass commits the state and assembles the reported
+After a converged (sub)step one more pass (the same function with ``commit``, chunk by
+chunk, threaded like the evaluations) commits the state and assembles the reported
 tangent (seed Eq. 2.26 with the laws' ``kn``, ``ks``, full tangential projector) and the
 stored energy. The loop takes the pass (serial or parallel) and the law as first-class functions, so
 the three compile separately, and on an empty cache in two processes at once
@@ -408,14 +409,40 @@ def _make(parallel: bool):
     """Evaluation pass and segment driver, serial or with a ``prange`` over chunks."""
     rng = prange if parallel else range
 
-    def _evaluate(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part):
+    def _evaluate(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, commit):
         # trial update of every contact from the converged state ``st`` by the strain
         # increment ``de``; per-chunk sums into ``part``; returns the first contact the
-        # law could not advance (-1: none)
+        # law could not advance (-1: none). With ``commit``: accept the last trial
+        # instead (_commit_rows, per chunk; _commit_sums adds the chunks' sums)
         n = normals.shape[0]
         nch = (n + _CH - 1) // _CH
         (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
          glx, glw, sph, k8) = kc
+        # arrays as plain values into the (parallel) loop: writes through a named tuple's
+        # fields inside a prange are lost; the tuples are rebuilt inside
+        i_dn, i_dt, i_N1, i_rad0, i_rad1 = inc
+        s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en = st
+        (o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op, o_td,
+         o_ta) = out
+        c_tp, c_dp, c_fl, c_fa = scratch
+        r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op = resp
+        if commit:
+            for ch in rng(nch):
+                lo = ch * _CH
+                hi = min(n, lo + _CH)
+                kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
+                                      maxrev, hcoef, gcoef, glx, glw, sph, k8)
+                st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
+                inc_c = KernelIncrement(i_dn, i_dt, i_N1, i_rad0, i_rad1)
+                out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn,
+                                     o_op, o_td, o_ta)
+                scr_c = KernelScratch(c_tp, c_dp, c_fl, c_fa)
+                prow = part[ch]
+                for q in range(38):
+                    prow[q] = 0.0
+                _commit_rows(lo, hi, law_fn, kcc, normals, branch, weights, st_c, out_c,
+                             (r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op), inc_c, scr_c, prow)
+            return -1
         exx = de[0]
         eyy = de[1]
         ezz = de[2]
@@ -429,13 +456,6 @@ def _make(parallel: bool):
             if sc[q]:
                 sidx[ns] = q
                 ns += 1
-        # arrays as plain values into the (parallel) loop: writes through a named tuple's
-        # fields inside a prange are lost; the tuples are rebuilt inside
-        i_dn, i_dt, i_N1, i_rad0, i_rad1 = inc
-        s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en = st
-        (o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op, o_td,
-         o_ta) = out
-        c_tp, c_dp, c_fl, c_fa = scratch
         for ch in rng(nch):
             lo = ch * _CH
             hi = min(n, lo + _CH)
@@ -486,25 +506,20 @@ def _make(parallel: bool):
 
 
 @njit(**_INNER)
-def _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cout, inc, scratch):
-    # accept the trial state: out -> st (dissipated energy accumulated, with the falling-N
-    # dissipation the law deferred to here added first: law_fn(-1, n, ...), kernel.rows),
-    # the response kept in ``resp``; returns the stored energy and the weighted sum of the
-    # dissipation of the step, and writes the reported tangent
-    # (seed Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0) into Cout.
+def _commit_rows(lo, hi, law_fn, kc, normals, branch, weights, st, out, resp, inc, scratch, prow):
+    # accept the trial state of rows lo <= i < hi: out -> st (dissipated energy
+    # accumulated, with the falling-N dissipation the law deferred to here added first:
+    # law_fn(-lo - 1, hi, ...), kernel.rows), the response kept in ``resp``; adds to
+    # ``prow`` the reported tangent's upper triangle (prow[6 q + q2], q <= q2; seed
+    # Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0), the stored energy
+    # (prow[36]) and the weighted dissipation of the step (prow[37]).
     # inc.rad0 becomes the start radius of the new state: start_radius(a1, N1) is
     # hertz_radius(N1) = rad1 of the accepted evaluation when a1 > 0 and N1 > 0, else
     # hertz_radius(0) = 0 (the same bits as computing it again)
-    (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
-     glx, glw, sph, k8) = kc
-    n = normals.shape[0]
+    linear, R, Gs, ks_lin = kc.linear, kc.R, kc.Gs, kc.ks_lin
     nrev = st.reversals.shape[1]
-    law_fn(-1, n, kc, st, inc, out, scratch)
-    for q in range(36):
-        Cout[q] = 0.0
-    wst = 0.0
-    wdi = 0.0
-    for i in range(n):
+    law_fn(-lo - 1, hi, kc, st, inc, out, scratch)
+    for i in range(lo, hi):
         st.approach[i] = out.approach[i]
         st.normal_force[i] = out.normal_force[i]
         for c in range(3):
@@ -514,7 +529,7 @@ def _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cout, inc, scra
         st.depth[i] = out.depth[i]
         for c in range(nrev):
             st.reversals[i, c] = out.reversals[i, c]
-        wdi += weights[i] * out.dissipation[i]
+        prow[37] += weights[i] * out.dissipation[i]
         st.dissipated_energy[i] += out.dissipation[i]
         if not linear:
             inc.rad0[i] = inc.rad1[i] if (out.approach[i] > 0.0 and out.normal_force[i] > 0.0) else 0.0
@@ -546,10 +561,29 @@ def _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cout, inc, scra
                 uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
                 c0, c1, c2 = _bcol(q2, lx, ly, lz)
                 btb = bq0 * c0 + bq1 * c1 + bq2 * c2
-                Cout[6 * q + q2] += cs * btb + cn * uq * uq2
-        wst += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
-                                      out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
-                                      ks_lin, R, Gs)
+                prow[6 * q + q2] += cs * btb + cn * uq * uq2
+        prow[36] += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
+                                           out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
+                                           ks_lin, R, Gs)
+
+
+@njit(**_INNER)
+def _commit_sums(part, Cout):
+    """Sum the commit's per-chunk sums, in chunk order.
+
+    The reported tangent into ``Cout`` (36,), its lower triangle mirrored; returns
+    (stored energy, weighted dissipation).
+    """
+    for q in range(36):
+        Cout[q] = 0.0
+    wst = 0.0
+    wdi = 0.0
+    for ch in range(part.shape[0]):
+        for q in range(6):
+            for q2 in range(q, 6):
+                Cout[6 * q + q2] += part[ch, 6 * q + q2]
+        wst += part[ch, 36]
+        wdi += part[ch, 37]
     for q in range(6):
         for q2 in range(q):
             Cout[6 * q + q2] = Cout[6 * q2 + q]
@@ -674,7 +708,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             loose_acc = False
             rmax = 0.0
             for it in range(1, max_iter + 1):
-                bad = eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                bad = eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
                 if bad >= 0:
                     cause = FAIL_LAW
                     info[3] = bad
@@ -737,7 +771,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
                 # the best iterate is not the last one: evaluate it again (same state)
                 for q in range(6):
                     de[q] = best_de[q]
-                eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part)
+                eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
                 s_sl, s_op, s_di = _reduce(part, sig, jac, sym)
             if cause != 0:
                 wtot = 0.0
@@ -774,7 +808,8 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             new_strain = np.empty(6)  # strain + de (an element loop: no array expression to compile)
             for q in range(6):
                 new_strain[q] = strain[q] + de[q]
-            wst, wdi = _commit(law_fn, kc, normals, branch, weights, st, out, resp, Cflat, inc, scratch)
+            eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, True)
+            wst, wdi = _commit_sums(part, Cflat)
             for q in range(36):
                 Cflat[q] *= sym[6 + q]
             n_sub += 1
@@ -826,9 +861,10 @@ def pass_signature(law_sig: tuple, args: tuple) -> tuple:
 
     # positions in the argument tuple built by mixed_segment
     kc, normals, branch, weights, sc = args[0], args[1], args[2], args[3], args[4]
-    st, out, scratch, inc, part = args[15], args[16], args[17], args[18], args[19]
+    st, out, scratch, inc, part, resp = args[15], args[16], args[17], args[18], args[19], args[20]
     return (types.FunctionType(types.none(*law_sig)), typeof(kc), typeof(normals), typeof(branch), typeof(weights),
-            typeof(np.zeros(6)), typeof(sc), typeof(st), typeof(out), typeof(scratch), typeof(inc), typeof(part))
+            typeof(np.zeros(6)), typeof(sc), typeof(st), typeof(out), typeof(scratch), typeof(inc), typeof(part),
+            typeof(resp), types.boolean)
 
 
 def compile_pass(parallel: bool, sig: tuple) -> None:
