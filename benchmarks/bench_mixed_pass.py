@@ -89,7 +89,7 @@ def main() -> None:
     scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8),
                             np.zeros((n, kernel.FALL_COLUMNS)))
     inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))
-    part = np.zeros(((n + _mixed._CH - 1) // _mixed._CH, _mixed._NP))
+    part = np.zeros((_mixed.chunk_count(n), _mixed._NP))
     sc = np.array([False, False, True, False, False, False])
     nrm, br, wt = c(cs.normals), c(cs.branch), c(cs.weights)
     law_fn = kernel.law_function(kc, st, inc, out, scratch, defer=True)

@@ -222,19 +222,24 @@ _kernel_serial = _make(False)
 _kernel_parallel = _make(True)
 
 
-def _strain_path_kernel(*args):
-    """The compiled pass, parallel or serial by the number of contacts.
+#: rows from which the pass runs on numba's threads (with more than one): the whole path is
+#: one parallel region, so the threads pay early; on 2 cores the threaded run took
+#: 0.95-0.98x the serial one's speed at 64-128 rows and was 1.5-1.9x faster from 256 rows
+#: on (random sets, 2 cycles of constant-volume simple shear; ``docs/performance.md``)
+PARALLEL_ROWS = 256
 
-    Parallel from :data:`grainmech.contact.kernel.PARALLEL_THRESHOLD` contacts (and more
-    than one numba thread), serial below: for small sets the threads' start-up (and, on a
-    busy machine, waiting for a free core) costs more than the work.
+
+def _strain_path_kernel(*args):
+    """The compiled pass, parallel or serial by the number of rows.
+
+    Parallel from :data:`PARALLEL_ROWS` rows (and more than one numba thread), serial
+    below: for small sets the threads' start-up (and, on a busy machine, waiting for a
+    free core) costs more than the work.
     """
     from numba import get_num_threads
 
-    from grainmech.contact import kernel
-
     n = args[1].shape[0]  # normals (after the law constants)
-    parallel = n >= kernel.PARALLEL_THRESHOLD and get_num_threads() > 1
+    parallel = n >= PARALLEL_ROWS and get_num_threads() > 1
     return (_kernel_parallel if parallel else _kernel_serial)(*args)
 
 

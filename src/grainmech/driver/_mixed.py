@@ -61,12 +61,13 @@ from grainmech.driver._fold import fold, path_mirrors, unfold
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
-_CH = 128  # contacts per chunk (work item of the prange)
+_CH = 128  # at most this many contacts per chunk (work item of the prange)
+_CH_GROUP = 8  # the number of chunks is a multiple of this (see chunk_count)
 #: rows from which the evaluation pass runs on numba's threads (with more than one): on
-#: 2 cores the threaded pass was 0.74-0.97x the serial one's speed at 768-1024 rows and
-#: 1.2-1.4x from 1152 rows on (random sets, cyclic simple shear with sigma_zz held;
-#: ``docs/performance.md``, "Mixed-control driver")
-PARALLEL_ROWS = 1152
+#: 2 cores the threaded run took the serial one's time at 128 rows and was 1.35-1.84x
+#: faster from 256 to 1475 rows (random sets, 2 cycles of simple shear with sigma_zz
+#: held; ``docs/performance.md``, "Mixed-control driver")
+PARALLEL_ROWS = 256
 # functions that allocate nothing: compiled without numba's reference counting (atomic
 # increments of the arrays they are passed, per contact)
 _NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
@@ -415,7 +416,8 @@ def _make(parallel: bool):
         # law could not advance (-1: none). With ``commit``: accept the last trial
         # instead (_commit_rows, per chunk; _commit_sums adds the chunks' sums)
         n = normals.shape[0]
-        nch = (n + _CH - 1) // _CH
+        nch = part.shape[0]          # chunk_count(n)
+        size = (n + nch - 1) // nch  # rows per chunk (the last ones may be shorter or empty)
         (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
          glx, glw, sph, k8) = kc
         # arrays as plain values into the (parallel) loop: writes through a named tuple's
@@ -428,8 +430,8 @@ def _make(parallel: bool):
         r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op = resp
         if commit:
             for ch in rng(nch):
-                lo = ch * _CH
-                hi = min(n, lo + _CH)
+                lo = ch * size
+                hi = min(n, lo + size)
                 kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                       maxrev, hcoef, gcoef, glx, glw, sph, k8)
                 st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
@@ -457,8 +459,8 @@ def _make(parallel: bool):
                 sidx[ns] = q
                 ns += 1
         for ch in rng(nch):
-            lo = ch * _CH
-            hi = min(n, lo + _CH)
+            lo = ch * size
+            hi = min(n, lo + size)
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
             st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
@@ -855,6 +857,19 @@ _evaluate_parallel = _make(True)
 _segment_compiled = njit(**_PY_ONLY)(_segment)
 
 
+def chunk_count(n: int) -> int:
+    """Chunks of the evaluation pass over ``n`` rows: a multiple of 8, each of at most 128 rows.
+
+    A multiple of the thread count keeps the threads' shares equal: on 2 cores an odd
+    number of chunks made the threaded pass up to 1.5x *slower* than the serial one (the
+    thread done first falls asleep after its short spin and is woken again for the next
+    evaluation, ~0.1 ms), an even number 1.5-1.6x faster (``docs/performance.md``). The
+    chunking does not depend on the thread count, so the serial and the threaded pass
+    sum in the same order (the same bits).
+    """
+    return _CH_GROUP * max(1, -(-int(n) // (_CH_GROUP * _CH)))
+
+
 def pass_signature(law_sig: tuple, args: tuple) -> tuple:
     """The numba argument types of the evaluation pass called by the loop with ``args`` (those after the law)."""
     from numba import typeof, types
@@ -971,7 +986,7 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
                                                       path_mirrors(sc, increments, t_stress))
     sym = folding.sym if folding is not None else np.ones(42)
     n = normals.shape[0]
-    nch = (n + _CH - 1) // _CH
+    nch = chunk_count(n)
 
     def c(x, dtype=float):
         return np.array(x, dtype=dtype, order="C")
