@@ -37,6 +37,16 @@ RELAXED = {  # relaxed tensor: grains
     "before (auto = cholespy)": [(2000, 2.202, 0.230)],
 }
 
+DRIVER = {  # mixed-control driver, one cycle of 100 steps, sigma_zz held: directions
+    # random direction sets (nothing folds), 2 threads (docs/performance.md, "Mixed-control driver")
+    "2026-11-26, session 14 (threaded commit, balanced chunks)": [
+        (1e3, 0.035, 0.217), (1e4, 0.338, 0.217), (1e5, 3.537, 0.217), (1e6, 37.68, 0.217)],
+    "2026-11-26, before": [(1e3, 0.056, 0.235), (1e4, 0.383, 0.235), (1e5, 3.648, 0.235), (1e6, 38.69, 0.235)],
+    # the benchmark's 5810-point Lebedev set, 10 cycles, per cycle (folded: 1475 rows; before 2905)
+    "Lebedev 5810, folded by its symmetries (per cycle)": [(5810, 0.0476, 0.234)],
+    "Lebedev 5810, antipodal fold only, 145c694 (per cycle)": [(5810, 0.1017, 0.234)],
+}
+
 
 def main(out: str = "docs/performance.png") -> None:
     """Draw both panels (time in dgemm units against size) into ``out``."""
@@ -45,9 +55,10 @@ def main(out: str = "docs/performance.png") -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
     for ax, data, xlabel, title in ((axes[0], DEM_READ, "contacts", "read a LIGGGHTS dump"),
-                                    (axes[1], RELAXED, "grains", "relaxed stiffness tensor")):
+                                    (axes[1], RELAXED, "grains", "relaxed stiffness tensor"),
+                                    (axes[2], DRIVER, "directions", "mixed-control driver, one cycle")):
         for label, pts in data.items():
             if pts:
                 x = [p[0] for p in pts]
