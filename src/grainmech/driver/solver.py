@@ -60,11 +60,13 @@ class SolverOptions:
         point's law has a compiled kernel. Same results to rounding; ``False`` forces the
         step-by-step loop.
     fold : bool
-        In the compiled loops, evaluate one row of each antipodal pair of a
-        centrosymmetric contact set (every row's exact antipode present with the same
-        weight, the state mirrored) with twice its weight (:mod:`grainmech.driver._fold`):
-        half the law evaluations, the same results to rounding. ``False`` evaluates
-        every row.
+        In the compiled loops, evaluate one row per orbit of the symmetries that the
+        contact set, the state and the path share -- the antipodal map and the mirrors
+        through coordinate planes whose odd shear components the path leaves at zero
+        (every row's exact image present with the same weight, the state symmetric) --
+        with the orbit's weight (:mod:`grainmech.driver._fold`): half the law evaluations
+        for a centrosymmetric set, a quarter for simple shear on a Lebedev rule, an eighth
+        for a triaxial path; the same results to rounding. ``False`` evaluates every row.
     """
 
     rtol: float = 1e-9
