@@ -31,6 +31,25 @@ _EPS = 1e-12
 #: resolution of contact forces or stresses, and changes the loop area by a relative
 #: amount of the same order.
 _REV_TOL = 1e-6
+#: A tangential increment whose component along the memory axis is at most this fraction
+#: of the increment is taken as perpendicular to the axis (no displacement along it). Motion
+#: at right angles to the axis (e.g. simple shear in xz after shear in xy) leaves a
+#: component of rounding size (~1e-16 of the increment, from the axis's own rounding) whose
+#: *sign* would otherwise decide whether the branch reverses: a reversal pushed or not, the
+#: branch direction and the tangent (theta) then differ between two runs that differ only
+#: by rounding, and the forces part at the next real reversal (by up to 5e-4 of the stress
+#: on a 194-direction path, compiled loop against the NumPy reference; docs/driver.md).
+#: Dropping a component of 1e-12 of the increment changes the force by at most that
+#: fraction of ``kt0 |d_t|``.
+_PAR_TOL = 1e-12
+#: A branch that ends a step within this fraction of ``2 mu N`` (in ``Q``) short of the
+#: reversal point it heads for has reached it: Masing's rule closes the loop there. A
+#: cycle back to a remembered level lands on it exactly up to rounding (~1e-15), and
+#: whether the loop closed (memory popped, the slip axis following the force again) or
+#: not was decided by that rounding; the two states then answer the next increment
+#: differently in 3D (the split along and across the axis). Far below the force
+#: resolution: the force moves by at most ``1e-12 * 2 mu N``.
+_TIE_TOL = 1e-12
 #: When the reversal memory is full, the remembered loop that came closest to closing is
 #: forgotten if its shortfall is at most this fraction of ``2 mu N`` (see
 #: :func:`_merge_closest_loop`); a deeper, genuinely nested history stops the law with
@@ -210,6 +229,7 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
     tau = _dot(T0, e)
     tperp = T0 - tau[:, None] * e
     d_par = _dot(dt, e)
+    d_par = np.where(np.abs(d_par) <= _PAR_TOL * dtn, 0.0, d_par)  # rounding only: at right angles
     d_perp = dt - d_par[:, None] * e
 
     kt0_0 = law_forms(params).kt0(N0)
@@ -496,7 +516,10 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
             lam = (1.0 - p) * K / (c * muN)
             zend = z - lam * ui
-            hit = ~(zend > zt)
+            # Masing's rule at a tie: a branch that ends within rounding (_TIE_TOL) of the
+            # reversal point it heads for has closed its loop
+            Qend = c * muN * np.where(zend > 0.0, zend, 0.0) ** m_exp - Pt
+            hit = ~(zend > zt) | ((kk > 0) & (Qend - Qt <= _TIE_TOL * 2.0 * muN))
             zstop = np.where(hit, zt, zend)
             pref = c * muN * muN / ((1.0 - p) * K)
             used = np.where(hit, np.where(np.isfinite(lam), (z - zt) / lam, 0.0), ui)

@@ -121,6 +121,8 @@ _FALL_FIELDS = 6
 FALL_COLUMNS = 1 + _FALL_SEGMENTS * _FALL_FIELDS
 # the tolerances of the reference law (values, so that the compiled code is self-contained)
 _REV_TOL = _law._REV_TOL
+_PAR_TOL = _law._PAR_TOL
+_TIE_TOL = _law._TIE_TOL
 _MERGE_TOL = _law._MERGE_TOL
 _CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
 _JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False}
@@ -765,6 +767,10 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
         lam = q * kt1 / (c * muN)
         zend = z - lam * u
         hit = not (zend > zt)
+        if not hit and k > 0:
+            # Masing's rule at a tie (hysteresis._TIE_TOL): a branch that ends within
+            # rounding of the reversal point it heads for has closed its loop
+            hit = (c * muN * _pow_m(zend, m_exp, sph) - Pt) - Qt <= _TIE_TOL * 2.0 * muN
         zstop = zt if hit else zend
         pref = c * muN * muN / (q * kt1)
         if hit:
@@ -993,6 +999,8 @@ def rows(lo, hi, kc, state, inc, out, scratch):
             s = 1
         tau = _dot_rows(T1, i, e1, i, dim)
         d_par = _dot_rows(dp, i, e1, i, dim)
+        if abs(d_par) <= _PAR_TOL * dtn:  # rounding only: at right angles to the axis (law.py)
+            d_par = 0.0
         for c in range(dim):
             tp[i, c] = T1[i, c] - tau * e1[i, c]
             dp[i, c] = dp[i, c] - d_par * e1[i, c]
