@@ -767,10 +767,12 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
         lam = q * kt1 / (c * muN)
         zend = z - lam * u
         hit = not (zend > zt)
-        if not hit and k > 0:
+        Qend = 0.0
+        if not hit:
+            Qend = c * muN * _pow_m(zend, m_exp, sph) - Pt
             # Masing's rule at a tie (hysteresis._TIE_TOL): a branch that ends within
             # rounding of the reversal point it heads for has closed its loop
-            hit = (c * muN * _pow_m(zend, m_exp, sph) - Pt) - Qt <= _TIE_TOL * 2.0 * muN
+            hit = k > 0 and Qend - Qt <= _TIE_TOL * 2.0 * muN
         zstop = zt if hit else zend
         pref = c * muN * muN / (q * kt1)
         if hit:
@@ -779,10 +781,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
             used = u
         diss += pref * max(_H(zstop, m_exp, hcoef, sph) - _H(z, m_exp, hcoef, sph), 0.0)
         rem = max(u - used, 0.0)
-        if hit:
-            Qnew = Qt
-        else:
-            Qnew = c * muN * _pow_m(zstop, m_exp, sph) - Pt
+        Qnew = Qt if hit else Qend  # Qend: the branch at zstop = zend
         if hit and k == 0:
             # gross sliding on the virgin branch
             diss += muN * rem
