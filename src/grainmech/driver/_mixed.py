@@ -428,23 +428,6 @@ def _make(parallel: bool):
          o_ta) = out
         c_tp, c_dp, c_fl, c_fa = scratch
         r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op = resp
-        if commit:
-            for ch in rng(nch):
-                lo = ch * size
-                hi = min(n, lo + size)
-                kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
-                                      maxrev, hcoef, gcoef, glx, glw, sph, k8)
-                st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
-                inc_c = KernelIncrement(i_dn, i_dt, i_N1, i_rad0, i_rad1)
-                out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn,
-                                     o_op, o_td, o_ta)
-                scr_c = KernelScratch(c_tp, c_dp, c_fl, c_fa)
-                prow = part[ch]
-                for q in range(38):
-                    prow[q] = 0.0
-                _commit_rows(lo, hi, law_fn, kcc, normals, branch, weights, st_c, out_c,
-                             (r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op), inc_c, scr_c, prow)
-            return -1
         exx = de[0]
         eyy = de[1]
         ezz = de[2]
@@ -468,7 +451,14 @@ def _make(parallel: bool):
             out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op,
                                  o_td, o_ta)
             scr_c = KernelScratch(c_tp, c_dp, c_fl, c_fa)
-            # (i_rad0, the start radius, is that of the converged state: _start_radii, _commit)
+            if commit:
+                prow = part[ch]
+                for q in range(38):
+                    prow[q] = 0.0
+                _commit_rows(lo, hi, law_fn, kcc, normals, branch, weights, st_c, out_c,
+                             (r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op), inc_c, scr_c, prow)
+                continue
+            # (i_rad0, the start radius, is that of the converged state: _start_radii, _commit_rows)
             for i in range(lo, hi):
                 (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i],
                  i_rad1[i]) = _increment_end(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
@@ -501,7 +491,7 @@ def _make(parallel: bool):
         for ch in range(nch):
             if bad_c[ch] >= 0:
                 return bad_c[ch]
-        return -1
+        return -1  # (a commit never sets bad_c)
 
     # called by the segment loop through its C-callable wrapper (a first-class function)
     return njit(parallel=parallel, **_FIRST_CLASS)(_evaluate)
