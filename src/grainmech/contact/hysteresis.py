@@ -525,7 +525,7 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
             used = np.where(hit, np.where(np.isfinite(lam), (z - zt) / lam, 0.0), ui)
         diss[idx] += pref * np.maximum(_H(zstop, m_exp) - _H(z, m_exp), 0.0)
         rem = np.maximum(ui - used, 0.0)
-        Qnew = np.where(hit, Qt, c * muN * zstop ** m_exp - Pt)
+        Qnew = np.where(hit, Qt, Qend)  # Qend: the branch at zstop = zend (> zt >= 0)
         # events: sliding on the virgin branch, or Masing's rule (pop 1 or 2 reversals)
         sl = hit & (kk == 0)
         diss[idx] += np.where(sl, muN * rem, 0.0)
