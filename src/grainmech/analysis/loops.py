@@ -133,29 +133,10 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     GrainmechError
         If a run fails and ``raise_on_failure`` (its message is passed on).
     """
-    from grainmech.driver import cyclic_simple_shear, run
-    from grainmech.errors import GrainmechError
+    from grainmech.driver import run
+    from grainmech.driver.loop import cyclic_series
 
-    amps = np.asarray(amplitudes, dtype=float)
-    if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
-        raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
-    G, D, res = [], [], []
-    success, message = True, "done"
-    for i, a in enumerate(amps):
-        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
-        if progress is not None:
-            progress(i, float(a), path)
-        r = run(point, path, **run_options)
-        if not r.success:
-            if raise_on_failure:
-                raise GrainmechError(f"amplitude {a:g}: {r.message}")
-            res.append(r)
-            success, message = False, f"amplitude {a:g}: {r.message}"
-            break
-        last = slice(len(path) - steps_per_cycle, len(path) + 1)
-        lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
-        G.append(lp.secant_modulus)
-        D.append(lp.damping)
-        res.append(r)
-    Gmax = condensed_modulus(point.tangent, 4, path.stress_control[0])
-    return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), Gmax, res, success, message)
+    return cyclic_series(lambda path: run(point, path, **run_options), amplitudes,
+                         lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
+                         n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
+                         progress=progress, raise_on_failure=raise_on_failure)

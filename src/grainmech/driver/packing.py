@@ -933,36 +933,18 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
     grainmech.analysis.ModulusReduction
         ``results`` holds the :class:`PackingResult` of every amplitude.
     """
-    from grainmech.analysis import ModulusReduction, condensed_modulus, loop_properties
+    from grainmech.analysis import condensed_modulus
+    from grainmech.driver.loop import cyclic_series
 
     if not point.frictional:
         raise GrainmechError(f"damping needs friction: the contact law {type(point.params).__name__} of this "
                              "packing is frictionless (no tangential dissipation), so every loop has zero "
                              "area; use MindlinDeresiewicz or HertzMindlin with friction > 0")
-    amps = np.asarray(amplitudes, dtype=float)
-    if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
-        raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
-    G, D, res = [], [], []
-    success, message = True, "done"
-    path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
-    for i, a in enumerate(amps):
-        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
-        if progress is not None:
-            progress(i, float(a), path)
-        r = run_packing(point, path, options, on_step=on_step, **{"tangent": "start", **kwargs})
-        res.append(r)
-        if not r.success:
-            message = f"amplitude {a:g}: {r.message}"
-            if raise_on_failure:
-                raise GrainmechError(message)
-            success = False
-            break
-        last = slice(len(path) - steps_per_cycle, len(path) + 1)
-        lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
-        G.append(lp.secant_modulus)
-        D.append(lp.damping)
-    Gmax = condensed_modulus(point.elastic_tangent, 4, path.stress_control[0])
-    return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), Gmax, res, success, message)
+    return cyclic_series(lambda path: run_packing(point, path, options, on_step=on_step,
+                                                  **{"tangent": "start", **kwargs}), amplitudes,
+                         lambda path: condensed_modulus(point.elastic_tangent, 4, path.stress_control[0]),
+                         n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
+                         progress=progress, raise_on_failure=raise_on_failure)
 
 
 # --------------------------------------------------------------------------- preparation

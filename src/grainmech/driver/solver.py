@@ -13,11 +13,12 @@ until then.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
+from grainmech.driver.base import DriverResult
 from grainmech.driver.paths import LoadPath
 from grainmech.driver.point import MaterialPoint, _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
 from grainmech.errors import ConfigError, GrainmechError
@@ -87,49 +88,6 @@ class SolverOptions:
             raise ConfigError("max_iter", self.max_iter, "must be >= 1")
         if not (0 <= int(self.max_depth) <= 30):
             raise ConfigError("max_depth", self.max_depth, "must lie in [0, 30]")
-
-
-@dataclass(frozen=True)
-class DriverResult:
-    """Everything computed along a path; row 0 is the initial state.
-
-    Attributes
-    ----------
-    success : bool
-    status : int
-        0 done; 1 a step failed (stress target not reached).
-    message : str
-    strain : (k+1, 6) total strain, engineering shear, compression positive
-    stress : (k+1, 6) stress [force/length^2]
-    tangent : (k+1, 6, 6) Voigt tangent stiffness
-    sliding_fraction, open_fraction : (k+1,) weighted fractions of contacts
-    dissipation : (k+1,) cumulative dissipated energy per unit volume
-    work : (k+1,) cumulative work ``int sigma . d eps`` per unit volume (trapezoidal)
-    stored : (k+1,) elastic energy per unit volume held by the contacts (law's estimate)
-    substeps, iterations : (k+1,) int, per step
-    engineering : dict of name -> (k+1,) arrays, if requested
-    final : MaterialPoint
-        Last converged state (restart from it).
-    n_steps : int
-        Steps requested.
-    """
-
-    success: bool
-    status: int
-    message: str
-    strain: np.ndarray
-    stress: np.ndarray
-    tangent: np.ndarray
-    sliding_fraction: np.ndarray
-    open_fraction: np.ndarray
-    dissipation: np.ndarray
-    work: np.ndarray
-    stored: np.ndarray
-    substeps: np.ndarray
-    iterations: np.ndarray
-    final: MaterialPoint = field(repr=False)
-    n_steps: int = 0
-    engineering: dict = field(default_factory=dict, repr=False)
 
 
 class _StepFailure(Exception):

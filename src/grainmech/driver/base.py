@@ -1,0 +1,133 @@
+"""The contract every kinematic model of grainmech keeps (affine, packing, dem).
+
+A *material point* of any model has a state — ``stress`` and ``strain`` (Voigt order
+``xx yy zz yz xz xy``, compression positive, engineering shear strains; see
+``docs/conventions.md``) — and answers the tangent, the sliding/open fractions and the
+stored energy. It advances by ``step(d_strain, stress_control, target)``: the
+strain-controlled components (``stress_control`` False) change by ``d_strain``, the
+stress-controlled ones reach ``target``. A step that cannot be solved raises
+:class:`StepFailure` with a :class:`Status` code and a cause; the path loop
+(:func:`grainmech.driver.loop.follow_path`) turns it into a :class:`DriverResult` with
+``success`` False and every state before it kept.
+
+The affine model (:class:`grainmech.driver.MaterialPoint`) and the packing model
+(:class:`grainmech.driver.packing.PackingPoint`) are immutable values with compiled
+whole-path loops of their own (:func:`grainmech.driver.run`,
+:func:`grainmech.driver.packing.run_packing`); the DEM model
+(:class:`grainmech.driver.dem.DemPoint`) is a live LAMMPS simulation that moves
+forward only, and uses :func:`grainmech.driver.loop.follow_path`. All three return a
+:class:`DriverResult` (the packing and DEM models a subclass with their own per-step
+columns), and :func:`grainmech.driver.loop.cyclic_series` analyses any of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from grainmech.errors import GrainmechError
+
+__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "DriverResult"]
+
+
+class Status(IntEnum):
+    """Status codes of a :class:`DriverResult` (one set for every model)."""
+
+    DONE = 0
+    #: a step found no state that meets its targets (no equilibrium, stress target unreachable)
+    FAILED = 1
+    #: the model left the range it is valid in (small strain, fixed geometry)
+    OUT_OF_RANGE = 2
+    #: the user or the system stopped the run (Ctrl-C, SIGTERM)
+    INTERRUPTED = 3
+
+
+class StepFailure(GrainmechError):
+    """A step of a path could not be solved.
+
+    Parameters
+    ----------
+    cause : str
+        What went wrong, in words a user reads (the path loop prefixes the step).
+    status : Status
+        :attr:`Status.FAILED` (default) or :attr:`Status.OUT_OF_RANGE`.
+    """
+
+    def __init__(self, cause: str, status: Status = Status.FAILED) -> None:
+        super().__init__(cause)
+        self.cause = cause
+        self.status = Status(status)
+
+
+@runtime_checkable
+class Point(Protocol):
+    """What every model's state answers (read-only part of the contract)."""
+
+    @property
+    def stress(self) -> np.ndarray:
+        """Stress (6,) [Pa], Voigt, compression positive."""
+
+    @property
+    def strain(self) -> np.ndarray:
+        """Strain (6,) [-], Voigt, compression positive, engineering shears."""
+
+    def fractions(self) -> tuple[float, float]:
+        """Sliding and open fractions of the contacts."""
+
+    def stored_energy(self) -> float:
+        """Elastic energy per unit volume held by the contacts [Pa]."""
+
+
+@runtime_checkable
+class SteppingPoint(Point, Protocol):
+    """A point that advances one mixed-control step at a time (the DEM model)."""
+
+    def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> SteppingPoint:
+        """Advance one step; raise :class:`StepFailure` when it cannot."""
+
+
+@dataclass(frozen=True)
+class DriverResult:
+    """Everything computed along a path; row 0 is the initial state.
+
+    Attributes
+    ----------
+    success : bool
+    status : int
+        A :class:`Status` code: 0 done, 1 a step failed, 2 the model's range left,
+        3 interrupted.
+    message : str
+    strain : (k+1, 6) total strain, engineering shear, compression positive
+    stress : (k+1, 6) stress [force/length^2]
+    tangent : (k+1, 6, 6) Voigt tangent stiffness
+    sliding_fraction, open_fraction : (k+1,) weighted fractions of contacts
+    dissipation : (k+1,) cumulative dissipated energy per unit volume
+    work : (k+1,) cumulative work ``int sigma . d eps`` per unit volume (trapezoidal)
+    stored : (k+1,) elastic energy per unit volume held by the contacts (law's estimate)
+    substeps, iterations : (k+1,) int, per step
+    engineering : dict of name -> (k+1,) arrays, if requested
+    final : Point
+        Last converged state (restart from it; the DEM model's is a summary, not a live engine).
+    n_steps : int
+        Steps requested.
+    """
+
+    success: bool
+    status: int
+    message: str
+    strain: np.ndarray
+    stress: np.ndarray
+    tangent: np.ndarray
+    sliding_fraction: np.ndarray
+    open_fraction: np.ndarray
+    dissipation: np.ndarray
+    work: np.ndarray
+    stored: np.ndarray
+    substeps: np.ndarray
+    iterations: np.ndarray
+    final: Any = field(repr=False)
+    n_steps: int = 0
+    engineering: dict = field(default_factory=dict, repr=False)

@@ -1,0 +1,139 @@
+"""One path loop and one cyclic series for every kinematic model (``driver/base.py`` contract).
+
+* :func:`follow_path` drives a :class:`~grainmech.driver.base.SteppingPoint` along a
+  :class:`~grainmech.driver.paths.LoadPath` with mixed control: per step and component a
+  control kind and an increment; targets do not drift (increments are added to an exact
+  running target, not to the value reached); a component switching control restarts from
+  the current value. A :class:`~grainmech.driver.base.StepFailure` ends the path with
+  ``success`` False and every state before it kept. The affine and packing models keep
+  compiled whole-path loops with the same semantics (:func:`grainmech.driver.run`,
+  :func:`grainmech.driver.packing.run_packing`).
+* :func:`cyclic_series` runs strain-controlled cyclic simple shear (``gamma_xz``) at each
+  amplitude with any model's runner and analyses the last cycle
+  (:func:`grainmech.analysis.loop_properties`): the modulus-reduction and damping curve.
+  :func:`grainmech.analysis.modulus_reduction` (affine),
+  :func:`grainmech.driver.packing.packing_modulus_reduction` and the DEM model all use it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from grainmech.analysis.loops import ModulusReduction, loop_properties
+from grainmech.driver.base import DriverResult, Status, StepFailure, SteppingPoint
+from grainmech.driver.paths import LoadPath, cyclic_simple_shear
+from grainmech.errors import GrainmechError, ParameterError
+
+__all__ = ["follow_path", "cyclic_series", "Recorder"]
+
+#: ``record(point, step_index)`` -> None: what a model keeps of each state
+Recorder = Callable[[Any, int], None]
+
+
+def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
+                on_step: Callable[[int, int], None] | None = None) -> tuple[SteppingPoint, bool, Status, str]:
+    """Drive ``point`` along ``path``; ``record(point, k)`` after the start (k = 0) and each step.
+
+    Parameters
+    ----------
+    point : SteppingPoint
+        The start state; its ``step(d_strain, stress_control, target)`` solves one step.
+    path : LoadPath
+    record : callable ``(point, k)``
+        Called with the start state (``k = 0``) and after every step ``k`` that succeeded.
+    on_step : callable ``(k, n)``, optional
+        Progress: called after step ``k`` of ``n``.
+
+    Returns
+    -------
+    (point, success, status, message)
+        The last state reached, and how the path ended: ``"completed n steps"`` or
+        ``"step k: <cause>; results kept up to step k-1"``.
+    """
+    if not isinstance(path, LoadPath):
+        raise ParameterError("path", type(path).__name__, "must be a LoadPath")
+    m = len(path)
+    record(point, 0)
+    t_stress = np.asarray(point.stress, float).copy()
+    t_strain = np.asarray(point.strain, float).copy()
+    prev: np.ndarray | None = None
+    for k in range(m):
+        sc = np.asarray(path.stress_control[k], bool)
+        inc = path.increment[k]
+        if prev is not None:  # a component switching control restarts from the state
+            switched = sc != prev
+            t_stress = np.where(switched & sc, point.stress, t_stress)
+            t_strain = np.where(switched & ~sc, point.strain, t_strain)
+        prev = sc
+        new_t_stress = np.where(sc, t_stress + inc, point.stress)
+        new_t_strain = np.where(~sc, t_strain + inc, point.strain)
+        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
+        try:
+            point = point.step(d_strain, sc, np.where(sc, new_t_stress, 0.0))
+        except StepFailure as exc:
+            return point, False, exc.status, f"step {k + 1}: {exc.cause}; results kept up to step {k}"
+        t_stress = np.where(sc, new_t_stress, point.stress)
+        t_strain = np.where(~sc, new_t_strain, point.strain)
+        record(point, k + 1)
+        if on_step is not None:
+            on_step(k + 1, m)
+    return point, True, Status.DONE, f"completed {m} steps"
+
+
+def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Sequence[float] | np.ndarray,
+                  g_max: Callable[[LoadPath], float], *, n_cycles: int = 2, steps_per_cycle: int = 80,
+                  waveform: str = "triangle", constant: str = "stress",
+                  progress: Callable[[int, float, Any], None] | None = None,
+                  raise_on_failure: bool = True) -> ModulusReduction:
+    """Cyclic simple shear ``gamma_xz`` at each amplitude and the last cycle's secant G and damping.
+
+    Parameters
+    ----------
+    run_one : callable ``(path) -> DriverResult``
+        Runs one amplitude's path from the model's initial state.
+    amplitudes : sequence of float
+        Engineering shear strain amplitudes [-], each > 0.
+    g_max : callable ``(path) -> float``
+        The model's small-strain modulus for the path's control (called once, with the
+        last path built) [Pa].
+    n_cycles, steps_per_cycle, waveform, constant
+        As :func:`grainmech.driver.cyclic_simple_shear`; the last cycle is analysed
+        (:func:`grainmech.analysis.loop_properties`: secant modulus, damping
+        ``D = dW / (4 pi W)``, Kramer 1996 Sec. 6.4.2).
+    progress : callable ``(index, amplitude, path)``, optional
+        Called before each amplitude.
+    raise_on_failure : bool
+        If False, a failed amplitude ends the series and the result (``success`` False,
+        ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+
+    Raises
+    ------
+    GrainmechError
+        If an amplitude fails and ``raise_on_failure``.
+    """
+    amps = np.asarray(amplitudes, dtype=float)
+    if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
+        raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
+    G, D, res = [], [], []
+    success, message = True, "done"
+    path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
+    for i, a in enumerate(amps):
+        path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
+        if progress is not None:
+            progress(i, float(a), path)
+        r = run_one(path)
+        res.append(r)
+        if not r.success:
+            message = f"amplitude {a:g}: {r.message}"
+            if raise_on_failure:
+                raise GrainmechError(message)
+            success = False
+            break
+        last = slice(len(path) - steps_per_cycle, len(path) + 1)
+        lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
+        G.append(lp.secant_modulus)
+        D.append(lp.damping)
+    return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), float(g_max(path)), res, success, message)
