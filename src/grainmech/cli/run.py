@@ -70,7 +70,12 @@ def main(args: argparse.Namespace) -> int:
         if len(outs) > 1:
             say(f"{o.method} model ({'completed' if o.success else 'STOPPED: ' + o.message}):")
         det = o.details
-        if det and "grains" in det:
+        if det and "grains" in det and o.method == "dem":
+            say(f"  {det['packing']}: {det['grains']} grains in LAMMPS, void ratio {det['void_ratio']:.3f}; "
+                f"largest unbalanced force ratio {det.get('max_unbalanced', float('nan')):.2g}")
+            for n in det.get("notes", []):
+                say(f"  note: {n}")
+        elif det and "grains" in det:
             say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
                 f"{det['void_ratio']:.3f}; largest out-of-balance force ratio "
                 f"{det.get('max_residual', float('nan')):.2g}")

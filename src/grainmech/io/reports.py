@@ -82,7 +82,8 @@ def amplitude_csv_name(amplitude: float) -> str:
 
 #: how each kinematic model is drawn and named where the two are compared
 MODEL_STYLE = {"affine": ("ko", "affine (seed: every contact follows the mean strain)"),
-               "packing": ("bs", "packing (every grain in equilibrium)")}
+               "packing": ("bs", "packing (every grain in equilibrium)"),
+               "dem": ("g^", "DEM (LAMMPS: grains rearrange)")}
 
 
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
@@ -149,6 +150,11 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         if getattr(r, "residual", None) is not None and len(r.residual) == len(rows):
             cols = cols + ["equilibrium_residual [-]"]
             rows = np.hstack([rows, np.asarray(r.residual, dtype=float)[:, None]])
+        if getattr(r, "unbalanced", None) is not None and len(r.unbalanced) == len(rows):
+            # the DEM model: every recorded state's equilibrium and contact count
+            cols = cols + ["unbalanced_force_ratio [-]", "coordination [-]"]
+            rows = np.hstack([rows, np.asarray(r.unbalanced, dtype=float)[:, None],
+                              np.asarray(r.coordination, dtype=float)[:, None]])
         if env is not None:
             cols = cols + ["stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"]
             rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
@@ -245,11 +251,16 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
     compare = "models" in summary
     models = list(summary["models"].values()) if compare else [summary]
     if compare:
-        intro += ("<p>Two kinematic models of the same sand: <b>affine</b>, the seed's kinematic "
-                  "hypothesis (every contact follows the mean strain, on the analytical fabric), an "
-                  "upper bound that cannot fail; <b>packing</b>, a packing of grains in which every "
-                  "grain moves and turns until it is in force and moment equilibrium at every step "
-                  "(see docs/packing-driver.md).</p>")
+        words = {"affine": "<b>affine</b>, the seed's kinematic hypothesis (every contact follows the mean "
+                           "strain, on the analytical fabric), an upper bound that cannot fail",
+                 "packing": "<b>packing</b>, a packing of grains in which every grain moves and turns until it "
+                            "is in force and moment equilibrium at every step, in a fixed reference geometry "
+                            "(docs/packing-driver.md)",
+                 "dem": "<b>dem</b>, the same grains in LAMMPS, strained in ramped increments and relaxed to "
+                        "equilibrium at every recorded state: contacts form and break, grains rearrange "
+                        "(docs/dem-model.md)"}
+        intro += (f"<p>{len(models)} kinematic models of the same sand: "
+                  + "; ".join(words[m["method"]] for m in models) + ".</p>")
     sections = []
     for m in models:
         pre = f"{m['method']}_" if compare else ""
@@ -257,7 +268,12 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
         if compare and not m["success"]:
             head += f"<p><b>Stopped:</b> {html.escape(str(m['message']))}</p>"
         det = m.get("details")
-        if det and "grains" in det:
+        if det and "grains" in det and m["method"] == "dem":
+            head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in LAMMPS, void ratio "
+                     f"{det['void_ratio']:.3f}; largest unbalanced force ratio of any recorded state "
+                     f"{det.get('max_unbalanced', float('nan')):.2g} (column unbalanced_force_ratio).</p>"
+                     + "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", [])))
+        elif det and "grains" in det:
             head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in equilibrium "
                      f"({det['rattlers']} rattlers left out), {det['contacts_closed']} contacts "
                      f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "

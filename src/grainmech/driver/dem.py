@@ -1,0 +1,535 @@
+"""The DEM model: the run's test done by LAMMPS on the same grains, quasi-statically.
+
+Where the packing model keeps the reference geometry fixed, the DEM model lets LAMMPS
+(``pair_style granular``: Hertz normal force, Mindlin no-slip tangential spring
+``k_t = 8 G* a`` capped by Coulomb friction, Mindlin 1949) move the grains: contacts form
+and break, grains rearrange, the packing can dilate, contract, fail and liquefy.
+
+**Quasi-static by construction** (as the DEM reference runs of
+:mod:`grainmech.packing.reference`, whose functions it uses). A step of a path is a strain
+increment applied as a ramp of ``ramp_steps`` time steps with the affine velocity field
+(the cell follows with ``fix deform ... remap v``, so the tangential springs see the
+affine part of the motion), after which the cell is held and the grains relax under
+viscous drags until (a) the unbalanced force ratio is below ``tol`` and (b) the
+Love-Weber stress (seed Eq. 2.6) changes over a chunk of ``chunk`` steps by less than
+``settle`` times its change over the step. Only these equilibrium states are recorded,
+so the drags and the ramp rate change the path between them, not the states
+(``docs/dem-model.md`` measures it).
+
+**Mixed control.** Stress-controlled components (``sigma_zz`` at constant normal stress,
+the lateral stresses of a drained triaxial test) are held by a servo on the cell: the
+strain of those components is predicted with a stiffness estimate (the relaxed tensor of
+the start state, :func:`grainmech.network.relaxed_stiffness`), applied with the step's
+strain increment, then corrected (ramp + relax again, the estimate updated by Broyden's
+rule from each observed response) until the stress error is below ``stress_tol`` times
+the step's stress change (at least ``1e-3`` of the mean stress). A step whose servo or
+relaxation does not converge within its budget raises
+:class:`~grainmech.driver.base.StepFailure`; the path keeps what was done.
+
+Strains are the sum of the increments (for large strains the natural strain of the cell);
+compression positive, engineering shears, Voigt order ``xx yy zz yz xz xy``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from grainmech.analysis.loops import ModulusReduction, condensed_modulus
+from grainmech.driver.base import DriverResult, StepFailure
+from grainmech.driver.loop import cyclic_series, follow_path
+from grainmech.driver.paths import LoadPath
+from grainmech.errors import GrainmechError, ParameterError
+from grainmech.network import ContactNetwork, network_stress
+from grainmech.network.measures import contact_stiffnesses, coordination
+from grainmech.network.relaxed import relaxed_stiffness
+from grainmech.packing.engine import Lammps
+from grainmech.packing.prepare import GrainMaterial
+from grainmech.packing.reference import _ramp, _Session, _voigt, load_network, relax
+
+__all__ = ["DemSettings", "DemPoint", "DemResult", "dem_material", "run_dem", "dem_modulus_reduction",
+           "DEM_MAX_AMPLITUDE"]
+
+#: largest cyclic amplitude the DEM model accepts (cells tilt; beyond it a simple-shear
+#: cell of a 2000-grain packing is too thin for the shear band)
+DEM_MAX_AMPLITUDE = 0.05
+#: relative difference between a packing's mean stress and the run's pressure below which
+#: the packing is used as it is (as the packing model's ``PACKING_STRESS_TOLERANCE``)
+PRESSURE_TOLERANCE = 5e-3
+#: grain density used when the contact law gives none [kg/m^3] (quartz); a quasi-static
+#: run's equilibria do not depend on it (it sets the time step and the drags only)
+DEFAULT_DENSITY = 2650.0
+
+Tick = Callable[[int, float], None]
+
+
+@dataclass(frozen=True)
+class DemSettings:
+    """Numerical settings of the DEM model (what makes it quasi-static).
+
+    Parameters
+    ----------
+    ramp_steps : int
+        Time steps over which each strain increment is applied (affine velocity field).
+    viscous : float
+        Drag on grain velocities and spins, as a fraction of the contact frequency at the
+        packing's stress (``fix viscous`` / ``viscous/sphere``), during relaxation only.
+    tol : float
+        Unbalanced force ratio (mean out-of-balance force and moment over the mean contact
+        force) every recorded state must reach.
+    settle : float
+        Stress criterion of a relaxation: the Love-Weber stress changes over one chunk by
+        less than ``settle`` times its change since the step began.
+    chunk : int
+        Time steps between two checks of the criteria.
+    max_relax_steps : int
+        Budget of one relaxation; a step that does not reach equilibrium within it fails.
+    safety : float
+        Time step as a fraction of the critical one (:func:`grainmech.packing.prepare.critical_time_step`).
+    stress_tol : float
+        Servo tolerance of the stress-controlled components, relative to the step's
+        stress change (at least ``1e-3`` of the mean stress).
+    max_corrections : int
+        Servo corrections per step before it fails.
+    threads : int
+        OpenMP threads of LAMMPS (``pair_style granular`` has no threaded variant; 1 leaves
+        the other cores to the rest of the run).
+    """
+
+    ramp_steps: int = 400
+    viscous: float = 0.3
+    tol: float = 1e-5
+    settle: float = 1e-3
+    chunk: int = 250
+    max_relax_steps: int = 200_000
+    safety: float = 0.1
+    stress_tol: float = 0.05
+    max_corrections: int = 20
+    threads: int = 1
+
+    def __post_init__(self) -> None:
+        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ParameterError(k, v, "must be an integer >= 1")
+        for k in ("viscous", "tol", "settle", "safety", "stress_tol"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(k, v, "must be a finite number > 0")
+        if self.safety > 0.5:
+            raise ParameterError("safety", self.safety, "must be <= 0.5 (fraction of the critical time step)")
+
+    def as_dict(self) -> dict:
+        """The settings as a JSON-ready dict."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def dem_material(law: Any) -> tuple[GrainMaterial, list[str]]:
+    """The LAMMPS grain material of a grainmech contact law, and notes on what runs.
+
+    Hertz-Mindlin and Mindlin-Deresiewicz laws give the grain shear modulus, Poisson's
+    ratio and friction; LAMMPS runs Hertz normal + Mindlin no-slip tangential spring with a
+    Coulomb cap for both (it has no Mindlin-Deresiewicz micro-slip law: said in the notes).
+
+    Raises
+    ------
+    GrainmechError
+        For a law LAMMPS' granular model cannot stand for (linear springs, cylinders) or
+        a frictionless one.
+    """
+    from grainmech.contact import Hertz, HertzMindlin, MindlinDeresiewicz
+
+    name = type(law).__name__
+    if not isinstance(law, Hertz):
+        raise GrainmechError(f"contacts.law = {name}: the DEM model runs LAMMPS' granular model (Hertz spheres); "
+                             "use 'hertz-mindlin' or 'mindlin-deresiewicz'")
+    mu = float(getattr(law, "friction", 0.0) or 0.0)
+    if not (isinstance(law, (HertzMindlin, MindlinDeresiewicz)) and 0 < mu < math.inf):
+        raise GrainmechError(f"contacts.law = {name} (friction {mu:g}): the DEM model needs a frictional "
+                             "Hertz-Mindlin law (contacts.law = 'hertz-mindlin' or 'mindlin-deresiewicz' with "
+                             "contacts.friction > 0)")
+    mat = GrainMaterial("grains", float(law.shear_modulus), float(law.poisson), DEFAULT_DENSITY, mu)
+    notes = ["LAMMPS pair_style granular: Hertz normal force, Mindlin no-slip tangential spring k_t = 8 G* a "
+             f"with a Coulomb cap (friction {mu:g}), grain shear modulus {mat.shear_modulus:.4g} Pa, Poisson "
+             f"{mat.poisson:g}"]
+    if isinstance(law, MindlinDeresiewicz):
+        notes.append("the config asks for Mindlin-Deresiewicz contacts; LAMMPS has no counterpart (no micro-slip "
+                     "below the Coulomb limit), so the DEM model ran the Hertz-Mindlin law above: its damping at "
+                     "small strains comes from full sliding only")
+    return mat, notes
+
+
+def _sliding(net: ContactNetwork, mu: float) -> float:
+    """Fraction of contacts at the Coulomb limit ``|T| >= (1 - 1e-6) mu N``."""
+    if net.n_contacts == 0:
+        return 0.0
+    f = np.asarray(net.force, float)
+    n = np.asarray(net.normals, float)
+    N = np.einsum("ij,ij->i", f, n)
+    T = np.linalg.norm(f - N[:, None] * n, axis=1)
+    return float(np.mean(T >= (1.0 - 1e-6) * mu * np.maximum(N, 0.0)))
+
+
+def _pairs(net: ContactNetwork) -> set:
+    ids = np.asarray(net.ids, np.int64)
+    a, b = ids[net.i], ids[net.j]
+    return set(zip(np.minimum(a, b).tolist(), np.maximum(a, b).tolist()))
+
+
+class DemPoint:
+    """A packing in LAMMPS at an equilibrium state (a live simulation: it moves forward only).
+
+    Open with :meth:`start` (or as a context manager); :meth:`step` advances it one
+    mixed-control step (the :class:`~grainmech.driver.base.SteppingPoint` contract) and
+    returns itself; :meth:`close` ends the LAMMPS instance.
+    """
+
+    def __init__(self, lmp: Lammps, session: _Session, net: ContactNetwork, unbalanced: float,
+                 settings: DemSettings, material: GrainMaterial, tick: Tick | None) -> None:
+        self._lmp = lmp
+        self._s = session
+        self.settings = settings
+        self.material = material
+        self._tick = tick
+        self.reference = net
+        self.strain = np.zeros(6)
+        self.notes: list[str] = []
+        self._vol_start = 0.0
+        self.corrections = 0
+        self._set(net, unbalanced)
+        self.p0 = float(np.mean(self.stress[:3]))
+        if not self.p0 > 0:
+            raise GrainmechError("the DEM packing carries no compressive stress after relaxation")
+        self._pairs0 = _pairs(net)
+        self.n_contacts0 = net.n_contacts
+        self.elastic_tangent = self._relaxed(net)
+        self._K = self.elastic_tangent.copy()
+
+    # -- construction -------------------------------------------------------------------
+    @classmethod
+    def start(cls, net: ContactNetwork, law: Any, settings: DemSettings | None = None, *,
+              pressure: float | None = None, tick: Tick | None = None) -> DemPoint:
+        """Load ``net`` into LAMMPS with the grains of ``law`` and relax it to equilibrium.
+
+        LAMMPS keeps no tangential spring history from a network file: the tangential
+        forces restart from zero and the packing re-settles at fixed cell. With
+        ``pressure`` [Pa], the packing is then brought to that isotropic stress (the
+        normal stresses servo-controlled, the shear strains held; a packing's stress
+        changes when the law's grain moduli differ from those it was made with) if its
+        mean stress differs by more than :data:`PRESSURE_TOLERANCE`. The start state, strain
+        zero, is that equilibrium (its stress, contacts and unbalanced force ratio are the
+        first recorded row).
+        """
+        st = settings or DemSettings()
+        mat, _ = dem_material(law)
+        if pressure is not None and not (math.isfinite(pressure) and pressure > 0):
+            raise ParameterError("pressure", pressure, "must be a finite stress > 0")
+        lmp = Lammps(st.threads)
+        try:
+            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety)
+            ref, ub = _relax(s, st, None, tick)
+            pt = cls(lmp, s, ref, ub, st, mat, tick)
+            pt.notes.append(f"LAMMPS keeps no tangential spring history from a network file: the packing "
+                            f"re-settled at fixed cell (unbalanced force ratio {pt.unbalanced:.2g}, "
+                            f"{pt.network.n_contacts} contacts, mean stress {pt.p0:.5g} Pa)")
+            if pressure is not None and abs(pt.p0 / pressure - 1.0) > PRESSURE_TOLERANCE:
+                p_before = pt.p0
+                sc = np.array([True, True, True, False, False, False])
+                target = np.where(sc, float(pressure), 0.0)
+                try:
+                    pt.step(np.zeros(6), sc, target)
+                except StepFailure as exc:
+                    raise GrainmechError(f"bringing the DEM packing from p = {p_before:.5g} Pa to {pressure:.5g} Pa "
+                                         f"failed: {exc.cause}") from None
+                pt._restart_here()
+                pt.notes.append(f"brought from p = {p_before:.5g} Pa to {pt.p0:.5g} Pa (isotropic, normal stresses "
+                                f"servo-controlled; volumetric strain {pt._vol_start:.3g})")
+            return pt
+        except BaseException:
+            lmp.close()
+            raise
+
+    def _restart_here(self) -> None:
+        """Make the current state the start state (strain zero, contact bookkeeping, tangent)."""
+        self._vol_start = float(np.sum(self.strain[:3]))
+        self.strain = np.zeros(6)
+        self.reference = self.network
+        self.p0 = float(np.mean(self.stress[:3]))
+        self._pairs0 = _pairs(self.network)
+        self.n_contacts0 = self.network.n_contacts
+        self.elastic_tangent = self._relaxed(self.network)
+        self._K = self.elastic_tangent.copy()
+
+    def close(self) -> None:
+        """End the LAMMPS instance (idempotent)."""
+        self._lmp.close()
+
+    def __enter__(self) -> DemPoint:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    # -- state --------------------------------------------------------------------------
+    def _set(self, net: ContactNetwork, unbalanced: float) -> None:
+        self.network = net
+        self.stress = _voigt(np.asarray(network_stress(net).stress))
+        self.unbalanced = float(unbalanced)
+        self.coordination = float(coordination(net).z)
+
+    def _relaxed(self, net: ContactNetwork) -> np.ndarray:
+        """Relaxed small-strain tensor of ``net`` with the Hertz-Mindlin no-slip stiffnesses (Voigt) [Pa]."""
+        kn, ks, _ = contact_stiffnesses(net, shear_modulus=self.material.shear_modulus,
+                                        poisson=self.material.poisson, source="overlap")
+        try:
+            return np.asarray(relaxed_stiffness(net, kn, ks).C_relaxed, float)
+        except GrainmechError as exc:
+            raise GrainmechError(f"the relaxed DEM packing is not mechanically stable: {exc}") from None
+
+    def fractions(self) -> tuple[float, float]:
+        """Sliding fraction of the contacts and fraction of the start state's contacts now open."""
+        lost = len(self._pairs0 - _pairs(self.network))
+        return _sliding(self.network, self.material.friction), lost / max(self.n_contacts0, 1)
+
+    def stored_energy(self) -> float:
+        """Elastic energy per unit volume in the contacts [Pa].
+
+        Hertz normal ``(2/5) N alpha`` (seed Eq. 3.2) plus the tangential spring's
+        ``|T|^2 / (2 k_t)`` with ``k_t = 8 G* a`` (Mindlin 1949, seed Eq. 3.11-3.12).
+        """
+        net = self.network
+        if net.n_contacts == 0:
+            return 0.0
+        f = np.asarray(net.force, float)
+        n = np.asarray(net.normals, float)
+        N = np.maximum(np.einsum("ij,ij->i", f, n), 0.0)
+        T2 = np.einsum("ij,ij->i", f, f) - N ** 2
+        alpha = np.maximum(np.asarray(net.overlap, float), 0.0) if net.overlap is not None else np.zeros(len(N))
+        _, ks, _ = contact_stiffnesses(net, shear_modulus=self.material.shear_modulus,
+                                       poisson=self.material.poisson, source="overlap")
+        e = 0.4 * N * alpha + np.where(ks > 0, np.maximum(T2, 0.0) / (2.0 * np.where(ks > 0, ks, 1.0)), 0.0)
+        return float(np.sum(e) / net.volume)
+
+    # -- one step -----------------------------------------------------------------------
+    def _apply(self, de: np.ndarray, base: np.ndarray) -> None:
+        _ramp(self._s, de, self.settings.ramp_steps)
+        self.strain = self.strain + de
+        net, ub = _relax(self._s, self.settings, base, self._tick)
+        self._set(net, ub)
+
+    @property
+    def relax_steps(self) -> int:
+        """LAMMPS time steps run so far (ramps and relaxations)."""
+        return int(self._s.steps)
+
+    def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> DemPoint:
+        """Apply one mixed-control step (module notes); returns ``self``.
+
+        Raises
+        ------
+        StepFailure
+            When a relaxation exceeds ``max_relax_steps`` or the servo does not bring the
+            stress-controlled components to ``target`` within ``max_corrections``.
+        """
+        sc = np.asarray(stress_control, bool)
+        de = np.where(sc, 0.0, np.asarray(d_strain, float))
+        start = self.stress.copy()
+        K = self._K
+        if sc.any():
+            Kss = K[np.ix_(sc, sc)]
+            rhs = target[sc] - start[sc] - K[np.ix_(sc, ~sc)] @ de[~sc]
+            de[sc] = np.linalg.solve(Kss, rhs)
+        try:
+            self._apply(de, start)
+            if not sc.any():
+                return self
+            # Broyden update of K_ss from the predictor's observed response
+            s_vec = de[sc]
+            y_vec = self.stress[sc] - start[sc] - K[np.ix_(sc, ~sc)] @ de[~sc]
+            self._broyden(sc, s_vec, y_vec)
+            for _ in range(self.settings.max_corrections):
+                err = target[sc] - self.stress[sc]
+                change = float(np.abs(self.stress[~sc] - start[~sc]).max(initial=0.0))
+                p = float(np.mean(self.stress[:3]))
+                scale = max(change, 1e-3 * abs(p))
+                if float(np.abs(err).max()) <= self.settings.stress_tol * scale:
+                    return self
+                dx = np.zeros(6)
+                dx[sc] = np.linalg.solve(self._K[np.ix_(sc, sc)], err)
+                before = self.stress.copy()
+                self.corrections += 1
+                self._apply(dx, before)
+                self._broyden(sc, dx[sc], self.stress[sc] - before[sc])
+            raise StepFailure(f"the stress-controlled components were not held within {self.settings.stress_tol:g} "
+                              f"of the step's stress change after {self.settings.max_corrections} servo corrections "
+                              f"(error {float(np.abs(target[sc] - self.stress[sc]).max()):.3g} Pa)")
+        except GrainmechError as exc:
+            if isinstance(exc, StepFailure):
+                raise
+            raise StepFailure(str(exc)) from None
+
+    def _broyden(self, sc: np.ndarray, s_vec: np.ndarray, y_vec: np.ndarray) -> None:
+        """Broyden's rank-one update of the stress-controlled block of the stiffness estimate."""
+        ss = float(s_vec @ s_vec)
+        if ss <= 0:
+            return
+        Kss = self._K[np.ix_(sc, sc)]
+        new = Kss + np.outer(y_vec - Kss @ s_vec, s_vec) / ss
+        # keep the estimate a stiffness (a negative or tiny diagonal would send the servo away)
+        d = np.diag(new)
+        if np.all(d > 1e-3 * np.diag(Kss)) and np.all(np.isfinite(new)):
+            self._K[np.ix_(sc, sc)] = new
+
+
+def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None) -> tuple[ContactNetwork, float]:
+    """:func:`grainmech.packing.reference.relax` with the settings, progress ticks and one error type."""
+    used = 0
+    while True:
+        budget = min(st.max_relax_steps - used, 20 * st.chunk)
+        try:
+            net, ub, n = relax(s, st.tol, budget, st.chunk,
+                               settle=None if base is None else (base, st.settle))
+            used += n
+            if tick is not None:
+                tick(s.steps, ub)
+            return net, ub
+        except GrainmechError as exc:
+            used += budget
+            if tick is not None:
+                tick(s.steps, float("nan"))
+            if used >= st.max_relax_steps:
+                raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time steps "
+                                  f"(tol = {st.tol:g}): {exc}") from None
+
+
+@dataclass(frozen=True)
+class DemResult(DriverResult):
+    """:class:`~grainmech.driver.base.DriverResult` of the DEM model, plus per-state data.
+
+    Attributes
+    ----------
+    unbalanced : (k+1,) unbalanced force ratio of every recorded equilibrium state
+    coordination : (k+1,) coordination number ``2 C / P`` (all grains) of every state
+    n_contacts : (k+1,) int, contacts of every state
+    notes : tuple of str (contact law that ran, re-settling of the start state, ...)
+    settings : dict, the :class:`DemSettings`
+    G_max : float, small-strain shear modulus of the start state [Pa] (set by the series)
+    elastic_tangent : (6, 6) relaxed small-strain tensor of the start state [Pa]
+
+    ``tangent`` is not measured (NaN); ``iterations`` holds the LAMMPS time steps of each
+    step and ``substeps`` its servo corrections.
+    """
+
+    unbalanced: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    coordination: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    n_contacts: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    notes: tuple = ()
+    settings: dict = field(default_factory=dict)
+    elastic_tangent: np.ndarray = field(default_factory=lambda: np.full((6, 6), np.nan))
+
+
+def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None = None, *,
+            pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
+            tick: Tick | None = None) -> DemResult:
+    """Run ``path`` with LAMMPS on the packing ``net`` (module notes).
+
+    Parameters
+    ----------
+    net : ContactNetwork
+        3D periodic packing with radii (e.g. :func:`grainmech.packing.load_packing`).
+    law : contact law
+        Hertz-Mindlin or Mindlin-Deresiewicz (:func:`dem_material`).
+    path : LoadPath
+    settings : DemSettings, optional
+    pressure : float, optional
+        Isotropic stress [Pa] the packing is brought to before the path (:meth:`DemPoint.start`).
+    on_step : callable ``(k, n)``, optional
+        After each step.
+    tick : callable ``(time_steps, unbalanced)``, optional
+        After each relaxation (progress during long steps).
+
+    Returns
+    -------
+    DemResult
+        ``success`` False keeps every state before the failed step, the message names it.
+    """
+    st = settings or DemSettings()
+    _, notes = dem_material(law)
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "sl", "op", "work", "stored", "sub", "it", "ub",
+                                             "z", "nc")}
+    state = {"corr": 0, "steps": 0}
+
+    def record(pt: DemPoint, k: int) -> None:
+        sl, op = pt.fractions()
+        if k > 0:
+            mid = 0.5 * (rows["stress"][-1] + pt.stress)
+            rows["work"].append(rows["work"][-1] + float(mid @ (pt.strain - rows["strain"][-1])))
+        else:
+            rows["work"].append(0.0)
+        rows["strain"].append(pt.strain.copy())
+        rows["stress"].append(pt.stress.copy())
+        rows["sl"].append(sl)
+        rows["op"].append(op)
+        rows["stored"].append(pt.stored_energy())
+        rows["sub"].append(pt.corrections - state["corr"])
+        rows["it"].append(pt.relax_steps - state["steps"])
+        state["corr"], state["steps"] = pt.corrections, pt.relax_steps
+        rows["ub"].append(pt.unbalanced)
+        rows["z"].append(pt.coordination)
+        rows["nc"].append(pt.network.n_contacts)
+
+    with DemPoint.start(net, law, st, pressure=pressure, tick=tick) as point:
+        notes += point.notes
+        state["steps"] = point.relax_steps
+        final, success, status, message = follow_path(point, path, record, on_step=on_step)
+        tangent0 = point.elastic_tangent
+    arr = {k: np.array(v) for k, v in rows.items()}
+    n = len(arr["strain"])
+    work = arr["work"]
+    diss = work - (arr["stored"] - arr["stored"][0])
+    return DemResult(success, int(status), message, arr["strain"], arr["stress"], np.full((n, 6, 6), np.nan),
+                     arr["sl"], arr["op"], diss, work, arr["stored"], arr["sub"].astype(int), arr["it"].astype(int),
+                     None, len(path), {}, arr["ub"], arr["z"], arr["nc"].astype(int), tuple(notes), st.as_dict(),
+                     tangent0)
+
+
+def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
+                          steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
+                          settings: DemSettings | None = None, pressure: float | None = None,
+                          progress: Callable[[int, float, Any], None] | None = None,
+                          on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
+                          raise_on_failure: bool = True) -> ModulusReduction:
+    """G/Gmax and damping of a packing by DEM: cyclic simple shear ``gamma_xz`` per amplitude.
+
+    Each amplitude starts from the same state (the packing loaded and relaxed anew; LAMMPS
+    is deterministic on one thread), as the other models' series do
+    (:func:`grainmech.driver.loop.cyclic_series`: the last of ``n_cycles`` cycles
+    analysed). ``G_max`` is ``C_55`` of the relaxed small-strain tensor of that start state
+    (:func:`grainmech.network.relaxed_stiffness` with the no-slip Hertz-Mindlin
+    stiffnesses LAMMPS uses, condensed with the path's control: ``sigma_zz`` free at
+    constant stress): the small-strain limit of the same DEM state, which LAMMPS' own
+    strain probes reproduce to 0.13 % on 'dense' (``docs/packing.md``).
+    """
+    dem_material(law)  # refuse a law LAMMPS cannot run before anything starts
+    amps = np.asarray(amplitudes, dtype=float)
+    if amps.ndim == 1 and amps.size and float(np.nanmax(amps)) > DEM_MAX_AMPLITUDE:
+        raise ParameterError("amplitudes", list(amplitudes), f"the DEM model takes amplitudes up to "
+                             f"{DEM_MAX_AMPLITUDE:g}")
+    tangents: list[np.ndarray] = []
+
+    def one(path: LoadPath) -> DriverResult:
+        r = run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick)
+        tangents.append(r.elastic_tangent)
+        return r
+
+    def gmax(path: LoadPath) -> float:
+        if not tangents:
+            return float("nan")
+        return condensed_modulus(tangents[0], 4, path.stress_control[0])
+
+    return cyclic_series(one, amps, gmax, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform,
+                         constant=constant, progress=progress, raise_on_failure=raise_on_failure)
