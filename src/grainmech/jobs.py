@@ -750,7 +750,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
                    message=f"preparing the packing failed: {exc}", seconds=time.perf_counter() - t0,
                    point=None, method="packing",
                    details={"packing": src.label, "void_ratio": src.void_ratio})
-    on_step = _step_reporter(say, "[packing]")
+    on_step = _step_reporter(say, "[packing]", len(spec.amplitudes_of("packing"))
+                             if spec.kind == "cyclic-simple-shear" else None)
     details = {"packing": src.label, "grains": int(pt.n_grains), "rattlers": int(pt.n_rattlers),
                "contacts_tracked": int(pt.n_contacts), "contacts_closed": int(np.sum(pt.initially_closed)),
                "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),
@@ -784,28 +785,45 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
                        envelope=envelope_check(r.stress), method="packing", details=details)
 
 
-#: seconds between two progress lines of a long packing run
-PACKING_PROGRESS_EVERY = 20.0
+#: seconds between two progress lines of a long packing run (at most; a batch job's log
+#: shows the run is alive at least this often)
+PACKING_PROGRESS_EVERY = 10.0
 
 
-def _step_reporter(say: Callable[[str], None], tag: str,
+def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None = None,
                    every: float = PACKING_PROGRESS_EVERY) -> Callable[[int, int], None]:
-    """``on_step(k, n)`` that says ``"<tag>   step k/n, t s"`` at most once every ``every`` seconds.
+    """``on_step(k, n)`` that reports the progress of a long run at most once every ``every`` seconds.
 
-    The packing driver can take minutes per amplitude (committed relaxation at the strain
-    reversals); the line tells the user that it is working and how far it is.
+    The line says ``"<tag> amplitude a/m, step k/n, t s (total T s), about R s left"``:
+    the amplitude (of ``amplitudes`` runs; without it, one path run and no amplitude),
+    the step of the current run, the seconds since the current run began and since the
+    first began, and, once one amplitude has finished (a path run: from the first step),
+    an estimate of the time left: the seconds per step so far times the steps left
+    (every amplitude has the same number of steps; larger amplitudes usually take longer
+    per step, so the estimate tends to be low). The packing driver can take minutes
+    per amplitude (committed relaxation at the strain reversals); the line tells the user
+    that it is working and how far it is. A call with ``k`` not above the previous one
+    starts the next run (amplitude); the last step of a run is silent.
     """
     start = time.perf_counter()
-    state = {"t0": start, "last": start, "end": start, "k": 0.0}
+    state = {"t0": start, "last": start, "end": start, "k": 0.0, "run": 1, "done_steps": 0}
 
     def on_step(k: int, n: int) -> None:
         now = time.perf_counter()
         if k <= state["k"]:  # a new run (next amplitude): it started when the last one ended
+            state["run"] += 1
+            state["done_steps"] += int(state["k"])
             state["t0"] = state["last"] = state["end"]
         state["k"], state["end"] = k, now
         if now - state["last"] >= every and k < n:
             state["last"] = now
-            say(f"{tag}   step {k}/{n}, {now - state['t0']:.0f} s")
+            where = f"amplitude {state['run']}/{amplitudes}, " if amplitudes else ""
+            line = f"{tag} {where}step {k}/{n}, {now - state['t0']:.0f} s (total {now - start:.0f} s)"
+            left_steps = n - k + (max(amplitudes - state["run"], 0) * n if amplitudes else 0)
+            if state["done_steps"] or not amplitudes:
+                rate = (now - start) / max(state["done_steps"] + k, 1)
+                line += f", about {rate * left_steps:.0f} s left"
+            say(line)
 
     return on_step
 
