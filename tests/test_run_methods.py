@@ -275,7 +275,7 @@ steps_per_cycle = 16
     (cdir / "run.toml").write_text(text)
     r = cli("run", cdir / "run.toml", "-o", tmp_path / "out")
     assert r.rc == 0, r.err
-    assert "affine model (completed)" in r.err and "packing model (completed)" in r.err
+    assert "affine model (completed)" in r.out and "packing model (completed)" in r.out
     assert (tmp_path / "out" / "packing_modulus_reduction.csv").exists()
 
 

@@ -24,6 +24,7 @@ returns a typed result (:class:`StiffnessOutcome`, :class:`CyclicOutcome` or
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -630,7 +631,8 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         t0 = time.perf_counter()
         mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                waveform=spec.waveform, constant=spec.constant, progress=each,
-                               raise_on_failure=False)
+                               raise_on_failure=False,
+                               on_amplitude=_amplitudes_so_far(say, spec, "affine", point, spec.void_ratio, t0))
         seconds = time.perf_counter() - t0
         details = {"packing_gmax": packing_gmax(spec, say)} if spec.gmax_grains is not None else None
         return _cyclic_outcome(spec, "affine", mr, seconds, point, spec.void_ratio, details)
@@ -717,6 +719,33 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         run_amplitudes=np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float))
 
 
+def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ratio: float | None,
+                       t0: float, details: dict | None = None) -> Callable[[Any], None] | None:
+    """``on_amplitude`` of a modulus-reduction series that tells ``say.amplitudes_done``.
+
+    If the progress callback ``say`` has a method ``amplitudes_done(outcome)``, it
+    receives after each completed amplitude the :class:`CyclicOutcome` of the amplitudes
+    done so far (``success`` False and ``message`` "interrupted after k of n amplitudes"
+    until the last): what a caller can still write if the run is interrupted. ``None``
+    (no hook) otherwise.
+    """
+    done = getattr(say, "amplitudes_done", None)
+    if done is None:
+        return None
+    n = len(spec.amplitudes_of(method))
+
+    def each(mr: Any) -> None:
+        k = len(mr.G)
+        if k < n:
+            mr = dataclasses.replace(mr, success=False, message=f"interrupted after {k} of {n} amplitudes")
+        det = dict(details or {})
+        if method == "packing":
+            det["max_residual"] = _max_residual(mr.results)
+        done(_cyclic_outcome(spec, method, mr, time.perf_counter() - t0, point, void_ratio, det or None))
+
+    return each
+
+
 #: relative difference between a packing's stress and the run's mean stress below which
 #: the packing is used as it is (otherwise it is brought to the stress first)
 PACKING_STRESS_TOLERANCE = 5e-3
@@ -773,6 +802,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         mr = packing_modulus_reduction(pt, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                        waveform=spec.waveform, constant=spec.constant, progress=each,
                                        raise_on_failure=False, options=opts, on_step=on_step,
+                                       on_amplitude=_amplitudes_so_far(say, spec, "packing", pt, src.void_ratio,
+                                                                       t1, details),
                                        tangent="none")  # the reports use no tangent row (1.7 s on 'dense')
         details["max_residual"] = _max_residual(mr.results)
         return _cyclic_outcome(spec, "packing", mr, time.perf_counter() - t1, pt, src.void_ratio, details)

@@ -110,7 +110,9 @@ class ModulusReduction:
 def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
                       steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
                       progress: Callable[[int, float, Any], None] | None = None,
-                      raise_on_failure: bool = True, **run_options: Any) -> ModulusReduction:
+                      raise_on_failure: bool = True,
+                      on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                      **run_options: Any) -> ModulusReduction:
     """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
 
     Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
@@ -127,6 +129,9 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     raise_on_failure : bool
         If False, a failed run stops the series and the result (``success`` False,
         ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+    on_amplitude : callable ``(ModulusReduction)``, optional
+        Called after each completed amplitude with the series so far (what an
+        interrupted run can still report).
 
     Raises
     ------
@@ -157,5 +162,8 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
         G.append(lp.secant_modulus)
         D.append(lp.damping)
         res.append(r)
+        if on_amplitude is not None:
+            on_amplitude(ModulusReduction(amps[:len(G)], np.array(G), np.array(D),
+                                          condensed_modulus(point.tangent, 4, path.stress_control[0]), list(res)))
     Gmax = condensed_modulus(point.tangent, 4, path.stress_control[0])
     return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), Gmax, res, success, message)
