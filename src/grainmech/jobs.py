@@ -887,20 +887,25 @@ def grain_modulus_warning(g_max: float, law: Any) -> list[str]:
 
 
 def input_warnings(cfg: dict) -> list[str]:
-    """Plausibility warnings (not errors) about a run config, each with value and reason.
+    """Plausibility warnings (not errors) about a config, each with value and reason.
 
-    * a bare mean stress below 1 kPa (``pressure = 100`` is read as 100 Pa);
+    The same checks for every command that reads these keys (``run``, ``stiffness``,
+    ``calibrate``'s model, ``pack``):
+
+    * a bare stress below 1 kPa (``pressure = 100`` is read as 100 Pa) in
+      ``initial.pressure``, ``stress.pressure`` or ``preparation.stress``;
     * a cyclic amplitude above :data:`SMALL_STRAIN_LIMIT`;
     * a coordination number outside :data:`SPHERE_COORDINATION_RANGE`.
     """
     from grainmech.fabric import CORRELATIONS, coordination_number
 
     out: list[str] = []
-    ini = cfg.get("initial", {}) if isinstance(cfg.get("initial"), dict) else {}
-    p = ini.get("pressure")
-    if isinstance(p, (int, float)) and not isinstance(p, bool) and 0 < p < 1e3:
-        out.append(f"initial.pressure = {p:g}: a bare number is read in Pa ({p:g} Pa, below 1 kPa); "
-                   f"write e.g. \"{p:g} kPa\" if that was meant")
+    for table, key in (("initial", "pressure"), ("stress", "pressure"), ("preparation", "stress")):
+        sec = cfg.get(table, {}) if isinstance(cfg.get(table), dict) else {}
+        p = sec.get(key)
+        if isinstance(p, (int, float)) and not isinstance(p, bool) and 0 < p < 1e3:
+            out.append(f"{table}.{key} = {p:g}: a bare number is read in Pa ({p:g} Pa, below 1 kPa); "
+                       f"write e.g. \"{p:g} kPa\" if that was meant")
     test = cfg.get("test", {}) if isinstance(cfg.get("test"), dict) else {}
     amps = test.get("amplitudes")
     if isinstance(amps, list):
