@@ -311,7 +311,9 @@ def _write(tmp_path, name, text):
     ("void_ratio,G [psi]\n0.6,1e4\n", "required column 'pressure' is missing"),
     ("pressure [psi],void_ratio\n10,0.6\n", "no measured column to fit"),
     ("pressure [psi],G [psi]\n", "no data rows"),
-    ("pressure [psi],G [psi]\n-10,1e4\n", "line 2, column 'pressure' = -68947"),
+    ("pressure [psi],G [psi]\n-10,1e4\n", "line 2, column 'pressure': value '-10': -6.895e+04 Pa is outside "
+                                          "1 Pa to 1 GPa"),
+    ("pressure [psi],G [psi]\n10,-1e4\n", "line 2, column 'G': value '-1e4': a measured modulus must be > 0"),
     ("pressure [psi],G [psi]\n10,inf\n", "value 'inf' is not finite"),
 ])
 def test_bad_csv_errors(tmp_path, csv_text, expected):

@@ -62,8 +62,9 @@ def test_envelope_check_marks_the_first_step_beyond():
 def test_triaxial_path_output_flags_the_envelope(tmp_path, cli):
     res = cli("run", str(EX / "run_triaxial_path.toml"), "-o", str(tmp_path))
     assert res.rc == 0
-    err = res.err
-    assert "WARNING: the stress ratio sigma1/sigma3 leaves the envelope" in err
+    err = res.err  # a warning: on stderr, with the path's result line on stdout
+    assert "grainmech: warning: the stress ratio sigma1/sigma3 leaves the envelope" in err
+    assert "path: " in res.out and "final stress" in res.out and "warning" not in res.out
     summ = json.loads((tmp_path / "summary.json").read_text())
     first = summ["envelope"]["first_step_beyond"]
     assert first is not None and summ["envelope"]["max_ratio"] > 7.55

@@ -275,31 +275,55 @@ steps_per_cycle = 16
     (cdir / "run.toml").write_text(text)
     r = cli("run", cdir / "run.toml", "-o", tmp_path / "out")
     assert r.rc == 0, r.err
-    assert "affine model (completed)" in r.err and "packing model (completed)" in r.err
+    assert "affine model (completed)" in r.out and "packing model (completed)" in r.out
     assert (tmp_path / "out" / "packing_modulus_reduction.csv").exists()
 
 
 def test_packing_step_reporter_throttles_and_restarts_per_run():
     """The progress line of a long packing run: at most one per interval, never after the
-    last step, and the seconds counted from the start of the current run (amplitude)."""
-    from grainmech.jobs import _step_reporter
-
-    clock = iter([0.0, 1.0, 5.0, 21.0, 30.0, 45.0, 50.0, 80.0])
-    said: list[str] = []
+    last step, the seconds counted from the start of the current run (amplitude) and of
+    the first, the amplitude k/n, and an estimate of the time left once an amplitude has
+    finished (seconds per step so far x steps left)."""
     import grainmech.jobs as jobs
+    from grainmech.jobs import PACKING_PROGRESS_EVERY, _step_reporter
 
+    assert PACKING_PROGRESS_EVERY == 10.0
+    clock = iter([0.0, 1.0, 5.0, 11.0, 20.0, 35.0, 40.0, 70.0])
+    said: list[str] = []
     real = jobs.time.perf_counter
     jobs.time.perf_counter = lambda: next(clock)
     try:
-        rep = _step_reporter(said.append, "[packing]", every=20.0)  # created at t = 0
-        for k, n in ((1, 4), (2, 4), (3, 4), (4, 4)):  # steps end at 1, 5, 21, 30
+        rep = _step_reporter(said.append, "[packing]", 2)  # created at t = 0; two amplitudes
+        for k, n in ((1, 4), (2, 4), (3, 4), (4, 4)):  # steps end at 1, 5, 11, 20
             rep(k, n)
-        for k, n in ((1, 3), (2, 3), (3, 3)):  # second run, from t = 30: steps end at 45, 50, 80
+        for k, n in ((1, 4), (2, 4), (3, 4)):  # second amplitude, from t = 20: steps end at 35, 40, 70
             rep(k, n)
     finally:
         jobs.time.perf_counter = real
-    # 21 s after the start; then 20 s after the second run began (t = 30); the last step is silent
-    assert said == ["[packing]   step 3/4, 21 s", "[packing]   step 2/3, 20 s"]
+    # 11 s after the start (no estimate yet); 15 s after the second amplitude began (t = 20):
+    # 35 s for 5 steps, 7 s per step, 3 steps left; then 70 s for 7 steps, 1 left; the last
+    # step of the first amplitude is silent
+    assert said == ["[packing] amplitude 1/2, step 3/4, 11 s (total 11 s)",
+                    "[packing] amplitude 2/2, step 1/4, 15 s (total 35 s), about 21 s left",
+                    "[packing] amplitude 2/2, step 3/4, 50 s (total 70 s), about 10 s left"]
+
+
+def test_path_step_reporter_estimates_from_the_first_step():
+    import grainmech.jobs as jobs
+    from grainmech.jobs import _step_reporter
+
+    clock = iter([0.0, 12.0, 30.0])
+    said: list[str] = []
+    real = jobs.time.perf_counter
+    jobs.time.perf_counter = lambda: next(clock)
+    try:
+        rep = _step_reporter(said.append, "[packing]")
+        rep(3, 10)
+        rep(5, 10)
+    finally:
+        jobs.time.perf_counter = real
+    assert said == ["[packing] step 3/10, 12 s (total 12 s), about 28 s left",
+                    "[packing] step 5/10, 30 s (total 30 s), about 30 s left"]
 
 
 def test_gmax_packing_beside_the_affine_model():

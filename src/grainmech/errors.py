@@ -74,3 +74,12 @@ class ConfigError(GrainmechError):
 
 class NegativeDensityError(GrainmechError):
     """A contact-normal density is negative somewhere (not a valid distribution)."""
+
+
+class Terminated(KeyboardInterrupt):
+    """The process received SIGTERM (a batch scheduler's stop).
+
+    Raised by the command line's SIGTERM handler; a :class:`KeyboardInterrupt`, so that
+    everything that cleans up after Ctrl-C (output folders, worker processes) does the
+    same for SIGTERM. The command line exits with status 143 (128 + 15).
+    """

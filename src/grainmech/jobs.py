@@ -24,6 +24,7 @@ returns a typed result (:class:`StiffnessOutcome`, :class:`CyclicOutcome` or
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -704,7 +705,8 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         t0 = time.perf_counter()
         mr = modulus_reduction(point, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                waveform=spec.waveform, constant=spec.constant, progress=each,
-                               raise_on_failure=False)
+                               raise_on_failure=False,
+                               on_amplitude=_amplitudes_so_far(say, spec, "affine", point, spec.void_ratio, t0))
         seconds = time.perf_counter() - t0
         details = {"packing_gmax": packing_gmax(spec, say)} if spec.gmax_grains is not None else None
         return _cyclic_outcome(spec, "affine", mr, seconds, point, spec.void_ratio, details)
@@ -791,6 +793,33 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         run_amplitudes=np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float))
 
 
+def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ratio: float | None,
+                       t0: float, details: dict | None = None) -> Callable[[Any], None] | None:
+    """``on_amplitude`` of a modulus-reduction series that tells ``say.amplitudes_done``.
+
+    If the progress callback ``say`` has a method ``amplitudes_done(outcome)``, it
+    receives after each completed amplitude the :class:`CyclicOutcome` of the amplitudes
+    done so far (``success`` False and ``message`` "interrupted after k of n amplitudes"
+    until the last): what a caller can still write if the run is interrupted. ``None``
+    (no hook) otherwise.
+    """
+    done = getattr(say, "amplitudes_done", None)
+    if done is None:
+        return None
+    n = len(spec.amplitudes_of(method))
+
+    def each(mr: Any) -> None:
+        k = len(mr.G)
+        if k < n:
+            mr = dataclasses.replace(mr, success=False, message=f"interrupted after {k} of {n} amplitudes")
+        det = dict(details or {})
+        if method == "packing":
+            det["max_residual"] = _max_residual(mr.results)
+        done(_cyclic_outcome(spec, method, mr, time.perf_counter() - t0, point, void_ratio, det or None))
+
+    return each
+
+
 #: relative difference between a packing's stress and the run's mean stress below which
 #: the packing is used as it is (otherwise it is brought to the stress first)
 PACKING_STRESS_TOLERANCE = 5e-3
@@ -824,7 +853,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
                    message=f"preparing the packing failed: {exc}", seconds=time.perf_counter() - t0,
                    point=None, method="packing",
                    details={"packing": src.label, "void_ratio": src.void_ratio})
-    on_step = _step_reporter(say, "[packing]")
+    on_step = _step_reporter(say, "[packing]", len(spec.amplitudes_of("packing"))
+                             if spec.kind == "cyclic-simple-shear" else None)
     details = {"packing": src.label, "grains": int(pt.n_grains), "rattlers": int(pt.n_rattlers),
                "contacts_tracked": int(pt.n_contacts), "contacts_closed": int(np.sum(pt.initially_closed)),
                "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),
@@ -846,6 +876,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         mr = packing_modulus_reduction(pt, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle,
                                        waveform=spec.waveform, constant=spec.constant, progress=each,
                                        raise_on_failure=False, options=opts, on_step=on_step,
+                                       on_amplitude=_amplitudes_so_far(say, spec, "packing", pt, src.void_ratio,
+                                                                       t1, details),
                                        tangent="none")  # the reports use no tangent row (1.7 s on 'dense')
         details["max_residual"] = _max_residual(mr.results)
         return _cyclic_outcome(spec, "packing", mr, time.perf_counter() - t1, pt, src.void_ratio, details)
@@ -889,7 +921,8 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.dem_steps_per_cycle,
                                    waveform=spec.waveform, constant=spec.constant, settings=spec.dem_settings,
                                    pressure=spec.pressure, progress=each, on_step=on_step, tick=tick,
-                                   raise_on_failure=False)
+                                   raise_on_failure=False,
+                                   on_amplitude=_amplitudes_so_far(say, spec, "dem", None, src.void_ratio, t0, details))
         if mr.results:
             details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]
             details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in mr.results))
@@ -938,28 +971,45 @@ def _dem_reporter(say: Callable[[str], None],
     return on_step, tick
 
 
-#: seconds between two progress lines of a long packing run
-PACKING_PROGRESS_EVERY = 20.0
+#: seconds between two progress lines of a long packing run (at most; a batch job's log
+#: shows the run is alive at least this often)
+PACKING_PROGRESS_EVERY = 10.0
 
 
-def _step_reporter(say: Callable[[str], None], tag: str,
+def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None = None,
                    every: float = PACKING_PROGRESS_EVERY) -> Callable[[int, int], None]:
-    """``on_step(k, n)`` that says ``"<tag>   step k/n, t s"`` at most once every ``every`` seconds.
+    """``on_step(k, n)`` that reports the progress of a long run at most once every ``every`` seconds.
 
-    The packing driver can take minutes per amplitude (committed relaxation at the strain
-    reversals); the line tells the user that it is working and how far it is.
+    The line says ``"<tag> amplitude a/m, step k/n, t s (total T s), about R s left"``:
+    the amplitude (of ``amplitudes`` runs; without it, one path run and no amplitude),
+    the step of the current run, the seconds since the current run began and since the
+    first began, and, once one amplitude has finished (a path run: from the first step),
+    an estimate of the time left: the seconds per step so far times the steps left
+    (every amplitude has the same number of steps; larger amplitudes usually take longer
+    per step, so the estimate tends to be low). The packing driver can take minutes
+    per amplitude (committed relaxation at the strain reversals); the line tells the user
+    that it is working and how far it is. A call with ``k`` not above the previous one
+    starts the next run (amplitude); the last step of a run is silent.
     """
     start = time.perf_counter()
-    state = {"t0": start, "last": start, "end": start, "k": 0.0}
+    state = {"t0": start, "last": start, "end": start, "k": 0.0, "run": 1, "done_steps": 0}
 
     def on_step(k: int, n: int) -> None:
         now = time.perf_counter()
         if k <= state["k"]:  # a new run (next amplitude): it started when the last one ended
+            state["run"] += 1
+            state["done_steps"] += int(state["k"])
             state["t0"] = state["last"] = state["end"]
         state["k"], state["end"] = k, now
         if now - state["last"] >= every and k < n:
             state["last"] = now
-            say(f"{tag}   step {k}/{n}, {now - state['t0']:.0f} s")
+            where = f"amplitude {state['run']}/{amplitudes}, " if amplitudes else ""
+            line = f"{tag} {where}step {k}/{n}, {now - state['t0']:.0f} s (total {now - start:.0f} s)"
+            left_steps = n - k + (max(amplitudes - state["run"], 0) * n if amplitudes else 0)
+            if state["done_steps"] or not amplitudes:
+                rate = (now - start) / max(state["done_steps"] + k, 1)
+                line += f", about {rate * left_steps:.0f} s left"
+            say(line)
 
     return on_step
 
@@ -992,20 +1042,25 @@ def grain_modulus_warning(g_max: float, law: Any) -> list[str]:
 
 
 def input_warnings(cfg: dict) -> list[str]:
-    """Plausibility warnings (not errors) about a run config, each with value and reason.
+    """Plausibility warnings (not errors) about a config, each with value and reason.
 
-    * a bare mean stress below 1 kPa (``pressure = 100`` is read as 100 Pa);
+    The same checks for every command that reads these keys (``run``, ``stiffness``,
+    ``calibrate``'s model, ``pack``):
+
+    * a bare stress below 1 kPa (``pressure = 100`` is read as 100 Pa) in
+      ``initial.pressure``, ``stress.pressure`` or ``preparation.stress``;
     * a cyclic amplitude above :data:`SMALL_STRAIN_LIMIT`;
     * a coordination number outside :data:`SPHERE_COORDINATION_RANGE`.
     """
     from grainmech.fabric import CORRELATIONS, coordination_number
 
     out: list[str] = []
-    ini = cfg.get("initial", {}) if isinstance(cfg.get("initial"), dict) else {}
-    p = ini.get("pressure")
-    if isinstance(p, (int, float)) and not isinstance(p, bool) and 0 < p < 1e3:
-        out.append(f"initial.pressure = {p:g}: a bare number is read in Pa ({p:g} Pa, below 1 kPa); "
-                   f"write e.g. \"{p:g} kPa\" if that was meant")
+    for table, key in (("initial", "pressure"), ("stress", "pressure"), ("preparation", "stress")):
+        sec = cfg.get(table, {}) if isinstance(cfg.get(table), dict) else {}
+        p = sec.get(key)
+        if isinstance(p, (int, float)) and not isinstance(p, bool) and 0 < p < 1e3:
+            out.append(f"{table}.{key} = {p:g}: a bare number is read in Pa ({p:g} Pa, below 1 kPa); "
+                       f"write e.g. \"{p:g} kPa\" if that was meant")
     test = cfg.get("test", {}) if isinstance(cfg.get("test"), dict) else {}
     amps = test.get("amplitudes")
     if isinstance(amps, list):

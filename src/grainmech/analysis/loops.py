@@ -110,7 +110,9 @@ class ModulusReduction:
 def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
                       steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
                       progress: Callable[[int, float, Any], None] | None = None,
-                      raise_on_failure: bool = True, **run_options: Any) -> ModulusReduction:
+                      raise_on_failure: bool = True,
+                      on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                      **run_options: Any) -> ModulusReduction:
     """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
 
     Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
@@ -127,6 +129,9 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     raise_on_failure : bool
         If False, a failed run stops the series and the result (``success`` False,
         ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+    on_amplitude : callable ``(ModulusReduction)``, optional
+        Called after each completed amplitude with the series so far (what an
+        interrupted run can still report).
 
     Raises
     ------
@@ -139,4 +144,4 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     return cyclic_series(lambda path: run(point, path, **run_options), amplitudes,
                          lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
                          n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
-                         progress=progress, raise_on_failure=raise_on_failure)
+                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)

@@ -42,6 +42,8 @@ for _c in ("E_xx", "E_yy", "E_zz", "G_yz", "G_xz", "G_xy"):
     COLUMN_UNITS[_c] = "Pa"
 for _c in ("nu_xy", "nu_yx", "nu_xz", "nu_zx", "nu_yz", "nu_zy"):
     COLUMN_UNITS[_c] = None
+#: columns of elastic moduli: a measured value must be positive
+MODULUS_COLUMNS = frozenset({"G", "E", "K", "E_xx", "E_yy", "E_zz", "G_yz", "G_xz", "G_xy"})
 #: aliases accepted in headers
 ALIASES = {"G/Gmax": "G_ratio", "g_over_gmax": "G_ratio", "G_over_Gmax": "G_ratio", "D": "damping"}
 #: columns whose unit must be written in the header
@@ -144,8 +146,10 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
     ------
     GrainmechError
         Missing/empty file, malformed header, unknown, duplicate, missing or disallowed
-        columns, a cell that is not a finite number, a wrong number of cells, or an
-        ``sd_`` value that is not positive. The message names file, line, column, value.
+        columns, a cell that is not a finite number, a wrong number of cells, an ``sd_``
+        value or a modulus (``G``, ``E``, ``K``, ``E_xx``...) that is not positive, or a
+        pressure outside 1 Pa .. 1 GPa (:data:`grainmech.io.schema.PRESSURE_MIN` ..
+        ``PRESSURE_MAX``). The message names file, line, column, value.
     """
     from grainmech.io.config import read_text_file
 
@@ -188,6 +192,16 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
             if h.startswith("sd_") and v <= 0:
                 raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r}: a standard "
                                      "deviation must be > 0")
+            if h in MODULUS_COLUMNS and v <= 0:
+                raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r}: a measured "
+                                     "modulus must be > 0 (a negative one is a sign or column slip)")
+            if h == "pressure":
+                from grainmech.io.schema import pressure_problem
+
+                problem = pressure_problem(v * f)
+                if problem is not None:
+                    raise GrainmechError(f"{name}, line {lineno}, column 'pressure': value {c.strip()!r}: "
+                                         f"{problem}")
             row.append(v * f)
         rows.append(row)
         lines.append(lineno)

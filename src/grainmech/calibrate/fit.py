@@ -274,6 +274,35 @@ class Problem:
                          for p, v in zip(self.parameters, x))
 
 
+#: Shear moduli of the solids grains are made of [Pa]: soft minerals from ~15 GPa (gypsum,
+#: halite) to ~90 GPa (garnet); quartz 44, calcite 32, feldspars 25-40, soda-lime glass
+#: (glass beads) ~29, steel (balls) ~80 GPa (Mavko, Mukerji & Dvorkin, The Rock Physics
+#: Handbook, Table 7.1). A fitted grain modulus outside this range (with margin) means
+#: the data's units or the model, not the grains, set the value; it is flagged.
+GRAIN_SHEAR_MODULUS_RANGE = (5e9, 100e9)
+#: fitted keys that are a grain's own shear modulus (``shear_modulus_equiv`` of the rod
+#: law is an equivalent contact constant, not a solid's modulus)
+GRAIN_MODULUS_KEYS = ("shear_modulus", "shear_modulus2")
+
+
+def plausibility_flags(problem: Problem, x: Sequence[float] | np.ndarray) -> list[str]:
+    """Fitted values outside a documented physical range, one sentence each.
+
+    A grain shear modulus (``contacts.shear_modulus``...) outside
+    :data:`GRAIN_SHEAR_MODULUS_RANGE`.
+    """
+    lo, hi = GRAIN_SHEAR_MODULUS_RANGE
+    out = []
+    for p, v in zip(problem.parameters, x):
+        if p.path.rsplit(".", 1)[-1] in GRAIN_MODULUS_KEYS and not lo <= float(v) <= hi:
+            why = ("; a model too stiff for these data (the affine model is an upper bound) lowers it to make up"
+                   if v < lo else "")
+            out.append(f"fitted {p.path} = {float(v) / 1e9:.4g} GPa is outside {lo / 1e9:g}-{hi / 1e9:g} GPa, "
+                       "the shear moduli of the minerals grains are made of (quartz 44 GPa): it is not the "
+                       f"grains' modulus; check the data's units and the model{why}")
+    return out
+
+
 def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = "<config>",
                         starts: int | None = None, seed: int | None = None) -> Problem:
     """Build a :class:`Problem` from a calibration config dict and a dataset or CSV path."""
@@ -575,6 +604,8 @@ def fit(problem: Problem, *, starts: int | None = None, seed: int | None = None,
         if b:
             st["notes"].append(f"{names[j]} ended at a bound: its standard error assumes an interior optimum")
     st["at_bound"] = at_bound
+    st["plausibility"] = plausibility_flags(problem, x)
+    st["notes"].extend(st["plausibility"])
     st["relative_std_error"] = [None if se is None else se / abs(v) if v != 0 else None
                                 for se, v in zip(st["std_error"], x)]
     st["r2"] = {t: _r2(problem.data[t], pred[t]) for t in problem.targets}

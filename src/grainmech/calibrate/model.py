@@ -361,6 +361,8 @@ DATA_KINDS: dict[str, DataKind] = {
 
 def parse_settings(kind: str, sec: Any) -> dict:
     """Kind-specific keys of the ``[data]`` table (a :class:`grainmech.io.config.Section`)."""
+    from grainmech.io.schema import check_pressure
+
     s: dict[str, Any] = {}
     if kind == "directional":
         s["plane"] = sec.raw("plane", None)
@@ -381,7 +383,8 @@ def parse_settings(kind: str, sec: Any) -> dict:
     elif kind == "rod-strains":
         # seed Sec. 5.2-5.3: rods of 0.5 in, 2.5 psi isotropic, then 0.5 psi along alpha
         s["diameter"] = sec.number("diameter", "m", 0.0127, min=0, min_inclusive=False)
-        s["pressure"] = sec.number("pressure", "Pa", 2.5 * 6894.757293168361, min=0, min_inclusive=False)
+        s["pressure"] = check_pressure(sec.number("pressure", "Pa", 2.5 * 6894.757293168361),
+                                       sec.key("pressure"), sec.raw("pressure", None))
         s["increment"] = sec.number("increment", "Pa", 0.5 * 6894.757293168361, min=0, min_inclusive=False)
     return s
 

@@ -63,6 +63,7 @@ def summary(result: Any) -> dict:
         "parameters": params,
         "correlation": [[None if not np.isfinite(v) else float(v) for v in row] for row in st["correlation"]],
         "singular_values": st["singular_values"], "unidentified": st["unidentified"], "notes": st["notes"],
+        "plausibility": st.get("plausibility", []),
         "starts": [{"index": s.index, "start": [v / p.unit_factor for v, p in zip(s.start, pr.parameters)],
                     "value": [v / p.unit_factor for v, p in zip(s.x, pr.parameters)],
                     "cost": s.cost if math.isfinite(s.cost) else None, "nfev": s.nfev, "status": s.status,

@@ -5,19 +5,29 @@ The CLI is thin: it parses arguments, calls the library and writes files through
 ``register(subparsers)``; the parser's ``func(args) -> int`` does the work.
 User errors (:class:`~grainmech.errors.GrainmechError`, missing files) print one line on
 stderr and exit with status 2; ``--debug`` (before or after the sub-command) shows the
-traceback instead. Ctrl-C prints "grainmech: interrupted" and exits with 130; output
-piped into a program that stops reading (``grainmech stiffness | head -1``) ends quietly.
+traceback instead. Ctrl-C prints "grainmech: interrupted" and exits with 130; SIGTERM (a
+batch scheduler stopping the job) is handled the same way (:class:`~grainmech.errors.Terminated`,
+a ``KeyboardInterrupt``), prints "grainmech: terminated" and exits with 143. A command
+that can keep what it finished before the signal (``run``: the finished amplitudes)
+writes it and adds it to that one line. Output piped into a program that stops reading
+(``grainmech stiffness | head -1``) ends quietly.
+
+Streams: the results a user reads (tables, summaries, the files written) go to stdout;
+progress lines, warnings and errors to stderr. ``--quiet`` silences the progress lines
+only, never a warning or an error.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 from grainmech import __version__
-from grainmech.errors import GrainmechError
+from grainmech.errors import GrainmechError, Terminated
 
 #: sub-command modules, each with ``register(subparsers)``
 _COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate", "pack")
@@ -65,7 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         Exit status: 0 success, 2 input error (one line on stderr, no traceback
-        unless ``--debug``), 130 interrupted.
+        unless ``--debug``), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -74,13 +84,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     if not getattr(args, "quiet", False):
         _announce_compilation()
+    previous = _catch_sigterm()
     try:
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         if args.debug:
             raise
-        print("grainmech: interrupted", file=sys.stderr)
-        return 130
+        what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        print(f"grainmech: {what}" + (f"; {exc.args[0]}" if exc.args else ""), file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
     except BrokenPipeError:
         return _quiet_broken_pipe()
     except (GrainmechError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
@@ -89,6 +101,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         msg = str(exc) if not isinstance(exc, OSError) else f"{exc.strerror}: {exc.filename}"
         print(f"grainmech: error: {msg}", file=sys.stderr)
         return 2
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise Terminated()
+
+
+def _catch_sigterm() -> Any:
+    """Turn SIGTERM into :class:`~grainmech.errors.Terminated` for this command.
+
+    Returns the previous handler (restored at the end), or ``None`` where no handler can
+    be set (not the main thread, no SIGTERM on this platform).
+    """
+    try:
+        return signal.signal(signal.SIGTERM, _raise_terminated)
+    except (ValueError, AttributeError, OSError):
+        return None
 
 
 #: printed once, when numba starts compiling (not when it loads a cached kernel)

@@ -64,6 +64,7 @@ def register(sub: Any) -> None:
     p.add_argument("-o", "--outdir", default=default_outdir("contact"),
                    help="output folder (default ./%(default)s)")
     p.add_argument("--no-plot", action="store_true", help="do not write contact.png")
+    p.add_argument("--quiet", action="store_true", help="no progress messages (results still go to stdout)")
     p.set_defaults(func=run)
 
 

@@ -56,6 +56,7 @@ def register(sub: Any) -> None:
     p.add_argument("--material", help="TOML with [material], [stiffness], [relaxed], [fabric]")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--no-plots", action="store_true", help="do not write the plots")
+    p.add_argument("--quiet", action="store_true", help="no progress messages (results still go to stdout)")
     p.add_argument("-o", "--outdir", default=default_outdir("dem"),
                    help="output folder (created if needed; default ./%(default)s)")
     p.set_defaults(func=run)
@@ -126,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
 
     cfg = _config(args)
     with output_folder(args.outdir, "dem") as folder:  # checked and locked before the work
-        out = compute_dem(cfg, progress=_progress_bar(sys.stderr))
+        out = compute_dem(cfg, progress=None if args.quiet else _progress_bar(sys.stderr))
         rep = out.report
         write_dem_outputs(out, folder.staging, plot=not args.no_plots)
     if args.json:

@@ -42,7 +42,8 @@ def main(args: argparse.Namespace) -> int:
     """
     from grainmech.io.config import load_toml, read_text_file
     from grainmech.io.packing import write_pack_outputs
-    from grainmech.jobs import pack_job
+    from grainmech.io.schema import build_pack_config
+    from grainmech.jobs import input_warnings, pack_job
     from grainmech.packing import PreparationError
 
     def say(msg: str) -> None:
@@ -51,6 +52,9 @@ def main(args: argparse.Namespace) -> int:
 
     cfg = load_toml(args.config)
     text = read_text_file(args.config, "config")
+    build_pack_config(cfg)  # a bad config stops here, with one line, before any warning
+    for warning in input_warnings(cfg):  # the same plausibility checks as grainmech run
+        print(f"grainmech: warning: {warning}", file=sys.stderr, flush=True)
     say(f"grainmech pack: {args.config}")
     try:
         res = pack_job(cfg, progress=say)

@@ -28,7 +28,7 @@ def register(sub: Any) -> None:
                    help="figure ids such as 4.2, fig4.3, 6.10 (default: all)")
     p.add_argument("-o", "--outdir", default=default_outdir("reproduce"),
                    help="output folder (default ./%(default)s)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--quiet", action="store_true", help="no progress lines (the list of files still goes to stdout)")
     p.set_defaults(func=run)
 
 
@@ -41,7 +41,16 @@ def run(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
+    import sys
+
     from grainmech.reproduce import reproduce
 
-    reproduce(args.figures, args.outdir, log=None if args.quiet else print)
+    def progress(msg: str) -> None:
+        print(msg, file=sys.stderr, flush=True)
+
+    figs = reproduce(args.figures, args.outdir, log=None if args.quiet else progress)
+    # the result: what was written (stdout); the progress lines above went to stderr
+    for fig in figs:
+        print(f"Fig. {fig.fig_id}: {fig.stem}.png, {fig.stem}.csv")
+    print(f"wrote {2 * len(figs) + 1} files to {args.outdir} (index: {args.outdir}/index.html)")
     return 0

@@ -29,8 +29,58 @@ def register(sub: Any) -> None:
     p.set_defaults(func=main)
 
 
+class _Progress:
+    """The progress callback of the run: lines on stderr (none with ``--quiet``).
+
+    It also keeps the outcome of the amplitudes each model has finished so far
+    (``amplitudes_done``, called by :mod:`grainmech.jobs`), which is written if the run
+    is interrupted.
+    """
+
+    def __init__(self, quiet: bool, header: str) -> None:
+        self.quiet, self.header = quiet, header
+        self.finished: dict[str, Any] = {}
+
+    def __call__(self, msg: str) -> None:
+        if self.quiet:
+            return
+        if self.header:  # said with the first progress line: a bad config stops before, with one line
+            print(self.header, file=sys.stderr, flush=True)
+            self.header = ""
+        print(msg, file=sys.stderr, flush=True)
+
+    def amplitudes_done(self, outcome: Any) -> None:
+        self.finished[outcome.method] = outcome
+
+    def partial(self) -> Any:
+        """What the models finished before an interruption (None if nothing)."""
+        from grainmech.jobs import RunComparison
+
+        outs = [o for o in self.finished.values() if len(o.G)]
+        if not outs:
+            return None
+        return outs[0] if len(outs) == 1 else RunComparison(outs)
+
+
+def _interrupted_message(exc: BaseException, partial: Any) -> str:
+    """"terminated (SIGTERM) after ..." for the summary of an interrupted run."""
+    from grainmech.errors import Terminated
+    from grainmech.jobs import RunComparison
+
+    why = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted (Ctrl-C)"
+    outs = list(partial.outcomes) if isinstance(partial, RunComparison) else [partial]
+    done = "; ".join(f"{o.method} model: {len(o.G)} amplitude(s) finished" for o in outs)
+    return f"{why}; {done}; the amplitudes not finished are not in these files"
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``grainmech run`` with the parsed ``args``.
+
+    Results (the Gmax and G/Gmax-damping table, what each model did, the files written)
+    go to stdout; progress lines (none with ``--quiet``) and warnings to stderr. On Ctrl-C
+    or SIGTERM after some amplitudes have finished, those are written to OUTDIR as a run
+    marked ``"interrupted": true`` (``"success": false``) before the interruption goes on
+    to :func:`grainmech.cli.main` (one line, status 130 or 143).
 
     Returns
     -------
@@ -43,9 +93,11 @@ def main(args: argparse.Namespace) -> int:
     from grainmech.io.reports import write_run_outputs
     from grainmech.jobs import CyclicOutcome, RunComparison, compute_run, packing_gmax_line
 
-    def say(msg: str) -> None:
-        if not args.quiet:
-            print(msg, file=sys.stderr, flush=True)
+    def show(msg: str) -> None:
+        print(msg, flush=True)
+
+    def warn(msg: str) -> None:
+        print(f"grainmech: warning: {msg}", file=sys.stderr, flush=True)
 
     if args.config:
         from pathlib import Path
@@ -57,47 +109,63 @@ def main(args: argparse.Namespace) -> int:
     else:
         cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
         source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
+    say = _Progress(args.quiet, f"grainmech run: {source}")
     with output_folder(args.outdir, "run") as folder:  # checked and locked before the work
-        say(f"grainmech run: {source}")
-        out = compute_run(cfg, progress=say)
+        try:
+            out = compute_run(cfg, progress=say)
+        except KeyboardInterrupt as exc:
+            partial = say.partial()
+            if partial is None:
+                raise  # nothing finished: OUTDIR is left as it was
+            why = _interrupted_message(exc, partial)
+            summary = write_run_outputs(partial, folder.staging, cfg, source, interrupted=why)
+            folder.commit(success=False)
+            n = sum(len(o.G) for o in (partial.outcomes if isinstance(partial, RunComparison) else [partial]))
+            raise type(exc)(f"the {n} finished amplitude(s) are in {args.outdir} "
+                            "(summary.json: \"interrupted\": true)") from None
         for w in out.warnings:
-            print(f"grainmech: warning: {w}", file=sys.stderr)
+            warn(w)
         summary = write_run_outputs(out, folder.staging, cfg, source)
         folder.commit(success=out.success)
     outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
     for o in outs:
         m = summary["models"][o.method] if "models" in summary else summary
         if len(outs) > 1:
-            say(f"{o.method} model ({'completed' if o.success else 'STOPPED: ' + o.message}):")
+            show(f"{o.method} model ({'completed' if o.success else 'STOPPED: ' + o.message}):")
         det = o.details
         if det and "grains" in det and o.method == "dem":
-            say(f"  {det['packing']}: {det['grains']} grains in LAMMPS, void ratio {det['void_ratio']:.3f}; "
-                f"largest unbalanced force ratio {det.get('max_unbalanced', float('nan')):.2g}")
+            show(f"  {det['packing']}: {det['grains']} grains in LAMMPS, void ratio {det['void_ratio']:.3f}; "
+                 f"largest unbalanced force ratio {det.get('max_unbalanced', float('nan')):.2g}")
             for n in det.get("notes", []):
-                say(f"  note: {n}")
+                show(f"  note: {n}")
         elif det and "grains" in det:
-            say(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
-                f"{det['void_ratio']:.3f}; largest out-of-balance force ratio "
-                f"{det.get('max_residual', float('nan')):.2g}")
+            show(f"  {det['packing']}: {det['grains']} grains ({det['rattlers']} rattlers), void ratio "
+                  f"{det['void_ratio']:.3f}; largest out-of-balance force ratio "
+                  f"{det.get('max_residual', float('nan')):.2g}")
         if det and "amplitudes_note" in det:
-            say(f"  {det['amplitudes_note']}")
+            show(f"  {det['amplitudes_note']}")
         if isinstance(o, CyclicOutcome) and len(o.G):
-            say(f"  Gmax = {o.G_max:.4g} Pa")
+            show(f"  Gmax = {o.G_max:.4g} Pa")
             emp = o.empirical_G_max
             if emp:
-                say(f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
-                    f"{emp['G_angular_Pa']:.4g} Pa angular grains")
-                say(("  WARNING: " if emp["flag"] else "  ") + emp["note"])
+                show(f"  Hardin-Richart (1963): {emp['G_round_Pa']:.4g} Pa round grains, "
+                     f"{emp['G_angular_Pa']:.4g} Pa angular grains")
+                show(("  WARNING: " if emp["flag"] else "  ") + emp["note"])
             pg = (det or {}).get("packing_gmax")
             if pg:
-                say(packing_gmax_line(pg, o.G_max))
+                show(packing_gmax_line(pg, o.G_max))
             for a, g, dd, c in zip(o.amplitudes, o.G_ratio, o.damping, o.mean_stress_change):
-                say(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
-                    f"   change of p {100 * c:+6.1f} %")
+                show(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
+                     f"   change of p {100 * c:+6.1f} %")
+        elif not isinstance(o, CyclicOutcome) and o.results:
+            r = o.results[0]
+            last = " ".join(f"{v:.5g}" for v in r.stress[-1])
+            show(f"  path: {len(r.stress) - 1} steps ({'completed' if o.success else 'stopped'}); "
+                 f"final stress [Pa] (xx yy zz yz xz xy) {last}")
         env = m.get("envelope")
         if env and env["first_step_beyond"] is not None:
-            say("WARNING: " + env["note"])
-    say(f"wrote {len(summary['files'])} files to {args.outdir}")
+            warn(env["note"])
+    show(f"wrote {len(summary['files'])} files to {args.outdir}")
     if not out.success:
         print(f"grainmech: error: {out.message} (results so far are in {args.outdir})", file=sys.stderr)
         return 1

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.conventions import order_for, reorder, voigt_to_mandel
-from grainmech.jobs import compute_stiffness
+from grainmech.jobs import compute_stiffness, input_warnings
 
 
 def register(sub: Any) -> None:
@@ -24,6 +24,7 @@ def register(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.add_argument("--order", choices=("voigt", "mandel", "seed"), default="voigt",
                    help="component order/shear factor of the printed matrix (default voigt)")
+    p.add_argument("--quiet", action="store_true", help="no progress messages (results still go to stdout)")
     p.set_defaults(func=run)
 
 
@@ -57,7 +58,9 @@ def run(args: argparse.Namespace) -> int:
         import tomllib
         cfg = tomllib.loads(text)
         source = "built-in default (isotropic quartz sand, Hertz-Mindlin, 100 kPa)"
-    out = compute_stiffness(cfg)
+    out = compute_stiffness(cfg)  # a bad config stops here, with one line
+    for warning in input_warnings(cfg):  # the same plausibility checks as grainmech run
+        print(f"grainmech: warning: {warning}", file=sys.stderr, flush=True)
     res, eng, sym, dim = out.result, out.engineering, out.symmetry, out.dim
     M, labels = _matrix(res.C, args.order, dim)
     # quadrature round-off (~1e-16 relative) is shown as an exact zero

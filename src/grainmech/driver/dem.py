@@ -502,7 +502,8 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
                           settings: DemSettings | None = None, pressure: float | None = None,
                           progress: Callable[[int, float, Any], None] | None = None,
                           on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
-                          raise_on_failure: bool = True) -> ModulusReduction:
+                          raise_on_failure: bool = True,
+                          on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
     """G/Gmax and damping of a packing by DEM: cyclic simple shear ``gamma_xz`` per amplitude.
 
     Each amplitude starts from the same state (the packing loaded and relaxed anew; LAMMPS
@@ -532,4 +533,5 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
         return condensed_modulus(tangents[0], 4, path.stress_control[0])
 
     return cyclic_series(one, amps, gmax, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform,
-                         constant=constant, progress=progress, raise_on_failure=raise_on_failure)
+                         constant=constant, progress=progress, raise_on_failure=raise_on_failure,
+                         on_amplitude=on_amplitude)

@@ -17,10 +17,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from grainmech.analysis.loops import ModulusReduction, loop_properties
 from grainmech.driver.base import DriverResult, Status, StepFailure, SteppingPoint
@@ -83,11 +84,12 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
     return point, True, Status.DONE, f"completed {m} steps"
 
 
-def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Sequence[float] | np.ndarray,
+def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: ArrayLike,
                   g_max: Callable[[LoadPath], float], *, n_cycles: int = 2, steps_per_cycle: int = 80,
                   waveform: str = "triangle", constant: str = "stress",
                   progress: Callable[[int, float, Any], None] | None = None,
-                  raise_on_failure: bool = True) -> ModulusReduction:
+                  raise_on_failure: bool = True,
+                  on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
     """Cyclic simple shear ``gamma_xz`` at each amplitude and the last cycle's secant G and damping.
 
     Parameters
@@ -108,6 +110,9 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Seque
     raise_on_failure : bool
         If False, a failed amplitude ends the series and the result (``success`` False,
         ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+    on_amplitude : callable ``(ModulusReduction)``, optional
+        Called after each completed amplitude with the series so far (a run stopped
+        later can still write the finished amplitudes).
 
     Raises
     ------
@@ -136,4 +141,6 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Seque
         lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
         G.append(lp.secant_modulus)
         D.append(lp.damping)
+        if on_amplitude is not None:
+            on_amplitude(ModulusReduction(amps[:len(G)], np.array(G), np.array(D), float(g_max(path)), list(res)))
     return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), float(g_max(path)), res, success, message)

@@ -910,7 +910,8 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
                               steps_per_cycle: int = 40, waveform: str = "triangle", constant: str = "stress",
                               progress: Callable[[int, float, Any], None] | None = None,
                               raise_on_failure: bool = True, options: PackingOptions | None = None,
-                              on_step: Callable[[int, int], None] | None = None, **kwargs: Any):
+                              on_step: Callable[[int, int], None] | None = None,
+                              on_amplitude: Callable[[Any], None] | None = None, **kwargs: Any):
     """G/Gmax and damping of a packing: strain-controlled cyclic simple shear per amplitude.
 
     As :func:`grainmech.analysis.modulus_reduction` (each amplitude starts from ``point``;
@@ -921,6 +922,8 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
     reversal: a packing with tangential contact forces, e.g. from DEM, is stiffer for a
     small cycle than along its current loading direction) condensed with the path's
     control (``sigma_zz`` free at constant stress; plain ``C_55`` at constant volume).
+    ``on_amplitude(series)``, if given, is called after each completed amplitude with a
+    :class:`~grainmech.analysis.ModulusReduction` of the amplitudes done so far.
 
     Raises
     ------
@@ -944,7 +947,7 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
                                                   **{"tangent": "start", **kwargs}), amplitudes,
                          lambda path: condensed_modulus(point.elastic_tangent, 4, path.stress_control[0]),
                          n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
-                         progress=progress, raise_on_failure=raise_on_failure)
+                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
 
 
 # --------------------------------------------------------------------------- preparation

@@ -19,8 +19,11 @@ Every command that writes a folder (``run``, ``contact``, ``dem``, ``reproduce``
    command wrote its own -- the folder then describes the failed run, not an older one.
    An input error (:class:`GrainmechError`) raised before anything was written means the
    run never started: OUTDIR stays as it was;
-6. on Ctrl-C (:class:`KeyboardInterrupt`) the staging folder is removed and OUTDIR is
-   left exactly as it was (removed again if this run created it): no partial folder.
+6. on Ctrl-C or SIGTERM (:class:`KeyboardInterrupt`, :class:`~grainmech.errors.Terminated`)
+   the staging folder is removed and OUTDIR is left exactly as it was (removed again if
+   this run created it): no partial folder -- unless the command has already committed
+   what it finished before the signal (``grainmech run`` commits its finished amplitudes
+   as a run marked interrupted, then re-raises). The lock is released in every case.
 
 The manifest records the command, the time, success and the files of the run.
 """
@@ -267,7 +270,8 @@ def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
         try:
             yield folder
         except KeyboardInterrupt:
-            folder.abandon()
+            if folder.success is None:  # nothing committed: leave OUTDIR as it was
+                folder.abandon()
             raise
         except BaseException as exc:
             if isinstance(exc, SystemExit) and not exc.code:

@@ -45,7 +45,7 @@ def _reference_curves(out: Any) -> dict:
     """Empirical reference curves (Darendeli 2001, Hardin-Drnevich 1972) for a run.
 
     Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
-    the strain range of the model's amplitudes.
+    the strain range of the model's amplitudes (a decade either side of a single one).
 
     Both are empirical end to end: neither reference strain uses the model's Gmax.
     Darendeli's ``gamma_r`` comes from his correlation (mean stress, PI, OCR; Table 8.12);
@@ -60,7 +60,10 @@ def _reference_curves(out: Any) -> dict:
 
     amps = np.asarray(out.amplitudes)
     ref = out.reference
-    gam = np.logspace(np.log10(amps.min()), np.log10(amps.max()), 60)
+    lo, hi = float(amps.min()), float(amps.max())
+    if hi <= lo:  # one amplitude (or an interrupted run's first): a decade either side
+        lo, hi = lo / 10, hi * 10
+    gam = np.logspace(np.log10(lo), np.log10(hi), 60)
     dar = darendeli(gam, out.pressure, pi=ref["pi"], ocr=ref["ocr"], n_cycles=ref["n_cycles"],
                     frequency=ref["frequency"])
     emp = getattr(out, "empirical_G_max", None)
@@ -86,7 +89,8 @@ MODEL_STYLE = {"affine": ("ko", "affine (seed: every contact follows the mean st
                "dem": ("g^", "DEM (LAMMPS: grains rearrange)")}
 
 
-def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> dict:
+def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
+                      interrupted: str | None = None) -> dict:
     """Write the files of ``grainmech run``.
 
     Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
@@ -97,14 +101,22 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
     carry the prefix ``<method>_``, the curves of all models share
     ``modulus_reduction.png``, and ``summary.json`` has one entry per model under
     ``models``). Returns the summary (``files`` lists the names).
+
+    ``interrupted`` (a message, e.g. "terminated (SIGTERM) after 2 of 3 amplitudes")
+    marks a run stopped by a signal whose finished amplitudes ``out`` holds:
+    ``summary.json`` then says ``"success": false``, ``"interrupted": true`` and the
+    message; every summary has ``"interrupted"``.
     """
     from grainmech.jobs import RunComparison
 
     d = ensure_dir(outdir)
     outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
     compare = len(outs) > 1
-    summary: dict[str, Any] = {"source": source, "kind": out.kind, "success": out.success,
-                               "message": out.message, "seconds": out.seconds,
+    summary: dict[str, Any] = {"source": source, "kind": out.kind,
+                               "success": out.success and interrupted is None,
+                               "interrupted": interrupted is not None,
+                               "message": out.message if interrupted is None else interrupted,
+                               "seconds": out.seconds,
                                "initial_pressure_Pa": out.pressure, "files": [],
                                "methods": [o.method for o in outs]}
     models = {}
@@ -114,6 +126,8 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str) -> d
         summary["models"] = models
     else:
         summary.update(models[outs[0].method])
+    if interrupted is not None:  # the run's state, not the last model's
+        summary.update(success=False, message=interrupted)
     summary["warnings"] = list(out.warnings)
     cyclic = [(o, models[o.method]) for o in outs if "G_max_Pa" in models[o.method]]
     if cyclic:

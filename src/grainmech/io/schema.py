@@ -34,7 +34,8 @@ from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.config import Section
 
 __all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress",
-           "build_pressure", "LAWS", "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial",
+           "build_pressure", "check_pressure", "pressure_problem", "PRESSURE_MIN", "PRESSURE_MAX",
+           "LAWS", "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial",
            "ContactSegment"]
 
 SEED_3D = ("a20", "a22", "b22")
@@ -255,15 +256,39 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
         return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
 
 
-#: Stresses a config may give [Pa]: 1 uPa to 1 TPa. Far outside every granular material
-#: (quartz grains crush near 1 GPa), and the limits keep Hertz forces and moduli (which
-#: go as p^(1/3) and p^(2/3)) away from floating-point under- and overflow.
-PRESSURE_MIN, PRESSURE_MAX = 1e-6, 1e12
+#: Stresses a config or a data file may give [Pa]: 1 Pa to 1 GPa. 1 Pa is the weight of
+#: about a tenth of a millimetre of sand; near 1 GPa quartz grains crush (and a
+#: small-strain contact model has long stopped applying). A value outside is a slip of
+#: the unit ("1e12 Pa", "100" meant in kPa read as Pa is below 1 kPa and only warned
+#: about) and is refused before any work, naming the key and the value.
+PRESSURE_MIN, PRESSURE_MAX = 1.0, 1e9
+PRESSURE_RANGE_TEXT = "1 Pa to 1 GPa, the stresses granular materials carry (quartz grains crush near 1 GPa)"
+
+
+def pressure_problem(value: float) -> str | None:
+    """Why the stress ``value`` [Pa] is refused (``None`` if it lies in the range)."""
+    if PRESSURE_MIN <= value <= PRESSURE_MAX:
+        return None
+    return f"{value:.4g} Pa is outside {PRESSURE_RANGE_TEXT}"
+
+
+def check_pressure(value: float, key: str, raw: Any = None) -> float:
+    """``value`` [Pa] if it lies in :data:`PRESSURE_MIN` .. :data:`PRESSURE_MAX`.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``key`` and the value as written (``raw``, default ``value``).
+    """
+    problem = pressure_problem(value)
+    if problem is not None:
+        raise ConfigError(key, value if raw is None else raw, problem)
+    return value
 
 
 def build_pressure(sec: Section, key: str = "pressure") -> float:
     """A mean stress [Pa] in :data:`PRESSURE_MIN` .. :data:`PRESSURE_MAX`."""
-    return sec.number(key, "Pa", min=PRESSURE_MIN, max=PRESSURE_MAX)
+    return check_pressure(sec.number(key, "Pa"), sec.key(key), sec.raw(key))
 
 
 def build_stress(sec: Section, dim: int) -> Any:
@@ -282,7 +307,9 @@ def build_stress(sec: Section, dim: int) -> Any:
         if S.shape != (dim, dim) or not np.allclose(S, S.T):
             raise ConfigError(sec.key("tensor"), raw, f"must be a symmetric {dim}x{dim} array")
         if np.abs(S).max() > PRESSURE_MAX:
-            raise ConfigError(sec.key("tensor"), raw, f"entries must not exceed {PRESSURE_MAX:g} Pa in size")
+            raise ConfigError(sec.key("tensor"), raw, f"entries must not exceed {PRESSURE_MAX:g} Pa in size "
+                              f"({PRESSURE_RANGE_TEXT})")
+        check_pressure(float(np.trace(S)) / dim, sec.key("tensor"), raw)  # its mean stress
         return S
     return None
 
@@ -572,6 +599,8 @@ def build_pack_config(cfg: dict) -> PackConfig:
         stress = (s0, s0, s0)
     if not all(s > 0 for s in stress):
         raise ConfigError(pr.key("stress"), raw, "must be positive (compression positive)")
+    for sv in stress:
+        check_pressure(sv, pr.key("stress"), raw)
     kw: dict[str, Any] = {}
     kw["prep_friction"] = pr.number("friction", None, 0.0, min=0)
     if pr.has("unbalanced_tol"):

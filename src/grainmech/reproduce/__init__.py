@@ -88,7 +88,8 @@ def reproduce(ids: Sequence[str] | None, outdir: str | Path, *,
     outdir : path
         Output directory (created).
     log : callable, optional
-        Receives one progress line per figure.
+        Receives the progress lines (when a figure starts and when it is done; the files
+        written are the returned figures' ``stem`` + ``.png``/``.csv`` and ``index.html``).
 
     Returns
     -------
@@ -117,8 +118,6 @@ def reproduce(ids: Sequence[str] | None, outdir: str | Path, *,
             plot(fig, out / f"{fig.stem}.png")
             figs.append(fig)
             if log:
-                log(f"Fig. {fid}: {fig.stem}.png, {fig.stem}.csv ({time.perf_counter() - t0:.1f} s)")
+                log(f"Fig. {fid}: done in {time.perf_counter() - t0:.1f} s")
         write_index(figs, out, elapsed=time.perf_counter() - t_all)
-    if log:
-        log(f"index: {folder.path / 'index.html'}")
     return figs
