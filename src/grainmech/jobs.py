@@ -187,6 +187,7 @@ class RunSpec:
     dem_amplitudes: list[float] | None = None
     dem_steps_per_cycle: int = 16
     dem_settings: Any = None
+    dem_workers: int = 1
 
     def amplitudes_of(self, method: str) -> list[float]:
         """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
@@ -484,6 +485,8 @@ def _dem_settings(model: Any) -> Any:
 
     sec = model.section("dem", {})
     kw: dict[str, Any] = {}
+    if sec.has("workers"):
+        sec.integer("workers", min=1)  # read by _dem_workers
     for k, typ in DEM_SETTING_KEYS.items():
         if sec.has(k):
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
@@ -492,6 +495,13 @@ def _dem_settings(model: Any) -> Any:
         return DemSettings(**kw)
     except ParameterError as exc:
         raise ConfigError(sec.key(exc.name), exc.value, exc.problem) from None
+
+
+def _dem_workers(model: Any) -> int:
+    """``[model.dem] workers``: processes that run DEM amplitudes side by side (default: the cores)."""
+    from grainmech.packing.engine import cores
+
+    return model.section("dem", {}).integer("workers", cores(), min=1)
 
 
 def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
@@ -514,6 +524,7 @@ def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
     if max(amps) > DEM_MAX_AMPLITUDE:
         key = model.key("dem_amplitudes") if spec.dem_amplitudes is not None else "test.amplitudes"
         raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM_MAX_AMPLITUDE:g}")
+    spec.dem_workers = _dem_workers(model)
     spec.dem_settings = _dem_settings(model)
 
 
@@ -920,8 +931,8 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
 
         mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.dem_steps_per_cycle,
                                    waveform=spec.waveform, constant=spec.constant, settings=spec.dem_settings,
-                                   pressure=spec.pressure, progress=each, on_step=on_step, tick=tick,
-                                   raise_on_failure=False,
+                                   pressure=spec.pressure, workers=spec.dem_workers, progress=each,
+                                   on_step=on_step, tick=tick, raise_on_failure=False,
                                    on_amplitude=_amplitudes_so_far(say, spec, "dem", None, src.void_ratio, t0, details))
         if mr.results:
             details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]

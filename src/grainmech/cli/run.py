@@ -162,6 +162,11 @@ def main(args: argparse.Namespace) -> int:
             last = " ".join(f"{v:.5g}" for v in r.stress[-1])
             show(f"  path: {len(r.stress) - 1} steps ({'completed' if o.success else 'stopped'}); "
                  f"final stress [Pa] (xx yy zz yz xz xy) {last}")
+            sg = m.get("strength")
+            if sg:
+                show(f"  peak friction angle {sg['peak_friction_angle_deg']:.1f} deg (q/p {sg['peak_q_over_p']:.3f} at "
+                     f"axial strain {sg['peak_axial_strain']:.3g}); end of path "
+                     f"{sg['critical_friction_angle_deg']:.1f} deg (q/p {sg['critical_q_over_p']:.3f}); {sg['note']}")
         env = m.get("envelope")
         if env and env["first_step_beyond"] is not None:
             warn(env["note"])

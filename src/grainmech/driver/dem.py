@@ -33,7 +33,11 @@ compression positive, engineering shears, Voigt order ``xx yy zz yz xz xy``.
 from __future__ import annotations
 
 import math
+import multiprocessing as mp
+import queue
+import signal
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,7 +46,7 @@ import numpy as np
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.driver.base import DriverResult, StepFailure
 from grainmech.driver.loop import cyclic_series, follow_path
-from grainmech.driver.paths import LoadPath
+from grainmech.driver.paths import LoadPath, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, network_stress
 from grainmech.network.measures import contact_stiffnesses, coordination
@@ -102,7 +106,7 @@ class DemSettings:
 
     ramp_steps: int = 400
     viscous: float = 0.3
-    tol: float = 1e-5
+    tol: float = 1e-4
     settle: float = 1e-3
     chunk: int = 250
     max_relax_steps: int = 200_000
@@ -497,9 +501,70 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
                      tangent0)
 
 
+def _worker_init() -> None:
+    """A DEM worker process leaves Ctrl-C and SIGTERM to the parent (which ends the pool)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
+                pressure: float | None, index: int, q: Any) -> DemResult:
+    """One amplitude in a worker process; progress goes to the parent through ``q``."""
+
+    def on_step(k: int, n: int) -> None:
+        q.put((index, "step", k, n))
+
+    def tick(steps: int, ub: float) -> None:
+        q.put((index, "tick", steps, ub))
+
+    return run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick)
+
+
+class _Pool:
+    """Amplitudes run side by side in worker processes (each a LAMMPS on one core)."""
+
+    def __init__(self, workers: int) -> None:
+        ctx = mp.get_context("spawn")
+        self.manager = ctx.Manager()
+        self.queue = self.manager.Queue()
+        self.ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
+        self.futures: list[Future] = []
+
+    def submit(self, *args: Any) -> None:
+        call = (*args, len(self.futures), self.queue)
+        self.futures.append(self.ex.submit(_worker_run, *call))
+
+    def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> DemResult:
+        """Wait for amplitude ``index``, passing on its progress meanwhile."""
+        fut = self.futures[index]
+        while True:
+            try:
+                i, kind, a, b = self.queue.get(timeout=0.5)
+                if i == index and kind == "step" and on_step is not None:
+                    on_step(int(a), int(b))
+                elif i == index and kind == "tick" and tick is not None:
+                    tick(int(a), float(b))
+            except queue.Empty:
+                pass
+            if fut.done():
+                return fut.result()
+
+    def close(self) -> None:
+        """End the pool; workers still running are stopped (interrupted run, failed amplitude)."""
+        for f in self.futures:
+            f.cancel()
+        procs = list(getattr(self.ex, "_processes", {}).values())
+        self.ex.shutdown(wait=False, cancel_futures=True)
+        for pr in procs:
+            if pr.is_alive():
+                pr.terminate()
+        self.manager.shutdown()
+
+
 def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
                           steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
                           settings: DemSettings | None = None, pressure: float | None = None,
+                          workers: int = 1,
                           progress: Callable[[int, float, Any], None] | None = None,
                           on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
                           raise_on_failure: bool = True,
@@ -514,16 +579,31 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
     stiffnesses LAMMPS uses, condensed with the path's control: ``sigma_zz`` free at
     constant stress): the small-strain limit of the same DEM state, which LAMMPS' own
     strain probes reproduce to 0.13 % on 'dense' (``docs/packing.md``).
+
+    ``workers`` > 1 runs the amplitudes side by side in that many processes (each
+    LAMMPS runs on one core; the amplitudes are independent): the same results, in the
+    time of the slowest amplitude per worker. Progress is passed on for the amplitude the
+    series is waiting for.
     """
     dem_material(law)  # refuse a law LAMMPS cannot run before anything starts
     amps = np.asarray(amplitudes, dtype=float)
     if amps.ndim == 1 and amps.size and float(np.nanmax(amps)) > DEM_MAX_AMPLITUDE:
         raise ParameterError("amplitudes", list(amplitudes), f"the DEM model takes amplitudes up to "
                              f"{DEM_MAX_AMPLITUDE:g}")
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ParameterError("workers", workers, "must be an integer >= 1")
     tangents: list[np.ndarray] = []
+    pool = _Pool(min(int(workers), amps.size)) if workers > 1 and amps.size > 1 else None
+    if pool is not None:
+        for a in amps:
+            pool.submit(net, law, cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform,
+                                                      constant=constant), settings, pressure)
 
     def one(path: LoadPath) -> DriverResult:
-        r = run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick)
+        if pool is not None:
+            r = pool.result(len(tangents), on_step, tick)
+        else:
+            r = run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick)
         tangents.append(r.elastic_tangent)
         return r
 
@@ -532,6 +612,10 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
             return float("nan")
         return condensed_modulus(tangents[0], 4, path.stress_control[0])
 
-    return cyclic_series(one, amps, gmax, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform,
-                         constant=constant, progress=progress, raise_on_failure=raise_on_failure,
-                         on_amplitude=on_amplitude)
+    try:
+        return cyclic_series(one, amps, gmax, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle,
+                             waveform=waveform, constant=constant, progress=progress,
+                             raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
+    finally:
+        if pool is not None:
+            pool.close()

