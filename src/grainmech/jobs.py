@@ -926,6 +926,7 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
 
         def each(i: int, a: float, path: Any) -> None:
             tag["amp"] = f"{i + 1}/{len(amps)} amplitude {a:.3g}"
+            tag["k"], tag["n"] = 0, len(path)
             say(f"[dem {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} ({len(path)} steps, "
                 f"{net.n_particles} grains)")
 
@@ -963,18 +964,20 @@ def _dem_reporter(say: Callable[[str], None],
     force ratio; ``on_step(k, n)`` follows the path, ``tick(time_steps, unbalanced)`` each
     relaxation.
     """
-    st = {"k": 0, "n": 0, "last": time.perf_counter(), "t0": time.perf_counter()}
+    st = {"last": time.perf_counter()}
+    tag.setdefault("k", 0)
+    tag.setdefault("n", 0)
 
     def line(steps: int, ub: float) -> None:
         now = time.perf_counter()
         if now - st["last"] >= DEM_PROGRESS_EVERY:
             st["last"] = now
             what = f" {tag['amp']}," if tag["amp"] else ""
-            say(f"[dem]  {what} step {st['k']}/{st['n']}, {steps} LAMMPS time steps, unbalanced force ratio "
+            say(f"[dem] {what} step {tag['k']}/{tag['n']} done, {steps} LAMMPS time steps, unbalanced force ratio "
                 f"{ub:.2g}, {now - tag['t']:.0f} s")
 
     def on_step(k: int, n: int) -> None:
-        st["k"], st["n"] = k, n
+        tag["k"], tag["n"] = k, n
 
     def tick(steps: int, ub: float) -> None:
         line(steps, ub)
