@@ -45,11 +45,12 @@ from grainmech.driver._packing_iter import (  # noqa: F401 (re-exported: the nam
     _trust,
 )
 from grainmech.driver._packing_ops import (
+    Preconditioner,
     block_diagonal,
     contact_tangent,
     voigt_of,
 )
-from grainmech.driver._packing_options import _Context, _frictional, _law_kw, _StepFailure  # noqa: F401
+from grainmech.driver._packing_options import PackingOptions, _Context, _frictional, _law_kw, _StepFailure  # noqa: F401
 from grainmech.driver._packing_trial import (  # noqa: F401
     _GLUE,
     _compiled_glue,
@@ -87,18 +88,15 @@ _RELAX_MU_CUT, _RELAX_KRYLOV_RTOL = 0.3, 0.1
 _MU_FLOOR = 1e-9
 
 
-def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
-           counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
-    """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+def _scales(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
+            opts: PackingOptions) -> tuple:
+    """Scales of one (sub)step of :func:`_solve`: ``(V, nq, ms, sref, Rg, abar, move, tolq, tole)``.
 
-    ``step_dsig``: the stress change of the whole step this (sub)step belongs to
-    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
-
-    With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
-    updates from the start, each one committed to the contact laws' history (see the
-    loop below).
+    The volume, the numbers of unknowns, the stress scale, the radii, the mean approach of
+    the closed contacts, the trust limit ``move`` of one update and the force and stress
+    tolerances.
     """
-    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    kin = point.kinematics
     V = point.volume
     nq, ms = kin.n_free, int(S.sum())
     fm = np.linalg.norm(point.forces, axis=1)
@@ -123,6 +121,41 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     move = max(move, 2.0 * de_max * lmean)
     tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
     tole = opts.rtol * sref * V
+    return V, nq, ms, sref, Rg, abar, move, tolq, tole
+
+
+def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
+               ctx: _Context, V: float, nq: int, ms: int) -> tuple:
+    """Predictor of :func:`_solve`: ``(v, xq, xe, fac)``, the last (sub)step's solution scaled by ``fac``.
+
+    ``v`` is this step's loading (strain increment and scaled stress change), the
+    direction the next (sub)step's predictor is scaled along.
+    """
+    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
+    xq, xe = np.zeros(nq), np.zeros(ms)
+    fac = 0.0
+    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
+        vl = ctx.last[0]
+        vv = float(np.dot(vl, vl))
+        if vv > 0:
+            fac = float(np.dot(v, vl)) / vv
+            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    return v, xq, xe, fac
+
+
+def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+           counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
+    """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+
+    ``step_dsig``: the stress change of the whole step this (sub)step belongs to
+    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
+
+    With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
+    updates from the start, each one committed to the contact laws' history (see the
+    loop below).
+    """
+    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    V, nq, ms, sref, Rg, abar, move, tolq, tole = _scales(point, S, de_E, target, prec, opts)
     Dq, De = prec.dq, prec.de[S]
 
     fast = _compiled_glue(point)
@@ -205,15 +238,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
 
     # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
     # linear response; a reversal gives factor -1)
-    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
-    xq, xe = np.zeros(nq), np.zeros(ms)
-    fac = 0.0
-    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
-        vl = ctx.last[0]
-        vv = float(np.dot(vl, vl))
-        if vv > 0:
-            fac = float(np.dot(v, vl)) / vv
-            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    v, xq, xe, fac = _predictor(point, S, de_E, target, prec, ctx, V, nq, ms)
     # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
     stiff_first = not ctx.energy and not relax and (ctx.stiff_ok or fac < 0)
     cur = residual(xq, xe)
