@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from grainmech.errors import GrainmechError
+from grainmech.io import _dem_blocks as blocks  # the block parser: what these tests patch
 from grainmech.io import dem as demio
 from grainmech.io.dem import read_liggghts, read_network, write_liggghts, write_table
 from grainmech.network import Box, lattice_network, network_stress, random_network
@@ -22,7 +23,7 @@ def reader(request, monkeypatch):
     if request.param == "pyarrow":
         pytest.importorskip("pyarrow")
     else:
-        monkeypatch.setattr(demio, "_arrow_csv", lambda: None)
+        monkeypatch.setattr(blocks, "_arrow_csv", lambda: None)
     return request.param
 
 
@@ -280,7 +281,7 @@ def test_chunked_reading_matches(tmp_path, monkeypatch):
     net = lattice_network("fcc", 3, 1.0, 1e-3)
     c, p = tmp_path / "c.dump", tmp_path / "p.dump"
     write_liggghts(net, c, p)
-    monkeypatch.setattr(demio, "CHUNK_LINES", 7)  # many chunks, last one partial
+    monkeypatch.setattr(blocks, "CHUNK_LINES", 7)  # many chunks, last one partial
     back = read_network(c, p)
     np.testing.assert_allclose(back.force, net.force, rtol=0, atol=0)
     np.testing.assert_array_equal(back.i, net.i)
@@ -324,8 +325,8 @@ def test_a_read_reports_its_progress_and_later_pieces_name_their_lines(tmp_path,
     net = random_network(300, seed=2)
     c, p = tmp_path / "c.dump", tmp_path / "p.dump"
     write_liggghts(net, c, p)
-    monkeypatch.setattr(demio, "ARROW_WINDOW_MIN", 2000)
-    monkeypatch.setattr(demio, "CHUNK_LINES", 50)
+    monkeypatch.setattr(blocks, "ARROW_WINDOW_MIN", 2000)
+    monkeypatch.setattr(blocks, "CHUNK_LINES", 50)
     seen: list[tuple[int, int]] = []
     back = read_network(c, p, progress=lambda d, t: seen.append((d, t)))
     np.testing.assert_array_equal(back.force, net.force)
@@ -428,13 +429,13 @@ def test_pyarrow_and_line_parser_give_identical_arrays(tmp_path, monkeypatch, va
     if variant == "two-snapshots":
         text = text + text.replace("ITEM: TIMESTEP\n0", "ITEM: TIMESTEP\n100")
     c.write_bytes(text.encode())
-    monkeypatch.setattr(demio, "ARROW_WINDOW_MIN", 1500)  # ~100 pieces parsed on the worker threads
+    monkeypatch.setattr(blocks, "ARROW_WINDOW_MIN", 1500)  # ~100 pieces parsed on the worker threads
     calls = []
-    real = demio._read_block_arrow
-    monkeypatch.setattr(demio, "_read_block_arrow", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])
+    real = blocks._read_block_arrow
+    monkeypatch.setattr(blocks, "_read_block_arrow", lambda *a, **k: calls.append(real(*a, **k)) or calls[-1])
     fast = read_network(c, p)
     assert calls and all(x is not None for x in calls), "the pyarrow path was not taken"
-    monkeypatch.setattr(demio, "_arrow_csv", lambda: None)
+    monkeypatch.setattr(blocks, "_arrow_csv", lambda: None)
     slow = read_network(c, p)
     for k, a in _network_arrays(fast).items():
         b = getattr(slow, k)

@@ -11,12 +11,15 @@ Compression positive: ``approach > 0`` means overlap, ``N >= 0`` compressive.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from grainmech.contact._errors import ContactDomainError
-from grainmech.contact.params import Cylinder, Hertz, LinearSpring
+
+if TYPE_CHECKING:  # annotations only: params imports this module (its stiffness methods)
+    from grainmech.contact.params import Cylinder, Hertz, LinearSpring
 
 __all__ = [
     "hertz_force",

@@ -32,6 +32,13 @@ import operator
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+import numpy as np
+
+from grainmech.contact.geometry import (
+    cylinder_normal_stiffness,
+    hertz_normal_stiffness,
+    mindlin_tangential_stiffness_from_force,
+)
 from grainmech.errors import ParameterError
 
 __all__ = [
@@ -203,8 +210,6 @@ class Hertz:
         Mindlin's no-slip value; 0 for a frictionless bare :class:`Hertz`), ``a`` from
         seed Eq. 3.2. Arrays of shape (n,) in, two arrays (n,) out [N/m].
         """
-        from grainmech.contact.geometry import hertz_normal_stiffness, mindlin_tangential_stiffness_from_force
-
         kn = hertz_normal_stiffness(normal_force, self)
         if type(self) is Hertz or self.friction == 0.0:
             return kn, 0.0 * kn
@@ -303,8 +308,6 @@ class LinearSpring:
 
     def stiffness(self, normal_force: Any) -> tuple[Any, Any]:
         """Constant ``(kn, ks)`` broadcast to the shape of ``normal_force`` [N/m]."""
-        import numpy as np
-
         shape = np.shape(normal_force)
         return np.full(shape, self.kn), np.full(shape, self.ks)
 
@@ -400,8 +403,6 @@ class Cylinder:
 
     def stiffness(self, normal_force: Any) -> tuple[Any, Any]:
         """``(Kn, Ks)`` per unit length at ``N`` with ``T = 0``: seed Eq. 3.8 and Eq. 3.17 (``Kn/Psi``)."""
-        from grainmech.contact.geometry import cylinder_normal_stiffness
-
         kn = cylinder_normal_stiffness(normal_force, self)
         return kn, kn / self.psi
 

@@ -31,6 +31,11 @@ the three compile separately, and on an empty cache in two processes at once
 (:func:`_compile`). The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
 ``tests/test_driver_mixed.py`` holds the two to the same success, stresses and Newton
 iterations.
+
+Modules: the per-contact pieces, compile options and failure codes are in
+:mod:`grainmech.driver._mixed_rows`, the evaluation pass in
+:mod:`grainmech.driver._mixed_pass`; this module holds the segment loop (``_segment``),
+its compilation and :func:`mixed_segment`, and re-exports their names.
 """
 
 from __future__ import annotations
@@ -39,547 +44,58 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, typeof, types
+from numba.core.types.function_type import CompileResultWAP
 
-from grainmech.contact.geometry import (
-    hertz_energy,
-    hertz_force,
-    hertz_radius,
-    hertz_radius_from_approach,
-    mindlin_kt0,
-    spring_energy,
-)
+from grainmech import _workers
+from grainmech.contact import kernel
 from grainmech.contact.kernel import (
-    KernelConstants,
     KernelIncrement,
     KernelOutput,
     KernelScratch,
     KernelState,
 )
+from grainmech.contact.law import ContactResponse, ContactState
 from grainmech.driver._fold import fold, path_mirrors, unfold
+from grainmech.driver._mixed_pass import (  # noqa: F401 (re-exported: the names this module always had)
+    _commit_rows,
+    _commit_sums,
+    _evaluate_parallel,
+    _evaluate_serial,
+    _make,
+)
+from grainmech.driver._mixed_rows import (  # noqa: F401
+    _CH,
+    _CH_GROUP,
+    _FIRST_CLASS,
+    _INNER,
+    _NO_NRT,
+    _NP,
+    _PY_ONLY,
+    FAIL_LAW,
+    FAIL_NO_CONVERGENCE,
+    FAIL_NOT_FINITE,
+    FAIL_SINGULAR,
+    PARALLEL_ROWS,
+    _add_jacobian_sub,
+    _bcol,
+    _cond2,
+    _copy_state,
+    _increment_end,
+    _pick,
+    _reduce,
+    _solve_small,
+    _start_radii,
+    _step_tangent3,
+    add_step_jacobian,
+    contact_increment,
+    love_weber_terms,
+    start_radius,
+    stored_energy_term,
+)
 
 __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
-
-_CH = 128  # at most this many contacts per chunk (work item of the prange)
-_CH_GROUP = 8  # the number of chunks is a multiple of this (see chunk_count)
-#: rows from which the evaluation pass runs on numba's threads (with more than one): on
-#: 2 cores the threaded run took the serial one's time at 128 rows and was 1.35-1.84x
-#: faster from 256 to 1475 rows (random sets, 2 cycles of simple shear with sigma_zz
-#: held; ``docs/performance.md``, "Mixed-control driver")
-PARALLEL_ROWS = 256
-# functions that allocate nothing: compiled without numba's reference counting (atomic
-# increments of the arrays they are passed, per contact)
-_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
-                           "no_cfunc_wrapper": True}
-# functions called only from compiled code: no Python or C wrapper
-_INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
-# functions passed to compiled code as first-class functions: only the C wrapper
-_FIRST_CLASS: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True}
-# functions called from Python only: no C wrapper
-_PY_ONLY: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cfunc_wrapper": True}
-_NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
-
-#: failure causes reported by the compiled loop (``info[1]``)
-FAIL_SINGULAR = 1        # Newton Jacobian singular (condition number in finfo[0])
-FAIL_NOT_FINITE = 2      # Newton update not finite
-FAIL_NO_CONVERGENCE = 3  # max_iter iterations, no iterate within rtol_accept
-FAIL_LAW = 4             # the law could not advance a contact (index in info[3], flag in info[4])
-
-
-@njit(**_INNER)
-def _pick(q, u0, u1, u2, u3, u4, u5):
-    """The ``q``-th of six scalars (a register-held 6-vector)."""
-    if q == 0:
-        return u0
-    if q == 1:
-        return u1
-    if q == 2:
-        return u2
-    if q == 3:
-        return u3
-    if q == 4:
-        return u4
-    return u5
-
-
-@njit(**_INNER)
-def _bcol(q, lx, ly, lz):
-    """Column ``q`` of ``B``, ``(B[0, q], B[1, q], B[2, q])``: relative displacement per unit engineering strain ``q``.
-
-    Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy. (One
-    function returning the column, not one per entry: numba compiled an entry function
-    once per literal row index.)
-    """
-    if q == 0:
-        return lx, 0.0, 0.0
-    if q == 1:
-        return 0.0, ly, 0.0
-    if q == 2:
-        return 0.0, 0.0, lz
-    if q == 3:
-        return 0.0, 0.5 * lz, 0.5 * ly
-    if q == 4:
-        return 0.5 * lz, 0.0, 0.5 * lx
-    return 0.5 * ly, 0.5 * lx, 0.0
-
-
-@njit(**_NO_NRT)
-def _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz):
-    """Entries (row by row) of ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` of contact ``i``.
-
-    The law's step (consistent) tangent of ``f = N n + T`` with respect to the relative
-    displacement (seed Eq. 2.13, 2.26); an open contact (``kn <= 0``) has no normal part.
-    """
-    knc = kn if kn > 0.0 else 0.0
-    K00 = K01 = K02 = K10 = K11 = K12 = K20 = K21 = K22 = 0.0
-    for a in range(3):
-        ha = knc * (nx if a == 0 else (ny if a == 1 else nz)) + t_alpha[i, a]
-        tn = t_delta[i, a, 0] * nx + t_delta[i, a, 1] * ny + t_delta[i, a, 2] * nz
-        k0 = (ha - tn) * nx + t_delta[i, a, 0]
-        k1 = (ha - tn) * ny + t_delta[i, a, 1]
-        k2 = (ha - tn) * nz + t_delta[i, a, 2]
-        if a == 0:
-            K00, K01, K02 = k0, k1, k2
-        elif a == 1:
-            K10, K11, K12 = k0, k1, k2
-        else:
-            K20, K21, K22 = k0, k1, k2
-    return K00, K01, K02, K10, K11, K12, K20, K21, K22
-
-
-@njit(**_NO_NRT)
-def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
-    """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
-
-    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)``: the law's step (consistent) tangent
-    of ``f = N n + T`` with respect to the relative displacement ``delta = B d eps``
-    (seed Eq. 2.13, 2.26; :func:`grainmech.driver.point.consistent_tangent`).
-    """
-    K00, K01, K02, K10, K11, K12, K20, K21, K22 = _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz)
-    for r in range(6):
-        if colmask[r]:
-            b0, b1, b2 = _bcol(r, lx, ly, lz)
-            g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
-            g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
-            g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
-            for q in range(6):
-                if rowmask[q]:
-                    c0, c1, c2 = _bcol(q, lx, ly, lz)
-                    acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
-
-
-@njit(**_NO_NRT)
-def _add_jacobian_sub(acc, off, idx, ns, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
-    """:func:`add_step_jacobian` with rows = columns = ``idx[:ns]`` (the same values).
-
-    The stress-controlled components listed once per pass instead of six mask tests
-    of the rows and of the columns per contact.
-    """
-    K00, K01, K02, K10, K11, K12, K20, K21, K22 = _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz)
-    for rr in range(ns):
-        r = idx[rr]
-        b0, b1, b2 = _bcol(r, lx, ly, lz)
-        g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
-        g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
-        g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
-        for qq in range(ns):
-            q = idx[qq]
-            c0, c1, c2 = _bcol(q, lx, ly, lz)
-            acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
-
-
-@njit(**_INNER)
-def _copy_state(src, src_resp, dst, dst_resp):
-    """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows.
-
-    Element loops over C-contiguous arrays (a slice assignment compiles numba's
-    shape-checking machinery, seconds of the first run's compilation).
-    """
-    n = src.approach.shape[0]
-    dim = src.tangential_force.shape[1]
-    nrev = src.reversals.shape[1]
-    for i in range(n):
-        dst.approach[i] = src.approach[i]
-        dst.normal_force[i] = src.normal_force[i]
-        dst.direction[i] = src.direction[i]
-        dst.depth[i] = src.depth[i]
-        dst.dissipated_energy[i] = src.dissipated_energy[i]
-        for c in range(dim):
-            dst.tangential_force[i, c] = src.tangential_force[i, c]
-            dst.axis[i, c] = src.axis[i, c]
-        for c in range(nrev):
-            dst.reversals[i, c] = src.reversals[i, c]
-        for f in range(len(src_resp)):
-            dst_resp[f][i] = src_resp[f][i]
-
-
-@njit(**_INNER)
-def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
-    """One contact's step input from a strain increment.
-
-    Tensor components, compression positive: ``delta = d eps . l`` split into ``d_n`` and ``d_t`` (seed Eq. 2.13), the
-    normal force at the step end (seed Eq. 3.6, or ``kn alpha``) and the Hertz contact
-    radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``.
-    """
-    d_n, dtx, dty, dtz, N1, rad1 = _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0,
-                                                  linear, kn_lin, E, R)
-    if linear:
-        return d_n, dtx, dty, dtz, N1, N1, N1
-    return d_n, dtx, dty, dtz, N1, start_radius(a0, N0, E, R), rad1
-
-
-@njit(**_INNER)
-def start_radius(a0, N0, E, R):
-    """Hertz contact radius at the start of a step (seed Eq. 3.2; 0 for an open contact)."""
-    Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
-    return hertz_radius(Nc, E, R)
-
-
-@njit(**_INNER)
-def _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, linear, kn_lin, E, R):
-    """:func:`contact_increment` without the radius at the step's start: ``(d_n, dtx, dty, dtz, N1, rad1)``.
-
-    The mixed-control pass keeps the start radius of the converged state (it changes only
-    when a step is committed) instead of taking its cube root at every evaluation.
-    """
-    dx = exx * lx + exy * ly + exz * lz
-    dy = exy * lx + eyy * ly + eyz * lz
-    dz = exz * lx + eyz * ly + ezz * lz
-    d_n = dx * nx + dy * ny + dz * nz
-    a1 = a0 + d_n
-    ap = a1 if a1 > 0.0 else 0.0
-    if linear:
-        N1 = kn_lin * ap
-        return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, N1
-    N1 = hertz_force(ap, E, R)
-    return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(N1, E, R)
-
-
-@njit(**_NO_NRT)
-def _start_radii(linear, E, R, approach, normal_force, rad0):
-    """``rad0`` of the converged state (:func:`start_radius`; unused for linear springs)."""
-    for i in range(approach.shape[0]):
-        rad0[i] = 0.0 if linear else start_radius(approach[i], normal_force[i], E, R)
-
-
-@njit(**_INNER)
-def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
-    """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T``.
-
-    Seed Eq. 2.6, as (xx, yy, zz, yz, xz, xy).
-    """
-    fx = (N * nx + tx) * w
-    fy = (N * ny + ty) * w
-    fz = (N * nz + tz) * w
-    return (fx * lx, fy * ly, fz * lz, 0.5 * (fy * lz + fz * ly), 0.5 * (fx * lz + fz * lx),
-            0.5 * (fx * ly + fy * lx))
-
-
-@njit(**_PY_ONLY)
-def _solve_small(A, b):
-    """Solve ``A x = b`` for a small dense (n, n) ``A`` (n <= 6); ``A`` and ``b`` are overwritten.
-
-    Gaussian elimination with partial pivoting (the algorithm of LAPACK's ``dgesv``),
-    written out because ``np.linalg.solve`` costs seconds of numba compilation on the
-    first run. Returns ``(x, ok)``; ``ok`` is False for an exactly zero pivot (LAPACK's
-    ``info > 0``, ``np.linalg.solve`` raises then).
-    """
-    n = A.shape[0]
-    for k in range(n):
-        p = k
-        amax = abs(A[k, k])
-        for i in range(k + 1, n):
-            if abs(A[i, k]) > amax:
-                amax = abs(A[i, k])
-                p = i
-        if A[p, k] == 0.0:
-            return b, False
-        if p != k:
-            for j in range(n):
-                A[k, j], A[p, j] = A[p, j], A[k, j]
-            b[k], b[p] = b[p], b[k]
-        for i in range(k + 1, n):
-            f = A[i, k] / A[k, k]
-            for j in range(k + 1, n):
-                A[i, j] -= f * A[k, j]
-            b[i] -= f * b[k]
-    for k in range(n - 1, -1, -1):
-        acc = b[k]
-        for j in range(k + 1, n):
-            acc -= A[k, j] * b[j]
-        b[k] = acc / A[k, k]
-    return b, True
-
-
-@njit(**_PY_ONLY)
-def _cond2(J):
-    """2-norm condition number ``s_max / s_min`` of a small finite (n, n) matrix (n <= 6).
-
-    As ``np.linalg.cond(J)`` (``inf`` for a singular ``J``), with the singular values by
-    one-sided Jacobi rotations (Hestenes 1958; Demmel & Veselic 1992: high relative
-    accuracy, also for the smallest one), written out because numba's SVD costs a second
-    of compilation on the first run.
-    """
-    n = J.shape[0]
-    U = J.copy()
-    for _sweep in range(60):
-        rotated = False
-        for p in range(n - 1):
-            for q in range(p + 1, n):
-                alpha = 0.0
-                beta = 0.0
-                gamma = 0.0
-                for i in range(n):
-                    alpha += U[i, p] * U[i, p]
-                    beta += U[i, q] * U[i, q]
-                    gamma += U[i, p] * U[i, q]
-                if gamma == 0.0 or abs(gamma) <= 1e-16 * math.sqrt(alpha * beta):
-                    continue
-                rotated = True
-                zeta = (beta - alpha) / (2.0 * gamma)
-                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
-                c = 1.0 / math.sqrt(1.0 + t * t)
-                s = c * t
-                for i in range(n):
-                    up = U[i, p]
-                    uq = U[i, q]
-                    U[i, p] = c * up - s * uq
-                    U[i, q] = s * up + c * uq
-        if not rotated:
-            break
-    smax = 0.0
-    smin = math.inf
-    for j in range(n):
-        sj = 0.0
-        for i in range(n):
-            sj += U[i, j] * U[i, j]
-        sj = math.sqrt(sj)
-        smax = max(smax, sj)
-        smin = min(smin, sj)
-    return smax / smin if smin > 0.0 else math.inf
-
-
-@njit(**_INNER)
-def _reduce(part, sig, jac, sym):
-    """Sum the per-chunk partial sums.
-
-    Stress into ``sig`` (6,), Jacobian into ``jac`` (6, 6), each component times its
-    factor in ``sym`` (42,: 1, or 0 for a component a folding's group does not leave
-    invariant, :attr:`grainmech.driver._fold.Folding.sym`); returns the (sliding, open,
-    dissipation) weighted sums.
-    """
-    sig[:] = 0.0
-    jac[:, :] = 0.0
-    s_sl = 0.0
-    s_op = 0.0
-    s_di = 0.0
-    for ch in range(part.shape[0]):
-        for q in range(6):
-            sig[q] += part[ch, q]
-        for q in range(36):
-            jac[q // 6, q % 6] += part[ch, 6 + q]
-        s_sl += part[ch, 42]
-        s_op += part[ch, 43]
-        s_di += part[ch, 44]
-    for q in range(6):
-        sig[q] *= sym[q]
-    for q in range(36):
-        jac[q // 6, q % 6] *= sym[6 + q]
-    return s_sl, s_op, s_di
-
-
-@njit(**_INNER)
-def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
-    """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`.
-
-    The normal law's ``int N d alpha`` (seed Eq. 3.6, or ``N alpha/2``) plus ``|T|^2 / (2 kt0)``.
-    """
-    ap = alpha if alpha > 0.0 else 0.0
-    T2 = tx * tx + ty * ty + tz * tz
-    if linear:
-        en_n = spring_energy(N, ap)
-        kt0 = ks_lin if N > 0.0 else 0.0
-    else:
-        en_n = hertz_energy(N, ap)
-        kt0 = mindlin_kt0(hertz_radius_from_approach(ap, R), Gs)
-    return en_n + (T2 / (2.0 * kt0) if kt0 > 0.0 else 0.0)
-
-
-def _make(parallel: bool):
-    """Evaluation pass and segment driver, serial or with a ``prange`` over chunks."""
-    rng = prange if parallel else range
-
-    def _evaluate(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, commit):
-        # trial update of every contact from the converged state ``st`` by the strain
-        # increment ``de``; per-chunk sums into ``part``; returns the first contact the
-        # law could not advance (-1: none). With ``commit``: accept the last trial
-        # instead (_commit_rows, per chunk; _commit_sums adds the chunks' sums)
-        n = normals.shape[0]
-        nch = part.shape[0]          # chunk_count(n)
-        size = (n + nch - 1) // nch  # rows per chunk (the last ones may be shorter or empty)
-        (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
-         glx, glw, sph, k8) = kc
-        # arrays as plain values into the (parallel) loop: writes through a named tuple's
-        # fields inside a prange are lost; the tuples are rebuilt inside
-        i_dn, i_dt, i_N1, i_rad0, i_rad1 = inc
-        s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en = st
-        (o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op, o_td,
-         o_ta) = out
-        c_tp, c_dp, c_fl, c_fa = scratch
-        r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op = resp
-        exx = de[0]
-        eyy = de[1]
-        ezz = de[2]
-        eyz = 0.5 * de[3]
-        exz = 0.5 * de[4]
-        exy = 0.5 * de[5]
-        bad_c = np.full(nch, -1, dtype=np.int64)
-        sidx = np.zeros(6, dtype=np.int64)  # the stress-controlled components
-        ns = 0
-        for q in range(6):
-            if sc[q]:
-                sidx[ns] = q
-                ns += 1
-        for ch in rng(nch):
-            lo = ch * size
-            hi = min(n, lo + size)
-            kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
-                                  maxrev, hcoef, gcoef, glx, glw, sph, k8)
-            st_c = KernelState(s_a, s_N, s_T, s_e, s_d, s_k, s_P, s_en)
-            inc_c = KernelIncrement(i_dn, i_dt, i_N1, i_rad0, i_rad1)
-            out_c = KernelOutput(o_a, o_N, o_T, o_e, o_s, o_k, o_P, o_sl, o_di, o_ks, o_ksp, o_ktn, o_kn, o_op,
-                                 o_td, o_ta)
-            scr_c = KernelScratch(c_tp, c_dp, c_fl, c_fa)
-            if commit:
-                prow = part[ch]
-                for q in range(38):
-                    prow[q] = 0.0
-                _commit_rows(lo, hi, law_fn, kcc, normals, branch, weights, st_c, out_c,
-                             (r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op), inc_c, scr_c, prow)
-                continue
-            # (i_rad0, the start radius, is that of the converged state: _start_radii, _commit_rows)
-            for i in range(lo, hi):
-                (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i],
-                 i_rad1[i]) = _increment_end(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
-                                             normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
-                                             s_a[i], linear, kn_lin, E, R)
-                c_fl[i] = 0
-            law_fn(lo, hi, kcc, st_c, inc_c, out_c, scr_c)  # kernel.rows (kernel.law_function)
-            for i in range(lo, hi):
-                if c_fl[i] != 0 and bad_c[ch] < 0:
-                    bad_c[ch] = i
-            for q in range(_NP):
-                part[ch, q] = 0.0
-            if bad_c[ch] < 0:
-                prow = part[ch]
-                for i in range(lo, hi):
-                    w = weights[i]
-                    nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
-                    lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
-                    # Love-Weber, symmetric part (seed Eq. 2.6)
-                    tt = love_weber_terms(o_N[i], o_T[i, 0], o_T[i, 1], o_T[i, 2], w, nx, ny, nz, lx, ly, lz)
-                    for q in range(6):
-                        prow[q] += tt[q]
-                    if o_sl[i]:
-                        prow[42] += w
-                    if o_op[i]:
-                        prow[43] += w
-                    prow[44] += w * o_di[i]
-                    # Jacobian rows/columns sc: B^T K B with the law's step tangent
-                    _add_jacobian_sub(prow, 6, sidx, ns, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
-        for ch in range(nch):
-            if bad_c[ch] >= 0:
-                return bad_c[ch]
-        return -1  # (a commit never sets bad_c)
-
-    # called by the segment loop through its C-callable wrapper (a first-class function)
-    return njit(parallel=parallel, **_FIRST_CLASS)(_evaluate)
-
-
-@njit(**_INNER)
-def _commit_rows(lo, hi, law_fn, kc, normals, branch, weights, st, out, resp, inc, scratch, prow):
-    # accept the trial state of rows lo <= i < hi: out -> st (dissipated energy
-    # accumulated, with the falling-N dissipation the law deferred to here added first:
-    # law_fn(-lo - 1, hi, ...), kernel.rows), the response kept in ``resp``; adds to
-    # ``prow`` the reported tangent's upper triangle (prow[6 q + q2], q <= q2; seed
-    # Eq. 2.26, kn n n + ks (I - n n), the laws' kn, ks clipped at 0), the stored energy
-    # (prow[36]) and the weighted dissipation of the step (prow[37]).
-    # inc.rad0 becomes the start radius of the new state: start_radius(a1, N1) is
-    # hertz_radius(N1) = rad1 of the accepted evaluation when a1 > 0 and N1 > 0, else
-    # hertz_radius(0) = 0 (the same bits as computing it again)
-    linear, R, Gs, ks_lin = kc.linear, kc.R, kc.Gs, kc.ks_lin
-    nrev = st.reversals.shape[1]
-    law_fn(-lo - 1, hi, kc, st, inc, out, scratch)
-    for i in range(lo, hi):
-        st.approach[i] = out.approach[i]
-        st.normal_force[i] = out.normal_force[i]
-        for c in range(3):
-            st.tangential_force[i, c] = out.tangential_force[i, c]
-            st.axis[i, c] = out.axis[i, c]
-        st.direction[i] = out.direction[i]
-        st.depth[i] = out.depth[i]
-        for c in range(nrev):
-            st.reversals[i, c] = out.reversals[i, c]
-        prow[37] += weights[i] * out.dissipation[i]
-        st.dissipated_energy[i] += out.dissipation[i]
-        if not linear:
-            inc.rad0[i] = inc.rad1[i] if (out.approach[i] > 0.0 and out.normal_force[i] > 0.0) else 0.0
-        resp[0][i] = out.kn[i]
-        resp[1][i] = out.ks[i]
-        resp[2][i] = out.ks_perp[i]
-        resp[3][i] = out.ktn[i]
-        resp[4][i] = out.dissipation[i]
-        resp[5][i] = 1.0 if out.sliding[i] else 0.0
-        resp[6][i] = 1.0 if out.open[i] else 0.0
-        w = weights[i]
-        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
-        lx, ly, lz = branch[i, 0], branch[i, 1], branch[i, 2]
-        kn = out.kn[i] if out.kn[i] > 0.0 else 0.0
-        ks = out.ks[i] if out.ks[i] > 0.0 else 0.0
-        # u = B^T n, the tangent w B^T (ks I + (kn - ks) n n) B
-        u0 = nx * lx
-        u1 = ny * ly
-        u2 = nz * lz
-        u3 = 0.5 * (ny * lz + nz * ly)
-        u4 = 0.5 * (nx * lz + nz * lx)
-        u5 = 0.5 * (nx * ly + ny * lx)
-        cn = w * (kn - ks)
-        cs = w * ks
-        for q in range(6):
-            uq = _pick(q, u0, u1, u2, u3, u4, u5)
-            bq0, bq1, bq2 = _bcol(q, lx, ly, lz)
-            for q2 in range(q, 6):
-                uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
-                c0, c1, c2 = _bcol(q2, lx, ly, lz)
-                btb = bq0 * c0 + bq1 * c1 + bq2 * c2
-                prow[6 * q + q2] += cs * btb + cn * uq * uq2
-        prow[36] += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
-                                           out.tangential_force[i, 1], out.tangential_force[i, 2], linear,
-                                           ks_lin, R, Gs)
-
-
-@njit(**_INNER)
-def _commit_sums(part, Cout):
-    """Sum the commit's per-chunk sums, in chunk order.
-
-    The reported tangent into ``Cout`` (36,), its lower triangle mirrored; returns
-    (stored energy, weighted dissipation).
-    """
-    for q in range(36):
-        Cout[q] = 0.0
-    wst = 0.0
-    wdi = 0.0
-    for ch in range(part.shape[0]):
-        for q in range(6):
-            for q2 in range(q, 6):
-                Cout[6 * q + q2] += part[ch, 6 * q + q2]
-        wst += part[ch, 36]
-        wdi += part[ch, 37]
-    for q in range(6):
-        for q2 in range(q):
-            Cout[6 * q + q2] = Cout[6 * q2 + q]
-    return wst, wdi
 
 
 def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
@@ -840,8 +356,6 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
     return m
 
 
-_evaluate_serial = _make(False)
-_evaluate_parallel = _make(True)
 # the pass and the law are arguments (first-class functions), not linked into the loop:
 # one compiled loop serves the serial and the parallel pass
 _segment_compiled = njit(**_PY_ONLY)(_segment)
@@ -862,8 +376,6 @@ def chunk_count(n: int) -> int:
 
 def pass_signature(law_sig: tuple, args: tuple) -> tuple:
     """The numba argument types of the evaluation pass called by the loop with ``args`` (those after the law)."""
-    from numba import typeof, types
-
     # positions in the argument tuple built by mixed_segment
     kc, normals, branch, weights, sc = args[0], args[1], args[2], args[3], args[4]
     st, out, scratch, inc, part, resp = args[15], args[16], args[17], args[18], args[19], args[20]
@@ -879,8 +391,6 @@ def compile_pass(parallel: bool, sig: tuple) -> None:
 
 def pass_function(parallel: bool, sig: tuple) -> Any:
     """The evaluation pass as a first-class function value (compiled or loaded first)."""
-    from numba.core.types.function_type import CompileResultWAP
-
     fn = _evaluate_parallel if parallel else _evaluate_serial
     fn.compile(sig)
     return CompileResultWAP(fn.overloads[sig])
@@ -899,9 +409,7 @@ _WORKER = ("import pickle, sys\n"
 
 def _start_worker(job: tuple) -> Any:
     """A Python process that compiles the law and the evaluation pass of ``job`` into numba's cache (or None)."""
-    from grainmech._workers import start_worker
-
-    return start_worker(_WORKER, job)
+    return _workers.start_worker(_WORKER, job)
 
 
 def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: tuple) -> None:
@@ -916,11 +424,6 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
     their sum (``docs/performance.md``, "First run"). If the worker fails, they are
     compiled here as before.
     """
-    from numba import typeof, types
-
-    from grainmech._workers import on_first_compile
-    from grainmech.contact import kernel
-
     sig = ((types.FunctionType(types.intp(*pass_sig)), types.FunctionType(types.none(*law_sig)))
            + tuple(typeof(a) for a in args))
     if sig in _segment_compiled.overloads:
@@ -931,7 +434,7 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
             _evaluate_parallel if parallel else _evaluate_serial).overloads
         return None if done else _start_worker((key, law_sig, parallel, pass_sig))
 
-    with on_first_compile(start):
+    with _workers.on_first_compile(start):
         _segment_compiled.compile(sig)
 
 
@@ -961,11 +464,6 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
         final ``state``, ``response``, ``stress``, ``strain``, ``tangent``,
         ``t_stress``, ``t_strain``.
     """
-    from numba import get_num_threads
-
-    from grainmech.contact import kernel
-    from grainmech.contact.law import ContactResponse, ContactState
-
     cs = point.contacts
     params = point.law.params
     kc = kernel.constants(params)

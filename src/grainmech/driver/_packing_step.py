@@ -4,188 +4,65 @@ One (sub)step: Newton-Krylov iterations on every grain's fluctuation and the
 stress-controlled strains, with the consistent contact tangent, right-preconditioned
 GMRES, a per-grain trust limit, a line search, pseudo-transient continuation where Newton
 fails, and step halving. The method and its sources are in ``docs/packing-driver.md``.
+
+The (sub)step: :func:`_solve` (predictor, Anderson iterations, Newton-Krylov with line
+search, pseudo-transient continuation, committed relaxation, acceptance) and
+:func:`_subdivided` (step halving). The laws at a trial increment are in
+:mod:`grainmech.driver._packing_trial`, the iteration pieces (Anderson, Krylov
+direction, trust limits, tangents) in :mod:`grainmech.driver._packing_iter`, options and
+the solver's state in :mod:`grainmech.driver._packing_options`; their names are
+re-exported here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
-from weakref import WeakKeyDictionary
+from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from grainmech.contact import ContactState, HertzMindlin, LinearSpring, MindlinDeresiewicz, update
-from grainmech.contact.law import CompiledUpdate, compiled_kernel
+from grainmech.contact import (
+    ContactState,
+    HertzMindlin,
+    LinearSpring,
+)
+from grainmech.driver._packing_iter import (  # noqa: F401 (re-exported: the names this module always had)
+    _AA_PATIENCE,
+    _AA_PROGRESS,
+    _AA_RESTARTS,
+    _HELD,
+    _STIFF_BACKTRACKS,
+    _anderson,
+    _clip,
+    _closing_cap,
+    _debug,
+    _direction,
+    _grain_report,
+    _held_load,
+    _slip_rotation,
+    _step_tangent,
+    _stress_ambiguity,
+    _trust,
+)
 from grainmech.driver._packing_ops import (
-    Kinematics,
     Preconditioner,
-    _cross_rows,
     block_diagonal,
     contact_tangent,
     voigt_of,
 )
+from grainmech.driver._packing_options import PackingOptions, _Context, _frictional, _law_kw, _StepFailure  # noqa: F401
+from grainmech.driver._packing_trial import (  # noqa: F401
+    _GLUE,
+    _compiled_glue,
+    _evaluate,
+    _Glue,
+    _law_call,
+    _law_step,
+    _potential,
+)
 
 if TYPE_CHECKING:
-    from grainmech.driver.packing import PackingOptions, PackingPoint
-
-
-def _frictional(params: object) -> bool:
-    if isinstance(params, LinearSpring):
-        return params.ks > 0 and params.friction > 0
-    if isinstance(params, (HertzMindlin, MindlinDeresiewicz)):
-        return params.friction > 0
-    return False
-
-
-def _law_kw(backend: str | None) -> dict:
-    return {} if backend is None else {"backend": backend}
-
-
-
-# --------------------------------------------------------------------------- step solver
-
-class _StepFailure(Exception):
-    def __init__(self, cause: str) -> None:
-        super().__init__(cause)
-        self.cause = cause
-
-
-@dataclass
-class _Context:
-    """Per-run solver state: preconditioner and counters."""
-
-    prec: Preconditioner
-    opts: PackingOptions
-    factorizations: int = 0
-    krylov: int = 0
-    accepted: int = 0
-    last: tuple | None = None  # (v, S, xq, xe) of the last (sub)step: predictor of the next
-    mu_max: float = 0.0  # largest pseudo-time shift used
-    ptc: int = 0  # Newton iterations that switched to pseudo-transient continuation
-    anderson: int = 0  # Anderson iterations
-    anderson_ok: int = 0  # (sub)steps the Anderson iterations solved
-    relaxed: int = 0  # updates committed by committed relaxation
-    relaxations: int = 0  # substeps solved by committed relaxation
-    stiff_ok: bool = True  # the last initial-stiffness try contracted well
-    newton_ok: bool = True  # the last (sub)step's consistent-tangent updates worked
-    energy: bool = False  # line search on the potential energy (frictionless laws only)
-    settled: int = 0  # (sub)steps whose Anderson iterations stopped with the stress settled (settle)
-
-
-def _law_call(point: PackingPoint) -> Callable[[np.ndarray, np.ndarray], tuple]:
-    """``update(params, state, dn, dt)`` of the point's law from its state (cached on the point).
-
-    Every trial of a step starts from the same committed state: with the compiled kernel
-    its inputs are converted once (:class:`grainmech.contact.law.CompiledUpdate`, the same
-    results bit for bit), not at every trial.
-    """
-    hit = point._cache.get("law")
-    if hit is not None and hit[0] is point.state and hit[1] == point.law_backend:
-        return hit[2]
-    kernel = compiled_kernel(point.params, point.law_backend or "auto")
-    params, state, kw = point.params, point.state, _law_kw(point.law_backend)
-    fn = (CompiledUpdate(kernel, params, state) if kernel is not None
-          else lambda dn, dt: update(params, state, dn, dt, **kw))
-    point._cache["law"] = (state, point.law_backend, fn)
-    return fn
-
-
-def _law_step(point: PackingPoint, dn: np.ndarray, dt: np.ndarray) -> tuple:
-    """New contact state and response for law-space increments; a law error fails the step."""
-    try:
-        return _law_call(point)(dn, dt)
-    except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
-        raise _StepFailure(f"contact law error: {exc}") from None
-
-
-class _Glue:
-    """The compiled counterparts (:mod:`grainmech.driver._packing_kernels`) of one kinematics' iteration glue.
-
-    :meth:`evaluate` is :func:`_evaluate` with ``G^T f`` and ``V sigma``; :meth:`limit`
-    is the trust limit of ``_solve`` (:func:`_clip`, :func:`_trust`, :func:`_closing_cap`).
-    """
-
-    def __init__(self, kin: Kinematics, mod: Any) -> None:
-        from grainmech.driver._packing_kernels import grain_positions
-
-        self.kin, self.k = kin, mod
-        self.g = (kin.G.indptr, kin.G.indices, kin.G.data)
-        self.gt = (kin.Gt.indptr, kin.Gt.indices, kin.Gt.data)
-        self.pos = grain_positions(kin.free, kin.n_grains)
-        self.l, self.n = np.ascontiguousarray(kin.l, dtype=float), np.ascontiguousarray(kin.n, dtype=float)
-
-    def evaluate(self, point: PackingPoint, dq: np.ndarray, de: np.ndarray) -> tuple:
-        """``(state, response, f, G^T f, V sigma)`` of the trial ``(dq, de)`` from ``point``."""
-        C = self.n.shape[0]
-        dn, dt = np.empty(C), np.empty((C, 3))
-        if not self.k.contact_increments(*self.g, np.ascontiguousarray(dq, dtype=float), self.l, self.n,
-                                         np.ascontiguousarray(de, dtype=float), point.scale, dn, dt):
-            raise _StepFailure("Newton update not finite")
-        st, resp = _law_step(point, dn, dt)
-        f, rq, vs = np.empty((C, 3)), np.empty(self.kin.n_free), np.empty(6)
-        self.k.forces_balance(resp.normal_force, resp.tangential_force, self.n, self.l, *self.gt, f.reshape(-1), rq,
-                              vs)
-        return st, resp, f, rq, vs
-
-    def limit(self, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, R: np.ndarray, move: float,
-              approach: np.ndarray | None, cap: float) -> tuple[np.ndarray, np.ndarray]:
-        """The update within the trust limit ``move``, each grain by itself (``approach`` None: no closing cap)."""
-        k = self.k
-        clipped = np.empty(dxq.size)
-        k.clip_moves(np.ascontiguousarray(dxq, dtype=float), self.pos, R, move, clipped)
-        d6 = np.zeros(6)
-        d6[S] = dxe
-        dxe = dxe / max(k.affine_move(self.l, d6) / move, 1.0)
-        if approach is not None:
-            d6[S] = dxe
-            capped = np.empty(dxq.size)
-            if k.closing_cap(*self.g, clipped, self.l, self.n, d6, np.ascontiguousarray(approach, dtype=float), cap,
-                             self.kin.a, self.kin.b, self.pos, np.ones(self.kin.n_grains), capped):
-                return capped, dxe
-        return clipped, dxe
-
-
-#: _Glue per kinematics (weak: dropped with the run's points); None where numba is missing
-_GLUE: WeakKeyDictionary = WeakKeyDictionary()
-
-
-def _compiled_glue(point: PackingPoint) -> _Glue | None:
-    """The compiled iteration glue when the point's law runs compiled and numba imports, else None (NumPy)."""
-    if point.law_backend == "numpy" or compiled_kernel(point.params, point.law_backend or "auto") is None:
-        return None
-    kin = point.kinematics
-    if kin not in _GLUE:
-        try:
-            from grainmech.driver import _packing_kernels
-        except ImportError:  # pragma: no cover - numba present whenever a compiled law is
-            return None
-        _GLUE[kin] = _Glue(kin, _packing_kernels)
-    return _GLUE[kin]
-
-
-def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
-    """Contact law at the trial increment (from the converged ``point``): state, response, forces."""
-    kin, s = point.kinematics, point.scale
-    D = kin.delta(dq, de)
-    dn = kin.normal_part(D)
-    dt = D - dn[:, None] * kin.n
-    if not (np.all(np.isfinite(dn)) and np.all(np.isfinite(dt))):
-        raise _StepFailure("Newton update not finite")
-    st, resp = _law_step(point, dn * s, dt * s[:, None])
-    f = resp.normal_force[:, None] * kin.n + resp.tangential_force
-    return st, resp, f
-
-
-def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
-    """Elastic energy (C,) of frictionless contacts [energy].
-
-    Hertz ``(2/5) N alpha`` (seed Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``.
-    """
-    N = resp.normal_force
-    if isinstance(point.params, LinearSpring):
-        return N * N / (2 * point.params.kn)
-    return 0.4 * N * np.maximum(st.approach, 0.0) / point.scale
+    from grainmech.driver._packing_point import PackingPoint
 
 
 #: pseudo-time shift of the Newton system (Jacobi-scaled: 1 ~ a grain's own elastic
@@ -205,24 +82,21 @@ _CLOSE_CAP = 0.05
 #: GMRES tolerance of its updates (each update is committed and the next one corrects it,
 #: so a rough direction does; inexact Newton forcing term, Eisenstat & Walker 1996)
 _RELAX_MU_CUT, _RELAX_KRYLOV_RTOL = 0.3, 0.1
-#: backtracking steps of the elastic operator's update after a failed Newton line search
-_STIFF_BACKTRACKS = 4
+
+
 #: shift of every Newton system: keeps a free grain (no closed contact) where it is
 _MU_FLOOR = 1e-9
 
 
-def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
-           counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
-    """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+def _scales(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
+            opts: PackingOptions) -> tuple:
+    """Scales of one (sub)step of :func:`_solve`: ``(V, nq, ms, sref, Rg, abar, move, tolq, tole)``.
 
-    ``step_dsig``: the stress change of the whole step this (sub)step belongs to
-    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
-
-    With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
-    updates from the start, each one committed to the contact laws' history (see the
-    loop below).
+    The volume, the numbers of unknowns, the stress scale, the radii, the mean approach of
+    the closed contacts, the trust limit ``move`` of one update and the force and stress
+    tolerances.
     """
-    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    kin = point.kinematics
     V = point.volume
     nq, ms = kin.n_free, int(S.sum())
     fm = np.linalg.norm(point.forces, axis=1)
@@ -247,6 +121,41 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     move = max(move, 2.0 * de_max * lmean)
     tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
     tole = opts.rtol * sref * V
+    return V, nq, ms, sref, Rg, abar, move, tolq, tole
+
+
+def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
+               ctx: _Context, V: float, nq: int, ms: int) -> tuple:
+    """Predictor of :func:`_solve`: ``(v, xq, xe, fac)``, the last (sub)step's solution scaled by ``fac``.
+
+    ``v`` is this step's loading (strain increment and scaled stress change), the
+    direction the next (sub)step's predictor is scaled along.
+    """
+    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
+    xq, xe = np.zeros(nq), np.zeros(ms)
+    fac = 0.0
+    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
+        vl = ctx.last[0]
+        vv = float(np.dot(vl, vl))
+        if vv > 0:
+            fac = float(np.dot(v, vl)) / vv
+            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    return v, xq, xe, fac
+
+
+def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+           counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
+    """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+
+    ``step_dsig``: the stress change of the whole step this (sub)step belongs to
+    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
+
+    With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
+    updates from the start, each one committed to the contact laws' history (see the
+    loop below).
+    """
+    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    V, nq, ms, sref, Rg, abar, move, tolq, tole = _scales(point, S, de_E, target, prec, opts)
     Dq, De = prec.dq, prec.de[S]
 
     fast = _compiled_glue(point)
@@ -329,15 +238,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
 
     # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
     # linear response; a reversal gives factor -1)
-    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
-    xq, xe = np.zeros(nq), np.zeros(ms)
-    fac = 0.0
-    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
-        vl = ctx.last[0]
-        vv = float(np.dot(vl, vl))
-        if vv > 0:
-            fac = float(np.dot(v, vl)) / vv
-            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    v, xq, xe, fac = _predictor(point, S, de_E, target, prec, ctx, V, nq, ms)
     # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
     stiff_first = not ctx.energy and not relax and (ctx.stiff_ok or fac < 0)
     cur = residual(xq, xe)
@@ -567,373 +468,6 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     what = "committed relaxation did not converge" if relax else "Newton did not converge"
     raise _StepFailure(f"{what} in {n_iter} iterations (largest force residual "
                        f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force; {unsettled(rq, re)})")
-
-
-def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
-              m: float, residual: Callable, merit: Callable, limit: Callable, converged: Callable, settled: Callable,
-              accept: Callable, mem: int, n_iter: int, dbg: Callable | None) -> tuple:
-    """Anderson-accelerated elastic iteration of one (sub)step.
-
-    The fixed-point map is the elastic (initial-stiffness) update ``x + M^-1 (-r(x))``
-    with ``M`` the factorised elastic operator (stiffer than every branch of the contact
-    laws, so it is a contraction wherever the laws are monotone). Anderson acceleration
-    of type II with ``mem`` differences (Anderson 1965; Walker & Ni 2011, SIAM J. Numer.
-    Anal. 49, Alg. AA with ``beta = 1``): the update is ``f_k - (dX + dF) gamma`` with
-    ``gamma`` minimising ``|D^-1 (f_k - dF gamma)|``, ``f = M^-1 (-r)``, ``D`` the Jacobi
-    scaling of the unknowns. It needs no tangent of the laws, so the branch switches of
-    a step (contacts reaching the Coulomb limit, reversing, opening) do not mislead it
-    as they do a one-sided consistent tangent; it costs one residual and one solve with
-    the factor per iteration, where a Newton-Krylov iteration costs one solve per
-    Krylov vector. An update that raises the scaled residual more than three times
-    restarts the history with a plain elastic update, halved until it does not raise it.
-    The iterations stop when every grain is within ``rtol`` (``converged``) or as soon
-    as the stress is settled (``settled(rq, re, dstress)``, ``PackingOptions.settle``;
-    ``ok = "settled"``), with ``dstress`` the stress change still to come estimated from
-    the contraction of the iterates' stress changes ``d_k`` (largest component of
-    ``V sigma``): ``d_k rho / (1 - rho)`` with ``rho`` the larger of the last two ratios
-    ``d_k / d_(k-1)`` (the a-posteriori bound of a contraction; infinite until two
-    ratios below 1 are known). After ``_AA_PATIENCE`` iterations without progress the best point is accepted if
-    its stress is settled; otherwise the history restarts from it (at most
-    ``_AA_RESTARTS`` times: the differences gathered across a kink of the laws mix two
-    branches; on 'dense' at 1e-4 this took 10 steps from 24.6 s to 14.5 s).
-
-    Returns
-    -------
-    (ok, xq, xe, cur, m, iterations) : ``ok`` True when converged (or accepted after a
-    stall), ``"settled"`` when stopped by ``settled``; otherwise (False) the best point
-    met, from which the caller's Newton-Krylov goes on.
-    """
-    nq = xq.size
-    X: list = []
-    F: list = []
-    dXs: list = []  # X[k+1] - X[k]
-    dFs: list = []  # (F[k+1] - F[k]) / D
-    best = (xq, xe, cur, m)
-    ref, stall = m, 0  # merit of the last iteration that made progress, iterations since
-    restarts = 0
-    it = 0
-    vs_last: np.ndarray | None = None  # stress (V sigma) of the last iterate
-    dv: list[float] = []  # its changes
-    for it in range(1, n_iter + 1):
-        st, rq, re = cur[0], cur[3], cur[4]
-        if vs_last is not None:
-            dv.append(float(np.max(np.abs(cur[5] - vs_last))))
-        vs_last = cur[5]
-        dstress = np.inf
-        if len(dv) >= 3 and dv[-2] > 0 and dv[-3] > 0:
-            rho = max(dv[-1] / dv[-2], dv[-2] / dv[-3])
-            if rho < 1:
-                dstress = dv[-1] * rho / (1 - rho)
-        if dbg:
-            dbg(f"anderson it {it} merit {m:.3g} history {len(X)} stress change {dv[-1] if dv else 0:.3g} "
-                f"to come {dstress:.3g}")
-        if converged(rq, re):
-            return True, xq, xe, cur, m, it
-        if settled(rq, re, dstress):
-            return "settled", xq, xe, cur, m, it
-        fq, fe = prec.apply(-rq, -re, S)
-        x_new, f_new = np.concatenate([xq, xe]), np.concatenate([fq, fe])
-        if X:  # differences with the last iterate, scaled as the least-squares problem needs
-            dXs.append(x_new - X[-1])
-            dFs.append((f_new - F[-1]) / D)
-        X.append(x_new)
-        F.append(f_new)
-        if len(X) > mem + 1:
-            X.pop(0)
-            F.pop(0)
-            dXs.pop(0)
-            dFs.pop(0)
-        step = f_new
-        if dXs:
-            dFm = np.array(dFs).T
-            gamma = np.linalg.lstsq(dFm, f_new / D, rcond=1e-12)[0]
-            step = f_new - np.array(dXs).T @ gamma - (dFm @ gamma) * D
-        sq, se = limit(step[:nq], step[nq:], st)
-        try:
-            trial = residual(xq + sq, xe + se)
-            mt = merit(trial)
-        except _StepFailure:
-            mt = np.inf
-        if not mt <= 3.0 * m:  # restart from a plain elastic update, halved until it does not raise r
-            if dbg:
-                dbg(f"   anderson restart (merit {mt:.3g})")
-            X, F, dXs, dFs = [], [], [], []
-            sq, se = limit(fq, fe, st)
-            for _ in range(_STIFF_BACKTRACKS):
-                trial = residual(xq + sq, xe + se)
-                mt = merit(trial)
-                if mt <= m:
-                    break
-                sq, se = 0.5 * sq, 0.5 * se
-        xq, xe, cur, m = xq + sq, xe + se, trial, mt
-        stall += 1
-        if m < best[3]:
-            best = (xq, xe, cur, m)
-        if m < _AA_PROGRESS * ref:
-            ref, stall = m, 0
-        if stall > _AA_PATIENCE:
-            if restarts >= _AA_RESTARTS or accept(best[2][3], best[2][4]):
-                break
-            # a stall at a kink of the laws: the differences gathered across it mix two
-            # branches; start again from the best point with an empty history
-            restarts += 1
-            if dbg:
-                dbg(f"   anderson stalled: restart {restarts} from the best point (merit {best[3]:.3g})")
-            xq, xe, cur, m = best
-            X, F, dXs, dFs = [], [], [], []
-            ref, stall = m, 0
-    xq, xe, cur, m = best
-    return accept(cur[3], cur[4]), xq, xe, cur, m, it
-
-
-#: Anderson iterations stop (accepted, or Newton-Krylov takes over) after _AA_PATIENCE
-#: iterations that did not lower the best scaled residual below _AA_PROGRESS times itself
-_AA_PATIENCE, _AA_PROGRESS = 8, 0.9
-#: restarts of the Anderson history from the best point after a stall
-_AA_RESTARTS = 2
-
-
-def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
-               shift: float, m: float, opts: PackingOptions, ctx: _Context, rtol: float | None = None) -> tuple:
-    """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
-
-    ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)
-    and ``r = (rq, re)`` the residual. Right preconditioning by the factorised elastic
-    operator: GMRES minimises the true (scaled) residual of the linear model, not the
-    preconditioned one, which the near-singular directions of the elastic operator
-    (mechanisms: grains that roll or slide freely) would dominate.
-
-    Returns
-    -------
-    (dxq, dxe, slope, pred, krylov) : the update, ``r . dx``, the decrease of the scaled
-    residual norm the linear model predicts (from ``m``), GMRES iterations.
-    """
-    import scipy.sparse.linalg as spla
-
-    Dq, De = prec.dq, prec.de[S]
-    nq, n = Dq.size, Dq.size + De.size
-    rhs = -np.concatenate([Dq * rq, De * re])
-
-    def matvec(y: np.ndarray) -> np.ndarray:
-        vq = Dq * y[:nq]
-        d6 = np.zeros(6)
-        d6[S] = De * y[nq:]
-        df = Kb @ kin.delta(vq, d6).reshape(-1)
-        return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
-
-    def psolve(z: np.ndarray) -> np.ndarray:
-        yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
-        return np.concatenate([yq / Dq, ye / De])
-
-    count = [0]
-
-    def cb(_r: Any) -> None:
-        count[0] += 1
-
-    z, _info = spla.gmres(spla.LinearOperator((n, n), matvec=lambda v: matvec(psolve(v)), dtype=float),
-                          rhs, rtol=rtol or opts.krylov_rtol, atol=0.0, restart=opts.krylov_max, maxiter=1,
-                          callback=cb, callback_type="pr_norm")
-    y = psolve(z)
-    ctx.krylov += count[0]
-    if not np.all(np.isfinite(y)):
-        raise _StepFailure("linear solve not finite")
-    dxq, dxe = Dq * y[:nq], De * y[nq:]
-    slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
-    if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
-        dxq, dxe = prec.apply(-rq, -re, S)
-        slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
-    pred = m - float(np.linalg.norm(matvec(y) - shift * y - rhs)) if not ctx.energy else 0.0
-    return dxq, dxe, slope, pred, count[0]
-
-
-def _trust(kin: Kinematics, dxq: np.ndarray | None, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
-    """Factor (>= 1) by which an update's largest contact displacement exceeds ``move``.
-
-    ``move`` [length] is the trust limit; the update is ``(dxq, dxe)`` (``dxq = None``: the
-    strain's part alone).
-
-    Measured on the contacts, not on the grains: a grain rolling on its neighbours (a
-    mechanism) may move far without loading any contact, and is bounded by the
-    small-strain check of the step instead.
-    """
-    d6 = np.zeros(6)
-    d6[S] = dxe
-    d = kin.affine(d6) if dxq is None else kin.delta(dxq, d6)
-    return max(float(np.max(np.linalg.norm(d, axis=1), initial=0.0)) / move, 1.0)
-
-
-def _step_tangent(n: np.ndarray, resp: Any, r_s: np.ndarray, closed: np.ndarray) -> np.ndarray:
-    """Contact tangent (C, 3, 3) from the law's step tangent [force/length].
-
-    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` with ``t_delta = dT/d d_t`` and
-    ``t_alpha = dT/d alpha``, the derivatives of the end-of-step force of the step the law
-    integrated from the committed state (:class:`grainmech.contact.ContactResponse`; for
-    Mindlin-Deresiewicz exact to about 1e-9 against finite differences, including the
-    normal-tangential coupling of seed Eq. 3.11 and the radial return at the Coulomb
-    limit). ``r_s`` converts law-space displacements (:func:`_law_scale`); open contacts
-    carry nothing.
-    """
-    w = np.where(closed, r_s, 0.0)
-    col = resp.kn[:, None] * n + resp.t_alpha
-    P = np.eye(3) - n[:, :, None] * n[:, None, :]
-    K = col[:, :, None] * n[:, None, :] + np.einsum("cij,cjk->cik", resp.t_delta, P)
-    return K * w[:, None, None]
-
-
-def _slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarray, de: np.ndarray) -> np.ndarray:
-    """Factor (C,) of the across-slip stiffness of a Coulomb-capped spring at the trial.
-
-    A sliding contact of a spring with a Coulomb cap (``HertzMindlin``, ``LinearSpring``:
-    radial return ``T = mu N T_trial / |T_trial|`` with ``T_trial = T_0 + k_t d_delta``)
-    turns its force with the slip direction: across it the consistent stiffness is
-    ``k_t mu N / |T_trial|`` (Simo & Hughes 1998, Sect. 2.3 for the radial return), not
-    ``k_t``. 1 for a contact that sticks. ``T_trial`` is estimated with the end-of-step
-    ``k_t`` (exact when the normal force does not grow); only the Newton matrix uses it.
-    """
-    sl = np.asarray(resp.sliding, bool) & ~np.asarray(resp.open, bool)
-    if not sl.any():
-        return np.ones(kin.n_contacts)
-    d = kin.delta(xq, de)
-    dt = d - np.einsum("ij,ij->i", d, kin.n)[:, None] * kin.n
-    trial = point.response.tangential_force + (resp.ks_perp * point.scale)[:, None] * dt
-    tn = np.linalg.norm(trial, axis=1)
-    cap = np.linalg.norm(resp.tangential_force, axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        f = np.where(sl & (tn > cap), cap / np.where(tn > 0, tn, 1.0), 1.0)
-    return f
-
-
-def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
-    """The held input imbalance (``PackingPoint.load``) that the grains' closed contacts can resist.
-
-    A grain's closed contacts resist its motions ``q_p`` that change their relative
-    displacements (``W_p q_p != 0``, ``W_p`` the grain's blocks of ``G`` over its closed
-    contacts, neighbours held). Along the others, its mechanisms ``W_p phi = 0``, nothing
-    can balance a load: a grain whose contacts have all opened (six such motions), a
-    grain held by one contact (rotations about the contact point) or by two (rolling
-    about the line through its two contact points, in this fixed geometry). A load there
-    makes the grain drift without bound in this fixed geometry (and roll or fly off in a
-    DEM), so that share of the held load is dropped: the part kept does no work on any
-    such motion (it is the load minus its orthogonal projection on them, rotations
-    scaled by the grain radius). The first case was the rule before; the second drove a
-    grain held by two weak contacts of the 500-grain packing of ``docs/packing-driver.md``
-    around its contact axis by 0.17 rad and 4 % of its radius in 68 steps at
-    γ = 3e-5, until the small-strain check stopped the run.
-    """
-    kin = point.kinematics
-    if point.load is None:
-        return np.zeros(kin.n_free)
-    closed = ~np.asarray(resp.open, bool)
-    # the same contacts stay closed over most updates and steps: cached per kinematics
-    # (shared by every point of a run) and closed set
-    memo = _HELD.setdefault(kin, {})
-    key = closed.tobytes()
-    got = memo.get(key)
-    if got is not None and got[0] is point.load:
-        return got[1]
-    P = kin.n_grains
-    R = point.radii
-    # only a grain with at most two closed contacts has mechanisms (a rigid motion that
-    # moves none of three points of a sphere is zero: no line passes through three of
-    # them); the others' loads are kept whole
-    ncl = np.bincount(kin.a[closed], minlength=P) + np.bincount(kin.b[closed], minlength=P)
-    few = ncl <= 2
-    if len(memo) >= 16:
-        memo.clear()
-    if not few.any():
-        memo[key] = (point.load, point.load)
-        return point.load
-    # blocks of the relative displacement of each closed contact in the motion of its grain
-    # A ([I, -[r_A]x]) and of its grain B ([-I, [r_B]x]), rotations scaled by the radius
-    closed = closed & (few[kin.a] | few[kin.b])
-    a, b, n = kin.a[closed], kin.b[closed], kin.n[closed]
-    W = np.zeros((2, a.size, 3, 6))
-    W[0, :, :, :3] = np.eye(3)
-    W[0, :, :, 3:] = -_cross_rows(R[a][:, None] * n) / R[a][:, None, None]
-    W[1, :, :, :3] = -np.eye(3)
-    W[1, :, :, 3:] = _cross_rows(-R[b][:, None] * n) / R[b][:, None, None]
-    ga = np.einsum("cki,ckj->cij", W[0], W[0]).reshape(-1, 36)
-    gb = np.einsum("cki,ckj->cij", W[1], W[1]).reshape(-1, 36)
-    gram = np.stack([np.bincount(a, ga[:, k], P) + np.bincount(b, gb[:, k], P) for k in range(36)],
-                    axis=1).reshape(P, 6, 6)
-    g = np.flatnonzero(few)
-    w, U = np.linalg.eigh(gram[g])  # ascending; the grain's mechanisms have w ~ 0 (entries O(1))
-    null = w < 1e-9 * np.maximum(w[:, -1:], 1.0)
-    scale = np.concatenate([np.ones((g.size, 3)), np.repeat(R[g][:, None], 3, axis=1)], axis=1)
-    full = kin.full(point.load)
-    ls = full[g] / scale  # (force, moment / R)
-    full[g] -= np.einsum("pik,pk,pjk,pj->pi", U, null.astype(float), U, ls) * scale
-    kept = full.reshape(-1)[kin.free]
-    memo[key] = (point.load, kept)
-    return kept
-
-
-#: _held_load's results per kinematics (weak: dropped with the run's points)
-_HELD: WeakKeyDictionary = WeakKeyDictionary()
-
-
-def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, approach: np.ndarray,
-                 cap: float) -> np.ndarray:
-    """Grain update with every contact that it closes stopped at an approach of ``cap``.
-
-    An open contact has no stiffness in the Newton matrix (and a Hertz contact none at
-    touch), so an update may drive it far into overlap: at a quarter of the mean approach
-    it carries a quarter of the mean contact force, and the residual jumps by orders of
-    magnitude. Each closing contact's two grains are scaled down together (by the
-    smallest factor over their closing contacts) so that it closes to at most ``cap``
-    [length]; the next iteration sees it closed, with its stiffness.
-    """
-    d6 = np.zeros(6)
-    d6[S] = dxe
-    dn = kin.normal_part(kin.delta(dxq, d6))
-    over = (approach <= 0.0) & (approach + dn > cap) & (dn > 0.0)
-    if not over.any():
-        return dxq
-    f = np.ones(kin.n_grains)
-    fc = np.clip((cap - approach[over]) / dn[over], 0.0, 1.0)
-    np.minimum.at(f, kin.a[over], fc)
-    np.minimum.at(f, kin.b[over], fc)
-    mv = kin.full(dxq) * f[:, None]
-    return mv.reshape(-1)[kin.free]
-
-
-def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
-    """``sum_p (|F_p| R_p + |M_p|)`` [force length] of out-of-balance forces and moments ``rq``."""
-    g = kin.full(rq)
-    return float(np.sum(np.linalg.norm(g[:, :3], axis=1) * R + np.linalg.norm(g[:, 3:], axis=1)))
-
-
-def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.ndarray:
-    """Grain update ``dxq`` (n_free,) with each grain's move clipped to ``move`` [length].
-
-    A grain's translation and surface rotation ``R |theta|`` are scaled down together.
-    """
-    mv = kin.full(dxq)
-    big = np.maximum(np.linalg.norm(mv[:, :3], axis=1), R * np.linalg.norm(mv[:, 3:], axis=1))
-    c = move / np.maximum(big, move)
-    return (mv * c[:, None]).reshape(-1)[kin.free]
-
-
-def _grain_report(kin: Kinematics, rq: np.ndarray, tolq: np.ndarray, resp: Any) -> str:
-    """Trace line: grains above the force tolerance, the worst ones with their contacts."""
-    g = np.max(kin.full(np.abs(rq) / tolq), axis=1)
-    closed = ~np.asarray(resp.open, bool)
-    sl = np.asarray(resp.sliding, bool) & closed
-    nc = np.bincount(kin.a[closed], minlength=g.size) + np.bincount(kin.b[closed], minlength=g.size)
-    ns = np.bincount(kin.a[sl], minlength=g.size) + np.bincount(kin.b[sl], minlength=g.size)
-    worst = np.argsort(g)[::-1][:5]
-    top = " ".join(f"{p}:{g[p]:.2g}({nc[p]}c,{ns[p]}s)" for p in worst)
-    return f"   grains over tol {int(np.sum(g > 1))} (>100x {int(np.sum(g > 100))}); worst {top}"
-
-
-def _debug() -> Callable[[str], None] | None:
-    """Trace printer of the step solver when ``GRAINMECH_PACKING_TRACE`` is set."""
-    import os
-    import sys
-
-    if not os.environ.get("GRAINMECH_PACKING_TRACE"):
-        return None
-    return lambda msg: print(f"[packing] {msg}", file=sys.stderr)
 
 
 def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,

@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from grainmech.errors import GrainmechError
 from grainmech.network import _solvers
@@ -95,8 +97,6 @@ class _System:
         """
         if self._H is not None:
             return self._H
-        import scipy.sparse as sp
-
         C, d, b = self.GA.shape
         row = np.broadcast_to((np.arange(C)[:, None] * d + np.arange(d))[:, :, None], (C, d, b))
         k = np.arange(b)
@@ -121,8 +121,6 @@ def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndar
     rotations, ``d`` without. Per-grain sums of per-contact blocks are sparse incidence
     products (grain x contact), which scale linearly.
     """
-    import scipy.sparse as sp
-
     d = n.shape[1]
     b = 2 * d if (rotations and d == 3) else (d + 1 if rotations else d)
     C = ci.size
@@ -238,9 +236,6 @@ def _grain_order(P: int, ci: np.ndarray, cj: np.ndarray) -> np.ndarray | None:
     """
     if P < CG_REORDER_GRAINS:
         return None
-    import scipy.sparse as sp
-    from scipy.sparse.csgraph import reverse_cuthill_mckee
-
     A = sp.csr_matrix((np.ones(ci.size), (ci, cj)), shape=(P, P))
     return np.asarray(reverse_cuthill_mckee((A + A.T).tocsr(), symmetric_mode=True), dtype=np.int64)
 
@@ -282,6 +277,101 @@ DIRECT_REFINE_TOL = 1e-10
 #: 1e4-grain random network of ``docs/performance.md``); more means the factor is a poor
 #: preconditioner and ``auto`` goes to block CG instead
 DIRECT_REFINE_STEPS = 50
+
+
+def _solved_part(net: ContactNetwork, kn: np.ndarray, ks_e: np.ndarray, remove_rattlers: bool,
+                 min_contacts: int | None, rotations: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The part of the network :func:`relaxed_stiffness` solves: ``(ratt, csel, alive_idx, m)``.
+
+    Rattlers (removed iteratively by the rule of ``min_contacts``), the contacts kept and
+    the particles kept; ``m`` the number of strain components. Raises
+    :class:`~grainmech.errors.GrainmechError` when nothing is left.
+    """
+    d = net.dim
+    stiff = kn > 0
+    if min_contacts is None:
+        frictional = bool(np.any(ks_e[stiff] > 0))
+        min_contacts = rattler_threshold(d, frictional, rotations)
+        rule = (f"the {'frictional' if frictional and rotations else 'frictionless'} rule: "
+                + ("some contact has ks > 0 and grains rotate" if frictional and rotations else
+                   "no contact has ks > 0" if not frictional else "rotations are off"))
+    else:
+        rule = "min_contacts as given"
+    if remove_rattlers:
+        carrying = stiff & (net.normal_force > 0) if np.any(net.force) else stiff
+        ratt = rattlers(net, min_contacts, carrying)
+    else:
+        carrying = stiff
+        ratt = np.zeros(net.n_particles, dtype=bool)
+    alive = ~ratt
+    csel = (kn != 0) | (ks_e != 0)
+    csel &= alive[net.i] & alive[net.j]
+    alive_idx = np.flatnonzero(alive)
+    m = 6 if d == 3 else 3
+    if alive_idx.size == 0 or not csel.any():
+        raise GrainmechError(
+            f"relaxed stiffness: nothing is left to solve - {int(ratt.sum())} of {net.n_particles} "
+            f"particles are rattlers (fewer than {min_contacts} force-carrying contacts, {rule}; "
+            f"removed iteratively; {int(carrying.sum())} of {net.n_contacts} contacts carry force "
+            "and have kn > 0). The network is too loose for this rule: check the contact "
+            "forces/stiffnesses, or lower min_contacts")
+    return ratt, csel, alive_idx, m
+
+
+def _fluctuations(sys_: _System, rhs: np.ndarray, ndof: int, n: np.ndarray, knc: np.ndarray, ksc: np.ndarray,
+                  rA: np.ndarray, rB: np.ndarray, RA: np.ndarray, RB: np.ndarray, d: int, m: int, solver: str,
+                  tol: float, maxiter: int) -> tuple[np.ndarray, int, str, tuple[str, int, float, float] | None]:
+    """The grains' fluctuations ``q`` solving ``H q = rhs`` for :func:`relaxed_stiffness`.
+
+    Returns ``(q, iterations, solver name, direct_left)``; ``direct_left`` names a
+    factorisation (or AMG-CG) that stopped short of its target residual, else None.
+    """
+    b = sys_.b
+    name = _solvers.choose(solver, ndof)
+    q: np.ndarray | None = None
+    if solver == "auto":
+        # block CG first: on packings it converges in a few hundred iterations and beats
+        # every factorisation; when its first iterations predict more than AUTO_CG_MAXITER
+        # (ill-conditioned networks) it stops and the factorisation runs instead
+        q, iters, res_cg = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, AUTO_CG_MAXITER, AUTO_CG_PREDICT)
+        if res_cg <= tol:
+            name = "cg"
+        else:
+            q = None
+    direct_left: tuple[str, int, float, float] | None = None  # a factorisation short of its target
+    if name != "cg" and q is None:
+        # pin the translation of particle 0 (global translation mode); the other zero modes
+        # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
+        # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
+        # of the translational one, times the squared mean lever arm for rotations), then
+        # removed again by CG on H itself preconditioned by the factor (solve_spd)
+        H = sys_.hessian()
+        free = np.ones(ndof, dtype=bool)
+        free[:d] = False
+        Hf = H[free][:, free].tocsr()
+        kind = np.flatnonzero(free) % b
+        typemax = np.zeros(b)
+        np.maximum.at(typemax, kind, np.abs(Hf.diagonal()))
+        ref = np.full(b, float(typemax[:d].max()) or 1.0)
+        ref[d:] *= float(np.mean(np.r_[RA, RB]) ** 2)
+        typemax = np.maximum(typemax, 1e-6 * ref)
+        target = min(tol, DIRECT_REFINE_TOL)
+        q = np.zeros((ndof, m))
+        q[free], iters, res_d = _solvers.solve_spd(Hf, rhs[free], name, dof_type=kind,
+                                                   shift=1e-10 * typemax[kind], tol=target, maxiter=maxiter,
+                                                   refine=DIRECT_REFINE_STEPS)
+        if float(res_d.max()) > target:
+            # the residual of a shifted factorisation (or of AMG-CG short of its target)
+            # lies in the softest modes, where it weighs most in the tensor (7.8e-4 of it at
+            # a residual of 1.7e-8 on a 1e4-grain network, docs/performance.md): never keep
+            # it silently
+            direct_left = (name, iters, float(res_d.max()), target)
+            if solver == "auto":
+                q, name = None, "cg"  # block CG resolves these modes (in more iterations)
+    if name == "cg" and q is None:
+        q, iters, _ = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, maxiter, None)
+    assert q is not None
+    return q, iters, name, direct_left
 
 
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
@@ -364,33 +454,7 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         raise GrainmechError(f"kn and ks must have shape ({net.n_contacts},)")
     if not (np.all(np.isfinite(kn)) and np.all(np.isfinite(ks_e))):
         raise GrainmechError("kn and ks must be finite")
-    stiff = kn > 0
-    if min_contacts is None:
-        frictional = bool(np.any(ks_e[stiff] > 0))
-        min_contacts = rattler_threshold(d, frictional, rotations)
-        rule = (f"the {'frictional' if frictional and rotations else 'frictionless'} rule: "
-                + ("some contact has ks > 0 and grains rotate" if frictional and rotations else
-                   "no contact has ks > 0" if not frictional else "rotations are off"))
-    else:
-        rule = "min_contacts as given"
-    if remove_rattlers:
-        carrying = stiff & (net.normal_force > 0) if np.any(net.force) else stiff
-        ratt = rattlers(net, min_contacts, carrying)
-    else:
-        carrying = stiff
-        ratt = np.zeros(net.n_particles, dtype=bool)
-    alive = ~ratt
-    csel = (kn != 0) | (ks_e != 0)
-    csel &= alive[net.i] & alive[net.j]
-    alive_idx = np.flatnonzero(alive)
-    m = 6 if d == 3 else 3
-    if alive_idx.size == 0 or not csel.any():
-        raise GrainmechError(
-            f"relaxed stiffness: nothing is left to solve - {int(ratt.sum())} of {net.n_particles} "
-            f"particles are rattlers (fewer than {min_contacts} force-carrying contacts, {rule}; "
-            f"removed iteratively; {int(carrying.sum())} of {net.n_contacts} contacts carry force "
-            "and have kn > 0). The network is too loose for this rule: check the contact "
-            "forces/stiffnesses, or lower min_contacts")
+    ratt, csel, alive_idx, m = _solved_part(net, kn, ks_e, remove_rattlers, min_contacts, rotations)
     newidx = -np.ones(net.n_particles, dtype=np.int64)
     newidx[alive_idx] = np.arange(alive_idx.size)
     ci, cj = newidx[net.i[csel]], newidx[net.j[csel]]
@@ -409,50 +473,8 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     V = net.volume
     ndof = P * b
     rhs = -B
-    name = _solvers.choose(solver, ndof)
-    q: np.ndarray | None = None
-    if solver == "auto":
-        # block CG first: on packings it converges in a few hundred iterations and beats
-        # every factorisation; when its first iterations predict more than AUTO_CG_MAXITER
-        # (ill-conditioned networks) it stops and the factorisation runs instead
-        q, iters, res_cg = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, AUTO_CG_MAXITER, AUTO_CG_PREDICT)
-        if res_cg <= tol:
-            name = "cg"
-        else:
-            q = None
-    direct_left: tuple[str, int, float, float] | None = None  # a factorisation short of its target
-    if name != "cg" and q is None:
-        # pin the translation of particle 0 (global translation mode); the other zero modes
-        # (e.g. free rotations of frictionless grains) are lifted for the factorisation by
-        # 1e-10 times the largest diagonal entry of the same kind of unknown (at least 1e-6
-        # of the translational one, times the squared mean lever arm for rotations), then
-        # removed again by CG on H itself preconditioned by the factor (solve_spd)
-        H = sys_.hessian()
-        free = np.ones(ndof, dtype=bool)
-        free[:d] = False
-        Hf = H[free][:, free].tocsr()
-        kind = np.flatnonzero(free) % b
-        typemax = np.zeros(b)
-        np.maximum.at(typemax, kind, np.abs(Hf.diagonal()))
-        ref = np.full(b, float(typemax[:d].max()) or 1.0)
-        ref[d:] *= float(np.mean(np.r_[RA, RB]) ** 2)
-        typemax = np.maximum(typemax, 1e-6 * ref)
-        target = min(tol, DIRECT_REFINE_TOL)
-        q = np.zeros((ndof, m))
-        q[free], iters, res_d = _solvers.solve_spd(Hf, rhs[free], name, dof_type=kind,
-                                                   shift=1e-10 * typemax[kind], tol=target, maxiter=maxiter,
-                                                   refine=DIRECT_REFINE_STEPS)
-        if float(res_d.max()) > target:
-            # the residual of a shifted factorisation (or of AMG-CG short of its target)
-            # lies in the softest modes, where it weighs most in the tensor (7.8e-4 of it at
-            # a residual of 1.7e-8 on a 1e4-grain network, docs/performance.md): never keep
-            # it silently
-            direct_left = (name, iters, float(res_d.max()), target)
-            if solver == "auto":
-                q, name = None, "cg"  # block CG resolves these modes (in more iterations)
-    if name == "cg" and q is None:
-        q, iters, _ = _block_cg(sys_, rhs, n, knc, ksc, rA, rB, tol, maxiter, None)
-    assert q is not None
+    q, iters, name, direct_left = _fluctuations(sys_, rhs, ndof, n, knc, ksc, rA, rB, RA, RB, d, m, solver, tol,
+                                                maxiter)
     Hq = _apply_hessian(sys_, q, n, knc, ksc, rA, rB)
     R = Hq - rhs
     nb = np.maximum(np.linalg.norm(rhs, axis=0), 1e-6 * sys_.bref)

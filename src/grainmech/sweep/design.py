@@ -28,9 +28,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy.stats import qmc
 
 from grainmech.errors import ConfigError, ParameterError
 from grainmech.io.units import ANGLE_UNITS as _ANGLES
+from grainmech.io.units import to_float, unit_registry
 
 __all__ = ["SweepParameter", "parse_parameter", "grid", "latin_hypercube", "monte_carlo", "make_design",
            "DESIGNS", "si_value"]
@@ -50,8 +52,6 @@ def _is_quantity_text(v: str) -> bool:
 
 
 def _check_si_unit(unit: Any, key: str) -> str:
-    from grainmech.io.units import unit_registry
-
     if not isinstance(unit, str) or not unit.strip():
         raise ConfigError(key, unit, "must be a unit name such as 'Pa'")
     ureg = unit_registry()
@@ -73,8 +73,6 @@ def si_value(value: Any, key: str, unit: str | None = None) -> tuple[float, str]
     quantity is converted to it; otherwise the unit is inferred from the quantity's
     dimension (``Pa``, ``m``, ``N/m``, ...; angles become ``rad``).
     """
-    from grainmech.io.units import to_float
-
     if unit is not None:
         return to_float(value, unit, key), unit
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
@@ -85,8 +83,6 @@ def si_value(value: Any, key: str, unit: str | None = None) -> tuple[float, str]
         return float(value.strip()), ""
     except ValueError:
         pass
-    from grainmech.io.units import unit_registry
-
     ureg = unit_registry()
     try:
         q = ureg.Quantity(value.strip())
@@ -174,10 +170,26 @@ class SweepParameter:
         return [float(x) for x in self.lo + u * (self.hi - self.lo)]
 
 
+#: one segment of a dotted config path: ``name`` or ``name[i][j]``
+_SEGMENT = re.compile(r"^([A-Za-z0-9_\-]+)((?:\[\d+\])*)$")
+
+
+def parse_path(key: Any, where: str = "parameters") -> list[str | int]:
+    """``"test.segments[0].amplitude"`` -> ``["test", "segments", 0, "amplitude"]``."""
+    if not isinstance(key, str) or not key.strip():
+        raise ConfigError(where, key, "a parameter key must be a dotted config path such as 'packing.void_ratio'")
+    out: list[str | int] = []
+    for part in key.split("."):
+        m = _SEGMENT.match(part)
+        if not m:
+            raise ConfigError(where, key, f"bad path segment {part!r} (expected name or name[index])")
+        out.append(m.group(1))
+        out.extend(int(i) for i in re.findall(r"\[(\d+)\]", m.group(2)))
+    return out
+
+
 def parse_parameter(key: str, sec: Any, design: str) -> SweepParameter:
     """A :class:`SweepParameter` from the table ``[parameters."<key>"]`` (a config Section)."""
-    from grainmech.sweep.spec import parse_path
-
     parse_path(key, sec.name)
     if str(key).rsplit(".", 1)[-1].endswith("angle") and not sec.has("unit"):
         # one rule for angles in every config (docs/config.md): the unit is required
@@ -257,8 +269,6 @@ def _from_cube(params: Sequence[SweepParameter], u: np.ndarray) -> list[tuple]:
 
 def lhs_unit(n: int, d: int, seed: int) -> np.ndarray:
     """``(n, d)`` Latin hypercube sample of the unit cube (scipy.stats.qmc, seeded)."""
-    from scipy.stats import qmc
-
     return qmc.LatinHypercube(d, rng=np.random.default_rng(seed)).random(n)
 
 

@@ -27,34 +27,20 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from grainmech.errors import ConfigError, GrainmechError
-from grainmech.sweep.design import DESIGNS, SweepParameter, make_design, parse_parameter
+from grainmech.io.config import Section, load_toml
+from grainmech.io.units import config_value
+from grainmech.sweep.design import DESIGNS, SweepParameter, make_design, parse_parameter, parse_path
+from grainmech.sweep.kinds import SWEEP_KINDS
 
 __all__ = ["Sweep", "Point", "load_sweep", "sweep_from_dict", "parse_path", "set_path", "point_id"]
 
-_SEGMENT = re.compile(r"^([A-Za-z0-9_\-]+)((?:\[\d+\])*)$")
-
 #: the largest number of points a sweep may have (a guard against typos such as num = 1e6)
 MAX_POINTS = 1_000_000
-
-
-def parse_path(key: Any, where: str = "parameters") -> list[str | int]:
-    """``"test.segments[0].amplitude"`` -> ``["test", "segments", 0, "amplitude"]``."""
-    if not isinstance(key, str) or not key.strip():
-        raise ConfigError(where, key, "a parameter key must be a dotted config path such as 'packing.void_ratio'")
-    out: list[str | int] = []
-    for part in key.split("."):
-        m = _SEGMENT.match(part)
-        if not m:
-            raise ConfigError(where, key, f"bad path segment {part!r} (expected name or name[index])")
-        out.append(m.group(1))
-        out.extend(int(i) for i in re.findall(r"\[(\d+)\]", m.group(2)))
-    return out
 
 
 def set_path(cfg: dict, key: str, value: Any) -> None:
@@ -134,8 +120,6 @@ class Sweep:
 
 def load_sweep(path: str | Path, *, check: bool = True) -> Sweep:
     """Read a sweep file (see the module docstring)."""
-    from grainmech.io.config import load_toml
-
     p = Path(path)
     return sweep_from_dict(load_toml(p), p.parent, source=str(path), check=check)
 
@@ -149,10 +133,6 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     points' values is read by the run kind's parser, so misspelt keys fail here, naming
     the key, instead of failing every point.
     """
-    from grainmech.io.config import Section, load_toml
-    from grainmech.io.units import config_value
-    from grainmech.sweep.kinds import SWEEP_KINDS
-
     sweep_dir = Path(sweep_dir)
     root = Section(data, "")
     sw = root.section("sweep")
@@ -230,8 +210,6 @@ def check_sweep(sweep: Sweep) -> None:
     (a broken base config), or when no point at all has a valid config. A bad *value* of
     a swept key in some points is left to those points, which are recorded as failed.
     """
-    from grainmech.sweep.kinds import SWEEP_KINDS
-
     kind = SWEEP_KINDS[sweep.kind]
     swept = {p.key for p in sweep.parameters}
     first: GrainmechError | None = None
