@@ -108,7 +108,7 @@ def _points(ax: Any, x: Any, y: Any, style: str, label: str, hollow: Any) -> Non
     """Markers ``style`` at (x, y) on a log strain axis; those where ``hollow`` is True unfilled.
 
     The hollow ones (states beyond the envelope of sands, not predictions) get their own
-    legend entry "<label>: beyond the envelope of sands (hollow)".
+    legend entry "beyond the envelope of sands (hollow)", in the model's marker.
     """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     h = np.zeros(x.shape, dtype=bool) if hollow is None else np.asarray(hollow, dtype=bool)
@@ -118,7 +118,7 @@ def _points(ax: Any, x: Any, y: Any, style: str, label: str, hollow: Any) -> Non
     if h.any():
         c = line.get_color()
         ax.semilogx(x[h], y[h], style, markerfacecolor="none", markeredgecolor=c,
-                    label=f"{label}: beyond the envelope of sands (hollow)")
+                    label="beyond the envelope of sands (hollow)")
 
 
 def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,

@@ -390,7 +390,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                                                                beyond, quality))
             table = ("<table><tr><th>shear strain amplitude [decimal]</th><th>secant G [Pa]</th><th>G/Gmax</th>"
                      "<th>damping [%]</th><th>change of p [%]</th><th>largest sigma1/sigma3</th>"
-                     "<th>envelope of sands</th><th>last cycle: closure / asymmetry [% of tau_a]</th></tr>"
+                     "<th>envelope of sands</th><th>last cycle: closure / asymmetry [%]</th></tr>"
                      f"{rows}</table>")
             env_c = m.get("envelope")
             if env_c and "criterion" in env_c:
