@@ -178,6 +178,7 @@ class RunSpec:
     path: Any = None
     void_ratio: float | None = None
     friction: float = float("inf")
+    keep_beyond_envelope: bool = False
     warnings: list = field(default_factory=list)
     methods: tuple = ("affine",)
     grains: PackingSource | None = None
@@ -187,7 +188,6 @@ class RunSpec:
     dem_amplitudes: list[float] | None = None
     dem_steps_per_cycle: int = 16
     dem_settings: Any = None
-    keep_beyond_envelope: bool = False
 
     def amplitudes_of(self, method: str) -> list[float]:
         """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
