@@ -50,7 +50,7 @@ def test_run_csv_columns_are_the_documented_ones(tmp_path, cli):
     comps = ("xx", "yy", "zz", "yz", "xz", "xy")
     expected = (["step"] + [f"strain_{c} [-]" for c in comps] + [f"stress_{c} [Pa]" for c in comps]
                 + ["sliding_fraction [-]", "open_fraction [-]", "dissipated_energy [J/m^3]", "work [J/m^3]",
-                   "stored_energy [J/m^3]"])
+                   "stored_energy [J/m^3]", "stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"])
     assert header == expected
     doc = (DOCS / "config.md").read_text()
     para = doc[doc.index("`cycles_gamma_<amplitude>.csv`"):doc.index("`path.csv`",

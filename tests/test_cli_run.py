@@ -73,12 +73,17 @@ def test_cyclic_simple_shear_outputs(tmp_path, cli):
     from grainmech.closed_form import walton
     _, G_w = walton(44e9, 0.08, 1e5, porosity=0.65 / 1.65, coordination=6.75)
     assert s["G_max_Pa"] == pytest.approx(G_w, rel=1e-6)
-    assert res.err == ""
-    # site-response export: the same curves, strain and damping as decimals
+    # the affine loop at 1e-3 leaves the envelope of sands (tau_xz/sigma_zz 1.45, sigma_3 < 0):
+    # the one warning on stderr
+    assert s["beyond_envelope"] == [False, False, True]
+    (w,) = res.err.splitlines()
+    assert w.startswith("grainmech: warning: affine model, amplitude 1.0e-03: beyond the envelope of sands")
+    # site-response export: the same curves, strain and damping as decimals, without 1e-3
     from grainmech.io.site_response import read_curves
     curves = read_curves(out / "site_response_curves.csv")
-    assert np.allclose(curves.strain, s["amplitudes"]) and np.allclose(curves.g_ratio, ratio)
-    assert np.allclose(curves.damping, s["damping"])
+    assert np.allclose(curves.strain, s["amplitudes"][:2]) and np.allclose(curves.g_ratio, ratio[:2])
+    assert np.allclose(curves.damping, s["damping"][:2])
+    assert s["site_response_excluded"] == [1e-3] and "left out: 1.0e-03" in curves.comment
 
 
 def test_constant_volume_cyclic_simple_shear(tmp_path, cli):

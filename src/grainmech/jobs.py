@@ -178,6 +178,7 @@ class RunSpec:
     path: Any = None
     void_ratio: float | None = None
     friction: float = float("inf")
+    keep_beyond_envelope: bool = False
     warnings: list = field(default_factory=list)
     methods: tuple = ("affine",)
     grains: PackingSource | None = None
@@ -433,6 +434,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
                                   f"{list(methods)})")
             spec.packing_amplitudes = _read_amplitudes(model, "packing_amplitudes")
         _read_dem_keys(spec, model, methods)
+        spec.keep_beyond_envelope = model.boolean("keep_beyond_envelope", False)
         spec.n_cycles = test.integer("n_cycles", 2, min=2)
         spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
@@ -450,7 +452,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             phi=ref.angle("friction_angle", float(np.radians(33.0)), max_deg=90.0))
         root.finish()
         return spec
-    for k in ("packing_amplitudes", "dem_amplitudes", "dem_steps_per_cycle"):
+    for k in ("packing_amplitudes", "dem_amplitudes", "dem_steps_per_cycle", "keep_beyond_envelope"):
         if model.has(k):
             raise ConfigError(model.key(k), model.raw(k), f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
     if "dem" in methods:
@@ -598,6 +600,15 @@ class CyclicOutcome(RunOutcome):
     run_amplitudes : ndarray (len(results),)
         Amplitude of every run in ``results``: the completed ones and, after a failure,
         the one that failed (its steps up to the failure are kept).
+    envelope : list of dict
+        :func:`cyclic_envelope` of every run in ``results`` (every recorded state against
+        the Mohr-Coulomb envelope of sands).
+    loop_quality : list of grainmech.analysis.LoopQuality
+        :func:`grainmech.analysis.loop_quality` of the analysed (last) cycle of every
+        completed amplitude.
+    keep_beyond_envelope : bool
+        ``[model] keep_beyond_envelope``: amplitudes beyond the envelope stay in
+        ``site_response_curves.csv``.
     """
 
     amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -607,6 +618,14 @@ class CyclicOutcome(RunOutcome):
     reference: dict = field(default_factory=dict)
     empirical_G_max: dict | None = None
     run_amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    envelope: list = field(default_factory=list)
+    loop_quality: list = field(default_factory=list)
+    keep_beyond_envelope: bool = False
+
+    @property
+    def beyond_envelope(self) -> np.ndarray:
+        """Whether each completed amplitude's run leaves the envelope of sands (bool, len(G))."""
+        return np.array([bool(e["beyond_any"]) for e in self.envelope[:len(self.G)]], dtype=bool)
 
     @property
     def G_ratio(self) -> np.ndarray:
@@ -790,18 +809,95 @@ def cyclic_control(constant: str) -> np.ndarray:
     return np.asarray(cyclic_simple_shear(1e-6, 1, 8, constant=constant).stress_control[0], dtype=bool)
 
 
+def cyclic_envelope(stress: np.ndarray) -> dict:
+    """Every recorded state of a cyclic simple shear run against the envelope of sands.
+
+    The envelope is :func:`envelope_check`'s, the same as for paths: Mohr-Coulomb on the
+    principal stresses with the friction angle
+    :data:`~grainmech.analysis.SAND_PEAK_FRICTION_DEG` (50 deg, ``sigma1/sigma3 <=
+    7.55``), an upper bound of the peak friction angles of sands (critical state ~33 deg
+    plus the largest dilatancy term of Bolton 1986). In simple shear the stress ratio
+    on the horizontal plane cannot exceed the largest ratio on any plane, so the
+    envelope also bounds ``|tau_xz| / sigma_zz <= tan 50 deg = 1.19``; that ratio is
+    reported beside it (the mobilised ratio a simple shear test measures).
+
+    Parameters
+    ----------
+    stress : (k+1, 6) stresses [Pa], compression positive (library order)
+
+    Returns
+    -------
+    dict
+        :func:`envelope_check`'s keys (``ratio``, ``beyond`` per state, ``limit``,
+        ``friction_angle_deg``, ``first_step``) and the scalars ``beyond_any``,
+        ``max_ratio`` (sigma1/sigma3, inf once sigma3 <= 0), ``max_mobilised_friction_deg``
+        (``asin((R - 1)/(R + 1))`` of the largest ratio R; 90 once sigma3 <= 0) and
+        ``max_tau_over_sigma_zz`` (inf where sigma_zz <= 0).
+    """
+    S = np.asarray(stress, dtype=float)
+    env = envelope_check(S)
+    r = float(np.max(env["ratio"])) if len(S) else 1.0
+    phi = 90.0 if not np.isfinite(r) else float(np.degrees(np.arcsin((r - 1.0) / (r + 1.0))))
+    szz = S[:, 2] if len(S) else np.ones(1)
+    tau = np.abs(S[:, 4]) if len(S) else np.zeros(1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_ratio = np.where(szz > 0, tau / np.where(szz > 0, szz, 1.0), np.inf)
+    env.update(beyond_any=bool(np.any(env["beyond"])), max_ratio=r, max_mobilised_friction_deg=phi,
+               max_tau_over_sigma_zz=float(np.max(t_ratio)))
+    return env
+
+
+def last_cycle_quality(result: Any, steps_per_cycle: int) -> Any:
+    """:func:`grainmech.analysis.loop_quality` of the last ``steps_per_cycle`` steps of a cyclic run.
+
+    The cycle analysed by the modulus-reduction series (``gamma_xz``, ``tau_xz``, states
+    ``n - steps_per_cycle .. n``), the peaks measured from the run's initial ``tau_xz``.
+    """
+    from grainmech.analysis import loop_quality
+
+    n = len(result.strain) - 1
+    last = slice(max(n - steps_per_cycle, 0), n + 1)
+    return loop_quality(result.strain[last, 4], result.stress[last, 4], tau_0=float(result.stress[0, 4]))
+
+
+def envelope_and_loop_warnings(method: str, amplitudes: Any, envelope: list, quality: list) -> list[str]:
+    """One warning per amplitude beyond the envelope of sands and per loop out of tolerance."""
+    out = []
+    for a, env, q in zip(amplitudes, envelope, quality):
+        if env["beyond_any"]:
+            why = {"affine": "the affine model cannot fail (every contact follows the mean strain): this "
+                             "amplitude's G/Gmax and damping are not predictions for a sand",
+                   "packing": "the packing model keeps a fixed reference geometry: read this amplitude with "
+                              "its sliding fraction and equilibrium residual",
+                   "dem": "read this amplitude with its unbalanced force ratio"}.get(method, "")
+            r = env["max_ratio"]
+            rt = f"up to {r:.3g}" if np.isfinite(r) else "unbounded: sigma3 <= 0"
+            out.append(f"{method} model, amplitude {a:.1e}: beyond the envelope of sands from step "
+                       f"{env['first_step']} (sigma1/sigma3 {rt}, limit {env['limit']:.2f}: "
+                       f"Mohr-Coulomb phi = {env['friction_angle_deg']:g} deg; tau_xz/sigma_zz up to "
+                       f"{env['max_tau_over_sigma_zz']:.3g}); {why}")
+        out += [f"{method} model, amplitude {a:.1e}: {p}" for p in q.problems]
+    return out
+
+
 def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: Any,
                     void_ratio: float | None, details: dict | None = None) -> CyclicOutcome:
+    amps = np.asarray(mr.amplitude, dtype=float)
+    envelope = [cyclic_envelope(r.stress) for r in mr.results]
+    spc = spec.dem_steps_per_cycle if method == "dem" else spec.steps_per_cycle
+    quality = [last_cycle_quality(r, spc) for r in mr.results[:len(amps)]]
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
         message=mr.message, seconds=seconds, point=point, method=method, details=dict(details or {}),
         warnings=(list(spec.warnings) if method == "affine" else [])
-        + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law),
-        amplitudes=np.asarray(mr.amplitude, dtype=float), G=np.asarray(mr.G, dtype=float),
+        + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law)
+        + envelope_and_loop_warnings(method, amps, envelope, quality),
+        amplitudes=amps, G=np.asarray(mr.G, dtype=float),
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
         empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method),
-        run_amplitudes=np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float))
+        run_amplitudes=np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float),
+        envelope=envelope, loop_quality=quality, keep_beyond_envelope=spec.keep_beyond_envelope)
 
 
 def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ratio: float | None,

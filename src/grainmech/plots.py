@@ -104,17 +104,36 @@ def loops(results: Sequence[Any], amplitudes: Sequence[float] | np.ndarray, *, a
     return ax
 
 
+def _points(ax: Any, x: Any, y: Any, style: str, label: str, hollow: Any) -> None:
+    """Markers ``style`` at (x, y) on a log strain axis; those where ``hollow`` is True unfilled.
+
+    The hollow ones (states beyond the envelope of sands, not predictions) get their own
+    legend entry "beyond the envelope of sands (hollow)", in the model's marker.
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    h = np.zeros(x.shape, dtype=bool) if hollow is None else np.asarray(hollow, dtype=bool)
+    if h.shape != x.shape:
+        raise GrainmechError(f"hollow has {h.size} entries for {x.size} points")
+    (line,) = ax.semilogx(x[~h], y[~h], style, label=label if (~h).any() else f"_{label}")
+    if h.any():
+        c = line.get_color()
+        ax.semilogx(x[h], y[h], style, markerfacecolor="none", markeredgecolor=c,
+                    label="beyond the envelope of sands (hollow)")
+
+
 def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
                       references: dict[str, tuple[Any, Any]] | None = None,
-                      label: str = "grainmech", style: str = "ko") -> Any:
+                      label: str = "grainmech", style: str = "ko", hollow: Any = None) -> Any:
     """G/Gmax against shear strain amplitude, with reference curves.
 
     G/Gmax against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, G/Gmax)``; call again on the same Axes (another ``label`` and
-    ``style``, no references) to add a model. Returns the Axes.
+    ``style``, no references) to add a model. ``hollow`` (bool per point, optional) draws
+    those points unfilled: amplitudes whose states leave the envelope of sands
+    (:func:`grainmech.jobs.cyclic_envelope`), not predictions. Returns the Axes.
     """
     ax = _axes(ax)
-    ax.semilogx(amplitude, G_ratio, style, label=label)
+    _points(ax, amplitude, G_ratio, style, label, hollow)
     for name, (g, r) in (references or {}).items():
         ax.semilogx(g, r, "--", label=name)
     ax.set_xlabel("shear strain amplitude [decimal]")
@@ -127,15 +146,15 @@ def modulus_reduction(amplitude: Any, G_ratio: Any, *, ax: Any = None,
 
 def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
             references: dict[str, tuple[Any, Any]] | None = None, label: str = "grainmech",
-            style: str = "ko") -> Any:
+            style: str = "ko", hollow: Any = None) -> Any:
     """Damping ratio [%] against shear strain amplitude, with reference curves.
 
     Damping ratio [%] against shear strain amplitude (decimal), with reference curves
     ``name -> (gamma, D)`` (D decimal); call again on the same Axes to add a model.
-    Returns the Axes.
+    ``hollow`` as in :func:`modulus_reduction`. Returns the Axes.
     """
     ax = _axes(ax)
-    ax.semilogx(amplitude, 100 * np.asarray(damping_ratio), style, label=label)
+    _points(ax, amplitude, 100 * np.asarray(damping_ratio), style, label, hollow)
     for name, (g, d) in (references or {}).items():
         ax.semilogx(g, 100 * np.asarray(d), "--", label=name)
     ax.set_xlabel("shear strain amplitude [decimal]")

@@ -19,15 +19,20 @@ from grainmech.analysis.empirical import (
     mohr_coulomb_ratio,
 )
 from grainmech.analysis.loops import (
+    LOOP_ASYMMETRY_TOLERANCE,
+    LOOP_CLOSURE_TOLERANCE,
     LoopProperties,
+    LoopQuality,
     ModulusReduction,
     condensed_modulus,
     loop_properties,
+    loop_quality,
     modulus_reduction,
 )
 
 __all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinDrnevichReference",
-           "HardinRichart", "hardin_drnevich_reference",
+           "HardinRichart", "hardin_drnevich_reference", "LOOP_ASYMMETRY_TOLERANCE", "LOOP_CLOSURE_TOLERANCE",
+           "LoopQuality", "loop_quality",
            "hardin_richart", "mohr_coulomb_ratio", "LoopProperties", "ModulusReduction",
            "apparent_moduli", "condensed_modulus", "darendeli", "hardin_drnevich", "loop_properties",
            "masing_damping_hyperbolic", "modulus_reduction"]

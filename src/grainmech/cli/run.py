@@ -154,9 +154,21 @@ def main(args: argparse.Namespace) -> int:
             pg = (det or {}).get("packing_gmax")
             if pg:
                 show(packing_gmax_line(pg, o.G_max))
-            for a, g, dd, c in zip(o.amplitudes, o.G_ratio, o.damping, o.mean_stress_change):
+            beyond, quality = o.beyond_envelope, o.loop_quality
+            for i, (a, g, dd, c) in enumerate(zip(o.amplitudes, o.G_ratio, o.damping, o.mean_stress_change)):
+                marks = []
+                if i < len(beyond) and beyond[i]:
+                    r = o.envelope[i]["max_ratio"]
+                    marks.append("BEYOND ENVELOPE (sigma1/sigma3 "
+                                 + (f"{r:.3g}" if r < float("inf") else "unbounded") + ")")
+                if i < len(quality) and not quality[i].ok:
+                    marks.append("WARNING: loop not closed/symmetric")
                 show(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
-                     f"   change of p {100 * c:+6.1f} %")
+                     f"   change of p {100 * c:+6.1f} %" + "".join(f"   {k}" for k in marks))
+            if beyond.any():
+                env = m["envelope"]
+                show(f"  envelope of sands: Mohr-Coulomb phi = {env['friction_angle_deg']:g} deg (sigma1/sigma3 <= "
+                     f"{env['limit_sigma1_over_sigma3']:.2f}); {env['note']}")
         elif not isinstance(o, CyclicOutcome) and o.results:
             r = o.results[0]
             last = " ".join(f"{v:.5g}" for v in r.stress[-1])
@@ -168,7 +180,7 @@ def main(args: argparse.Namespace) -> int:
                      f"axial strain {sg['peak_axial_strain']:.3g}); end of path "
                      f"{sg['critical_friction_angle_deg']:.1f} deg (q/p {sg['critical_q_over_p']:.3f}); {sg['note']}")
         env = m.get("envelope")
-        if env and env["first_step_beyond"] is not None:
+        if env and env.get("first_step_beyond") is not None:  # a path's
             warn(env["note"])
     show(f"wrote {len(summary['files'])} files to {args.outdir}")
     if not out.success:

@@ -172,9 +172,12 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
             cols = cols + ["unbalanced_force_ratio [-]", "coordination [-]"]
             rows = np.hstack([rows, np.asarray(r.unbalanced, dtype=float)[:, None],
                               np.asarray(r.coordination, dtype=float)[:, None]])
-        if env is not None:
+        # every recorded state against the envelope of sands (jobs.envelope_check; cyclic:
+        # jobs.cyclic_envelope of each amplitude's run)
+        env_i = (o.envelope[i] if i < len(o.envelope) else None) if cyclic else env
+        if env_i is not None and len(env_i["ratio"]) == len(rows):
             cols = cols + ["stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"]
-            rows = np.hstack([rows, env["ratio"][:, None], env["beyond"][:, None].astype(float)])
+            rows = np.hstack([rows, env_i["ratio"][:, None], env_i["beyond"][:, None].astype(float)])
         write_csv(d / name, cols, rows)
         files.append(name)
     if cyclic and o.empirical_G_max:
@@ -199,19 +202,35 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
     if cyclic and len(o.G):
         amps, G, Dm, ratio = np.asarray(o.amplitudes), np.asarray(o.G), np.asarray(o.damping), o.G_ratio
         dp = o.mean_stress_change
+        checks = _cyclic_checks(o)
+        m.update(checks)
         write_csv(d / f"{prefix}modulus_reduction.csv",
                   ["shear_strain_amplitude [-]", "G [Pa]", "G_over_Gmax [-]", "damping [-]",
-                   "mean_stress_change [-]"],
-                  zip(amps, G, ratio, Dm, dp))
+                   "mean_stress_change [-]", "max_stress_ratio_sigma1_sigma3 [-]", "max_tau_over_sigma_zz [-]",
+                   "beyond_envelope [0/1]", "loop_stress_closure [-]", "loop_strain_closure [-]",
+                   "loop_asymmetry [-]", "loop_warning [0/1]"],
+                  zip(amps, G, ratio, Dm, dp, [e["max_ratio"] for e in o.envelope[:len(G)]],
+                      checks["max_tau_over_sigma_zz"], [int(b) for b in checks["beyond_envelope"]],
+                      [q.stress_closure for q in o.loop_quality], [q.strain_closure for q in o.loop_quality],
+                      [q.asymmetry for q in o.loop_quality], [int(w) for w in checks["loop_warning"]]))
         files.append(f"{prefix}modulus_reduction.csv")
-        # the same curves for site-response tools (strain and damping as decimals)
+        # the same curves for site-response tools (strain and damping as decimals); an
+        # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope
         from grainmech.io.site_response import write_curves
 
+        keep = ~o.beyond_envelope | bool(o.keep_beyond_envelope)
         order = np.argsort(amps)
-        if np.all(np.diff(amps[order]) > 0):
+        order = order[keep[order]]
+        if order.size and np.all(np.diff(amps[order]) > 0):
             write_curves(d / f"{prefix}site_response_curves.csv", amps[order], ratio[order], Dm[order],
                          g_max=o.G_max, source=f"grainmech run ({o.method} model): {source}, "
-                                               f"mean stress {o.pressure:.6g} Pa")
+                                               f"mean stress {o.pressure:.6g} Pa"
+                                               + (f"; amplitudes beyond the envelope of sands left out: "
+                                                  f"{', '.join(f'{a:.1e}' for a in amps[~keep])}"
+                                                  if not keep.all() else "")
+                                               + ("; kept beyond the envelope of sands (keep_beyond_envelope): "
+                                                  f"{', '.join(f'{a:.1e}' for a in amps[o.beyond_envelope])}"
+                                                  if o.keep_beyond_envelope and o.beyond_envelope.any() else ""))
             files.append(f"{prefix}site_response_curves.csv")
         fig, ax = plots.subplots(figsize=(6.4, 4.8))
         plots.loops(o.results[:len(G)], amps, ax=ax)
@@ -223,6 +242,54 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         m.update(G_max_Pa=o.G_max, amplitudes=amps, G_Pa=G, G_over_Gmax=ratio, damping=Dm,
                  mean_stress_change=dp)
     return m
+
+
+def _cyclic_checks(o: Any) -> dict:
+    """The envelope and loop-quality entries of a cyclic model's summary (per completed amplitude).
+
+    ``beyond_envelope`` (bool per amplitude), ``max_stress_ratio`` (sigma1/sigma3 of any
+    recorded state; null where sigma3 <= 0, unbounded), ``max_tau_over_sigma_zz``,
+    ``max_mobilised_friction_deg``, ``first_step_beyond`` (or null), ``envelope`` (the
+    criterion), ``loop_quality`` (:meth:`grainmech.analysis.LoopQuality.as_dict` per
+    amplitude), ``loop_warning`` (bool per amplitude), ``site_response_excluded`` (the
+    amplitudes left out of ``site_response_curves.csv``) and ``amplitude_warnings`` (the
+    sentences, also in ``warnings``).
+    """
+    from grainmech.analysis import SAND_PEAK_FRICTION_DEG, mohr_coulomb_ratio
+    from grainmech.jobs import envelope_and_loop_warnings
+
+    n = len(o.G)
+    env = o.envelope[:n]
+    beyond = [bool(e["beyond_any"]) for e in env]
+    amps = np.asarray(o.amplitudes, dtype=float)
+    excluded = [] if o.keep_beyond_envelope else [float(a) for a, b in zip(amps, beyond) if b]
+    why = (" The affine model cannot fail (every contact follows the mean strain): states beyond the "
+           "envelope are what its equations give, not predictions for a sand." if o.method == "affine" else "")
+    lim = mohr_coulomb_ratio(np.radians(SAND_PEAK_FRICTION_DEG))
+    return {
+        "beyond_envelope": beyond,
+        "max_stress_ratio": [e["max_ratio"] for e in env],
+        "max_tau_over_sigma_zz": [e["max_tau_over_sigma_zz"] for e in env],
+        "max_mobilised_friction_deg": [e["max_mobilised_friction_deg"] for e in env],
+        "first_step_beyond": [e["first_step"] for e in env],
+        "envelope": {
+            "criterion": "Mohr-Coulomb on the principal stresses of every recorded state of each amplitude's "
+                         "run: sigma1/sigma3 <= (1 + sin phi)/(1 - sin phi)",
+            "friction_angle_deg": SAND_PEAK_FRICTION_DEG, "limit_sigma1_over_sigma3": lim,
+            "limit_tau_over_sigma_zz": float(np.tan(np.radians(SAND_PEAK_FRICTION_DEG))),
+            "reason": "phi = 50 deg bounds the peak friction angles of sands (critical state ~33 deg plus the "
+                      "largest dilatancy contribution, Bolton 1986)",
+            "keep_beyond_envelope": bool(o.keep_beyond_envelope),
+            "note": (f"amplitudes beyond the envelope: {', '.join(f'{a:.1e}' for a, b in zip(amps, beyond) if b)}."
+                     + why + (" They are left out of site_response_curves.csv (model.keep_beyond_envelope = "
+                              "true keeps them)." if excluded else
+                              " They are kept in site_response_curves.csv (model.keep_beyond_envelope)."))
+                    if any(beyond) else "every amplitude's states within the envelope of sands"},
+        "loop_quality": [q.as_dict() for q in o.loop_quality],
+        "loop_warning": [not q.ok for q in o.loop_quality],
+        "site_response_excluded": excluded,
+        "amplitude_warnings": envelope_and_loop_warnings(o.method, amps, env, o.loop_quality),
+    }
 
 
 def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
@@ -241,10 +308,11 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
     for k, (o, m) in enumerate(cyclic):
         style, name = MODEL_STYLE[o.method] if compare else ("ko", "grainmech")
         last = k == len(cyclic) - 1
-        plots.modulus_reduction(m["amplitudes"], m["G_over_Gmax"], ax=a1, label=name, style=style,
+        hollow = m.get("beyond_envelope")
+        plots.modulus_reduction(m["amplitudes"], m["G_over_Gmax"], ax=a1, label=name, style=style, hollow=hollow,
                                 references={"Darendeli (2001)": (gam, dar.G_ratio),
                                             "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])} if last else None)
-        plots.damping(m["amplitudes"], m["damping"], ax=a2, label=name, style=style,
+        plots.damping(m["amplitudes"], m["damping"], ax=a2, label=name, style=style, hollow=hollow,
                       references={"Darendeli (2001)": (gam, dar.damping),
                                   "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])} if last else None)
     fig.tight_layout()
@@ -253,6 +321,20 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
     summary.update(darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
                    hardin_drnevich_d_max=hd.d_max, hardin_drnevich_G_max_Pa=refs["hd_gmax"],
                    hardin_drnevich_G_max_source=refs["hd_gmax_source"])
+
+
+def _ratio_text(r: Any) -> str:
+    """A largest principal stress ratio for the page (None: sigma3 <= 0, unbounded)."""
+    return "unbounded (sigma3 &lt;= 0)" if r is None or not np.isfinite(r) else f"{r:.3g}"
+
+
+def _loop_text(q: dict | None) -> str:
+    """'0.1 / 0.0' (percent of tau_a) for the page, '<b>...</b> (warning)' out of tolerance."""
+    if q is None:
+        return ""
+    c = max(q["stress_closure"], q["strain_closure"])
+    txt = f"{100 * c:.2g} / {100 * q['asymmetry']:.2g}" if np.isfinite(c) and np.isfinite(q["asymmetry"]) else "n/a"
+    return txt if q["ok"] else f"<b>{txt} (warning)</b>"
 
 
 def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
@@ -306,12 +388,41 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                      f"{sg['critical_friction_angle_deg']:.1f} deg (q/p {sg['critical_q_over_p']:.3f}); "
                      f"{html.escape(sg['note'])}.</p>")
         if "G_max_Pa" in m:
+            n_a = len(m["amplitudes"])
+            beyond = m.get("beyond_envelope") or [False] * n_a
+            ratios = m.get("max_stress_ratio") or [None] * n_a
+            quality = m.get("loop_quality") or [None] * n_a
             rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
-                           f"<td>{100 * c:+.1f}</td></tr>"
-                           for a, g, r, dd, c in zip(m["amplitudes"], m["G_Pa"], m["G_over_Gmax"],
-                                                     m["damping"], m["mean_stress_change"]))
+                           f"<td>{100 * c:+.1f}</td><td>{_ratio_text(sr)}</td>"
+                           f"<td>{'<b>beyond</b>' if b else 'within'}</td><td>{_loop_text(q)}</td></tr>"
+                           for a, g, r, dd, c, sr, b, q in zip(m["amplitudes"], m["G_Pa"], m["G_over_Gmax"],
+                                                               m["damping"], m["mean_stress_change"], ratios,
+                                                               beyond, quality))
             table = ("<table><tr><th>shear strain amplitude [decimal]</th><th>secant G [Pa]</th><th>G/Gmax</th>"
-                     f"<th>damping [%]</th><th>change of p [%]</th></tr>{rows}</table>")
+                     "<th>damping [%]</th><th>change of p [%]</th><th>largest sigma1/sigma3</th>"
+                     "<th>envelope of sands</th><th>last cycle: closure / asymmetry [%]</th></tr>"
+                     f"{rows}</table>")
+            env_c = m.get("envelope")
+            if env_c and "criterion" in env_c:
+                warn = "<b>Warning:</b> " if any(beyond) else ""
+                head += (f"<p>{warn}Envelope of sands: {html.escape(env_c['criterion'])}, phi = "
+                         f"{env_c['friction_angle_deg']:g} deg (sigma1/sigma3 &lt;= "
+                         f"{env_c['limit_sigma1_over_sigma3']:.2f}; in simple shear also tau_xz/sigma_zz &lt;= "
+                         f"{env_c['limit_tau_over_sigma_zz']:.2f}), {html.escape(env_c['reason'])}. "
+                         f"{html.escape(env_c['note'])} Beyond-envelope points are drawn hollow in "
+                         "modulus_reduction.png; column beyond_envelope of "
+                         f"{pre}modulus_reduction.csv, beyond_sand_envelope of each step table.</p>")
+            if quality and any(q is not None for q in quality):
+                bad = [f"{a:.1e}" for a, q in zip(m["amplitudes"], quality) if q is not None and not q["ok"]]
+                q0 = next(q for q in quality if q is not None)
+                head += ((f"<p><b>Warning:</b> the analysed cycle of amplitude(s) {', '.join(bad)} is not a closed, "
+                          "symmetric loop: its G/Gmax and damping are those of a loop still changing "
+                          "(more cycles, test.n_cycles, may settle it).</p>" if bad else "")
+                         + "<p>Loop quality of the analysed (last) cycle: closure = how far it ends from its start "
+                           "(|tau_end - tau_start| / tau_a and |gamma_end - gamma_start| / gamma_a, the larger), "
+                           "asymmetry = | |tau(+gamma_a) - tau_0| - |tau(-gamma_a) - tau_0| | / tau_a with tau_0 the "
+                           f"initial shear stress; tolerances {100 * q0['closure_tolerance']:g} % and "
+                           f"{100 * q0['asymmetry_tolerance']:g} % (docs/analysis.md).</p>")
             head += (f"<p>Small-strain shear modulus Gmax = {m['G_max_Pa']:.5g} Pa "
                      "(condensed tangent at the initial state); every G/Gmax of this model is normalised by "
                      "this one Gmax. The last column is the change of the mean stress p over each "
@@ -343,7 +454,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                                        if f"{pre}site_response_curves.csv" in summary["files"] else ())
                                     + tuple(f for f in summary["files"] if f.startswith(f"{pre}cycles_gamma_"))))
         env = m.get("envelope")
-        if env:
+        if env and "first_step_beyond" in env:  # a path's (a cyclic model's is in its table above)
             warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
             head += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of {pre}path.csv).</p>"
         if f"{pre}path.png" in summary["files"]:
