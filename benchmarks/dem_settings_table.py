@@ -2,7 +2,8 @@
 
 Runs cyclic simple shear with the DEM model on a shipped packing (Hertz-Mindlin, the
 packing's own quartz grains, ``n_cycles = 2``, 16 steps per cycle) at each amplitude with
-the default settings and with the ramp length, the drag and the relaxation tolerance
+the default settings and with the ramp length (``ramp_steps`` and
+``max_ramp_strain`` together), the drag and the relaxation tolerance
 halved and doubled, and prints G and damping of each against the default's as a
 markdown table (the change of G in %, of damping in absolute terms).
 
@@ -35,11 +36,15 @@ def main(argv: list[str]) -> int:
     law = HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"])
     base = DemSettings()
     variants = [("default", base)]
-    for k in ("ramp_steps", "viscous", "tol"):
+    for f, word in ((0.5, "halved"), (2.0, "doubled")):
+        # the ramp: its least length and its largest strain per time step together
+        variants.append((f"ramp {word} ({int(base.ramp_steps * f)} steps, {base.max_ramp_strain / f:g} per step)",
+                         dataclasses.replace(base, ramp_steps=int(base.ramp_steps * f),
+                                             max_ramp_strain=base.max_ramp_strain / f)))
+    for k in ("viscous", "tol"):
         v = getattr(base, k)
         for f, word in ((0.5, "halved"), (2.0, "doubled")):
-            nv = max(1, int(v * f)) if isinstance(v, int) else v * f
-            variants.append((f"{k} {word} ({nv:g})", dataclasses.replace(base, **{k: nv})))
+            variants.append((f"{k} {word} ({v * f:g})", dataclasses.replace(base, **{k: v * f})))
     print(f"packing {a.packing}, constant {a.constant}, amplitudes {a.amplitudes}, defaults {base.as_dict()}",
           flush=True)
     rows = []

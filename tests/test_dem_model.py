@@ -136,3 +136,69 @@ def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
     assert all(5.0 < r[k_z] < 6.5 for r in rows)
     assert any("LAMMPS pair_style granular" in n for n in dm["details"]["notes"])
     assert "dem model" in out
+
+
+@needs_lammps
+def test_drained_triaxial_path_holds_the_lateral_stress(tmp_path, capsys) -> None:
+    """A DEM path: 1 % axial compression of 'dense' in 4 steps with the lateral and shear
+    stresses held by the servo (``SSESSS``). Every recorded state holds sigma_xx and
+    sigma_yy within the servo tolerance (5 % of the step's stress change, at least 1e-3 of
+    p, DemSettings.stress_tol); the deviator grows; the strength summary is written."""
+    text = (Path(__file__).resolve().parents[1] / "examples" / "run_dem_triaxial.toml").read_text()
+    cfg = tmp_path / "tx.toml"
+    short = text.replace("change = [0, 0, 0.15, 0, 0, 0]\nsteps = 60", "change = [0, 0, 0.01, 0, 0, 0]\nsteps = 4")
+    assert short != text
+    cfg.write_text(short)
+    rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "o", "--quiet"], capsys)
+    assert rc == 0, err
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["method"] == "dem" and s["success"]
+    rows = (tmp_path / "o" / "path.csv").read_text().splitlines()
+    head = rows[0].split(",")
+    data = [list(map(float, r.split(","))) for r in rows[1:]]
+    k_xx, k_yy, k_zz = (head.index(f"stress_{c} [Pa]") for c in ("xx", "yy", "zz"))
+    k_q, k_ea = head.index("q [Pa]"), head.index("axial_strain [-]")
+    assert len(data) == 5 and data[-1][k_ea] == pytest.approx(0.01, rel=1e-9)
+    for prev, row in zip(data, data[1:]):
+        step_change = abs(row[k_zz] - prev[k_zz])
+        for k in (k_xx, k_yy):
+            assert abs(row[k] - 100e3) <= 0.05 * max(step_change, 1e-3 * 100e3) + 1e-6 * 100e3
+    assert data[-1][k_q] > 50e3  # 1 % axial strain mobilises a large part of the strength
+    sg = s["strength"]
+    assert 15.0 < sg["peak_friction_angle_deg"] < 45.0
+    assert "peak friction angle" in out
+
+
+@needs_lammps
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_interrupting_a_dem_run_stops_lammps_and_its_workers(tmp_path, sig) -> None:
+    """Issue 28 item 7: Ctrl-C (or a scheduler's SIGTERM) during a DEM run with two worker
+    processes: one line, exit 130 (143), no staging folder or lock left, the workers gone."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    cfg = config(tmp_path, amps="[1e-6, 1e-5]", model="[model.dem]\nworkers = 2")
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    p = subprocess.Popen([sys.executable, "-m", "grainmech", "run", str(cfg), "-o", "out"], cwd=tmp_path, env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    line = p.stderr.readline()
+    while line and not line.startswith("[dem 1/2]"):
+        line = p.stderr.readline()
+    assert line.startswith("[dem 1/2]"), line
+    time.sleep(3)
+    children = subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True, text=True).stdout.split()
+    p.send_signal(getattr(signal, sig))
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == (130 if sig == "SIGINT" else 143), err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("grainmech: " + ("interrupted" if sig == "SIGINT" else "terminated")), err
+    assert "Traceback" not in err
+    assert not list(tmp_path.glob(".grainmech-staging-*")) and not (tmp_path / ".grainmech.lock").exists()
+    time.sleep(1)
+    alive = [c for c in children if Path(f"/proc/{c}").exists()
+             and "zombie" not in Path(f"/proc/{c}/status").read_text().lower()]
+    assert not alive, f"worker processes left running: {alive}"

@@ -477,7 +477,7 @@ def _check_dem(law: Any) -> None:
 #: keys of ``[model.dem]`` (numerical settings of the DEM model, :class:`grainmech.driver.dem.DemSettings`)
 DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
                     "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
-                    "threads": int}
+                    "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int}
 
 
 def _dem_settings(model: Any) -> Any:

@@ -99,6 +99,14 @@ class DemSettings:
         stress change (at least ``1e-3`` of the mean stress).
     max_corrections : int
         Servo corrections per step before it fails.
+    max_stress_step : float
+        Largest stress change a substep is predicted to make, as a fraction of the mean
+        stress; a step predicted to change more is split (large-strain paths).
+    max_substeps : int
+        Most substeps of one step.
+    max_ramp_strain : float
+        Largest strain per time step during a ramp: a larger increment is ramped over
+        more than ``ramp_steps`` steps (large-strain paths, amplitudes of 1e-2).
     threads : int
         OpenMP threads of LAMMPS (``pair_style granular`` has no threaded variant; 1 leaves
         the other cores to the rest of the run).
@@ -113,14 +121,17 @@ class DemSettings:
     safety: float = 0.1
     stress_tol: float = 0.05
     max_corrections: int = 20
+    max_ramp_strain: float = 1e-6
+    max_stress_step: float = 0.25
+    max_substeps: int = 50
     threads: int = 1
 
     def __post_init__(self) -> None:
-        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads"):
+        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads", "max_substeps"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ParameterError(k, v, "must be an integer >= 1")
-        for k in ("viscous", "tol", "settle", "safety", "stress_tol"):
+        for k in ("viscous", "tol", "settle", "safety", "stress_tol", "max_ramp_strain", "max_stress_step"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(k, v, "must be a finite number > 0")
@@ -320,7 +331,9 @@ class DemPoint:
 
     # -- one step -----------------------------------------------------------------------
     def _apply(self, de: np.ndarray, base: np.ndarray) -> None:
-        _ramp(self._s, de, self.settings.ramp_steps)
+        # a large increment is ramped over more time steps: at most max_ramp_strain per step
+        n = max(self.settings.ramp_steps, int(math.ceil(float(np.abs(de).max()) / self.settings.max_ramp_strain)))
+        _ramp(self._s, de, n)
         self.strain = self.strain + de
         net, ub = _relax(self._s, self.settings, base, self._tick)
         self._set(net, ub)
@@ -340,53 +353,87 @@ class DemPoint:
             stress-controlled components to ``target`` within ``max_corrections``.
         """
         sc = np.asarray(stress_control, bool)
-        de = np.where(sc, 0.0, np.asarray(d_strain, float))
+        d_e = np.where(sc, 0.0, np.asarray(d_strain, float))
+        target = np.asarray(target, float)
         start = self.stress.copy()
-        K = self._K
-        if sc.any():
-            Kss = K[np.ix_(sc, sc)]
-            rhs = target[sc] - start[sc] - K[np.ix_(sc, ~sc)] @ de[~sc]
-            de[sc] = np.linalg.solve(Kss, rhs)
+        st = self.settings
         try:
-            self._apply(de, start)
+            n_sub = self._substeps(d_e, sc, target, start)
+            for i in range(1, n_sub):
+                # intermediate substeps: the predictor only (the next one corrects what is left)
+                self._predict(d_e / n_sub, sc, start + (target - start) * i / n_sub)
+            self._predict(d_e / n_sub, sc, target)
             if not sc.any():
                 return self
-            # Broyden update of K_ss from the predictor's observed response
-            s_vec = de[sc]
-            y_vec = self.stress[sc] - start[sc] - K[np.ix_(sc, ~sc)] @ de[~sc]
-            self._broyden(sc, s_vec, y_vec)
-            for _ in range(self.settings.max_corrections):
+            for _ in range(st.max_corrections):
                 err = target[sc] - self.stress[sc]
                 change = float(np.abs(self.stress[~sc] - start[~sc]).max(initial=0.0))
                 p = float(np.mean(self.stress[:3]))
                 scale = max(change, 1e-3 * abs(p))
-                if float(np.abs(err).max()) <= self.settings.stress_tol * scale:
+                if float(np.abs(err).max()) <= st.stress_tol * scale:
                     return self
                 dx = np.zeros(6)
                 dx[sc] = np.linalg.solve(self._K[np.ix_(sc, sc)], err)
                 before = self.stress.copy()
                 self.corrections += 1
                 self._apply(dx, before)
-                self._broyden(sc, dx[sc], self.stress[sc] - before[sc])
-            raise StepFailure(f"the stress-controlled components were not held within {self.settings.stress_tol:g} "
-                              f"of the step's stress change after {self.settings.max_corrections} servo corrections "
+                self._broyden(sc, dx, self.stress - before)
+            raise StepFailure(f"the stress-controlled components were not held within {st.stress_tol:g} "
+                              f"of the step's stress change after {st.max_corrections} servo corrections "
                               f"(error {float(np.abs(target[sc] - self.stress[sc]).max()):.3g} Pa)")
         except GrainmechError as exc:
             if isinstance(exc, StepFailure):
                 raise
             raise StepFailure(str(exc)) from None
 
+    def _substeps(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray, start: np.ndarray) -> int:
+        """Substeps of a step: the stress change the estimate predicts, over ``max_stress_step`` of p.
+
+        A mixed-control step that would change the stress by more than ``max_stress_step``
+        times the mean stress (a large plastic increment, or a stress target far away) is
+        applied in that many substeps, so that the servo follows the path instead of
+        overshooting it and unloading the packing. Strain-controlled steps are not split.
+        """
+        if not sc.any():  # strain control: nothing to overshoot
+            return 1
+        de = self._prediction(d_e, sc, target, start)
+        p = abs(float(np.mean(start[:3])))
+        size = float(np.abs(self._K @ de).max()) / (self.settings.max_stress_step * p) if p > 0 else 1.0
+        return int(min(max(1, math.ceil(size)), self.settings.max_substeps))
+
+    def _prediction(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray, now: np.ndarray) -> np.ndarray:
+        """Strain increment whose stress-controlled part the estimate says reaches ``target``."""
+        de = d_e.copy()
+        if sc.any():
+            K = self._K
+            de[sc] = np.linalg.solve(K[np.ix_(sc, sc)], target[sc] - now[sc] - K[np.ix_(sc, ~sc)] @ d_e[~sc])
+        return de
+
+    def _predict(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray) -> None:
+        """Apply the predicted increment towards ``target`` and learn from the response."""
+        before = self.stress.copy()
+        de = self._prediction(d_e, sc, target, before)
+        self._apply(de, before)
+        if sc.any():
+            self._broyden(sc, de, self.stress - before)
+
     def _broyden(self, sc: np.ndarray, s_vec: np.ndarray, y_vec: np.ndarray) -> None:
-        """Broyden's rank-one update of the stress-controlled block of the stiffness estimate."""
+        """Broyden's rank-one update of the stiffness estimate from an observed response.
+
+        ``K += (y - K s) s^T / (s^T s)`` with the applied strain ``s`` (6,) and the observed
+        stress change ``y`` (6,): the estimate then reproduces the last response exactly,
+        couplings included (a packing in plastic flow answers an axial step with far less
+        lateral stress than its elastic tensor). The update is skipped when it would make a
+        diagonal term of the stress-controlled block small or negative (the servo would be
+        sent away).
+        """
         ss = float(s_vec @ s_vec)
         if ss <= 0:
             return
-        Kss = self._K[np.ix_(sc, sc)]
-        new = Kss + np.outer(y_vec - Kss @ s_vec, s_vec) / ss
-        # keep the estimate a stiffness (a negative or tiny diagonal would send the servo away)
-        d = np.diag(new)
-        if np.all(d > 1e-3 * np.diag(Kss)) and np.all(np.isfinite(new)):
-            self._K[np.ix_(sc, sc)] = new
+        new = self._K + np.outer(y_vec - self._K @ s_vec, s_vec) / ss
+        d_new, d_old = np.diag(new)[sc], np.diag(self._K)[sc]
+        if np.all(d_new > 1e-3 * d_old) and np.all(np.isfinite(new)):
+            self._K = new
 
 
 def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None) -> tuple[ContactNetwork, float]:
