@@ -204,3 +204,29 @@ def test_interrupting_a_dem_run_stops_lammps_and_its_workers(tmp_path, sig) -> N
     alive = [c for c in children if Path(f"/proc/{c}").exists()
              and "zombie" not in Path(f"/proc/{c}/status").read_text().lower()]
     assert not alive, f"worker processes left running: {alive}"
+
+
+def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
+    """Issue 28 item 2: an amplitude the packing model stops at (and its later ones) joins the
+    DEM model's amplitudes when the DEM model runs after it, and the DEM notes say so."""
+    import tomllib
+
+    import numpy as np
+
+    import grainmech.packing.engine as engine
+    from grainmech.jobs import CyclicOutcome, _hand_to_dem, prepare_run
+
+    monkeypatch.setattr(engine, "require_lammps", lambda: None)
+    cfg = tomllib.loads(BASE.format(law="hertz-mindlin", method='["packing", "dem"]', amps="[1e-5]",
+                                    constant="stress", extra_contacts="",
+                                    model="packing_amplitudes = [1e-6, 1e-4, 3e-4]\ndem_amplitudes = [1e-3]"))
+    spec = prepare_run(cfg)
+    stopped = CyclicOutcome(kind=spec.kind, pressure=spec.pressure, results=[], success=False,
+                            message="amplitude 0.0001: step 49: left the small-strain range", seconds=1.0,
+                            point=None, method="packing", G=np.array([1e8]), damping=np.array([0.01]))
+    assert _hand_to_dem(spec, stopped, ("dem",)) == [1e-4, 3e-4]
+    assert spec.amplitudes_of("dem") == [1e-4, 3e-4, 1e-3]
+    assert spec.dem_handed is not None and "step 49" in spec.dem_handed[1]
+    # nothing to hand over: a packing model that completed, or no DEM model after it
+    spec2 = prepare_run(cfg)
+    assert _hand_to_dem(spec2, stopped, ()) == [] and spec2.amplitudes_of("dem") == [1e-3]

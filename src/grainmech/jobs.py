@@ -189,6 +189,7 @@ class RunSpec:
     dem_steps_per_cycle: int = 16
     dem_settings: Any = None
     dem_workers: int = 1
+    dem_handed: tuple | None = None
 
     def amplitudes_of(self, method: str) -> list[float]:
         """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
@@ -713,9 +714,38 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
                 outs.append(_execute_affine(spec, say))
         elif m == "packing":
             outs.append(_execute_packing(spec, say))
+            handed = _hand_to_dem(spec, outs[-1], spec.methods[i + 1:])
+            if handed:
+                say(f"[packing] stopped; the DEM model runs {handed} instead")
         else:
             outs.append(_execute_dem(spec, say))
     return outs[0] if len(outs) == 1 else RunComparison(outs)
+
+
+def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
+    """Amplitudes a stopped packing model hands to the DEM model run after it (issue 28 item 2).
+
+    When the packing model stops at an amplitude of a cyclic test (fixed geometry left,
+    no equilibrium found) and ``"dem"`` runs later in the same job, that amplitude and the
+    packing model's later ones join the DEM model's amplitudes (each amplitude starts from
+    the initial state, so the order does not matter); the DEM outcome's notes say which
+    and why. Returns the amplitudes handed over (none if nothing stopped or no DEM runs).
+    """
+    if "dem" not in later or packing.success or not isinstance(packing, CyclicOutcome):
+        return []
+    mine = spec.amplitudes_of("packing")
+    done = len(packing.G)
+    if done >= len(mine):
+        return []
+    from grainmech.driver.dem import DEM_MAX_AMPLITUDE
+
+    dem = list(spec.amplitudes_of("dem"))
+    handed = [a for a in mine[done:] if a not in dem and a <= DEM_MAX_AMPLITUDE]
+    if not handed:
+        return []
+    spec.dem_amplitudes = sorted(dem + handed)
+    spec.dem_handed = (handed, packing.message)
+    return handed
 
 
 def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
@@ -1035,6 +1065,9 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
             details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]
             details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in mr.results))
         details["steps_per_cycle"] = spec.dem_steps_per_cycle
+        if spec.dem_handed:
+            details["notes"].append(f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over "
+                                    f"from the packing model, which stopped ({spec.dem_handed[1]})")
         if spec.constant == "volume":
             details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
                                     "pore-pressure ratio r_u an undrained test would show")
