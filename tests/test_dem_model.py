@@ -144,7 +144,7 @@ def test_drained_triaxial_path_holds_the_lateral_stress(tmp_path, capsys) -> Non
     stresses held by the servo (``SSESSS``). Every recorded state holds sigma_xx and
     sigma_yy within the servo tolerance (5 % of the step's stress change, at least 1e-3 of
     p, DemSettings.stress_tol); the deviator grows; the strength summary is written."""
-    text = (Path(__file__).resolve().parents[1] / "examples" / "run_dem_triaxial.toml").read_text()
+    text = (Path(__file__).resolve().parents[1] / "examples" / "dem_triaxial_to_critical_state.toml").read_text()
     cfg = tmp_path / "tx.toml"
     short = text.replace("change = [0, 0, 0.15, 0, 0, 0]\nsteps = 60", "change = [0, 0, 0.002, 0, 0, 0]\nsteps = 2")
     assert short != text

@@ -94,3 +94,18 @@ def test_both_models_example_is_valid():
     assert spec.grains is not None and "dense" in spec.grains.label
     assert abs(cfg["packing"]["void_ratio"] - packing_info("dense")["void_ratio"]) < 0.005
     assert spec.kind == "cyclic-simple-shear" and list(spec.amplitudes) == [1e-6, 1e-5, 1e-4]
+
+
+def test_long_dem_example_reads():
+    """examples/dem_triaxial_to_critical_state.toml (15 % of axial strain with LAMMPS, minutes
+    to hours) is not run here; its config must read, and its two-step version runs in
+    tests/test_dem_model.py."""
+    import tomllib
+
+    import grainmech.packing.engine as engine
+    from grainmech.jobs import prepare_run
+
+    if not engine.lammps_available():
+        pytest.skip("LAMMPS (grainmech[dem]) is not installed")
+    spec = prepare_run(tomllib.loads((EX / "dem_triaxial_to_critical_state.toml").read_text()), EX)
+    assert spec.methods == ("dem",) and spec.kind == "path" and len(spec.path) == 60

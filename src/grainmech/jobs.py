@@ -629,6 +629,11 @@ class CyclicOutcome(RunOutcome):
         return np.array([bool(e["beyond_any"]) for e in self.envelope[:len(self.G)]], dtype=bool)
 
     @property
+    def completed_results(self) -> list:
+        """Runs of the completed amplitudes (aligned with ``amplitudes``, ``G``, ``damping``)."""
+        return [r for r in self.results if r.success][:len(self.G)]
+
+    @property
     def G_ratio(self) -> np.ndarray:
         """G / Gmax at each amplitude."""
         return np.asarray(self.G, dtype=float) / self.G_max
@@ -641,7 +646,7 @@ class CyclicOutcome(RunOutcome):
         cycling (affine model).
         """
         return np.array([float(np.mean(r.stress[-1, :3]) / np.mean(r.stress[0, :3]) - 1.0)
-                         for r in self.results[:len(self.G)]])
+                         for r in self.completed_results])
 
 
 @dataclass
@@ -915,7 +920,7 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
     amps = np.asarray(mr.amplitude, dtype=float)
     envelope = [cyclic_envelope(r.stress) for r in mr.results]
     spc = spec.dem_steps_per_cycle if method == "dem" else spec.steps_per_cycle
-    quality = [last_cycle_quality(r, spc) for r in mr.results[:len(amps)]]
+    quality = [last_cycle_quality(r, spc) for r in mr.completed]
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
         message=mr.message, seconds=seconds, point=point, method=method, details=dict(details or {}),
@@ -926,7 +931,8 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
         empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method),
-        run_amplitudes=np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float),
+        run_amplitudes=(np.asarray(mr.run_amplitudes, dtype=float) if mr.run_amplitudes is not None else
+                        np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float)),
         envelope=envelope, loop_quality=quality, keep_beyond_envelope=spec.keep_beyond_envelope)
 
 

@@ -264,6 +264,12 @@ class ModulusReduction:
     results: list
     success: bool = True
     message: str = "done"
+    run_amplitudes: np.ndarray | None = None
+
+    @property
+    def completed(self) -> list:
+        """The results of the completed amplitudes (aligned with ``amplitude``, ``G``, ``damping``)."""
+        return [r for r in self.results if r.success][:len(self.G)]
 
     @property
     def G_ratio(self) -> np.ndarray:
@@ -291,8 +297,9 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     progress : callable ``(index, amplitude, path)``, optional
         Called before each amplitude is run.
     raise_on_failure : bool
-        If False, a failed run stops the series and the result (``success`` False,
-        ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+        If False, a failed amplitude is recorded and the others still run (each from
+        ``point``); the result has ``success`` False and a ``message`` naming every failed
+        amplitude (:func:`grainmech.driver.loop.cyclic_series`).
     on_amplitude : callable ``(ModulusReduction)``, optional
         Called after each completed amplitude with the series so far (what an
         interrupted run can still report).

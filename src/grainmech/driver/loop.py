@@ -108,8 +108,10 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
     progress : callable ``(index, amplitude, path)``, optional
         Called before each amplitude.
     raise_on_failure : bool
-        If False, a failed amplitude ends the series and the result (``success`` False,
-        ``message`` naming the amplitude) holds the amplitudes done plus the failed run.
+        If False, an amplitude that fails is recorded and the others still run (each
+        starts from the model's initial state): the result has ``success`` False, a
+        ``message`` naming every failed amplitude, ``G``/``damping``/``amplitude`` of the
+        completed ones and ``results`` of every run in order (``run_amplitudes``).
     on_amplitude : callable ``(ModulusReduction)``, optional
         Called after each completed amplitude with the series so far (a run stopped
         later can still write the finished amplitudes).
@@ -122,8 +124,8 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
     amps = np.asarray(amplitudes, dtype=float)
     if amps.ndim != 1 or amps.size == 0 or np.any(amps <= 0) or not np.all(np.isfinite(amps)):
         raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
-    G, D, res = [], [], []
-    success, message = True, "done"
+    G, D, res, done = [], [], [], []
+    failures: list[str] = []
     path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
     for i, a in enumerate(amps):
         path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
@@ -132,15 +134,19 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         r = run_one(path)
         res.append(r)
         if not r.success:
-            message = f"amplitude {a:g}: {r.message}"
             if raise_on_failure:
-                raise GrainmechError(message)
-            success = False
-            break
+                raise GrainmechError(f"amplitude {a:g}: {r.message}")
+            failures.append(f"amplitude {a:g}: {r.message}")
+            continue
         last = slice(len(path) - steps_per_cycle, len(path) + 1)
         lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
         G.append(lp.secant_modulus)
         D.append(lp.damping)
+        done.append(float(a))
         if on_amplitude is not None:
-            on_amplitude(ModulusReduction(amps[:len(G)], np.array(G), np.array(D), float(g_max(path)), list(res)))
-    return ModulusReduction(amps[:len(G)], np.array(G), np.array(D), float(g_max(path)), res, success, message)
+            on_amplitude(ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), list(res),
+                                          run_amplitudes=amps[:len(res)].copy()))
+    message = "; ".join(failures) + (f" ({len(failures)} of {amps.size} amplitudes stopped, the others completed)"
+                                      if failures and len(failures) < amps.size else "") if failures else "done"
+    return ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), res, not failures, message,
+                            run_amplitudes=amps[:len(res)].copy())

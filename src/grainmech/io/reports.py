@@ -233,7 +233,7 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
                                                   if o.keep_beyond_envelope and o.beyond_envelope.any() else ""))
             files.append(f"{prefix}site_response_curves.csv")
         fig, ax = plots.subplots(figsize=(6.4, 4.8))
-        plots.loops(o.results[:len(G)], amps, ax=ax)
+        plots.loops(o.completed_results, amps, ax=ax)
         if prefix:
             ax.set_title(MODEL_STYLE[o.method][1], fontsize=9)
         fig.tight_layout()
