@@ -190,6 +190,7 @@ class RunSpec:
     dem_settings: Any = None
     dem_workers: int = 1
     dem_handed: tuple | None = None
+    dem_series: Any = None
 
     def amplitudes_of(self, method: str) -> list[float]:
         """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
@@ -705,7 +706,39 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
     :class:`RunComparison` of them for several.
     """
     say = progress or (lambda msg: None)
-    outs = []
+    outs: list[RunOutcome] = []
+    try:
+        _start_dem_early(spec, say)
+        _run_methods(spec, say, outs)
+    finally:
+        if spec.dem_series is not None:
+            spec.dem_series.close()
+    return outs[0] if len(outs) == 1 else RunComparison(outs)
+
+
+def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
+    """Start the DEM amplitudes' worker processes before the other models run.
+
+    With other models in the job and more than one worker, the DEM amplitudes (minutes of
+    LAMMPS on one core each) start first and use the cores the other models leave idle;
+    :func:`_execute_dem` collects them.
+    """
+    if ("dem" not in spec.methods or len(spec.methods) < 2 or spec.kind != "cyclic-simple-shear"
+            or spec.dem_workers < 2 or spec.grains is None):
+        return
+    from grainmech.driver.dem import DemSeries
+
+    amps = spec.amplitudes_of("dem")
+    say(f"[dem] starting {len(amps)} amplitude(s) in {min(spec.dem_workers, len(amps))} worker process(es) "
+        "while the other models run")
+    spec.dem_series = DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
+                                steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
+                                constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
+                                workers=spec.dem_workers)
+
+
+def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list) -> None:
+    """Run every method of ``spec`` in order, appending its outcome to ``outs``."""
     for i, m in enumerate(spec.methods):
         if m == "affine":
             # a packing run to come: its kernels compile in a second process meanwhile
@@ -724,7 +757,6 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
                 say(f"[packing] stopped; the DEM model runs {handed} instead")
         else:
             outs.append(_execute_dem(spec, say))
-    return outs[0] if len(outs) == 1 else RunComparison(outs)
 
 
 def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
@@ -750,6 +782,8 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
         return []
     spec.dem_amplitudes = sorted(dem + handed)
     spec.dem_handed = (handed, packing.message)
+    if spec.dem_series is not None:
+        spec.dem_series.add(handed)
     return handed
 
 
@@ -1062,11 +1096,16 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
             say(f"[dem {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} ({len(path)} steps, "
                 f"{net.n_particles} grains)")
 
-        mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.dem_steps_per_cycle,
-                                   waveform=spec.waveform, constant=spec.constant, settings=spec.dem_settings,
-                                   pressure=spec.pressure, workers=spec.dem_workers, progress=each,
-                                   on_step=on_step, tick=tick, raise_on_failure=False,
-                                   on_amplitude=_amplitudes_so_far(say, spec, "dem", None, src.void_ratio, t0, details))
+        done = _amplitudes_so_far(say, spec, "dem", None, src.void_ratio, t0, details)
+        if spec.dem_series is not None:  # started before the other models (_start_dem_early)
+            mr = spec.dem_series.run(progress=each, on_step=on_step, tick=tick, raise_on_failure=False,
+                                     on_amplitude=done)
+        else:
+            mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles,
+                                       steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
+                                       constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
+                                       workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick,
+                                       raise_on_failure=False, on_amplitude=done)
         if mr.results:
             details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]
             details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in mr.results))

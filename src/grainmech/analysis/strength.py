@@ -102,7 +102,9 @@ def path_strength(stress: np.ndarray, axial_strain: np.ndarray, volumetric_strai
     if sel.sum() < 2:
         sel = np.zeros(len(s), bool)
         sel[-2:] = True
-    slope = float(np.polyfit(ea[sel], ev[sel], 1)[0]) if np.ptp(ea[sel]) > 0 else float("nan")
+    x, y = ea[sel] - ea[sel].mean(), ev[sel] - ev[sel].mean()
+    # least-squares slope d eps_v / d eps_a over the tail (NaN when the axial strain does not change there)
+    slope = float(np.dot(x, y) / np.dot(x, x)) if float(np.dot(x, x)) > 0 else float("nan")
     critical = bool(np.isfinite(slope) and abs(slope) <= rate_tol)
     note = (f"critical state: the last {100 * tail:.0f} % of the axial strain ({a_end:.3g}) shears at a "
             f"dilatancy rate d eps_v / d eps_a = {slope:.3g}"

@@ -55,7 +55,7 @@ from grainmech.packing.engine import Lammps
 from grainmech.packing.prepare import GrainMaterial
 from grainmech.packing.reference import _ramp, _Session, _voigt, load_network, relax
 
-__all__ = ["DemSettings", "DemPoint", "DemResult", "dem_material", "run_dem", "dem_modulus_reduction",
+__all__ = ["DemSettings", "DemPoint", "DemResult", "DemSeries", "dem_material", "run_dem", "dem_modulus_reduction",
            "DEM_MAX_AMPLITUDE"]
 
 #: largest cyclic amplitude the DEM model accepts (cells tilt; beyond it a simple-shear
@@ -608,6 +608,85 @@ class _Pool:
         self.manager.shutdown()
 
 
+class DemSeries:
+    """A DEM modulus-reduction series whose amplitudes may start before they are collected.
+
+    ``DemSeries(...)`` checks the inputs and, with ``workers`` > 1, submits every
+    amplitude to worker processes at once (each LAMMPS on one core); :meth:`add` submits
+    more; :meth:`run` collects them in amplitude order through
+    :func:`grainmech.driver.loop.cyclic_series` (with one worker, it runs them there);
+    :meth:`close` ends the workers. A job that runs other models first starts the series
+    before them, so the DEM amplitudes use the cores those models leave idle.
+    """
+
+    def __init__(self, net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
+                 steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
+                 settings: DemSettings | None = None, pressure: float | None = None, workers: int = 1) -> None:
+        dem_material(law)  # refuse a law LAMMPS cannot run before anything starts
+        amps = np.asarray(amplitudes, dtype=float)
+        if amps.ndim != 1 or amps.size == 0 or not np.all(np.isfinite(amps)) or np.any(amps <= 0):
+            raise ParameterError("amplitudes", list(np.atleast_1d(amplitudes)), "must be a non-empty list of "
+                                 "positive strains")
+        if float(amps.max()) > DEM_MAX_AMPLITUDE:
+            raise ParameterError("amplitudes", list(amps), f"the DEM model takes amplitudes up to "
+                                 f"{DEM_MAX_AMPLITUDE:g}")
+        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+            raise ParameterError("workers", workers, "must be an integer >= 1")
+        self.net, self.law, self.settings, self.pressure = net, law, settings, pressure
+        self.n_cycles, self.steps_per_cycle = n_cycles, steps_per_cycle
+        self.waveform, self.constant = waveform, constant
+        self.amplitudes: list[float] = []
+        self.index: dict[float, int] = {}
+        self.pool = _Pool(min(int(workers), amps.size)) if workers > 1 and amps.size > 1 else None
+        self.add(amps)
+
+    def _path(self, a: float) -> LoadPath:
+        return cyclic_simple_shear(a, self.n_cycles, self.steps_per_cycle, self.waveform, constant=self.constant)
+
+    def add(self, amplitudes: Sequence[float] | np.ndarray) -> None:
+        """Add amplitudes to the series (submitted at once when it has workers)."""
+        for a in np.asarray(amplitudes, dtype=float):
+            if float(a) in self.index:
+                continue
+            self.index[float(a)] = len(self.index)
+            self.amplitudes.append(float(a))
+            if self.pool is not None:
+                self.pool.submit(self.net, self.law, self._path(float(a)), self.settings, self.pressure)
+
+    def run(self, *, progress: Callable[[int, float, Any], None] | None = None,
+            on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
+            raise_on_failure: bool = True,
+            on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
+        """Collect the series in increasing amplitude (:func:`dem_modulus_reduction`)."""
+        tangents: list[np.ndarray] = []
+        amps = np.array(sorted(self.amplitudes))
+
+        def one(path: LoadPath) -> DriverResult:
+            a = float(amps[len(tangents)])
+            if self.pool is not None:
+                r = self.pool.result(self.index[a], on_step, tick)
+            else:
+                r = run_dem(self.net, self.law, path, self.settings, pressure=self.pressure, on_step=on_step,
+                            tick=tick)
+            tangents.append(r.elastic_tangent)
+            return r
+
+        def gmax(path: LoadPath) -> float:
+            if not tangents:
+                return float("nan")
+            return condensed_modulus(tangents[0], 4, path.stress_control[0])
+
+        return cyclic_series(one, amps, gmax, n_cycles=self.n_cycles, steps_per_cycle=self.steps_per_cycle,
+                             waveform=self.waveform, constant=self.constant, progress=progress,
+                             raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
+
+    def close(self) -> None:
+        """End the worker processes (idempotent)."""
+        if self.pool is not None:
+            self.pool.close()
+            self.pool = None
+
+
 def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
                           steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
                           settings: DemSettings | None = None, pressure: float | None = None,
@@ -632,37 +711,10 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
     time of the slowest amplitude per worker. Progress is passed on for the amplitude the
     series is waiting for.
     """
-    dem_material(law)  # refuse a law LAMMPS cannot run before anything starts
-    amps = np.asarray(amplitudes, dtype=float)
-    if amps.ndim == 1 and amps.size and float(np.nanmax(amps)) > DEM_MAX_AMPLITUDE:
-        raise ParameterError("amplitudes", list(amplitudes), f"the DEM model takes amplitudes up to "
-                             f"{DEM_MAX_AMPLITUDE:g}")
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ParameterError("workers", workers, "must be an integer >= 1")
-    tangents: list[np.ndarray] = []
-    pool = _Pool(min(int(workers), amps.size)) if workers > 1 and amps.size > 1 else None
-    if pool is not None:
-        for a in amps:
-            pool.submit(net, law, cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform,
-                                                      constant=constant), settings, pressure)
-
-    def one(path: LoadPath) -> DriverResult:
-        if pool is not None:
-            r = pool.result(len(tangents), on_step, tick)
-        else:
-            r = run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick)
-        tangents.append(r.elastic_tangent)
-        return r
-
-    def gmax(path: LoadPath) -> float:
-        if not tangents:
-            return float("nan")
-        return condensed_modulus(tangents[0], 4, path.stress_control[0])
-
+    series = DemSeries(net, law, amplitudes, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle,
+                       waveform=waveform, constant=constant, settings=settings, pressure=pressure, workers=workers)
     try:
-        return cyclic_series(one, amps, gmax, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle,
-                             waveform=waveform, constant=constant, progress=progress,
-                             raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
+        return series.run(progress=progress, on_step=on_step, tick=tick, raise_on_failure=raise_on_failure,
+                          on_amplitude=on_amplitude)
     finally:
-        if pool is not None:
-            pool.close()
+        series.close()
