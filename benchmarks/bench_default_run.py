@@ -22,6 +22,7 @@ Run: ``python benchmarks/bench_default_run.py [--repeat 1] [--in-process]``
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
 import subprocess
@@ -85,7 +86,7 @@ def cold(repeat: int) -> None:
     from _yardstick import dgemm_seconds
 
     t_dgemm = dgemm_seconds()
-    print(f"yardstick: OpenBLAS dgemm n=2048 {t_dgemm:.3f} s (best of 3)")
+    print(f"{datetime.date.today()}: yardstick: OpenBLAS dgemm n=2048 {t_dgemm:.3f} s (best of 3)")
     colds, warms = [], []
     report: dict = {}
     for _ in range(repeat):
