@@ -458,7 +458,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         if model.has(k):
             raise ConfigError(model.key(k), model.raw(k), f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
     if "dem" in methods:
-        spec.dem_settings = _dem_settings(model)
+        spec.dem_settings, spec.dem_workers = _dem_settings(model)
     spec.path = _segments(test)
     root.finish()
     return spec
@@ -482,30 +482,27 @@ DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle":
                     "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int}
 
 
-def _dem_settings(model: Any) -> Any:
-    """``[model.dem]``: the DEM model's settings (defaults: :class:`grainmech.driver.dem.DemSettings`)."""
+def _dem_settings(model: Any) -> tuple[Any, int]:
+    """``[model.dem]``: the DEM model's settings and ``workers``.
+
+    Settings default to :class:`grainmech.driver.dem.DemSettings`; ``workers`` (processes
+    that run DEM amplitudes side by side) to the cores this process may use.
+    """
     from grainmech.driver.dem import DemSettings
     from grainmech.errors import ParameterError
+    from grainmech.packing.engine import cores
 
     sec = model.section("dem", {})
     kw: dict[str, Any] = {}
-    if sec.has("workers"):
-        sec.integer("workers", min=1)  # read by _dem_workers
+    workers = sec.integer("workers", cores(), min=1)
     for k, typ in DEM_SETTING_KEYS.items():
         if sec.has(k):
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
     sec.finish()
     try:
-        return DemSettings(**kw)
+        return DemSettings(**kw), workers
     except ParameterError as exc:
         raise ConfigError(sec.key(exc.name), exc.value, exc.problem) from None
-
-
-def _dem_workers(model: Any) -> int:
-    """``[model.dem] workers``: processes that run DEM amplitudes side by side (default: the cores)."""
-    from grainmech.packing.engine import cores
-
-    return model.section("dem", {}).integer("workers", cores(), min=1)
 
 
 def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
@@ -528,8 +525,7 @@ def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
     if max(amps) > DEM_MAX_AMPLITUDE:
         key = model.key("dem_amplitudes") if spec.dem_amplitudes is not None else "test.amplitudes"
         raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM_MAX_AMPLITUDE:g}")
-    spec.dem_workers = _dem_workers(model)
-    spec.dem_settings = _dem_settings(model)
+    spec.dem_settings, spec.dem_workers = _dem_settings(model)
 
 
 def _read_amplitudes(section: Any, key: str) -> list[float]:

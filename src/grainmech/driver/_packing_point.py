@@ -49,6 +49,7 @@ from grainmech.driver._packing_options import (
     _StepFailure,
 )
 from grainmech.driver._packing_step import _held_load, _subdivided
+from grainmech.driver.paths import PathTargets
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
 
@@ -629,19 +630,11 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                  ("kr", 0)):
         rows[key].append(v)
     diss = work = loss = 0.0
-    t_stress, t_strain = point.stress.copy(), point.strain.copy()
-    prev = None
+    targets = PathTargets(point.stress, point.strain)
     success, status, message = True, STATUS_DONE, f"completed {m} steps"
     for k in range(m):
         sc = path.stress_control[k]
-        inc = path.increment[k]
-        if prev is not None:  # a component switching control restarts from the state
-            switched = sc != prev
-            t_stress = np.where(switched & sc, point.stress, t_stress)
-            t_strain = np.where(switched & ~sc, point.strain, t_strain)
-        prev = sc
-        new_t_stress = np.where(sc, t_stress + inc, point.stress)
-        new_t_strain = np.where(~sc, t_strain + inc, point.strain)
+        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
         if np.abs(new_t_strain[~sc]).max(initial=0.0) > opts.max_strain:
             j = int(np.argmax(np.where(~sc, np.abs(new_t_strain), -1.0)))
             success, status = False, STATUS_SMALL_STRAIN
@@ -670,8 +663,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                        f"applies; results kept up to step {k}")
             break
         point = new
-        t_stress = np.where(sc, new_t_stress, point.stress)
-        t_strain = np.where(~sc, new_t_strain, point.strain)
+        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
         diss += counters[2]
         work += counters[3]
         loss += counters[4]

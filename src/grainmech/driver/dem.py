@@ -182,10 +182,8 @@ def _sliding(net: ContactNetwork, mu: float) -> float:
     """Fraction of contacts at the Coulomb limit ``|T| >= (1 - 1e-6) mu N``."""
     if net.n_contacts == 0:
         return 0.0
-    f = np.asarray(net.force, float)
-    n = np.asarray(net.normals, float)
-    N = np.einsum("ij,ij->i", f, n)
-    T = np.linalg.norm(f - N[:, None] * n, axis=1)
+    N = np.asarray(net.normal_force, float)
+    T = np.linalg.norm(np.asarray(net.force, float) - N[:, None] * np.asarray(net.normals, float), axis=1)
     return float(np.mean(T >= (1.0 - 1e-6) * mu * np.maximum(N, 0.0)))
 
 
@@ -320,8 +318,7 @@ class DemPoint:
         if net.n_contacts == 0:
             return 0.0
         f = np.asarray(net.force, float)
-        n = np.asarray(net.normals, float)
-        N = np.maximum(np.einsum("ij,ij->i", f, n), 0.0)
+        N = np.maximum(np.asarray(net.normal_force, float), 0.0)
         T2 = np.einsum("ij,ij->i", f, f) - N ** 2
         alpha = np.maximum(np.asarray(net.overlap, float), 0.0) if net.overlap is not None else np.zeros(len(N))
         _, ks, _ = contact_stiffnesses(net, shear_modulus=self.material.shear_modulus,

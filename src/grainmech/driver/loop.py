@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from grainmech.analysis.loops import ModulusReduction, loop_properties
 from grainmech.driver.base import DriverResult, Status, StepFailure, SteppingPoint
-from grainmech.driver.paths import LoadPath, cyclic_simple_shear
+from grainmech.driver.paths import LoadPath, PathTargets, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
 
 __all__ = ["follow_path", "cyclic_series", "Recorder"]
@@ -58,26 +58,16 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
     m = len(path)
     record(point, 0)
-    t_stress = np.asarray(point.stress, float).copy()
-    t_strain = np.asarray(point.strain, float).copy()
-    prev: np.ndarray | None = None
+    targets = PathTargets(point.stress, point.strain)
     for k in range(m):
         sc = np.asarray(path.stress_control[k], bool)
-        inc = path.increment[k]
-        if prev is not None:  # a component switching control restarts from the state
-            switched = sc != prev
-            t_stress = np.where(switched & sc, point.stress, t_stress)
-            t_strain = np.where(switched & ~sc, point.strain, t_strain)
-        prev = sc
-        new_t_stress = np.where(sc, t_stress + inc, point.stress)
-        new_t_strain = np.where(~sc, t_strain + inc, point.strain)
+        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
         try:
             point = point.step(d_strain, sc, np.where(sc, new_t_stress, 0.0))
         except StepFailure as exc:
             return point, False, exc.status, f"step {k + 1}: {exc.cause}; results kept up to step {k}"
-        t_stress = np.where(sc, new_t_stress, point.stress)
-        t_strain = np.where(~sc, new_t_strain, point.strain)
+        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
         record(point, k + 1)
         if on_step is not None:
             on_step(k + 1, m)

@@ -40,6 +40,7 @@ __all__ = [
     "cyclic_simple_shear",
     "cyclic_triaxial",
     "COMPONENTS",
+    "PathTargets",
 ]
 
 COMPONENTS = ("xx", "yy", "zz", "yz", "xz", "xy")
@@ -277,3 +278,43 @@ def cyclic_triaxial(amplitude: float, n_cycles: int, steps_per_cycle: int, *,
     if control == "stress":
         return cycles(Control.all_stress(), _E[2], amplitude, n_cycles, steps_per_cycle, waveform)
     raise ParameterError("control", control, "must be 'strain' or 'stress'")
+
+
+class PathTargets:
+    """Running targets of a mixed-control path (the semantics every driver follows).
+
+    While a component keeps its kind of control, its increments are added to an exact
+    running target (not to the value reached: targets do not drift); when the kind of
+    control switches, the running target restarts from the current value. Used by the
+    affine, packing and DEM path loops.
+
+    Parameters
+    ----------
+    stress, strain : array (6,)
+        The start state.
+    """
+
+    def __init__(self, stress: np.ndarray, strain: np.ndarray) -> None:
+        self.stress = np.array(stress, dtype=float)
+        self.strain = np.array(strain, dtype=float)
+        self._prev: np.ndarray | None = None
+
+    def step(self, sc: np.ndarray, inc: np.ndarray, stress: np.ndarray,
+             strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Targets ``(stress, strain)`` of the next step from the state ``stress``, ``strain``.
+
+        ``sc`` (6,) bool: stress-controlled components; ``inc`` (6,) their increments.
+        Components not controlled by a kind keep the state's value in that target.
+        """
+        if self._prev is not None:  # a component switching control restarts from the state
+            switched = sc != self._prev
+            self.stress = np.where(switched & sc, stress, self.stress)
+            self.strain = np.where(switched & ~sc, strain, self.strain)
+        self._prev = sc
+        return np.where(sc, self.stress + inc, stress), np.where(~sc, self.strain + inc, strain)
+
+    def reached(self, sc: np.ndarray, t_stress: np.ndarray, t_strain: np.ndarray, stress: np.ndarray,
+                strain: np.ndarray) -> None:
+        """Record a completed step: the controlled targets and the state's other components."""
+        self.stress = np.where(sc, t_stress, stress)
+        self.strain = np.where(~sc, t_strain, strain)

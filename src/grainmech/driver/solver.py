@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.driver.base import DriverResult
-from grainmech.driver.paths import LoadPath
+from grainmech.driver.paths import LoadPath, PathTargets
 from grainmech.driver.point import MaterialPoint, _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
 from grainmech.errors import ConfigError, GrainmechError
 
@@ -243,21 +243,12 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
 
     record(point, 0.0, 0.0, 0, 0)
     diss = work = 0.0
-    t_stress = point.stress.copy()
-    t_strain = point.strain.copy()
-    prev = None
+    targets = PathTargets(point.stress, point.strain)
     n_loose = 0
     success, status, message = True, 0, f"completed {m} steps"
     for k in range(m):
         sc = path.stress_control[k]
-        inc = path.increment[k]
-        if prev is not None:  # a component switching control restarts from the state
-            switched = sc != prev
-            t_stress = np.where(switched & sc, point.stress, t_stress)
-            t_strain = np.where(switched & ~sc, point.strain, t_strain)
-        prev = sc
-        new_t_stress = np.where(sc, t_stress + inc, point.stress)
-        new_t_strain = np.where(~sc, t_strain + inc, point.strain)
+        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
         t0 = np.where(sc, point.stress, 0.0)
         counters: list[Any] = [0, 0, 0.0, 0.0, 0]
@@ -268,8 +259,7 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
             success, status = False, 1
             message = f"step {k + 1}: stress target not reachable: {exc.cause}"
             break
-        t_stress = np.where(sc, new_t_stress, point.stress)
-        t_strain = np.where(~sc, new_t_strain, point.strain)
+        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
         diss += counters[2]
         work += counters[3]
         n_loose += counters[4]
