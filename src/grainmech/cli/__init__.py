@@ -27,6 +27,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from grainmech import __version__
+from grainmech._mpi import mpi_world_size
 from grainmech.errors import GrainmechError, Terminated
 
 #: sub-command modules, each with ``register(subparsers)``
@@ -81,6 +82,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
+        return 2
+    ranks = mpi_world_size()
+    if ranks > 1:  # every rank would run the whole command and write the same folder
+        print(f"grainmech: error: grainmech was started as {ranks} MPI ranks (mpiexec); start it once and set "
+              f"[model.dem] ranks = {ranks} to run the DEM model on {ranks} ranks", file=sys.stderr)
         return 2
     if not getattr(args, "quiet", False):
         _announce_compilation()

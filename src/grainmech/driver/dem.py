@@ -45,13 +45,14 @@ import numpy as np
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.driver.base import DriverResult, StepFailure
+from grainmech.driver.dem_mpi import run_dem_ranks
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, network_stress
 from grainmech.network.measures import contact_stiffnesses, coordination
 from grainmech.network.relaxed import relaxed_stiffness
-from grainmech.packing.engine import Lammps
+from grainmech.packing.engine import Lammps, mpi_world_size
 from grainmech.packing.prepare import GrainMaterial
 from grainmech.packing.reference import _ramp, _Session, _voigt, load_network, relax
 
@@ -110,6 +111,10 @@ class DemSettings:
     threads : int
         OpenMP threads of LAMMPS (``pair_style granular`` has no threaded variant; 1 leaves
         the other cores to the rest of the run).
+    ranks : int
+        MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
+        with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
+        too large for one core.
     """
 
     ramp_steps: int = 400
@@ -125,9 +130,10 @@ class DemSettings:
     max_stress_step: float = 0.25
     max_substeps: int = 50
     threads: int = 1
+    ranks: int = 1
 
     def __post_init__(self) -> None:
-        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads", "max_substeps"):
+        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads", "max_substeps", "ranks"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ParameterError(k, v, "must be an integer >= 1")
@@ -249,6 +255,8 @@ class DemPoint:
             pt.notes.append(f"LAMMPS keeps no tangential spring history from a network file: the packing "
                             f"re-settled at fixed cell (unbalanced force ratio {pt.unbalanced:.2g}, "
                             f"{pt.network.n_contacts} contacts, mean stress {pt.p0:.5g} Pa)")
+            if lmp.ranks > 1:
+                pt.notes.append(f"LAMMPS ran on {lmp.ranks} MPI ranks (domain decomposition)")
             if pressure is not None and abs(pt.p0 / pressure - 1.0) > PRESSURE_TOLERANCE:
                 p_before = pt.p0
                 sc = np.array([True, True, True, False, False, False])
@@ -504,8 +512,13 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     -------
     DemResult
         ``success`` False keeps every state before the failed step, the message names it.
+
+    With ``settings.ranks`` > 1 the path runs as an MPI job
+    (:func:`grainmech.driver.dem_mpi.run_dem_ranks`); its ranks call this function.
     """
     st = settings or DemSettings()
+    if st.ranks > 1 and mpi_world_size() == 1:
+        return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick)
     _, notes = dem_material(law)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "sl", "op", "work", "stored", "sub", "it", "ub",
                                              "z", "nc")}

@@ -8,6 +8,14 @@ OpenMP threads (``-sf omp -pk omp N``, ``N`` = the cores this process may use), 
 log file and nothing on the screen (``-log none -screen none``). Every command goes
 through :meth:`Lammps.command`, which turns a LAMMPS error into one
 :class:`~grainmech.errors.GrainmechError` naming the failing command.
+
+**MPI.** Started by ``mpiexec -n N`` (:func:`mpi_world_size` > 1), a :class:`Lammps` runs
+on the N ranks of ``MPI_COMM_WORLD`` (mpi4py, extra ``grainmech[dem]``) with LAMMPS' own
+domain decomposition: every rank runs the same Python and the same commands, each owns the
+grains of its sub-domain. :meth:`Lammps.atom` and :meth:`Lammps.local` then give the rank's
+own grains and pairs; :meth:`Lammps.atom_all` and :meth:`Lammps.local_all` gather them
+from every rank (in rank order, the same arrays on every rank), so that a decision taken
+from them is the same everywhere.
 """
 
 from __future__ import annotations
@@ -21,9 +29,10 @@ from typing import Any
 
 import numpy as np
 
+from grainmech._mpi import mpi_world_size
 from grainmech.errors import GrainmechError
 
-__all__ = ["Lammps", "lammps_available", "require_lammps", "cores"]
+__all__ = ["Lammps", "lammps_available", "require_lammps", "cores", "mpi_world_size", "mpi_comm"]
 
 _MODULE: Any = None
 
@@ -34,6 +43,19 @@ def cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def mpi_comm() -> Any:
+    """``MPI.COMM_WORLD`` of mpi4py when this process is one of several MPI ranks, else None."""
+    if mpi_world_size() == 1:
+        return None
+    _load_mpi()
+    try:
+        from mpi4py import MPI  # noqa: PLC0415 - optional, only under mpiexec
+    except ImportError as exc:
+        raise GrainmechError("LAMMPS on several MPI ranks needs mpi4py (pip install 'grainmech[dem]' installs "
+                             f"it): {exc}") from None
+    return MPI.COMM_WORLD
 
 
 def _load_mpi() -> None:
@@ -94,8 +116,9 @@ class Lammps:
         if self.threads > 1:
             args += ["-sf", "omp", "-pk", "omp", str(self.threads)]
         os.environ["OMP_NUM_THREADS"] = str(self.threads)
+        self.comm = mpi_comm()
         try:
-            self._lmp = mod.lammps(cmdargs=args)
+            self._lmp = mod.lammps(cmdargs=args) if self.comm is None else mod.lammps(cmdargs=args, comm=self.comm)
         except Exception as exc:  # the library could not start
             raise GrainmechError(f"LAMMPS failed to start: {exc}") from None
         self.history: list[str] = []
@@ -142,6 +165,26 @@ class Lammps:
         if a is None:
             raise GrainmechError(f"LAMMPS has no per-atom array {name!r}")
         return np.array(a[:n], copy=True)
+
+    @property
+    def ranks(self) -> int:
+        """MPI ranks this LAMMPS runs on (1 without ``mpiexec``)."""
+        return 1 if self.comm is None else int(self.comm.Get_size())
+
+    def _gather(self, a: np.ndarray) -> np.ndarray:
+        """The rows of ``a`` of every rank, in rank order, on every rank."""
+        if self.comm is None:
+            return a
+        parts = [p for p in self.comm.allgather(a) if p.size]
+        return np.concatenate(parts, axis=0) if parts else a
+
+    def atom_all(self, name: str) -> np.ndarray:
+        """A per-atom array of every grain (owned atoms of every rank, in rank order)."""
+        return self._gather(self.atom(name))
+
+    def local_all(self, compute_id: str) -> np.ndarray:
+        """A local compute's array of every rank (rows = pairs; each pair once), in rank order."""
+        return self._gather(self.local(compute_id))
 
     def atom_view(self, name: str) -> np.ndarray:
         """The live per-atom array (owned atoms), for writing (``v``, ``omega``, ``radius``)."""

@@ -348,18 +348,19 @@ def network_from_lammps(lmp: Any, source: str = "grainmech pack (LAMMPS)") -> Co
     ``x_I - x_J`` (with the periodic image). The force on ``I`` is
     ``F_I = force (x_I - x_J)/r + F_t``; grainmech stores the force by ``A = I`` on
     ``B = J``, ``f = -F_I``, and the branch ``l = x_J - x_I``. Call after a ``run``.
+    On several MPI ranks every rank gets the whole network (grains and pairs gathered).
     """
     lmp.command("run 0 post no")
     cell, lo = _cell(lmp)
-    tag = lmp.atom("id").astype(np.int64)
-    x = lmp.atom("x")
-    r = lmp.atom("radius")
+    tag = lmp.atom_all("id").astype(np.int64)
+    x = lmp.atom_all("x")
+    r = lmp.atom_all("radius")
     order = np.argsort(tag)
     ids = tag[order]
     rowof = np.empty(tag.max() + 1, np.int64)
     rowof[ids] = np.arange(ids.size)
-    pl = lmp.local("cpair")
-    pi = lmp.local("cids")
+    pl = lmp.local_all("cpair")
+    pi = lmp.local_all("cids")
     if pl.shape[0] != pi.shape[0]:
         raise GrainmechError(f"LAMMPS pair/local ({pl.shape[0]}) and property/local ({pi.shape[0]}) "
                              "list different pairs")

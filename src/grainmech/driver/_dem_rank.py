@@ -1,0 +1,59 @@
+"""One rank of a DEM job started by :func:`grainmech.driver.dem_mpi.run_dem_ranks` (``python -m``).
+
+Reads the inputs ``IN`` (pickle: network, law, path, settings, pressure), runs
+:func:`grainmech.driver.dem.run_dem` (LAMMPS on ``MPI_COMM_WORLD``); rank 0 writes
+progress lines (JSON) on its standard output and ``("result", DemResult)`` or
+``("error", message)`` to ``OUT``. An unexpected error aborts every rank.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import sys
+import traceback
+from pathlib import Path
+from typing import Any
+
+from grainmech.driver.dem import run_dem
+from grainmech.errors import GrainmechError
+from grainmech.packing.engine import mpi_comm
+
+
+def _main(argv: list[str]) -> int:
+    """One rank of a DEM job: run the path, rank 0 reports progress and writes the result."""
+    src, out = argv
+    net, law, path, settings, pressure = pickle.loads(Path(src).read_bytes())
+    comm = mpi_comm()
+    rank = 0 if comm is None else int(comm.Get_rank())
+
+    def emit(msg: dict) -> None:
+        if rank == 0:
+            sys.stdout.write(json.dumps(msg) + "\n")
+            sys.stdout.flush()
+
+    def on_step(k: int, n: int) -> None:
+        emit({"step": [k, n]})
+
+    def tick(steps: int, ub: float) -> None:
+        emit({"tick": [steps, ub if ub == ub else None]})
+
+    try:
+        result: tuple[str, Any] = ("result", run_dem(net, law, path, settings, pressure=pressure,
+                                                     on_step=on_step, tick=tick))
+    except GrainmechError as exc:
+        result = ("error", str(exc))
+    except BaseException:
+        traceback.print_exc()
+        if comm is not None:
+            comm.Abort(1)
+        return 1
+    if rank == 0:
+        tmp = Path(out).with_suffix(".part")
+        tmp.write_bytes(pickle.dumps(result))
+        tmp.replace(out)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover - run by mpiexec
+    sys.exit(_main(sys.argv[1:]))

@@ -1,0 +1,137 @@
+"""The DEM model on several MPI ranks: one path as an ``mpiexec -n N`` job.
+
+With ``DemSettings(ranks=N)``, N > 1, a DEM path (one amplitude of a series, or a
+``kind = "path"`` test) does not run in the calling process: :func:`run_dem_ranks` writes
+the packing, the law, the path and the settings to a temporary folder and starts
+``mpiexec -n N python -m grainmech.driver._dem_rank IN OUT``. Every rank runs
+:func:`grainmech.driver.dem.run_dem` on the same inputs; LAMMPS splits the cell into N
+sub-domains (its own domain decomposition), and the network each check needs is gathered
+on every rank (:meth:`grainmech.packing.engine.Lammps.atom_all`), so all ranks take the
+same decisions. Rank 0 sends progress lines (JSON) on its standard output and writes the
+result; the caller reads both. The result is the same as on one rank up to the order of
+floating-point sums (``tests/test_dem_mpi.py`` holds G within 1 %).
+
+The launcher is the ``mpiexec`` next to the Python interpreter (the ``mpich`` wheel of
+``grainmech[dem]`` installs it there) or the first on ``PATH``. Each rank runs LAMMPS on
+one thread (``OMP_NUM_THREADS=1``). When the caller is interrupted or terminated, the
+whole job (launcher and ranks, one process group) is killed.
+
+Starting grainmech itself with ``mpiexec`` is not the way to use several ranks (every
+rank would run every model and write the output folder): ``grainmech run`` refuses it and
+names ``[model.dem] ranks``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from grainmech.errors import GrainmechError
+
+if TYPE_CHECKING:  # the DEM model imports this module; these are for the annotations only
+    from grainmech.driver.dem import DemResult, DemSettings
+    from grainmech.driver.paths import LoadPath
+    from grainmech.network import ContactNetwork
+
+Tick = Callable[[int, float], None]
+
+__all__ = ["run_dem_ranks", "mpiexec"]
+
+
+def mpiexec() -> str:
+    """Path of the MPI launcher: ``mpiexec`` beside the interpreter, else on ``PATH``.
+
+    Raises
+    ------
+    GrainmechError
+        When there is none (the ``mpich`` wheel of ``grainmech[dem]`` installs one).
+    """
+    here = Path(sys.executable).parent
+    for name in ("mpiexec", "mpirun"):
+        if (here / name).exists():
+            return str(here / name)
+    for name in ("mpiexec", "mpirun"):
+        found = shutil.which(name)
+        if found:
+            return found
+    raise GrainmechError("[model.dem] ranks > 1 needs an MPI launcher (mpiexec); pip install 'grainmech[dem]' "
+                         "installs MPICH's")
+
+
+def _kill(proc: subprocess.Popen) -> None:
+    """Kill the launcher and its ranks (their own process group)."""
+    if proc.poll() is None:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        proc.wait()
+
+
+def _follow(proc: subprocess.Popen, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> None:
+    """Pass rank 0's progress lines on until the job ends."""
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        try:
+            msg = json.loads(line)
+        except ValueError:
+            continue
+        if "step" in msg and on_step is not None:
+            on_step(int(msg["step"][0]), int(msg["step"][1]))
+        elif "tick" in msg and tick is not None:
+            ub = msg["tick"][1]
+            tick(int(msg["tick"][0]), float("nan") if ub is None else float(ub))
+    proc.wait()
+
+
+def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings, *,
+                  pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
+                  tick: Tick | None = None) -> DemResult:
+    """:func:`grainmech.driver.dem.run_dem` as an ``mpiexec -n settings.ranks`` job (module notes).
+
+    Raises
+    ------
+    GrainmechError
+        What the ranks raised (a packing LAMMPS cannot start from, ...), or the job's exit
+        code and the end of its error output when it stopped without a result.
+    """
+    launcher = mpiexec()
+    with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as tmp:
+        src, out, err = Path(tmp) / "in.pkl", Path(tmp) / "out.pkl", Path(tmp) / "stderr.txt"
+        src.write_bytes(pickle.dumps((net, law, path, settings, pressure)))
+        cmd = [launcher, "-n", str(settings.ranks), sys.executable, "-m", "grainmech.driver._dem_rank",
+               str(src), str(out)]
+        env = dict(os.environ, OMP_NUM_THREADS="1")
+        with open(err, "w") as errfh:
+            proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=errfh, text=True, env=env,
+                                    start_new_session=True)
+        old = None
+        if threading.current_thread() is threading.main_thread():
+            def on_term(signum: int, frame: Any) -> None:
+                _kill(proc)
+                raise SystemExit(128 + signum)
+            old = signal.signal(signal.SIGTERM, on_term)
+        try:
+            _follow(proc, on_step, tick)
+        finally:
+            _kill(proc)
+            if old is not None:
+                signal.signal(signal.SIGTERM, old)
+        if not out.exists():
+            tail = " ".join(err.read_text(errors="replace").split()[-60:])
+            raise GrainmechError(f"the DEM job on {settings.ranks} MPI ranks stopped with exit code {proc.returncode} "
+                                 f"and no result: {tail}")
+        kind, value = pickle.loads(out.read_bytes())
+    if kind == "error":
+        raise GrainmechError(value)
+    return value
