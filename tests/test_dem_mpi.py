@@ -76,3 +76,18 @@ def test_grainmech_started_by_mpiexec_is_refused(monkeypatch, capsys, tmp_path) 
     err = capsys.readouterr().err
     assert rc == 2 and "[model.dem] ranks = 4" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_ranks_key_sets_the_ranks_and_shares_the_cores(monkeypatch) -> None:
+    from grainmech import jobs
+    from grainmech.io.config import Section
+
+    import grainmech.packing.engine as engine
+
+    monkeypatch.setattr(engine, "cores", lambda: 4)
+    settings, workers = jobs._dem_settings(Section({"dem": {"ranks": 2}}, "model"))
+    assert settings.ranks == 2 and workers == 2  # 4 cores: 2 amplitudes of 2 ranks each
+    settings, workers = jobs._dem_settings(Section({"dem": {"ranks": 2, "workers": 1}}, "model"))
+    assert settings.ranks == 2 and workers == 1
+    with pytest.raises(GrainmechError, match="model.dem.ranks"):
+        jobs._dem_settings(Section({"dem": {"ranks": 0}}, "model"))

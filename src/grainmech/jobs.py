@@ -479,14 +479,16 @@ def _check_dem(law: Any) -> None:
 #: keys of ``[model.dem]`` (numerical settings of the DEM model, :class:`grainmech.driver.dem.DemSettings`)
 DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
                     "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
-                    "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int}
+                    "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int,
+                    "ranks": int}
 
 
 def _dem_settings(model: Any) -> tuple[Any, int]:
     """``[model.dem]``: the DEM model's settings and ``workers``.
 
     Settings default to :class:`grainmech.driver.dem.DemSettings`; ``workers`` (processes
-    that run DEM amplitudes side by side) to the cores this process may use.
+    that run DEM amplitudes side by side) to the cores this process may use divided by
+    ``ranks`` (the MPI ranks of each amplitude), at least 1.
     """
     from grainmech.driver.dem import DemSettings
     from grainmech.errors import ParameterError
@@ -494,7 +496,8 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
 
     sec = model.section("dem", {})
     kw: dict[str, Any] = {}
-    workers = sec.integer("workers", cores(), min=1)
+    ranks = sec.integer("ranks", 1, min=1)
+    workers = sec.integer("workers", max(1, cores() // ranks), min=1)
     for k, typ in DEM_SETTING_KEYS.items():
         if sec.has(k):
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)

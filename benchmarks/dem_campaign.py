@@ -1,0 +1,73 @@
+"""Whether the DEM model completes every shipped packing at every amplitude (docs/dem-model.md).
+
+For each shipped packing ('dense', 'medium', 'loose'; Hertz-Mindlin with the packing's
+own quartz grains), each control (constant stress: ``sigma_zz`` held by the servo;
+constant volume) and each amplitude (default 1e-6, 1e-5, 1e-4, 1e-3, 1e-2), runs cyclic
+simple shear with the DEM model (``n_cycles = 2``, 16 steps per cycle, default
+:class:`grainmech.driver.dem.DemSettings`) and prints one markdown row per amplitude as
+it finishes: completed or where it stopped, G, G/Gmax, damping, the change of mean stress
+over the path (at constant volume the pore-pressure ratio), the largest unbalanced force
+ratio of the recorded states, the LAMMPS time steps and the wall time.
+
+Usage: ``python benchmarks/dem_campaign.py [--packings dense,medium,loose]
+[--controls stress,volume] [--amplitudes 1e-6,1e-5,1e-4,1e-3,1e-2] [--workers 1]``
+(needs ``grainmech[dem]``; about an hour on one core for the whole grid).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+import time
+
+import numpy as np
+
+from grainmech.contact import HertzMindlin
+from grainmech.driver.dem import DemSettings, dem_modulus_reduction
+from grainmech.packing import load_packing, packing_info
+
+
+def main(argv: list[str]) -> int:
+    """Run the campaign with the command-line arguments ``argv``; exit status (1 if a cell stopped)."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--packings", default="dense,medium,loose")
+    ap.add_argument("--controls", default="stress,volume")
+    ap.add_argument("--amplitudes", default="1e-6,1e-5,1e-4,1e-3,1e-2")
+    ap.add_argument("--workers", type=int, default=1)
+    a = ap.parse_args(argv)
+    amps = [float(x) for x in a.amplitudes.split(",")]
+    print(f"{datetime.date.today()}: DEM campaign, 2 cycles x 16 steps, settings {DemSettings().as_dict()}")
+    print("| packing | control | amplitude | result | G [MPa] | G/Gmax | damping | Δp/p0 | max unbalanced "
+          "| time steps | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    stopped = 0
+    for name in a.packings.split(","):
+        net = load_packing(name)
+        m = packing_info(name)["material"]
+        law = HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"])
+        for control in a.controls.split(","):
+            t0 = time.perf_counter()
+            last = [t0]
+
+            def row(mr, name=name, control=control, last=last) -> None:  # noqa: ANN001
+                k = len(mr.G) - 1
+                r = mr.completed[-1]
+                now = time.perf_counter()
+                p = np.mean(r.stress[:, :3], axis=1)
+                print(f"| {name} | {control} | {mr.amplitude[k]:g} | completed | {mr.G[k] / 1e6:.2f} | "
+                      f"{mr.G[k] / mr.G_max:.3f} | {mr.damping[k]:.4f} | {p[-1] / p[0] - 1:+.3f} | "
+                      f"{float(np.max(r.unbalanced)):.2g} | {int(r.iterations.sum())} | {now - last[0]:.0f} |",
+                      flush=True)
+                last[0] = now
+
+            mr = dem_modulus_reduction(net, law, amps, constant=control, settings=DemSettings(),
+                                       workers=a.workers, raise_on_failure=False, on_amplitude=row)
+            if not mr.success:
+                stopped += 1
+                print(f"| {name} | {control} | | STOPPED: {mr.message} | | | | | | | |", flush=True)
+    return 1 if stopped else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
