@@ -79,10 +79,9 @@ def test_grainmech_started_by_mpiexec_is_refused(monkeypatch, capsys, tmp_path) 
 
 
 def test_ranks_key_sets_the_ranks_and_shares_the_cores(monkeypatch) -> None:
+    import grainmech.packing.engine as engine
     from grainmech import jobs
     from grainmech.io.config import Section
-
-    import grainmech.packing.engine as engine
 
     monkeypatch.setattr(engine, "cores", lambda: 4)
     settings, workers = jobs._dem_settings(Section({"dem": {"ranks": 2}}, "model"))
