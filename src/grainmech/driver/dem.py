@@ -336,7 +336,12 @@ class DemPoint:
 
     # -- one step -----------------------------------------------------------------------
     def _apply(self, de: np.ndarray, base: np.ndarray) -> None:
-        # a large increment is ramped over more time steps: at most max_ramp_strain per step
+        """Ramp the strain increment ``de`` and relax until equilibrium (:func:`_relax`).
+
+        The ramp takes ``ramp_steps`` time steps, or more so that no time step takes more
+        than ``max_ramp_strain``; the relaxation's stress criterion is relative to the
+        change since ``base`` (the stress where the step began).
+        """
         n = max(self.settings.ramp_steps, int(math.ceil(float(np.abs(de).max()) / self.settings.max_ramp_strain)))
         _ramp(self._s, de, n)
         self.strain = self.strain + de
@@ -366,8 +371,8 @@ class DemPoint:
             n_sub = self._substeps(d_e, sc, target, start)
             for i in range(1, n_sub):
                 # intermediate substeps: the predictor only (the next one corrects what is left)
-                self._predict(d_e / n_sub, sc, start + (target - start) * i / n_sub)
-            self._predict(d_e / n_sub, sc, target)
+                self._predict(d_e / n_sub, sc, start + (target - start) * i / n_sub, start)
+            self._predict(d_e / n_sub, sc, target, start)
             if not sc.any():
                 return self
             for _ in range(st.max_corrections):
@@ -381,7 +386,7 @@ class DemPoint:
                 dx[sc] = np.linalg.solve(self._K[np.ix_(sc, sc)], err)
                 before = self.stress.copy()
                 self.corrections += 1
-                self._apply(dx, before)
+                self._apply(dx, start)
                 self._broyden(sc, dx, self.stress - before)
             raise StepFailure(f"the stress-controlled components were not held within {st.stress_tol:g} "
                               f"of the step's stress change after {st.max_corrections} servo corrections "
@@ -414,11 +419,15 @@ class DemPoint:
             de[sc] = np.linalg.solve(K[np.ix_(sc, sc)], target[sc] - now[sc] - K[np.ix_(sc, ~sc)] @ d_e[~sc])
         return de
 
-    def _predict(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray) -> None:
-        """Apply the predicted increment towards ``target`` and learn from the response."""
+    def _predict(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray, start: np.ndarray) -> None:
+        """Apply the predicted increment towards ``target`` and learn from the response.
+
+        The relaxation's stress criterion is relative to the change since the step began
+        at ``start`` (as for the corrections: :attr:`DemSettings.settle`).
+        """
         before = self.stress.copy()
         de = self._prediction(d_e, sc, target, before)
-        self._apply(de, before)
+        self._apply(de, start)
         if sc.any():
             self._broyden(sc, de, self.stress - before)
 
