@@ -49,6 +49,11 @@ class LawForms:
     compiled: bool = True
 
     @property
+    def spheres(self) -> bool:
+        """Hertz contact of two spheres (what LAMMPS' ``pair_style granular`` integrates)."""
+        return isinstance(self, _HertzForms)
+
+    @property
     def max_reversals(self) -> int:
         """Reversal memory of the hysteretic law (0 for the others)."""
         return int(getattr(self.params, "max_reversals", 0)) if self.kind == "md" else 0

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
+from grainmech.contact.forms import law_forms
 from grainmech.driver.base import DriverResult, StepFailure
 from grainmech.driver.dem_mpi import run_dem_ranks
 from grainmech.driver.loop import cyclic_series, follow_path
@@ -162,14 +163,16 @@ def dem_material(law: Any) -> tuple[GrainMaterial, list[str]]:
         For a law LAMMPS' granular model cannot stand for (linear springs, cylinders) or
         a frictionless one.
     """
-    from grainmech.contact import Hertz, HertzMindlin, MindlinDeresiewicz
-
+    try:
+        forms = law_forms(law)
+    except TypeError:
+        forms = None
     name = type(law).__name__
-    if not isinstance(law, Hertz):
+    if forms is None or not forms.spheres:
         raise GrainmechError(f"contacts.law = {name}: the DEM model runs LAMMPS' granular model (Hertz spheres); "
                              "use 'hertz-mindlin' or 'mindlin-deresiewicz'")
     mu = float(getattr(law, "friction", 0.0) or 0.0)
-    if not (isinstance(law, (HertzMindlin, MindlinDeresiewicz)) and 0 < mu < math.inf):
+    if not (forms.kind in ("md", "jenkins") and 0 < mu < math.inf):
         raise GrainmechError(f"contacts.law = {name} (friction {mu:g}): the DEM model needs a frictional "
                              "Hertz-Mindlin law (contacts.law = 'hertz-mindlin' or 'mindlin-deresiewicz' with "
                              "contacts.friction > 0)")
@@ -177,7 +180,7 @@ def dem_material(law: Any) -> tuple[GrainMaterial, list[str]]:
     notes = ["LAMMPS pair_style granular: Hertz normal force, Mindlin no-slip tangential spring k_t = 8 G* a "
              f"with a Coulomb cap (friction {mu:g}), grain shear modulus {mat.shear_modulus:.4g} Pa, Poisson "
              f"{mat.poisson:g}"]
-    if isinstance(law, MindlinDeresiewicz):
+    if forms.kind == "md":
         notes.append("the config asks for Mindlin-Deresiewicz contacts; LAMMPS has no counterpart (no micro-slip "
                      "below the Coulomb limit), so the DEM model ran the Hertz-Mindlin law above: its damping at "
                      "small strains comes from full sliding only")

@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.contact.geometry import hertz_kn, hertz_radius
 from grainmech.errors import GrainmechError
 from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
 
@@ -288,9 +289,7 @@ def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, saf
     r = np.asarray(radii, float)
     rmin, rbar = float(r.min()), float(r.mean())
     F = 10.0 * stress * math.pi * (2.0 * rbar) ** 2 / 3.0
-    Rs = 0.5 * rmin
-    delta = (3.0 * F / (4.0 * mat.e_star * math.sqrt(Rs))) ** (2.0 / 3.0)
-    kn = 2.0 * mat.e_star * math.sqrt(Rs * delta)
+    kn = float(hertz_kn(hertz_radius(F, mat.e_star, 0.5 * rmin), mat.e_star))
     m_min = mat.density * 4.0 / 3.0 * math.pi * rmin ** 3
     return safety * math.sqrt(m_min / kn)
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.analysis.loops import loop_properties
+from grainmech.contact.geometry import hertz_kn, hertz_radius_from_approach
 from grainmech.errors import GrainmechError
 from grainmech.network import ContactNetwork, network_stress
 from grainmech.packing.prepare import (
@@ -94,8 +95,9 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     dt = critical_time_step(net.radii, mat, p, safety)
     rbar = float(np.mean(net.radii))
     m_bar = mat.density * 4.0 / 3.0 * math.pi * rbar ** 3
-    eps_t = (p / mat.e_star) ** (2.0 / 3.0)
-    kn = 2.0 * mat.e_star * math.sqrt(0.5 * rbar * 2.0 * rbar * eps_t)
+    # Hertz stiffness of a mean contact: approach 2 rbar (p / E*)^(2/3), R* = rbar / 2 (seed Eq. 3.5, 3.7)
+    kn = float(hertz_kn(hertz_radius_from_approach(2.0 * rbar * (p / mat.e_star) ** (2.0 / 3.0), 0.5 * rbar),
+                        mat.e_star))
     omega = math.sqrt(kn / m_bar)
     g = viscous * omega * m_bar
     lmp.commands([f"timestep {dt:.10g}", f"fix drag all viscous {g:.10g}",
