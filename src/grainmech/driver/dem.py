@@ -112,6 +112,11 @@ class DemSettings:
     threads : int
         OpenMP threads of LAMMPS (``pair_style granular`` has no threaded variant; 1 leaves
         the other cores to the rest of the run).
+    cundall : float
+        Cundall's local non-viscous damping coefficient in [0, 1) during relaxation
+        (LAMMPS ``fix damping/cundall``) in place of the viscous drags; 0 keeps the drags.
+        Loose packings creep slowly under viscous drags (their soft modes are overdamped):
+        'loose' at 1e-4 relaxes about three times faster with 0.7 (``docs/dem-model.md``).
     ranks : int
         MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
         with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
@@ -131,6 +136,7 @@ class DemSettings:
     max_stress_step: float = 0.25
     max_substeps: int = 50
     threads: int = 1
+    cundall: float = 0.0
     ranks: int = 1
 
     def __post_init__(self) -> None:
@@ -142,6 +148,8 @@ class DemSettings:
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(k, v, "must be a finite number > 0")
+        if not (isinstance(self.cundall, (int, float)) and 0 <= self.cundall < 1):
+            raise ParameterError("cundall", self.cundall, "must be a number in [0, 1) (0: viscous drags)")
         if self.safety > 0.5:
             raise ParameterError("safety", self.safety, "must be <= 0.5 (fraction of the critical time step)")
 
@@ -252,7 +260,7 @@ class DemPoint:
             raise ParameterError("pressure", pressure, "must be a finite stress > 0")
         lmp = Lammps(st.threads)
         try:
-            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety)
+            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety, cundall=st.cundall)
             ref, ub = _relax(s, st, None, tick)
             pt = cls(lmp, s, ref, ub, st, mat, tick)
             pt.notes.append(f"LAMMPS keeps no tangential spring history from a network file: the packing "

@@ -69,16 +69,33 @@ class _Session:
     omega: float
     gamma: float
     steps: int = 0
+    cundall: float = 0.0
+
+    def drags(self) -> None:
+        """Switch the relaxation's damping on (fixes ``drag`` and ``spin``).
+
+        Viscous drags ``gamma`` on velocities and ``gamma rbar^2`` on spins, or, with
+        ``cundall`` > 0, Cundall's local non-viscous damping (LAMMPS ``fix damping/cundall``:
+        each force and torque component reduced by ``cundall`` times its magnitude against
+        the motion; Cundall & Strack 1979), which does not slow the packing's soft modes.
+        """
+        if self.cundall > 0:
+            self.lmp.commands([f"fix drag all damping/cundall {self.cundall:.10g} {self.cundall:.10g}",
+                               "fix spin all viscous/sphere 0"])
+        else:
+            self.lmp.commands([f"fix drag all viscous {self.gamma:.10g}",
+                               f"fix spin all viscous/sphere {self.gamma * self.rbar ** 2:.10g}"])
 
 
 def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: float = 0.01,
-                 safety: float = 0.07) -> _Session:
+                 safety: float = 0.07, cundall: float = 0.0) -> _Session:
     """Put a periodic network into LAMMPS with grainmech's granular model.
 
     Put a periodic network into LAMMPS with the granular model of
     :mod:`grainmech.packing.prepare` and the grain friction; set the time step
     (:func:`critical_time_step` times ``safety``) and the drags (``viscous`` times the contact
-    frequency at the packing's stress).
+    frequency at the packing's stress; with ``cundall`` > 0 Cundall's local damping
+    instead, :meth:`_Session.drags`).
     """
     if net.radii is None or not bool(np.all(net.box.periodic)):
         raise GrainmechError("a DEM reference run needs a periodic 3D packing with radii")
@@ -100,9 +117,10 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
                         mat.e_star))
     omega = math.sqrt(kn / m_bar)
     g = viscous * omega * m_bar
-    lmp.commands([f"timestep {dt:.10g}", f"fix drag all viscous {g:.10g}",
-                  f"fix spin all viscous/sphere {g * rbar ** 2:.10g}", "thermo 100"])
-    return _Session(lmp, mat, dt, p, rbar, m_bar, omega, g)
+    lmp.commands([f"timestep {dt:.10g}", "thermo 100"])
+    s = _Session(lmp, mat, dt, p, rbar, m_bar, omega, g, cundall=float(cundall))
+    s.drags()
+    return s
 
 
 def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
@@ -175,8 +193,7 @@ def _ramp(s: _Session, de: np.ndarray, steps: int) -> None:
     # the box is now fixed: remove the affine field (at the final positions)
     rate_now = rate.copy()
     _add_affine_velocity(s, rate_now, -1.0)
-    s.lmp.commands([f"fix drag all viscous {s.gamma:.10g}",
-                    f"fix spin all viscous/sphere {s.gamma * s.rbar ** 2:.10g}"])
+    s.drags()
     s.steps += steps
 
 
