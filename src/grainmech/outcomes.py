@@ -29,7 +29,8 @@ class StiffnessOutcome:
         Engineering constants of ``C``.
     symmetry : SymmetryClass
         Material symmetry class of ``C``.
-    packing : grainmech.material.Packing
+    packing : grainmech.material.Microstructure
+        The analytical description read from the ``[packing]`` table.
     dim : int
     """
 

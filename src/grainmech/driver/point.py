@@ -33,27 +33,27 @@ from grainmech.contact.interface import coulomb_limit, make_law
 from grainmech.contact.law import ContactResponse
 from grainmech.conventions import stress_to_vector, vector_to_strain, vector_to_stress
 from grainmech.errors import ConfigError, GrainmechError
-from grainmech.material import Packing, normal_forces_for_stress
+from grainmech.material import Microstructure, normal_forces_for_stress
 
 __all__ = ["MaterialPoint", "geometry", "Evaluation", "evaluate", "tangent", "geometric_stiffness"]
 
 
 def geometry(source: Any, *, extra_degree: int = 4) -> ContactSet:
-    """Contact-set geometry from a :class:`~grainmech.material.Packing` or a :class:`ContactSet`.
+    """Contact-set geometry from a :class:`~grainmech.material.Microstructure` or a :class:`ContactSet`.
 
     Parameters
     ----------
-    source : Packing or ContactSet
+    source : Microstructure or ContactSet
         A packing is discretised by quadrature of its fabric density (seed Eq. 2.41,
         ``extra_degree`` as in :meth:`ContactSet.from_density`); a contact set (regular
         packing or measured network) is used as is (its stiffnesses are ignored).
     """
-    if isinstance(source, Packing):
+    if isinstance(source, Microstructure):
         cs = source.contact_set(kn=0.0, ks=0.0, extra_degree=extra_degree)
     elif isinstance(source, ContactSet):
         cs = source
     else:
-        raise ConfigError("geometry", type(source).__name__, "must be a Packing or a ContactSet")
+        raise ConfigError("geometry", type(source).__name__, "must be a Microstructure or a ContactSet")
     if cs.dim != 3:
         raise ConfigError("geometry.dim", cs.dim, "the driver works in 3D (6-component paths)")
     return cs

@@ -11,7 +11,7 @@ import numpy as np
 from grainmech.elasticity import bulk_modulus, engineering_constants, shear_modulus, symmetry_class
 from grainmech.io.config import Section
 from grainmech.io.schema import build_fabric, build_law, build_packing, build_stress
-from grainmech.material import packing_stiffness
+from grainmech.material import microstructure_stiffness
 from grainmech.outcomes import StiffnessOutcome
 
 __all__ = ["StiffnessSpec", "prepare_stiffness", "execute_stiffness", "compute_stiffness", "stiffness_scalars"]
@@ -43,7 +43,7 @@ def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> Stiffnes
 
 def execute_stiffness(spec: StiffnessSpec) -> StiffnessOutcome:
     """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class."""
-    res = packing_stiffness(spec.packing, spec.contacts, spec.stress)
+    res = microstructure_stiffness(spec.packing, spec.contacts, spec.stress)
     return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.packing,
                             spec.density.dim, spec.fabric_fit)
 
