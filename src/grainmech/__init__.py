@@ -8,8 +8,8 @@ The main objects are available from the package itself and are imported on first
 (``import grainmech`` stays fast and imports neither matplotlib nor numba)::
 
     import grainmech as gm
-    pk = gm.Packing.from_grains(gm.isotropic(3), void_ratio=0.65, coordination=8.7, radius=2.5e-4)
-    res = gm.packing_stiffness(pk, gm.HertzMindlin(44e9, 0.08, 2.5e-4), 1e5)
+    ms = gm.Microstructure.from_grains(gm.isotropic(3), void_ratio=0.65, coordination=8.7, radius=2.5e-4)
+    res = gm.microstructure_stiffness(ms, gm.HertzMindlin(44e9, 0.08, 2.5e-4), 1e5)
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import importlib
 import os
 from typing import Any
 
+from grainmech._deprecated import warn_renamed
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 
 # The compiled kernels' parallel loops run on OpenMP (numba's "omp" layer) in regions of
@@ -46,8 +47,10 @@ _LAZY: dict[str, str] = {
     # contact laws (seed Ch. 3)
     **dict.fromkeys(("Hertz", "HertzMindlin", "MindlinDeresiewicz", "LinearSpring", "Cylinder"),
                     "grainmech.contact"),
-    # a packing and its stiffness (seed Eq. 2.41)
-    **dict.fromkeys(("Packing", "packing_stiffness", "StiffnessResult"), "grainmech.material"),
+    # the analytical description of a granular material and its stiffness (seed Eq. 2.41);
+    # packing_stiffness: its old name (warns when called; Packing: _RENAMED)
+    **dict.fromkeys(("Microstructure", "microstructure_stiffness", "StiffnessResult", "packing_stiffness"),
+                    "grainmech.material"),
     **dict.fromkeys(("ContactSet", "stiffness", "love_weber_stress"), "grainmech.assembly"),
     **dict.fromkeys(("engineering_constants", "symmetry_class", "bulk_modulus", "shear_modulus"),
                     "grainmech.elasticity"),
@@ -64,10 +67,16 @@ _LAZY: dict[str, str] = {
     "plots": "grainmech.plots",
 }
 
-__all__ = ["ConfigError", "GrainmechError", "ParameterError", "__version__", *sorted(_LAZY)]
+#: old public name -> its new name (each use warns, DeprecationWarning; removed in the next release)
+_RENAMED = {"Packing": "Microstructure"}
+
+__all__ = ["ConfigError", "GrainmechError", "ParameterError", "__version__", *sorted([*_LAZY, *_RENAMED])]
 
 
 def __getattr__(name: str) -> Any:
+    if name in _RENAMED:
+        warn_renamed(f"grainmech.{name}", f"grainmech.{_RENAMED[name]}")
+        return __getattr__(_RENAMED[name])
     mod = _LAZY.get(name)
     if mod is None:
         raise AttributeError(f"module 'grainmech' has no attribute {name!r}")
@@ -78,4 +87,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+    return sorted(set(globals()) | set(_LAZY) | set(_RENAMED))

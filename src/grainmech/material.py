@@ -1,8 +1,9 @@
-"""A packing described by its fabric, and its small-strain stiffness under a stress state.
+"""A granular material described by its fabric, and its small-strain stiffness under a stress state.
 
-:class:`Packing` is the analytical input of grainmech: a contact-normal density (seed
-Eq. 4.7 / 4.9) plus the number of contacts per volume and the branch length (Eq. 4.1),
-in either counting convention (``docs/conventions.md``). :func:`packing_stiffness`
+:class:`Microstructure` is the analytical input of grainmech: a contact-normal density
+(seed Eq. 4.7 / 4.9) plus the number of contacts per volume and the branch length (Eq.
+4.1), in either counting convention (``docs/conventions.md``); "packing" in grainmech
+names a packing of grains (:mod:`grainmech.packing`). :func:`microstructure_stiffness`
 computes the stiffness tensor (seed Eq. 2.41) for constant contact stiffnesses
 (:class:`grainmech.contact.LinearSpring`) or for
 Hertz-Mindlin contacts whose stiffness follows from the contact forces carrying an
@@ -16,15 +17,17 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from grainmech._deprecated import renamed_attribute, warn_renamed
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness
 from grainmech.errors import GrainmechError, ParameterError
 
 __all__ = [
-    "Packing",
+    "Microstructure",
     "ContactStiffness",
     "HertzMindlinStiffness",  # noqa: F822 - resolved lazily by the module's __getattr__
     "normal_forces_for_stress",
     "StiffnessResult",
+    "microstructure_stiffness",
     "packing_stiffness",
 ]
 
@@ -35,8 +38,11 @@ DEGREE_VARYING_STIFFNESS = 41
 
 
 @dataclass(frozen=True)
-class Packing:
-    """Fabric density plus packing density.
+class Microstructure:
+    """Fabric density plus the density of contacts: the analytical description of a granular material.
+
+    Called ``Packing`` before (that name still works for one release, with a
+    :class:`DeprecationWarning`); "packing" now names a packing of grains only.
 
     Parameters
     ----------
@@ -76,7 +82,7 @@ class Packing:
 
     @classmethod
     def from_grains(cls, density: Any, *, void_ratio: float, coordination: float, radius: float,
-                    convention: str = "physical") -> Packing:
+                    convention: str = "physical") -> Microstructure:
         """Equal grains of radius ``radius`` at void ratio e with coordination m (Eq. 4.1)."""
         from grainmech.closed_form import packing_scale
 
@@ -112,7 +118,8 @@ def __getattr__(name: str) -> Any:
         from grainmech.contact import HertzMindlin
 
         return HertzMindlin
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    # ``Packing``: the old name of :class:`Microstructure` (one release, with a warning)
+    return renamed_attribute(__name__, name, {"Packing": "Microstructure"}, globals())
 
 
 def normal_forces_for_stress(contacts: ContactSet, sigma: np.ndarray) -> np.ndarray:
@@ -165,7 +172,7 @@ def normal_forces_for_stress(contacts: ContactSet, sigma: np.ndarray) -> np.ndar
 
 @dataclass(frozen=True)
 class StiffnessResult:
-    """Stiffness of a packing under a stress state.
+    """Stiffness of a microstructure under a stress state.
 
     Attributes
     ----------
@@ -185,12 +192,13 @@ class StiffnessResult:
     stress: np.ndarray = field(repr=False)
 
 
-def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any = None) -> StiffnessResult:
-    """Small-strain stiffness of a packing (seed Eq. 2.41) at a given stress.
+def microstructure_stiffness(microstructure: Microstructure, contact: ContactStiffness,
+                             stress: Any = None) -> StiffnessResult:
+    """Small-strain stiffness of a microstructure (seed Eq. 2.41) at a given stress.
 
     Parameters
     ----------
-    packing : Packing
+    microstructure : Microstructure
     contact : ContactStiffness
         Contact parameters with ``stiffness(N)``: :class:`grainmech.contact.LinearSpring`
         (constant stiffnesses, seed Sec. 4.2.1) or a Hertz law such as
@@ -205,7 +213,7 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
     """
     from grainmech.contact import LinearSpring
 
-    d = packing.dim
+    d = microstructure.dim
     const = isinstance(contact, LinearSpring)
     if stress is None:
         if not const:
@@ -218,9 +226,9 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
                 raise ParameterError("pressure", float(sigma), "must be > 0")
             sigma = float(sigma) * np.eye(d)
     # constant stiffness or uniform forces: a degree-4 integrand is exact
-    isotropic_fabric = packing.density.order == 0 and np.allclose(sigma, sigma[0, 0] * np.eye(d))
+    isotropic_fabric = microstructure.density.order == 0 and np.allclose(sigma, sigma[0, 0] * np.eye(d))
     extra = 4 if const or isotropic_fabric else DEGREE_VARYING_STIFFNESS
-    geom = packing.contact_set(extra_degree=extra)
+    geom = microstructure.contact_set(extra_degree=extra)
     N = np.zeros(len(geom)) if stress is None else normal_forces_for_stress(geom, sigma)
     with np.errstate(all="ignore"):
         kn, ks = contact.stiffness(N)
@@ -230,7 +238,7 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
         raise GrainmechError(
             f"contact stiffness is not finite (kn = {float(np.asarray(kn)[i]):.4g}, "
             f"ks = {float(np.asarray(ks)[i]):.4g} "
-            f"at normal force {N[i]:.4g}): the inputs overflow; check radius ({packing.radius:.4g}), "
+            f"at normal force {N[i]:.4g}): the inputs overflow; check radius ({microstructure.radius:.4g}), "
             "void_ratio, coordination, shear_modulus, poisson and the pressure for a consistent unit system")
     cs = geom.with_stiffness(kn, ks)
     s = love_weber_stress(N[:, None] * cs.normals, cs.branch, cs.weights).stress
@@ -239,3 +247,9 @@ def packing_stiffness(packing: Packing, contact: ContactStiffness, stress: Any =
         raise GrainmechError("the stiffness overflows: check radius, void_ratio, coordination, the contact "
                              "stiffness or shear_modulus and the pressure for a consistent unit system")
     return StiffnessResult(C, cs, N, s)
+
+
+def packing_stiffness(packing: Microstructure, contact: ContactStiffness, stress: Any = None) -> StiffnessResult:
+    """:func:`microstructure_stiffness` under its old name (deprecated: warns, removed in the next release)."""
+    warn_renamed(f"{__name__}.packing_stiffness", f"{__name__}.microstructure_stiffness")
+    return microstructure_stiffness(packing, contact, stress)

@@ -11,7 +11,7 @@ Data kinds (``docs/calibrate.md``)
 ----------------------------------
 ``modulus-pressure``
     Engineering constants of a packing under isotropic pressure (seed Eq. 2.41 via
-    :func:`grainmech.material.packing_stiffness`), one row per pressure (and optionally
+    :func:`grainmech.material.microstructure_stiffness`), one row per pressure (and optionally
     void ratio). Columns: ``pressure``, ``void_ratio`` (optional), and any of ``G``
     (= ``G_xz``; ``G_xy`` in 2D), ``E`` (= ``E_zz``; ``E_xx`` in 2D), ``K`` (bulk), ``nu``
     (= ``nu_xy``) or the named constants ``E_xx``, ``G_yz``, ``nu_zx``...
@@ -35,10 +35,10 @@ Data kinds (``docs/calibrate.md``)
 ``rod-strains``
     Strains of a rod packing under a stress increment ``increment`` (default 0.5 psi)
     along ``alpha`` (from y towards x) from an isotropic stress ``pressure`` (2.5 psi)
-    (seed Sec. 5.3, 6.1.2): :func:`grainmech.reproduce.random_rods.strains`, the tangent
+    (seed Sec. 5.3, 6.1.2): :func:`grainmech.rods.random_arrays.strains`, the tangent
     stiffness of rod contacts seed Eq. 3.8 / 3.17. ``[model]`` keys ``packing``
-    (``one-size``/``two-size``: :func:`random_rods.packing` with ``seed``;
-    ``square``/``hexagonal``: :func:`grainmech.reproduce.rods.regular_packing` with
+    (``one-size``/``two-size``: :func:`grainmech.rods.random_arrays.random_array` with ``seed``;
+    ``square``/``hexagonal``: :func:`grainmech.rods.regular_array` with
     ``[data] diameter``), ``shear_modulus_equiv`` (G~), ``psi``, ``poisson``,
     ``friction_angle``. Columns ``alpha [deg]``, ``eps_xx``, ``eps_yy``, ``eps_xy``
     (tensor shear strain, compression positive).
@@ -164,7 +164,7 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
     """Engineering constants at each row's pressure (seed Eq. 2.41, Hertz-Mindlin Eq. 4.43)."""
     from grainmech.elasticity import engineering_constants
     from grainmech.io.schema import build_fabric, build_law
-    from grainmech.material import packing_stiffness
+    from grainmech.material import microstructure_stiffness
 
     targets = [t for t in DATA_KINDS["modulus-pressure"].targets if data.has(t)]
     out = {t: np.empty(len(data)) for t in targets}
@@ -183,7 +183,7 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
         contacts = build_law(root.section("contacts"), packing.radius)
         if validate and i == 0:
             root.finish()
-        C = packing_stiffness(packing, contacts, p).C
+        C = microstructure_stiffness(packing, contacts, p).C
         eng = engineering_constants(C).as_dict()
         for t in targets:
             if t == "K":  # bulk modulus: volumetric strain under p I is sum of the normal block of S
@@ -200,7 +200,7 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
 
 def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) -> tuple[np.ndarray, int]:
     from grainmech.io.schema import build_fabric, build_law, build_stress
-    from grainmech.material import packing_stiffness
+    from grainmech.material import microstructure_stiffness
 
     cfg = copy.deepcopy(model)
     root = _sections(cfg, allowed)
@@ -212,7 +212,7 @@ def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) 
     contacts = build_law(root.section("contacts"), packing.radius)
     if validate:
         root.finish()
-    return packing_stiffness(packing, contacts, stress).C, density.dim
+    return microstructure_stiffness(packing, contacts, stress).C, density.dim
 
 
 def _predict_directional(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
@@ -326,15 +326,15 @@ def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: b
     if validate:
         root.finish()
     try:
-        from grainmech.rods import random_packing as random_rods
+        from grainmech.rods import random_arrays as random_rods
     except ModuleNotFoundError as exc:  # pragma: no cover - depends on the checkout
         raise GrainmechError("data kind 'rod-strains' needs grainmech.reproduce.random_rods") from exc
     if kind in ("square", "hexagonal"):
-        from grainmech.rods import regular_packing
+        from grainmech.rods import regular_array
 
-        cs = regular_packing(kind, diameter=settings["diameter"])
+        cs = regular_array(kind, diameter=settings["diameter"])
     else:
-        cs = random_rods.packing(kind, seed=seed)
+        cs = random_rods.random_array(kind, seed=seed)
     eps = random_rods.strains(cs, np.degrees(data["alpha"]), G=G, psi=psi, nu=nu, phi_mu_deg=phi,
                               pressure=settings["pressure"], increment=settings["increment"])
     return {k: np.asarray(eps[k], dtype=float) for k in ("eps_xx", "eps_yy", "eps_xy") if data.has(k)}

@@ -5,10 +5,14 @@ Public API
 :class:`MaterialPoint` (``isotropic``, ``at_stress`` with ``initial="state-estimate"`` or
 ``"path-following"``, ``from_forces``), :func:`run` -> :class:`DriverResult`,
 :class:`SolverOptions`, and the path builders of :mod:`grainmech.driver.paths`.
-See ``docs/driver.md``.
+See ``docs/driver.md``. The affine model (the seed's material point) is in
+:mod:`grainmech.driver.affine`, the packing model in :mod:`grainmech.driver.packing`, the
+DEM model in :mod:`grainmech.driver.dem`.
 """
 
 from grainmech.contact.interface import ContactLaw, make_law
+from grainmech.driver.affine.point import MaterialPoint, evaluate, geometric_stiffness, geometry, tangent
+from grainmech.driver.affine.solver import DriverResult, SolverOptions, run
 from grainmech.driver.paths import (
     COMPONENTS,
     Control,
@@ -26,8 +30,6 @@ from grainmech.driver.paths import (
     simple_shear,
     triaxial,
 )
-from grainmech.driver.point import MaterialPoint, evaluate, geometric_stiffness, geometry, tangent
-from grainmech.driver.solver import DriverResult, SolverOptions, run
 
 __all__ = [
     "COMPONENTS", "Control", "ContactLaw", "DriverResult", "LoadPath", "MaterialPoint",

@@ -1,8 +1,9 @@
 """Output folders of the commands: the files of a ``run``, ``contact`` or ``dem`` job.
 
-Each writer takes the typed result of a job (:mod:`grainmech.jobs`) and an output
-directory, writes every file atomically (:mod:`grainmech.io.results`) and returns what it
-wrote. Figures are drawn by :mod:`grainmech.plots`; nothing here computes physics.
+Each writer takes the typed result of a job (:mod:`grainmech.outcomes`, built by
+:mod:`grainmech.jobs`) and an output directory, writes every file atomically
+(:mod:`grainmech.io.results`) and returns what it wrote. Figures are drawn by
+:mod:`grainmech.plots`; nothing here computes physics.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from grainmech.io.results import (
     write_json,
     write_text,
 )
+from grainmech.outcomes import CyclicOutcome, RunComparison, envelope_and_loop_warnings, packing_gmax_line
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
            "write_dem_outputs", "CONTACT_COLUMNS"]
@@ -97,8 +99,8 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
     Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
     or ``path.csv``, ``modulus_reduction.csv``, ``site_response_curves.csv``, PNG plots,
     ``config_used.json``, ``summary.json`` and ``index.html``. ``out`` is a
-    :class:`grainmech.jobs.CyclicOutcome` or :class:`grainmech.jobs.PathOutcome` (one
-    model), or a :class:`grainmech.jobs.RunComparison` (several models: each model's files
+    :class:`grainmech.outcomes.CyclicOutcome` or :class:`grainmech.outcomes.PathOutcome` (one
+    model), or a :class:`grainmech.outcomes.RunComparison` (several models: each model's files
     carry the prefix ``<method>_``, the curves of all models share
     ``modulus_reduction.png``, and ``summary.json`` has one entry per model under
     ``models``). Returns the summary (``files`` lists the names).
@@ -108,8 +110,6 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
     ``summary.json`` then says ``"success": false``, ``"interrupted": true`` and the
     message; every summary has ``"interrupted"``.
     """
-    from grainmech.jobs import RunComparison
-
     d = ensure_dir(outdir)
     outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
     compare = len(outs) > 1
@@ -146,7 +146,6 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
 def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -> dict:
     """Per-step CSVs and per-model tables/plots of one model's outcome; returns its summary."""
     from grainmech import plots
-    from grainmech.jobs import CyclicOutcome
 
     cyclic = isinstance(o, CyclicOutcome)
     env = None if cyclic else o.envelope
@@ -256,7 +255,6 @@ def _cyclic_checks(o: Any) -> dict:
     sentences, also in ``warnings``).
     """
     from grainmech.analysis import SAND_PEAK_FRICTION_DEG, mohr_coulomb_ratio
-    from grainmech.jobs import envelope_and_loop_warnings
 
     n = len(o.G)
     env = o.envelope[:n]
@@ -436,8 +434,6 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                          f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
             pg = (det or {}).get("packing_gmax")
             if pg:
-                from grainmech.jobs import packing_gmax_line
-
                 head += ("<p>" + html.escape(packing_gmax_line(pg, m["G_max_Pa"]).strip()) + ". The packing's "
                          "Gmax is the small-strain shear modulus with every grain in force and moment "
                          "equilibrium (packing driver, docs/packing-driver.md); the affine model makes every "
@@ -504,7 +500,7 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
     """Write ``contact.csv`` and ``contact.png`` of a contact run.
 
     ``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
-    :class:`grainmech.jobs.ContactOutcome`. Returns the paths written.
+    :class:`grainmech.outcomes.ContactOutcome`. Returns the paths written.
     """
     from grainmech.io.results import atomic_write
 
@@ -542,7 +538,7 @@ def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[P
     """Write the files of ``grainmech dem``.
 
     ``summary.json``, the stiffness matrices and engineering constants as CSV, and the
-    rose / normal-density plots of a :class:`grainmech.jobs.DemOutcome`.
+    rose / normal-density plots of a :class:`grainmech.outcomes.DemOutcome`.
     """
     from grainmech.io.results import atomic_write
 

@@ -220,13 +220,15 @@ COORDINATION_MIN, COORDINATION_MAX = 1e-3, 1e3
 
 
 def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
-    """Packing from the ``[packing]`` table and a density.
+    """The :class:`~grainmech.material.Microstructure` of the ``[packing]`` table and a density.
 
-    Packing from ``[packing]`` and a density; ``pressure`` [Pa] is the mean stress a
-    coordination relation (:func:`coordination_relation`) is evaluated at.
+    The analytical description (contacts per volume and branch length, or void ratio,
+    coordination and radius) from ``[packing]`` (the table keeps its name) and a density;
+    ``pressure`` [Pa] is the mean stress a coordination relation
+    (:func:`coordination_relation`) is evaluated at.
     """
     from grainmech.fabric import CORRELATIONS, coordination_number
-    from grainmech.material import Packing
+    from grainmech.material import Microstructure
 
     convention = sec.choice("convention", ("physical", "seed"), "physical")
     if sec.has("contacts_per_volume") or sec.has("branch_length"):
@@ -234,7 +236,7 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
         bl = sec.number("branch_length", "m", min=0, min_inclusive=False)
         radius = sec.number("radius", "m", None, min=0, min_inclusive=False)
         with sec.checked():
-            return Packing(density, nv, bl, convention, radius)
+            return Microstructure(density, nv, bl, convention, radius)
     e = sec.number("void_ratio", None, min=0, min_inclusive=False)
     coord = sec.raw("coordination")
     name = coord.strip().lower() if isinstance(coord, str) else None
@@ -253,7 +255,7 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
             raise
     radius = sec.number("radius", "m", min=0, min_inclusive=False)
     with sec.checked():
-        return Packing.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
+        return Microstructure.from_grains(density, void_ratio=e, coordination=m, radius=radius, convention=convention)
 
 
 #: Stresses a config or a data file may give [Pa]: 1 Pa to 1 GPa. 1 Pa is the weight of

@@ -8,15 +8,16 @@ The seed (Sec. 5.2, 6.1.2) tested two random rod assemblies in the directional s
 
 The seed's ``N`` counts each contact from both rods (``N = m N_p``: 5.06 x 271 = 1371,
 4.75 x 419 = 1990), i.e. ``N = 2 N_c`` physical contacts. The rod coordinates were digitised
-from photographs and are not in the text, so :func:`packing` **generates** a packing with
-the seed's rods and void ratio: the rods are placed at random (seeded) in a square periodic
-cell whose area gives ``e = 0.179`` exactly (``A_cell = (1 + e) sum pi d^2/4``), then the
+from photographs and are not in the text, so
+:func:`~grainmech.rods.random_arrays.random_array` **generates** a packing with the seed's
+rods and void ratio: the rods are placed at random (seeded) in a square periodic cell
+whose area gives ``e = 0.179`` exactly (``A_cell = (1 + e) sum pi d^2/4``), then the
 overlaps are removed by minimising the harmonic overlap energy
 ``U = sum_pairs (1/2) max(r_i + r_j - |x_j - x_i|, 0)^2`` (L-BFGS, the soft-disc
 quench of O'Hern et al. 2003, Phys. Rev. E 68, 011306). Contacts are the pairs whose centre
 distance is at most ``(r_i + r_j)(1 + CONTACT_TOL)`` (``CONTACT_TOL = 1 %``, fixed before
 looking at the coordination and not tuned: the precision of contacts read off a
-photograph, as the seed's were). :func:`packing_stats` reports what this gives next to the
+photograph, as the seed's were). :func:`~grainmech.rods.random_arrays.array_stats` reports what this gives next to the
 seed's numbers; the quench does **not** reproduce the seed's coordination (see
 ``docs/reproduce.md``).
 
@@ -25,7 +26,7 @@ isotropic then 0.5 psi along ``alpha``; rod contacts seed Eq. 3.8 / 3.17 with th
 (``G = 40000 psi, Psi = 1``), soft (15000 psi, 2.5) and best-fit (25000 psi, 2.0) constants
 of Sec. 6.1.2, ``nu = 0.1``, ``phi_mu = 15 deg``; the tangent stiffness of
 :func:`grainmech.rods.shear_box_stiffness` (shared with Figs. 6.1-6.2). The packings and
-strains are computed by :mod:`grainmech.rods.random_packing`.
+strains are computed by :mod:`grainmech.rods.random_arrays`.
 Everything here is SI (m, Pa) unless a name says psi/in.
 """
 
@@ -36,7 +37,7 @@ import math
 import numpy as np
 
 from grainmech.reproduce._base import FigureData, long_table
-from grainmech.rods.random_packing import CONSTANTS, CONTACT_TOL, PSI_PA, generate, packing, packing_stats, strains
+from grainmech.rods.random_arrays import CONSTANTS, CONTACT_TOL, PSI_PA, array_stats, generate, random_array, strains
 
 __all__ = ["SEED_STATS", "fig6_3", "fig6_4", "fig6_5", "fig6_6"]
 
@@ -57,7 +58,7 @@ _COMMON = (
 
 
 def _stats_text(kind: str, seed: int = 0) -> tuple[str, dict]:
-    st = packing_stats(packing(kind, seed))
+    st = array_stats(random_array(kind, seed))
     s = SEED_STATS[kind]
     _, rec = generate(kind, seed)
     text = (f"Achieved ({st['particles']} rods, seed {seed}): N = {st['contacts']} "
@@ -117,7 +118,7 @@ def fig6_4() -> FigureData:
 
 def _strain_fig(kind: str, fig_id: str) -> FigureData:
     alpha = np.linspace(0.0, 90.0, 37)
-    cs = packing(kind, 0)
+    cs = random_array(kind, 0)
     blocks, meta = [], {}
     for name, (G, psi) in CONSTANTS.items():
         eps = strains(cs, alpha, G=G * PSI_PA, psi=psi)

@@ -7,7 +7,7 @@ Poisson's ratio "are average of those of packing A and packing B", D "shows the 
 isotropic behavior as that of packing B, however, the magnitude of the modulus of packing
 D is much smaller", and E (rods of 0.5 and 0.25 in) and F (0.75 and 0.5 in) are two-size
 packings whose moduli and Poisson's ratios are anisotropic (Sec. 6.1.1). A and B follow
-from their names; **C-F are our reconstructions** (:data:`PACKINGS`, each with the reason
+from their names; **C-F are our reconstructions** (:data:`~grainmech.rods.ARRAYS`, each with the reason
 for the choice in its ``note``; :mod:`grainmech.rods.regular`), built as real periodic rod arrays: a unit cell with rod
 centres and diameters, the contacts found from the geometry (centre distance equal to the
 sum of the radii), never a hand-set stiffness.
@@ -30,7 +30,7 @@ import numpy as np
 
 from grainmech.assembly import ContactSet
 from grainmech.reproduce._base import FigureData, long_table
-from grainmech.rods import PACKINGS, ROD, PeriodicRods, directional, regular_packing, shear_box_stiffness
+from grainmech.rods import ARRAYS, ROD, PeriodicRods, directional, regular_array, shear_box_stiffness
 
 __all__ = ["apparent", "fig5_2", "fig6_1", "fig6_2"]
 
@@ -47,7 +47,7 @@ def apparent(kind: str, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     seed's Sec. 6.1.1 constants). ``alpha`` [rad] from y towards x. Returns ``E`` [psi],
     ``nu``, ``C`` (Voigt 3x3, psi).
     """
-    C = _rod_stiffness(regular_packing(kind))
+    C = _rod_stiffness(regular_array(kind))
     E, nu = directional(C, alpha)
     return E, nu, C
 
@@ -75,7 +75,7 @@ def _table(alpha: np.ndarray) -> tuple[dict, dict]:
     blocks, meta = [], {}
     for key in ORDER:
         E, nu, _ = apparent(key, alpha)
-        blocks.append({"packing": PACKINGS[key].label, "alpha_deg": np.degrees(alpha),
+        blocks.append({"packing": ARRAYS[key].label, "alpha_deg": np.degrees(alpha),
                        "E": E, "nu": nu})
         meta[key] = (E, nu)
     return long_table(blocks), meta
@@ -162,7 +162,7 @@ def fig5_2(span: float = 2.0) -> FigureData:
     blocks: list[dict[str, Any]] = []
     meta: dict[str, dict[str, float]] = {}
     for key in ORDER:
-        p = PACKINGS[key]
+        p = ARRAYS[key]
         x, d, owner = _tile(p, span)
         blocks.append({"packing": p.label, "item": "rod", "x": x[:, 0], "y": x[:, 1],
                        "x2": x[:, 0], "y2": x[:, 1], "diameter": d})
@@ -185,7 +185,7 @@ def fig5_2(span: float = 2.0) -> FigureData:
     notes: list[str] = []
     seen: dict[str, int] = {}
     for k in ORDER:  # E and F share one recipe: say it once
-        note = PACKINGS[k].note
+        note = ARRAYS[k].note
         if note in seen:
             notes[seen[note]] = notes[seen[note]].replace(":", f", {k}:", 1)
             continue

@@ -20,7 +20,7 @@ from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, fig610_path, fig610_stress, geometry, run
 from grainmech.elasticity import engineering_constants
 from grainmech.fabric import coordination_number, isotropic
-from grainmech.material import Packing
+from grainmech.material import Microstructure
 from grainmech.reproduce._base import FigureData, long_table, progress
 
 __all__ = ["PATHS", "INPUTS", "critical_ratio", "compute", "fig6_10", "fig6_11", "fig6_12"]
@@ -46,7 +46,7 @@ def critical_ratio(friction_angle_deg: float = INPUTS["friction_angle_deg"]) -> 
 def _setup(extra_degree: int):
     e = INPUTS["void_ratio"]
     m = float(coordination_number(e, "chang"))
-    pk = Packing.from_grains(isotropic(3), void_ratio=e, coordination=m, radius=INPUTS["radius"],
+    pk = Microstructure.from_grains(isotropic(3), void_ratio=e, coordination=m, radius=INPUTS["radius"],
                              convention="seed")
     cs = geometry(pk, extra_degree=extra_degree)
     law = MindlinDeresiewicz(INPUTS["shear_modulus"], INPUTS["poisson"], INPUTS["radius"],

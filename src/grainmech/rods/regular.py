@@ -1,10 +1,13 @@
-"""Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2).
+"""Regular periodic rod arrays (the seed's regular packings, Sec. 5.2, Fig. 5.2).
 
-Regular periodic rod packings (seed Sec. 5.2, Fig. 5.2): 2D arrays of parallel rods
-per unit rod length, their contacts found from the geometry, as contact sets.
+Regular periodic rod arrays (the seed's "regular packings", Sec. 5.2, Fig. 5.2): 2D
+arrays of parallel rods per unit rod length, their contacts found from the geometry, as
+contact sets. (:data:`ARRAYS`, :func:`array_geometry` and :func:`regular_array` were
+``PACKINGS``, ``packing_geometry`` and ``regular_packing``; the old names work for one
+release, with a :class:`DeprecationWarning`.)
 
-Packings A-F: A is square, B hexagonal; the seed's text does not contain Fig. 5.2 and
-describes C-F only in words, so **C-F are reconstructions** (:data:`PACKINGS`, each with
+Arrays A-F: A is square, B hexagonal; the seed's text does not contain Fig. 5.2 and
+describes C-F only in words, so **C-F are reconstructions** (:data:`ARRAYS`, each with
 the reason for the choice in its ``note``), built as real periodic rod arrays: a unit cell
 with rod centres and diameters, the contacts found from the geometry (centre distance equal
 to the sum of the radii), never a hand-set stiffness. ``docs/reproduce.md`` compares them
@@ -19,10 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from grainmech._deprecated import renamed_attribute, warn_renamed
 from grainmech.assembly import ContactSet
 from grainmech.errors import GrainmechError
 
-__all__ = ["ROD", "RodContactSet", "PeriodicRods", "PACKINGS", "packing_geometry", "regular_packing"]
+__all__ = ["ROD", "RodContactSet", "PeriodicRods", "ARRAYS", "array_geometry", "regular_array",
+           "packing_geometry", "regular_packing"]
 
 
 #: Seed Sec. 5.2, 5.3, 6.1.1 (psi, in).
@@ -219,7 +224,7 @@ def _two_size_centred(name: str, big: float, small: float, why: str) -> Periodic
                         np.array([[0.0, 0.0], [big / 2, h]]), np.array([big, small]), why)
 
 
-def _build_packings(d: float = ROD["diameter"]) -> dict[str, PeriodicRods]:
+def _build_arrays(d: float = ROD["diameter"]) -> dict[str, PeriodicRods]:
     s3 = math.sqrt(3.0)
     two_size = ("Same recipe for E and F: rows of touching large rods along x, one small "
                 "rod nested in each gap between four large rods (a centred rectangular "
@@ -257,29 +262,29 @@ def _build_packings(d: float = ROD["diameter"]) -> dict[str, PeriodicRods]:
     }
 
 
-#: The six regular packings of seed Fig. 5.2 (A, B from the seed; C-F reconstructed), in.
-PACKINGS: dict[str, PeriodicRods] = _build_packings()
+#: The six regular arrays of seed Fig. 5.2 (A, B from the seed; C-F reconstructed), in.
+ARRAYS: dict[str, PeriodicRods] = _build_arrays()
 
 _ALIASES = {"square": "A", "hexagonal": "B", "mixed": "C", "kagome": "D",
             "two-size-e": "E", "two-size-f": "F"}
 
 
-def packing_geometry(kind: str) -> PeriodicRods:
-    """Regular rod packing by name, lengths in inches (seed Sec. 5.2).
+def array_geometry(kind: str) -> PeriodicRods:
+    """Regular rod array by name, lengths in inches (seed Sec. 5.2).
 
-    Regular packing ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
+    Regular array ``"A"``-``"F"`` (or ``square``, ``hexagonal``, ``mixed``, ``kagome``,
     ``two-size-E``, ``two-size-F``), lengths in inches (seed Sec. 5.2).
     """
     key = _ALIASES.get(str(kind).lower(), str(kind).upper())
-    if key not in PACKINGS:
+    if key not in ARRAYS:
         raise GrainmechError(f"packing must be one of A-F or {', '.join(_ALIASES)}; got {kind!r}")
-    return PACKINGS[key]
+    return ARRAYS[key]
 
 
-def regular_packing(kind: str, diameter: float = ROD["diameter"]) -> RodContactSet:
+def regular_array(kind: str, diameter: float = ROD["diameter"]) -> RodContactSet:
     """Physical contact set (each contact once, branch = centre-to-centre) of a lattice.
 
-    ``kind`` as in :func:`packing_geometry`. All lengths are scaled by
+    ``kind`` as in :func:`array_geometry`. All lengths are scaled by
     ``diameter / 0.5 in``: ``diameter`` is the diameter of the seed's 0.5 in rods (for E
     the large rods, for F the small ones), in any length unit. E.g. ``square``: normals
     along x and y, one rod per ``d^2``, 2 contacts per rod; ``hexagonal``: normals at 0, 60,
@@ -287,4 +292,21 @@ def regular_packing(kind: str, diameter: float = ROD["diameter"]) -> RodContactS
     """
     if not np.isfinite(diameter) or diameter <= 0:
         raise GrainmechError(f"diameter must be > 0, got {diameter!r}")
-    return packing_geometry(kind).contact_set(scale=diameter / ROD["diameter"])
+    return array_geometry(kind).contact_set(scale=diameter / ROD["diameter"])
+
+
+def packing_geometry(kind: str) -> PeriodicRods:
+    """:func:`array_geometry` under its old name (deprecated: warns, removed in the next release)."""
+    warn_renamed(f"{__name__}.packing_geometry", f"{__name__}.array_geometry")
+    return array_geometry(kind)
+
+
+def regular_packing(kind: str, diameter: float = ROD["diameter"]) -> RodContactSet:
+    """:func:`regular_array` under its old name (deprecated: warns, removed in the next release)."""
+    warn_renamed(f"{__name__}.regular_packing", f"{__name__}.regular_array")
+    return regular_array(kind, diameter)
+
+
+def __getattr__(name: str) -> Any:
+    # ``PACKINGS``: the old name of :data:`ARRAYS` (one release, with a warning)
+    return renamed_attribute(__name__, name, {"PACKINGS": "ARRAYS"}, globals())

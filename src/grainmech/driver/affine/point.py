@@ -1,0 +1,334 @@
+"""Material point: contact-set geometry + contact law + per-contact state (seed Ch. 2).
+
+Kinematic hypothesis (seed Eq. 2.13): under a strain increment ``d eps`` (compression
+positive) each row of the contact set gets the relative displacement
+``delta = d eps . l`` (approach positive), normal part ``d_n = delta . n`` and tangential
+part ``delta - d_n n``. The law updates the forces ``f = N n + T`` (exerted by A on B);
+the stress is the Love-Weber average ``sigma = sum_c w_c f_c (x) l_c`` (seed Eq. 2.6,
+symmetric part) and the tangent stiffness is assembled from the laws' tangent
+stiffnesses with :func:`grainmech.assembly.stiffness` (seed Eq. 2.26 / 2.41).
+
+Normals and branch vectors are fixed (small-strain form). The driver can add the
+first-order finite-deformation correction of seed Eq. 2.36-2.38 (corrected form of
+``docs/seed-errata.md`` E-2.34) to the stress, see :func:`geometric_stiffness`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from grainmech.assembly import (
+    ContactSet,
+    love_weber_stress,
+    love_weber_sum,
+    static_contact_forces,
+    stiffness,
+    stiffness_from_arrays,
+)
+from grainmech.contact.interface import coulomb_limit, make_law
+from grainmech.contact.law import ContactResponse
+from grainmech.conventions import stress_to_vector, vector_to_strain, vector_to_stress
+from grainmech.errors import ConfigError, GrainmechError
+from grainmech.material import Microstructure, normal_forces_for_stress
+
+__all__ = ["MaterialPoint", "geometry", "Evaluation", "evaluate", "tangent", "geometric_stiffness"]
+
+
+def geometry(source: Any, *, extra_degree: int = 4) -> ContactSet:
+    """Contact-set geometry from a :class:`~grainmech.material.Microstructure` or a :class:`ContactSet`.
+
+    Parameters
+    ----------
+    source : Microstructure or ContactSet
+        A packing is discretised by quadrature of its fabric density (seed Eq. 2.41,
+        ``extra_degree`` as in :meth:`ContactSet.from_density`); a contact set (regular
+        packing or measured network) is used as is (its stiffnesses are ignored).
+    """
+    if isinstance(source, Microstructure):
+        cs = source.contact_set(kn=0.0, ks=0.0, extra_degree=extra_degree)
+    elif isinstance(source, ContactSet):
+        cs = source
+    else:
+        raise ConfigError("geometry", type(source).__name__, "must be a Microstructure or a ContactSet")
+    if cs.dim != 3:
+        raise ConfigError("geometry.dim", cs.dim, "the driver works in 3D (6-component paths)")
+    return cs
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """Result of applying a strain increment to a point (not yet accepted)."""
+
+    state: Any
+    response: ContactResponse
+    stress: np.ndarray  # (6,)
+
+
+@dataclass(frozen=True)
+class MaterialPoint:
+    """Converged state of a material point.
+
+    Attributes
+    ----------
+    contacts : ContactSet
+        Geometry (normals, branch vectors ``l`` [length], weights [1/volume]).
+    law : ContactLawProtocol (:mod:`grainmech.contact.interface`)
+    state : per-contact law state
+    response : ContactResponse at ``state``
+    strain : (6,) total strain since the reference state, engineering shear, library order
+    stress : (6,) stress [force/length^2], compression positive: the Love-Weber stress of
+        the contact forces plus ``correction``
+    correction : (6,) accumulated first-order finite-deformation correction (seed
+        Eq. 2.36-2.38 with errata E-2.34); zero unless the driver runs with
+        ``finite_deformation=True``
+    """
+
+    contacts: ContactSet
+    law: Any
+    state: Any
+    response: ContactResponse
+    strain: np.ndarray
+    stress: np.ndarray
+    correction: np.ndarray = field(default_factory=lambda: np.zeros(6))
+
+    # --------------------------------------------------------------- derived
+    @cached_property
+    def tangent(self) -> np.ndarray:
+        """Consistent tangent (6, 6) Voigt, from the laws' ``kn``, ``ks`` (seed Eq. 2.26)."""
+        return tangent(self.contacts, self.response)
+
+    def fractions(self) -> tuple[float, float]:
+        """(sliding, open) fractions of contacts, weighted by ``w``."""
+        return _fractions(self.contacts, self.response)
+
+    def stored_energy(self) -> float:
+        """Elastic energy per unit volume held by the contacts (see the law's notes)."""
+        return float(np.dot(self.contacts.weights, self.law.stored_energy(self.state)))
+
+    # --------------------------------------------------------------- constructors
+    @classmethod
+    def from_forces(cls, source: Any, law: Any, normal_force: np.ndarray,
+                    tangential_force: np.ndarray | None = None, *, extra_degree: int = 4,
+                    backend: str = "auto") -> MaterialPoint:
+        """Point whose contacts carry given forces (virgin tangential history).
+
+        ``law``: a contact parameter object or a law (:class:`~grainmech.contact.interface.ContactLawProtocol`);
+        ``backend`` ({"auto", "numpy", "numba"}) selects the evaluation of a parameter object's
+        law (:func:`grainmech.contact.update`).
+        """
+        cs = geometry(source, extra_degree=extra_degree)
+        lw = make_law(law, backend=backend)
+        st = lw.initial_state(normal_force, tangential_force)
+        resp = lw.response(st)
+        return cls(cs, lw, st, resp, np.zeros(6), _stress(cs, resp))
+
+    @classmethod
+    def isotropic(cls, source: Any, law: Any, pressure: float, *, extra_degree: int = 4,
+                  backend: str = "auto") -> MaterialPoint:
+        """Point under isotropic stress ``pressure`` with purely normal contact forces.
+
+        Forces from :func:`grainmech.material.normal_forces_for_stress` (for an isotropic
+        fabric: seed Eq. 4.43, ``N = 3 V P / (N l)``).
+        """
+        if not np.isfinite(pressure) or pressure <= 0:
+            raise ConfigError("pressure", pressure, "must be a positive stress (compression positive)")
+        cs = geometry(source, extra_degree=extra_degree)
+        N = normal_forces_for_stress(cs, pressure * np.eye(3))
+        return cls.from_forces(cs, law, N, None, backend=backend)
+
+    @classmethod
+    def at_stress(cls, source: Any, law: Any, sigma: Any, *, initial: str = "state-estimate",
+                  start_pressure: float | None = None, n_steps: int = 50, extra_degree: int = 4,
+                  backend: str = "auto", **run_options: Any) -> MaterialPoint:
+        """Point at an anisotropic stress, by one of two methods (``docs/driver.md``).
+
+        Parameters
+        ----------
+        sigma : (6,) stress vector or (3, 3) tensor, compression positive
+        initial : {"state-estimate", "path-following"}
+            ``state-estimate`` (seed Sec. 6.3.2): forces ``f_c = sigma F^-1 l_c``
+            (:func:`grainmech.assembly.static_contact_forces`, exact Love-Weber inverse),
+            tangential parts capped at ``mu N``, each contact put on its virgin branch at
+            that force; tangent moduli from those forces. If the cap acts, the stress of
+            the point is the Love-Weber stress of the capped forces (smaller deviator).
+            ``path-following``: start isotropic at ``start_pressure`` (default: mean
+            stress of ``sigma``) and load along the straight stress path to ``sigma`` in
+            ``n_steps`` stress-controlled steps with the contact laws' history.
+        run_options : passed to :func:`grainmech.driver.run` (path-following only).
+
+        Raises
+        ------
+        GrainmechError
+            If path-following fails (the message names the step and cause).
+        """
+        sig = np.asarray(sigma, dtype=float)
+        if sig.shape == (6,):
+            sig = vector_to_stress(sig)
+        if sig.shape != (3, 3) or not np.all(np.isfinite(sig)):
+            raise ConfigError("sigma", np.asarray(sigma).shape, "must be a finite (6,) vector or (3, 3) tensor")
+        cs = geometry(source, extra_degree=extra_degree)
+        if initial == "state-estimate":
+            lw = make_law(law, backend=backend)
+            f = static_contact_forces(cs, sig)
+            n = cs.normals
+            N = np.einsum("ci,ci->c", f, n)
+            T = f - N[:, None] * n
+            tension = N < 0
+            N = np.where(tension, 0.0, N)
+            T = np.where(tension[:, None], 0.0, T)
+            mag = np.linalg.norm(T, axis=1)
+            cap = coulomb_limit(lw.friction, N)
+            scale = np.ones_like(mag)
+            np.divide(cap, mag, out=scale, where=mag > cap)
+            T = T * scale[:, None]
+            return cls.from_forces(cs, lw, N, T)
+        if initial == "path-following":
+            from grainmech.driver.affine.solver import run
+            from grainmech.driver.paths import segment
+
+            p0 = float(np.trace(sig) / 3) if start_pressure is None else float(start_pressure)
+            pt = cls.isotropic(cs, law, p0, backend=backend)
+            path = segment("SSSSSS", stress_to_vector(sig) - pt.stress, n_steps)
+            res = run(pt, path, **run_options)
+            if not res.success:
+                raise GrainmechError(f"path-following initial state failed: {res.message}")
+            return res.final
+        raise ConfigError("initial", initial, "must be 'state-estimate' or 'path-following'")
+
+
+def _stress(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+    f = resp.normal_force[:, None] * cs.normals + resp.tangential_force
+    if not np.all(np.isfinite(f)):
+        return stress_to_vector(love_weber_stress(f, cs.branch, cs.weights).stress)  # raises, naming the contact
+    full = love_weber_sum(f, cs.branch, cs.weights)
+    return stress_to_vector(0.5 * (full + full.T))
+
+
+def tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+    """Voigt tangent (6, 6) from per-contact tangent stiffnesses (seed Eq. 2.26)."""
+    kn = np.maximum(resp.kn, 0.0)
+    ks = np.maximum(resp.ks, 0.0)
+    if not (np.all(np.isfinite(kn)) and np.all(np.isfinite(ks))):
+        return stiffness(cs.with_stiffness(kn, ks))  # raises, naming the contact
+    return stiffness_from_arrays(cs.normals, cs.branch, cs.weights, np.ascontiguousarray(kn, dtype=float),
+                             np.ascontiguousarray(ks, dtype=float))
+
+
+def _project(x: np.ndarray, branch: np.ndarray) -> np.ndarray:
+    """Rows ``B_c^T x_c`` (C, 6): the Voigt vector of ``sym(x_c (x) l_c)`` (seed Eq. 2.13).
+
+    ``B_c`` maps an engineering strain increment to the contact's relative displacement,
+    ``delta_c = B_c d eps`` (``delta_i = d eps_ij l_j``), so ``B_c^T f_c`` is the contact's
+    Love-Weber stress contribution (seed Eq. 2.6) per unit weight.
+    """
+    l = branch
+    return np.stack([l[:, 0] * x[:, 0], l[:, 1] * x[:, 1], l[:, 2] * x[:, 2],
+                     0.5 * (l[:, 2] * x[:, 1] + l[:, 1] * x[:, 2]),
+                     0.5 * (l[:, 2] * x[:, 0] + l[:, 0] * x[:, 2]),
+                     0.5 * (l[:, 1] * x[:, 0] + l[:, 0] * x[:, 1])], axis=1)
+
+
+def consistent_tangent(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+    """Newton Jacobian (6, 6) ``d sigma / d eps`` of the last law update (not symmetric).
+
+    ``C = sum_c w_c B_c^T K_c B_c`` (seed Eq. 2.26) with the consistent contact tangent
+    ``K = ks_perp (I - n n) + kn n n + (ks - ks_perp) e e + ktn e n`` (``e`` the slip axis,
+    ``ktn`` the Thornton-Randall coupling ``d tau / d alpha``; see
+    :class:`~grainmech.contact.ContactResponse`). The compiled pass of
+    :mod:`grainmech.driver.affine._fused` assembles the same matrix; a law without ``ks_perp``
+    gives :func:`tangent`. Only 3D contact sets carry the extra terms.
+    """
+    if cs.normals.shape[1] == 3 and resp.t_delta is not None and resp.t_alpha is not None:
+        return _step_jacobian(cs, resp)
+    if resp.ks_perp is None or resp.axis is None or cs.normals.shape[1] != 3:
+        return tangent(cs, resp)
+    ksp = np.maximum(resp.ks_perp, 0.0)
+    ks = np.maximum(resp.ks, 0.0)
+    C = tangent(cs, resp._replace(ks=ksp))
+    w = cs.weights
+    v = _project(resp.axis, cs.branch)
+    u = _project(cs.normals, cs.branch)
+    C += (v * (w * (ks - ksp))[:, None]).T @ v
+    C += (v * (w * resp.ktn)[:, None]).T @ u
+    return C
+
+
+def _step_jacobian(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+    """``sum_c w_c B_c^T K_c B_c`` with the law's step tangent (algorithmic, not symmetric).
+
+    ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` (``ContactResponse.t_delta``,
+    ``t_alpha``), ``B_c`` as in :func:`_project` (seed Eq. 2.13, 2.26).
+    """
+    if resp.t_delta is None or resp.t_alpha is None:
+        raise ValueError("the law's response carries no step tangent (t_delta, t_alpha)")
+    n = cs.normals
+    l = cs.branch
+    kn = np.maximum(resp.kn, 0.0)
+    proj = np.eye(3)[None] - np.einsum("ci,cj->cij", n, n)
+    K = (np.einsum("ci,cj->cij", kn[:, None] * n + resp.t_alpha, n)
+         + np.einsum("cij,cjk->cik", resp.t_delta, proj))
+    B = np.zeros((len(l), 3, 6))
+    B[:, 0, 0], B[:, 1, 1], B[:, 2, 2] = l[:, 0], l[:, 1], l[:, 2]
+    B[:, 1, 3], B[:, 2, 3] = 0.5 * l[:, 2], 0.5 * l[:, 1]
+    B[:, 0, 4], B[:, 2, 4] = 0.5 * l[:, 2], 0.5 * l[:, 0]
+    B[:, 0, 5], B[:, 1, 5] = 0.5 * l[:, 1], 0.5 * l[:, 0]
+    return np.einsum("c,ciq,cij,cjr->qr", cs.weights, B, K, B, optimize=True)
+
+
+def _fractions(cs: ContactSet, resp: ContactResponse) -> tuple[float, float]:
+    w = cs.weights
+    tot = float(w.sum())
+    if tot <= 0:
+        return 0.0, 0.0
+    return float(np.dot(w, resp.sliding) / tot), float(np.dot(w, resp.open) / tot)
+
+
+def evaluate(point: MaterialPoint, d_strain: np.ndarray) -> Evaluation:
+    """Apply a total strain increment (6,) from the converged ``point`` (pure).
+
+    ``delta_c = d eps . l_c``; ``d_n = delta . n``; ``d_t = delta - d_n n`` (seed Eq. 2.13).
+    """
+    cs = point.contacts
+    de = vector_to_strain(np.asarray(d_strain, dtype=float))
+    delta = cs.branch @ de  # de symmetric: delta_i = de_ij l_j
+    dn = np.einsum("ci,ci->c", delta, cs.normals)
+    dt = delta - dn[:, None] * cs.normals
+    st, resp = point.law.update(point.state, dn, dt)
+    return Evaluation(st, resp, _stress(cs, resp))
+
+
+def geometric_stiffness(stress: np.ndarray) -> np.ndarray:
+    """First-order finite-deformation correction as a (6, 6) Voigt matrix ``G(sigma)``.
+
+    Seed Eq. 2.36-2.38 with the index correction of errata E-2.34:
+    ``Delta sigma = sigma_dot + sym(sigma D^T) - sigma tr D``, where ``sigma_dot`` is the
+    increment of the contact (Love-Weber, reference-geometry) stress and ``D`` the
+    displacement gradient, tension positive. The driver prescribes no spin, so
+    ``D = -d eps`` (``d eps`` compression positive, symmetric) and
+
+    ``Delta sigma - sigma_dot = -(sigma d eps + d eps sigma)/2 + sigma tr(d eps) = G(sigma) : d eps``.
+
+    The relation is linear in the stress-like quantities, so it holds unchanged with
+    compression-positive stresses. Example: ``sigma = p I`` and ``d eps = e I`` give
+    ``+2 p e I`` (the volume shrinks by ``3e``, the branch vectors by ``e``).
+
+    Parameters
+    ----------
+    stress : (6,) current stress, library order
+
+    Returns
+    -------
+    (6, 6) array acting on engineering strain increments.
+    """
+    sig = vector_to_stress(np.asarray(stress, dtype=float))
+    G = np.zeros((6, 6))
+    for k in range(6):
+        e = np.zeros(6)
+        e[k] = 1.0
+        E = vector_to_strain(e)
+        G[:, k] = stress_to_vector(-0.5 * (sig @ E + E @ sig) + sig * np.trace(E))
+    return G

@@ -1,0 +1,456 @@
+"""Drive a material point along a loading path (mixed stress/strain control).
+
+Each step solves for the strain increment whose strain-controlled components are
+prescribed and whose stress-controlled components bring the Love-Weber stress to the
+target. Newton iterations on the stress-controlled components use the consistent tangent
+``C_SS`` (seed Eq. 2.26 from the laws' tangent stiffnesses); every iteration re-evaluates
+the laws from the last *converged* state with the total trial increment (no drift of the
+history variables). A step that does not converge is split in two halves, recursively up
+to ``max_depth`` levels. A failure is never hidden: the result carries ``success``,
+``status`` and a ``message`` naming the step and the cause, and everything computed
+until then.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from grainmech.driver.affine.point import (
+    MaterialPoint,
+    _fractions,
+    consistent_tangent,
+    evaluate,
+    geometric_stiffness,
+    tangent,
+)
+from grainmech.driver.base import DriverResult
+from grainmech.driver.paths import LoadPath, PathTargets
+from grainmech.errors import ConfigError, GrainmechError
+
+__all__ = ["run", "DriverResult", "SolverOptions"]
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the increment solver.
+
+    Attributes
+    ----------
+    rtol : float
+        Stress residual tolerance relative to the stress scale of the step
+        (``max |sigma|`` at its start and target).
+    max_iter : int
+        Newton iterations per (sub)step.
+    max_depth : int
+        Halvings of a step (2**max_depth substeps at most).
+    engineering : bool
+        Also compute engineering constants of the tangent at each step.
+    finite_deformation : bool
+        Add the first-order finite-deformation correction of seed Eq. 2.36-2.38
+        (errata E-2.34) to the stress increments, ``G(sigma_mid) : d eps`` with the
+        mid-step stress (:func:`grainmech.driver.affine.point.geometric_stiffness`). Newton uses
+        ``C + G(sigma_start)``; the reported ``tangent`` stays the contact tangent ``C``.
+        The contact sums keep the reference geometry (``l``, ``V`` not updated), so the
+        option is first order in the total strain.
+    rtol_accept : float
+        A step whose Newton iterations stall (no longer contract) with every residual at
+        most ``rtol_accept`` times the stress scale is accepted, and counted in the
+        result's message. The Mindlin-Deresiewicz memory ignores load reversals below
+        ``1e-6`` of ``2 mu N`` (round-off ties, :data:`grainmech.contact.hysteresis._REV_TOL`), so
+        the stress of a contact set is a continuous function of the strain only to about
+        that resolution; below it Newton can cycle between two sides of such a tie.
+    compiled : bool
+        Integrate a path whose every component is strain controlled in one compiled pass
+        (:mod:`grainmech.driver.affine._fused`; no Newton iterations are needed there) when the
+        point's law has a compiled kernel. Same results to rounding; ``False`` forces the
+        step-by-step loop.
+    fold : bool
+        In the compiled loops, evaluate one row per orbit of the symmetries that the
+        contact set, the state and the path share -- the antipodal map and the mirrors
+        through coordinate planes whose odd shear components the path leaves at zero
+        (every row's exact image present with the same weight, the state symmetric) --
+        with the orbit's weight (:mod:`grainmech.driver.affine._fold`): half the law evaluations
+        for a centrosymmetric set, a quarter for simple shear on a Lebedev rule, an eighth
+        for a triaxial path; the same results to rounding. ``False`` evaluates every row.
+    """
+
+    rtol: float = 1e-9
+    rtol_accept: float = 1e-6
+    max_iter: int = 30
+    max_depth: int = 8
+    engineering: bool = False
+    finite_deformation: bool = False
+    compiled: bool = True
+    fold: bool = True
+
+    def __post_init__(self) -> None:
+        if not (0 < self.rtol < 1e-2):
+            raise ConfigError("rtol", self.rtol, "must lie in (0, 1e-2)")
+        if not (self.rtol <= self.rtol_accept < 1e-2):
+            raise ConfigError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
+        if int(self.max_iter) < 1:
+            raise ConfigError("max_iter", self.max_iter, "must be >= 1")
+        if not (0 <= int(self.max_depth) <= 30):
+            raise ConfigError("max_depth", self.max_depth, "must lie in [0, 30]")
+
+
+class _StepFailure(Exception):
+    def __init__(self, cause: str) -> None:
+        super().__init__(cause)
+        self.cause = cause
+
+
+def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: np.ndarray,
+           opts: SolverOptions, fused: bool = False) -> tuple[MaterialPoint, int, Any, bool]:
+    """Newton iterations for one (sub)step; returns (point, iterations, response).
+
+    ``fused``: evaluate through the compiled pass of :mod:`grainmech.driver.affine._fused`
+    (with the consistent Jacobian rows) instead of :func:`evaluate` + :func:`tangent`.
+    """
+    de = np.where(sc, 0.0, d_strain)
+    scale = max(float(np.abs(point.stress).max()), float(np.abs(target[sc]).max()) if sc.any() else 0.0)
+    Gm = geometric_stiffness(point.stress) if opts.finite_deformation else np.zeros((6, 6))
+    C = point.tangent + Gm
+    if scale == 0.0:
+        scale = float(np.abs(C).max() * np.abs(de).max()) or 1.0
+    tol = opts.rtol * scale
+    loose = opts.rtol_accept * scale
+    best: tuple | None = None  # (residual, new point, response) of the best iterate within `loose`
+    hist: list = []  # residual of every iteration
+    if sc.any():
+        rhs = target[sc] - point.stress[sc] - C[np.ix_(sc, ~sc)] @ de[~sc]
+        try:
+            de[sc] = np.linalg.solve(C[np.ix_(sc, sc)], rhs)
+        except np.linalg.LinAlgError:
+            de[sc] = 0.0
+        if not np.all(np.isfinite(de)):
+            de[sc] = 0.0
+    ev: Any
+    for it in range(1, opts.max_iter + 1):
+        if fused:
+            ev = _fused_evaluate(point, de, sc)
+        else:
+            ev = evaluate(point, de)
+        if opts.finite_deformation:
+            # G at the mid-step stress (contact part of the trial): second-order accurate
+            mid = point.stress + 0.5 * (ev.stress - (point.stress - point.correction))
+            corr = point.correction + geometric_stiffness(mid) @ de
+        else:
+            corr = point.correction
+        sig = ev.stress + corr
+        r = sig[sc] - target[sc]
+        rmax = float(np.abs(r).max()) if sc.any() else 0.0
+        if rmax <= loose:
+            new = replace(point, state=ev.state, response=ev.response,
+                          strain=point.strain + de, stress=sig, correction=corr)
+            if fused:  # the compiled pass assembled it already (cached_property slot)
+                object.__setattr__(new, "tangent", ev.tangent)
+            if rmax <= tol:
+                return new, it, ev.response, False
+            if best is None or rmax < best[0]:
+                best = (rmax, new, ev.response)
+            if len(hist) >= 2 and abs(rmax - hist[-2]) <= 1e-6 * rmax:  # two-cycle at a tie of the law
+                return best[1], it, best[2], True
+        hist.append(rmax)
+        if fused:
+            J = ev.jacobian[np.ix_(sc, sc)]
+        else:
+            C = consistent_tangent(point.contacts, ev.response) + Gm
+            J = C[np.ix_(sc, sc)]
+        cond = np.linalg.cond(J)
+        if not np.isfinite(cond) or cond > 1e13:
+            sl, op = _fractions(point.contacts, ev.response)
+            raise _StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
+                               f"sliding, {100 * op:.0f}% open")
+        de[sc] = de[sc] - np.linalg.solve(J, r)
+        if not np.all(np.isfinite(de)):
+            raise _StepFailure("Newton update not finite")
+    if best is not None:
+        return best[1], opts.max_iter, best[2], True
+    sl, op = _fractions(point.contacts, ev.response)
+    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
+                       f"{np.abs(r).max():.3g} > {tol:.3g}), {100 * sl:.0f}% of contacts sliding, "
+                       f"{100 * op:.0f}% open")
+
+
+def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters, fused=False):
+    """Advance from ``point`` by strain ``d_strain`` and to stress target ``t1`` (from ``t0``)."""
+    try:
+        new, it, resp, loose = _solve(point, sc, d_strain, t1, opts, fused)
+        counters[0] += 1
+        counters[1] += it
+        counters[4] += int(loose)
+        counters[2] += float(np.dot(point.contacts.weights, resp.dissipation))
+        counters[3] += float(np.dot(0.5 * (point.stress + new.stress), new.strain - point.strain))
+        return new
+    except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
+        err = _StepFailure(f"contact law error: {exc}")
+    except _StepFailure as exc:
+        err = exc
+    if depth >= opts.max_depth:
+        raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")
+    tm = 0.5 * (t0 + t1)
+    mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters, fused)
+    return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters, fused)
+
+
+def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None = None,
+        **kwargs: Any) -> DriverResult:
+    """Drive ``point`` along ``path``.
+
+    Parameters
+    ----------
+    point : MaterialPoint
+        Initial converged state (e.g. :meth:`MaterialPoint.isotropic`).
+    path : LoadPath
+        Steps with control masks and increments (:mod:`grainmech.driver.paths`).
+    options : SolverOptions, optional
+    **kwargs
+        Fields of :class:`SolverOptions` (``rtol``, ``max_iter``, ``max_depth``,
+        ``engineering``) as a shortcut.
+
+    Returns
+    -------
+    DriverResult
+        ``success`` False if a step failed; the arrays hold the steps done before.
+    """
+    if options is None:
+        options = SolverOptions(**kwargs)
+    elif kwargs:
+        options = replace(options, **kwargs)
+    if not isinstance(path, LoadPath):
+        raise ConfigError("path", type(path).__name__, "must be a LoadPath")
+    m = len(path)
+    # compiled law evaluations (driver/_fused.py): decided once per run
+    fused = options.compiled and not options.finite_deformation and _compiled_law(point)
+    if fused and not path.stress_control.any() and m > 0:
+        res = _run_fused(point, path, options)
+        if res is not None:
+            return res
+    if fused and path.stress_control.any():
+        return _run_mixed(point, path, options)
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
+                                             "sub", "it")}
+
+    def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
+        sl, op = pt.fractions()
+        rows["strain"].append(pt.strain.copy())
+        rows["stress"].append(pt.stress.copy())
+        rows["tangent"].append(pt.tangent)
+        rows["sl"].append(sl)
+        rows["op"].append(op)
+        rows["diss"].append(diss)
+        rows["work"].append(work)
+        rows["stored"].append(pt.stored_energy())
+        rows["sub"].append(sub)
+        rows["it"].append(it)
+
+    record(point, 0.0, 0.0, 0, 0)
+    diss = work = 0.0
+    targets = PathTargets(point.stress, point.strain)
+    n_loose = 0
+    success, status, message = True, 0, f"completed {m} steps"
+    for k in range(m):
+        sc = path.stress_control[k]
+        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
+        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
+        t0 = np.where(sc, point.stress, 0.0)
+        counters: list[Any] = [0, 0, 0.0, 0.0, 0]
+        try:
+            point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters,
+                                fused)
+        except _StepFailure as exc:
+            success, status = False, 1
+            message = f"step {k + 1}: stress target not reachable: {exc.cause}"
+            break
+        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
+        diss += counters[2]
+        work += counters[3]
+        n_loose += counters[4]
+        record(point, diss, work, counters[0], counters[1])
+    if n_loose:
+        message += (f" ({n_loose} (sub)step(s) accepted at the contact law's resolution: stress residual "
+                    f"<= {options.rtol_accept:g} x stress scale)")
+
+    arr = {k: np.array(v) for k, v in rows.items()}
+    return _result(success, status, message, arr, point, m, options)
+
+
+def _result(success: bool, status: int, message: str, arr: dict, point: MaterialPoint, m: int,
+            options: SolverOptions) -> DriverResult:
+    eng: dict = {}
+    if options.engineering:
+        from grainmech.elasticity import engineering_constants
+
+        dicts: list[dict | None] = []
+        for C in arr["tangent"]:
+            try:
+                dicts.append(engineering_constants(C).as_dict())
+            except GrainmechError:
+                dicts.append(None)
+        keys = next((list(d) for d in dicts if d), [])
+        for key in keys:
+            vals = [d.get(key) if d else None for d in dicts]
+            if all(isinstance(v, (int, float)) for v in vals):
+                eng[key] = np.array(vals, dtype=float)
+    return DriverResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"],
+                        arr["sl"], arr["op"], arr["diss"], arr["work"], arr["stored"],
+                        arr["sub"].astype(int), arr["it"].astype(int), point, m, eng)
+
+
+@dataclass(frozen=True)
+class _FusedEvaluation:
+    state: Any
+    response: Any
+    stress: np.ndarray
+    tangent: np.ndarray
+    jacobian: np.ndarray
+
+
+def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _FusedEvaluation:
+    """One trial increment through the compiled pass.
+
+    Kinematics, law, stress, tangent and the consistent Jacobian rows of the
+    stress-controlled components.
+    """
+    from grainmech.driver.affine._fused import strain_path
+
+    out = strain_path(point, de[None, :], sc)
+    if out is None:  # reversal memory exhausted somewhere: let the NumPy path say where
+        ev = evaluate(point, de)
+        return _FusedEvaluation(ev.state, ev.response, ev.stress, tangent(point.contacts, ev.response),
+                                consistent_tangent(point.contacts, ev.response))
+    return _FusedEvaluation(out["state"], out["response"], out["stress"][0], out["tangent"][0],
+                            out["jacobian"][0])
+
+
+def _compiled_law(point: MaterialPoint) -> bool:
+    """Whether the point's law is evaluated by the compiled kernel.
+
+    A :class:`~grainmech.contact.interface.ContactLaw` with numba present, the law
+    supported and the backend not ``numpy``.
+    """
+    from grainmech.contact.interface import ContactLaw
+
+    return isinstance(point.law, ContactLaw) and point.law.compiled
+
+
+def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:
+    """:func:`run` for a fully strain-controlled path through :mod:`grainmech.driver.affine._fused`."""
+    from grainmech.driver.affine._fused import strain_path
+
+    m = len(path)
+    # the increments exactly as the step loop forms them (targets, no drift)
+    de = np.empty((m, 6))
+    strain = np.empty((m + 1, 6))
+    strain[0] = point.strain
+    target = point.strain.copy()
+    for k in range(m):
+        target = target + path.increment[k]
+        de[k] = target - strain[k]
+        strain[k + 1] = strain[k] + de[k]
+    out = strain_path(point, de, fold=options.fold)
+    if out is None:
+        return None
+    stress = np.vstack([point.stress, out["stress"] + point.correction])
+    sl0, op0 = point.fractions()
+    work = np.zeros(m + 1)
+    work[1:] = np.cumsum(np.einsum("ki,ki->k", 0.5 * (stress[:-1] + stress[1:]), de))
+    final = replace(point, state=out["state"], response=out["response"], strain=strain[-1].copy(),
+                    stress=stress[-1].copy())
+    arr = {
+        "strain": strain, "stress": stress,
+        "tangent": np.concatenate([point.tangent[None], out["tangent"]]),
+        "sl": np.concatenate([[sl0], out["sliding"]]), "op": np.concatenate([[op0], out["open"]]),
+        "diss": np.concatenate([[0.0], np.cumsum(out["dissipation"])]), "work": work,
+        "stored": np.concatenate([[point.stored_energy()], out["stored"]]),
+        "sub": np.r_[0, np.ones(m, dtype=int)], "it": np.r_[0, np.ones(m, dtype=int)],
+    }
+    return _result(True, 0, f"completed {m} steps", arr, final, m, options)
+
+
+def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str:
+    """The failure cause of a compiled segment, worded as :func:`_solve` words it."""
+    from grainmech.contact._errors import ReversalMemoryError
+    from grainmech.contact.law import max_reversals
+    from grainmech.driver.affine import _mixed
+
+    code = seg["cause"]
+    val, tol, sl, op = seg["finfo"]
+    if code == _mixed.FAIL_SINGULAR:
+        cause = (f"tangent singular (condition {val:.3g}), {100 * sl:.0f}% of contacts sliding, "
+                 f"{100 * op:.0f}% open")
+    elif code == _mixed.FAIL_NOT_FINITE:
+        cause = "Newton update not finite"
+    elif code == _mixed.FAIL_NO_CONVERGENCE:
+        cause = (f"Newton did not converge in {options.max_iter} iterations (residual {val:.3g} > {tol:.3g}), "
+                 f"{100 * sl:.0f}% of contacts sliding, {100 * op:.0f}% open")
+    elif seg["flag"] in (1, 2):
+        cause = ("contact law error: "
+                 f"{ReversalMemoryError(np.array([seg['contact']]), max_reversals(point.law.params))}")
+    else:
+        cause = "contact law error: Mindlin-Deresiewicz branch integration did not terminate"
+    return f"{cause} (after {options.max_depth} halvings)"
+
+
+def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult:
+    """:func:`run` with each segment of constant control mask in one compiled call.
+
+    :func:`grainmech.driver.affine._mixed.mixed_segment` runs the loop of :func:`run` /
+    :func:`_subdivided` / :func:`_solve`, with the same rules and messages.
+    """
+    from grainmech.driver.affine._mixed import mixed_segment
+
+    m = len(path)
+    sc_all = path.stress_control
+    sl0, op0 = point.fractions()
+    rows: dict[str, list] = {
+            "strain": [point.strain[None]], "stress": [point.stress[None]], "tangent": [point.tangent[None]],
+            "sl": [[sl0]], "op": [[op0]], "diss": [[0.0]], "work": [[0.0]], "stored": [[point.stored_energy()]],
+            "sub": [[0]], "it": [[0]]}
+    t_stress = point.stress.copy()
+    t_strain = point.strain.copy()
+    prev = None
+    diss = work = 0.0
+    n_loose = 0
+    success, status, message = True, 0, f"completed {m} steps"
+    a = 0
+    while a < m:
+        sc = sc_all[a]
+        b = a + 1
+        while b < m and np.array_equal(sc_all[b], sc):
+            b += 1
+        if prev is not None:  # a component switching control restarts from the state
+            switched = sc != prev
+            t_stress = np.where(switched & sc, point.stress, t_stress)
+            t_strain = np.where(switched & ~sc, point.strain, t_strain)
+        prev = sc
+        seg: dict[str, Any] = mixed_segment(point, sc, path.increment[a:b], t_stress, t_strain, options)
+        k = seg["done"]
+        t_stress, t_strain = seg["t_stress"], seg["t_strain"]
+        n_loose += seg["n_loose"]
+        for key, name in (("strain", "strain"), ("stress", "stress"), ("tangent", "tangent"), ("sl", "sliding"),
+                          ("op", "open"), ("stored", "stored"), ("sub", "substeps"), ("it", "iterations")):
+            rows[key].append(seg[name])
+        rows["diss"].append(diss + np.cumsum(seg["dissipation"]))
+        rows["work"].append(work + np.cumsum(seg["work"]))
+        if k:
+            diss = float(rows["diss"][-1][-1])
+            work = float(rows["work"][-1][-1])
+        point = replace(point, state=seg["state"], response=seg["response"], strain=seg["strain_end"],
+                        stress=seg["stress_end"])
+        object.__setattr__(point, "tangent", seg["tangent_end"])
+        if seg["cause"]:
+            success, status = False, 1
+            message = f"step {a + k + 1}: stress target not reachable: {_mixed_cause(seg, point, options)}"
+            break
+        a = b
+    if n_loose:
+        message += (f" ({n_loose} (sub)step(s) accepted at the contact law's resolution: stress residual "
+                    f"<= {options.rtol_accept:g} x stress scale)")
+    arr = {key: np.concatenate([np.asarray(v, dtype=float) if key not in ("sub", "it") else np.asarray(v)
+                                for v in vals]) for key, vals in rows.items()}
+    return _result(success, status, message, arr, point, m, options)

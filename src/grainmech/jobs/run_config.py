@@ -1,0 +1,259 @@
+"""Reading a ``grainmech run`` config into a :class:`~grainmech.jobs.spec.RunSpec` (strict keys).
+
+Tables ``[model]``, ``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
+``[quadrature]``, ``[test]`` (with ``[[test.segments]]`` of a path), ``[reference]``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from grainmech.contact import Hertz, LinearSpring
+from grainmech.driver import concatenate, cycles, parse_mask, segment
+from grainmech.errors import ConfigError, GrainmechError
+from grainmech.fabric import LEBEDEV_ORDERS
+from grainmech.io.config import Section
+from grainmech.io.dem import read_network
+from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure
+from grainmech.io.units import to_float
+from grainmech.jobs.checks import input_warnings
+from grainmech.jobs.dem import _check_dem, _dem_settings, _read_dem_keys
+from grainmech.jobs.spec import (
+    CYCLIC_SIMPLE_SHEAR,
+    GRAIN_METHODS,
+    RUN_METHODS,
+    RUN_TEST_KINDS,
+    PackingSource,
+    RunSpec,
+    _read_amplitudes,
+)
+from grainmech.packing import load_packing
+
+__all__ = ["prepare_run"]
+
+
+def _read_methods(model: Any) -> tuple:
+    """``[model] method``: one of :data:`RUN_METHODS` or a list of them (default ``"affine"``)."""
+    raw = model.raw("method", "affine")
+    items = [raw] if isinstance(raw, str) else raw
+    if not isinstance(items, list) or not items or not all(isinstance(m, str) for m in items):
+        raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them")
+    bad = [m for m in items if m not in RUN_METHODS]
+    if bad or len(set(items)) != len(items):
+        raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them "
+                          "(each at most once)")
+    return tuple(items)
+
+
+class _GmaxKey:
+    """``[model]`` seen by :func:`_read_grains` with ``gmax_packing`` in place of ``packing``."""
+
+    def __init__(self, model: Any) -> None:
+        self._m = model
+
+    def has(self, k: str) -> bool:
+        return self._m.has("gmax_packing") if k == "packing" else False
+
+    def raw(self, k: str, default: Any = None) -> Any:
+        return self._m.raw("gmax_packing", default) if k == "packing" else default
+
+    def key(self, k: str) -> str:
+        return self._m.key("gmax_packing" if k == "packing" else k)
+
+
+def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
+    """The packing of ``method = "packing"`` from the ``[model]`` table.
+
+    ``packing = "<name>"`` (a shipped packing, :func:`grainmech.packing.load_packing`) or
+    ``network = "<file>"`` (a contact network :func:`grainmech.io.dem.read_network` reads;
+    ``particles`` and ``format`` as in the ``[network]`` table of ``grainmech dem``).
+    """
+    has_name, has_file = model.has("packing"), model.has("network")
+    if has_name == has_file:
+        raise ConfigError(model.key("packing"), model.raw("packing", None),
+                          "method = 'packing' needs exactly one of model.packing (a shipped packing by name) "
+                          "or model.network (a contact-network file)")
+    if has_name:
+        name = model.raw("packing")
+        if not isinstance(name, str):
+            raise ConfigError(model.key("packing"), name, "must be the name of a shipped packing")
+
+        try:
+            net = load_packing(name)
+        except GrainmechError as exc:
+            raise ConfigError(model.key("packing"), name, str(exc)) from None
+        label = f"shipped packing {name!r}"
+    else:
+        base = Path(base_dir) if base_dir is not None else Path(".")
+
+        def path(k: str) -> Path | None:
+            v = model.raw(k, None)
+            if v is None:
+                return None
+            if not isinstance(v, str) or not v.strip():
+                raise ConfigError(model.key(k), v, "must be a file path")
+            return base / v
+
+        contacts, particles = path("network"), path("particles")
+        if contacts is None:  # has_file: model.network is given
+            raise ConfigError(model.key("network"), None, "must be a file path")
+        fmt = model.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto")
+        net = read_network(contacts, particles, format=fmt)
+        label = str(model.raw("network"))
+    if net.dim != 3 or net.radii is None or not net.box.periodic.all():
+        raise ConfigError(model.key("packing" if has_name else "network"), label,
+                          "the packing driver needs a 3D periodic packing of spheres with radii")
+    return PackingSource(label, net)
+
+
+def _segments(sec: Any) -> Any:
+    """``[[test.segments]]`` -> LoadPath (each: control, change | direction+amplitude+cycles)."""
+    raw = sec.raw("segments")
+    if not isinstance(raw, list) or not raw:
+        raise ConfigError(sec.key("segments"), raw, "must be a non-empty array of tables [[test.segments]]")
+    parts = []
+    for i, item in enumerate(raw):
+        s = Section(item, f"{sec.key('segments')}[{i}]")
+        ctrl_text = s.raw("control")
+        try:
+            ctrl = parse_mask(str(ctrl_text))
+        except GrainmechError as exc:
+            raise ConfigError(s.key("control"), ctrl_text, str(exc)) from None
+        mask = [c == "S" for c in str(ctrl_text).upper()]
+        units = ["Pa" if m else None for m in mask]
+        if s.has("change"):
+            ch = s.raw("change")
+            if not isinstance(ch, list) or len(ch) != 6:
+                raise ConfigError(s.key("change"), ch, "must list 6 values (xx, yy, zz, yz, xz, xy)")
+            change = [to_float(v, u, s.key("change")) for v, u in zip(ch, units)]
+            parts.append(segment(ctrl, change, s.integer("steps", min=1)))
+        else:
+            d = s.raw("direction")
+            if not isinstance(d, list) or len(d) != 6:
+                raise ConfigError(s.key("direction"), d, "must list 6 values")
+            direction = [float(to_float(v, None, s.key("direction"))) for v in d]
+            k = int(np.argmax(np.abs(direction)))
+            amp = s.number("amplitude", units[k], min=0, min_inclusive=False)
+            parts.append(cycles(ctrl, direction, amp, s.integer("n_cycles", min=1),
+                                s.integer("steps_per_cycle", min=4),
+                                s.choice("waveform", ("triangle", "sine"), "triangle")))
+        s.finish()
+    return concatenate(parts)
+
+
+def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
+    """Read a driver config (strict keys).
+
+    Tables ``[model]``, ``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
+    ``[quadrature]``, ``[test]``, ``[reference]``.
+    """
+    root = Section(cfg, "")
+    model = root.section("model", {})
+    methods = _read_methods(model)
+    grains = _read_grains(model, base_dir) if any(m in methods for m in GRAIN_METHODS) else None
+    gmax_grains = None
+    if model.has("gmax_packing"):
+        if any(m in methods for m in GRAIN_METHODS):
+            raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
+                              "is for method = 'affine' alone (the small-strain Gmax of a packing beside the "
+                              "affine model's); with method 'packing' the packing model reports its own Gmax")
+        gmax_grains = _read_grains(_GmaxKey(model), base_dir)
+    for k in ("packing", "network", "particles", "format"):
+        if grains is None and model.has(k):
+            raise ConfigError(model.key(k), model.raw(k), "names the packing of method = 'packing' or 'dem', "
+                              f"which this config does not use (method = {list(methods)})")
+    fit: dict = {}
+    density = build_fabric(root.section("fabric", {}), fit)
+    if density.dim != 3:
+        raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
+    ini = root.section("initial")
+    pressure = build_pressure(ini)
+    if "affine" in methods:
+        packing = build_packing(root.section("packing"), density, pressure)
+        law = build_law(root.section("contacts"), packing.radius)
+    else:
+        if root.has("packing"):
+            raise ConfigError("packing", cfg.get("packing"), "[packing] describes the affine model's "
+                              "packing (void ratio, coordination, radius); with method = 'packing' the "
+                              "grains come from model.packing or model.network: remove the table or add "
+                              "'affine' to model.method")
+        packing = None
+        if grains is None:  # _read_grains gives the packing whenever 'packing' is a method
+            raise ConfigError("model.method", list(methods), "the packing model needs model.packing or model.network")
+        law = build_law(root.section("contacts"), float(np.median(grains.network.require_radii("the packing model"))))
+    packing_law = None
+    if grains is not None or gmax_grains is not None:
+        if not isinstance(law, (Hertz, LinearSpring)):
+            who = "method = 'packing'" if grains is not None else "model.gmax_packing"
+            raise ConfigError("contacts.law", type(law).__name__, f"{who} needs a law for spheres "
+                              "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
+    if "dem" in methods:
+        _check_dem(law)
+    if grains is not None:
+        # the packing driver evaluates every contact at its own radius R_A R_B / (R_A + R_B)
+        # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
+        # own radius is only a reference
+        packing_law = law
+    quad = root.section("quadrature", {})
+    degree = quad.integer("degree", 23, min=4)
+    MAX_SPHERE_DEGREE = max(LEBEDEV_ORDERS)
+    top = MAX_SPHERE_DEGREE - density.order
+    if degree > top:
+        raise ConfigError(quad.key("degree"), degree, f"must be <= {top}"
+                          + (f" for this fabric (density of order {density.order}): the rule must "
+                             f"integrate density x integrand, {MAX_SPHERE_DEGREE} at most"
+                             if density.order else " (the highest Lebedev rule)"))
+    test = root.section("test")
+    kind = test.choice("kind", RUN_TEST_KINDS)
+    if gmax_grains is not None and kind != CYCLIC_SIMPLE_SHEAR:
+        raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
+                          f"is reported beside the G/Gmax curves of a cyclic test, not with test.kind = {kind!r}")
+    ref = root.section("reference", {})
+    spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
+                   methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains)
+    pk = cfg.get("packing", {})
+    if isinstance(pk, dict) and "void_ratio" in pk:
+        spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
+    spec.friction = float(getattr(law, "friction", float("inf")))
+    spec.warnings = input_warnings(cfg)
+    if fit and ((fit["p_value"] is not None and fit["p_value"] < 0.01) or fit["shrink_factor"] < 1):
+        spec.warnings.append(fit["summary"] + ": the fitted order does not describe the measured normals "
+                             "well (raise fabric.fit_order, or check the file)")
+    if kind == CYCLIC_SIMPLE_SHEAR:
+        spec.amplitudes = _read_amplitudes(test, "amplitudes")
+        if model.has("packing_amplitudes"):
+            if "packing" not in methods:
+                raise ConfigError(model.key("packing_amplitudes"), model.raw("packing_amplitudes"),
+                                  f"is for method = 'packing', which this config does not use (method = "
+                                  f"{list(methods)})")
+            spec.packing_amplitudes = _read_amplitudes(model, "packing_amplitudes")
+        _read_dem_keys(spec, model, methods)
+        spec.keep_beyond_envelope = model.boolean("keep_beyond_envelope", False)
+        spec.n_cycles = test.integer("n_cycles", 2, min=2)
+        spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
+        spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
+        spec.constant = test.choice("constant", ("stress", "volume"), "stress")
+        mu = float(getattr(packing_law, "friction", 0.0) or 0.0)
+        if packing_law is not None and not (0 < mu < float("inf")):
+            raise ConfigError("contacts.friction", getattr(packing_law, "friction", None),
+                              "damping needs friction: the packing model's loops have no area without a finite "
+                              "Coulomb limit (give contacts.friction or contacts.friction_angle)")
+        spec.reference = dict(
+            pi=ref.number("plasticity_index", None, 0.0, min=0),
+            ocr=ref.number("ocr", None, 1.0, min=0, min_inclusive=False),
+            n_cycles=ref.number("n_cycles", None, 10.0, min=0, min_inclusive=False),
+            frequency=ref.number("frequency", "Hz", 1.0, min=0, min_inclusive=False),
+            phi=ref.angle("friction_angle", float(np.radians(33.0)), max_deg=90.0))
+        root.finish()
+        return spec
+    for k in ("packing_amplitudes", "dem_amplitudes", "dem_steps_per_cycle", "keep_beyond_envelope"):
+        if model.has(k):
+            raise ConfigError(model.key(k), model.raw(k), f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
+    if "dem" in methods:
+        spec.dem_settings, spec.dem_workers = _dem_settings(model)
+    spec.path = _segments(test)
+    root.finish()
+    return spec

@@ -1,0 +1,269 @@
+"""Typed results of the jobs (:mod:`grainmech.jobs`), below :mod:`grainmech.io`.
+
+The outcome of every run kind (:class:`StiffnessOutcome`, :class:`CyclicOutcome`,
+:class:`PathOutcome`, :class:`RunComparison`, :class:`DemOutcome`,
+:class:`ContactOutcome`) and the report lines written from them. The jobs build them;
+:mod:`grainmech.io.reports` writes them; neither needs the other to read them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["StiffnessOutcome", "RunOutcome", "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome",
+           "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line"]
+
+
+@dataclass
+class StiffnessOutcome:
+    """Result of a ``stiffness`` job.
+
+    Attributes
+    ----------
+    result : grainmech.material.StiffnessResult
+        Voigt stiffness ``C`` (library order) [Pa], contact set, forces, stress.
+    engineering : EngineeringConstants
+        Engineering constants of ``C``.
+    symmetry : SymmetryClass
+        Material symmetry class of ``C``.
+    packing : grainmech.material.Microstructure
+        The analytical description read from the ``[packing]`` table.
+    dim : int
+    """
+
+    result: Any
+    engineering: Any
+    symmetry: Any
+    packing: Any
+    dim: int
+    fabric_fit: dict | None = None  # the fit of a [fabric] normals file (io.schema.build_fabric)
+
+    @property
+    def mean_stress(self) -> float:
+        """Mean stress of the state [Pa] (compression positive)."""
+        return float(np.trace(self.result.stress) / self.dim)
+
+
+@dataclass
+class RunOutcome:
+    """Result of a ``run`` job (common part).
+
+    Attributes
+    ----------
+    kind : str
+        The test (``[test] kind``, :data:`grainmech.jobs.RUN_TEST_KINDS`): cyclic simple
+        shear or a path.
+    pressure : float
+        Initial isotropic stress [Pa].
+    results : list of grainmech.driver.DriverResult
+        One per amplitude (cyclic) or one (path).
+    success : bool
+    message : str
+    seconds : float
+    point : grainmech.driver.MaterialPoint
+        The initial state.
+    warnings : list of str
+        Plausibility warnings (value and reason).
+    method : str
+        ``"affine"``, ``"packing"`` or ``"dem"`` (:data:`grainmech.jobs.RUN_METHODS`).
+    details : dict
+        For ``"packing"``: the packing (label, grains, rattlers, contacts, void ratio, input
+        mean stress, notes of the point) and the largest equilibrium residual of any step.
+    """
+
+    kind: str
+    pressure: float
+    results: list
+    success: bool
+    message: str
+    seconds: float
+    point: Any
+    warnings: list = field(default_factory=list)
+    method: str = "affine"
+    details: dict = field(default_factory=dict)
+
+
+@dataclass
+class CyclicOutcome(RunOutcome):
+    """Cyclic simple shear at several amplitudes (``analysis.modulus_reduction``).
+
+    Attributes
+    ----------
+    amplitudes, G, damping : ndarray (k,)
+        Amplitudes reached (decimal strain), secant modulus [Pa], damping ratio (decimal).
+    G_max : float
+        Small-strain modulus [Pa] that normalises every G/Gmax.
+    reference : dict
+        Inputs of the empirical reference curves (``pi``, ``ocr``, ``n_cycles``,
+        ``frequency``, ``phi`` [rad]).
+    empirical_G_max : dict or None
+        :func:`empirical_gmax_check`.
+    run_amplitudes : ndarray (len(results),)
+        Amplitude of every run in ``results``: the completed ones and, after a failure,
+        the one that failed (its steps up to the failure are kept).
+    envelope : list of dict
+        :func:`cyclic_envelope` of every run in ``results`` (every recorded state against
+        the Mohr-Coulomb envelope of sands).
+    loop_quality : list of grainmech.analysis.LoopQuality
+        :func:`grainmech.analysis.loop_quality` of the analysed (last) cycle of every
+        completed amplitude.
+    keep_beyond_envelope : bool
+        ``[model] keep_beyond_envelope``: amplitudes beyond the envelope stay in
+        ``site_response_curves.csv``.
+    """
+
+    amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    damping: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G_max: float = float("nan")
+    reference: dict = field(default_factory=dict)
+    empirical_G_max: dict | None = None
+    run_amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    envelope: list = field(default_factory=list)
+    loop_quality: list = field(default_factory=list)
+    keep_beyond_envelope: bool = False
+
+    @property
+    def beyond_envelope(self) -> np.ndarray:
+        """Whether each completed amplitude's run leaves the envelope of sands (bool, len(G))."""
+        return np.array([bool(e["beyond_any"]) for e in self.envelope[:len(self.G)]], dtype=bool)
+
+    @property
+    def completed_results(self) -> list:
+        """Runs of the completed amplitudes (aligned with ``amplitudes``, ``G``, ``damping``)."""
+        return [r for r in self.results if r.success][:len(self.G)]
+
+    @property
+    def G_ratio(self) -> np.ndarray:
+        """G / Gmax at each amplitude."""
+        return np.asarray(self.G, dtype=float) / self.G_max
+
+    @property
+    def mean_stress_change(self) -> np.ndarray:
+        """Relative change of the mean stress over each amplitude's run.
+
+        ``p_end / p_0 - 1``: at constant sigma_zz the horizontal stresses change during
+        cycling (affine model).
+        """
+        return np.array([float(np.mean(r.stress[-1, :3]) / np.mean(r.stress[0, :3]) - 1.0)
+                         for r in self.completed_results])
+
+
+@dataclass
+class PathOutcome(RunOutcome):
+    """A mixed-control path; ``envelope`` is :func:`envelope_check` of its stresses."""
+
+    envelope: dict | None = None
+
+
+@dataclass
+class RunComparison:
+    """Several kinematic models on one test (``[model] method`` a list).
+
+    One :class:`RunOutcome` per method, in the config's order.
+    """
+
+    outcomes: list
+
+    @property
+    def success(self) -> bool:
+        """Whether every method succeeded."""
+        return all(o.success for o in self.outcomes)
+
+    @property
+    def message(self) -> str:
+        """Each method's message, prefixed with the method."""
+        return "; ".join(f"{o.method}: {o.message}" for o in self.outcomes)
+
+    @property
+    def warnings(self) -> list:
+        """Every method's warnings."""
+        return [w for o in self.outcomes for w in o.warnings]
+
+    @property
+    def seconds(self) -> float:
+        """Wall time of all methods [s]."""
+        return float(sum(o.seconds for o in self.outcomes))
+
+    @property
+    def kind(self) -> str:
+        """The test kind (the same for every method)."""
+        return self.outcomes[0].kind
+
+    @property
+    def pressure(self) -> float:
+        """The initial mean stress [Pa] (the same for every method)."""
+        return self.outcomes[0].pressure
+
+
+@dataclass
+class DemOutcome:
+    """Result of a ``dem`` job: the network read and its measures.
+
+    Attributes
+    ----------
+    network : grainmech.network.ContactNetwork
+    report : dict
+        :func:`grainmech.network.network_report` (stress, fabric, coordination, affine and
+        relaxed stiffness, engineering constants, notes).
+    """
+
+    network: Any
+    report: dict
+
+
+@dataclass
+class ContactOutcome:
+    """Result of a ``contact`` job.
+
+    Attributes
+    ----------
+    columns : dict of str -> ndarray (k+1,)
+        :data:`grainmech.io.reports.CONTACT_COLUMNS`; row 0 is the initial state. SI units
+        (N and m; N/m and m for a rod contact per unit length).
+    law : str
+        Class name of the contact law.
+    force_unit : str
+        ``"N"`` or ``"N/m"`` (rods).
+    """
+
+    columns: dict
+    law: str
+    force_unit: str
+
+
+def envelope_and_loop_warnings(method: str, amplitudes: Any, envelope: list, quality: list) -> list[str]:
+    """One warning per amplitude beyond the envelope of sands and per loop out of tolerance."""
+    out = []
+    for a, env, q in zip(amplitudes, envelope, quality):
+        if env["beyond_any"]:
+            why = {"affine": "the affine model cannot fail (every contact follows the mean strain): this "
+                             "amplitude's G/Gmax and damping are not predictions for a sand",
+                   "packing": "the packing model keeps a fixed reference geometry: read this amplitude with "
+                              "its sliding fraction and equilibrium residual",
+                   "dem": "read this amplitude with its unbalanced force ratio"}.get(method, "")
+            r = env["max_ratio"]
+            rt = f"up to {r:.3g}" if np.isfinite(r) else "unbounded: sigma3 <= 0"
+            out.append(f"{method} model, amplitude {a:.1e}: beyond the envelope of sands from step "
+                       f"{env['first_step']} (sigma1/sigma3 {rt}, limit {env['limit']:.2f}: "
+                       f"Mohr-Coulomb phi = {env['friction_angle_deg']:g} deg; tau_xz/sigma_zz up to "
+                       f"{env['max_tau_over_sigma_zz']:.3g}); {why}")
+        out += [f"{method} model, amplitude {a:.1e}: {p}" for p in q.problems]
+    return out
+
+
+def packing_gmax_line(pg: dict, g_affine: float) -> str:
+    """The report line of :func:`packing_gmax` beside the affine model's ``g_affine``."""
+    if "error" in pg:
+        return f"  packing Gmax ({pg['packing']}): not computed: {pg['error']}"
+    g = pg["G_max_Pa"]
+    line = (f"  packing Gmax ({pg['packing']}, {pg['grains']} grains in equilibrium, void ratio "
+            f"{pg['void_ratio']:.3f}, small strain only) = {g:.4g} Pa: the affine Gmax is {g_affine / g:.2f} x this")
+    emp = pg.get("empirical_G_max")
+    if emp:
+        line += (f"; Hardin-Richart (1963) at e = {pg['void_ratio']:.3f}: {emp['G_round_Pa']:.4g} Pa round, "
+                 f"{emp['G_angular_Pa']:.4g} Pa angular grains")
+    return line
