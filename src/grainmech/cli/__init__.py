@@ -30,7 +30,7 @@ from grainmech import __version__
 from grainmech.errors import GrainmechError, Terminated
 
 #: sub-command modules, each with ``register(subparsers)``
-_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate", "pack")
+_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate", "pack", "site")
 
 
 def build_parser() -> argparse.ArgumentParser:
