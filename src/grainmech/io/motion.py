@@ -123,12 +123,12 @@ def _read_two_column(path: Path, text: str, units: str) -> Motion:
     d = np.diff(tt)
     dt = float(d[0])
     if not dt > 0:
-        raise _bad(path, f"line {lineno[1]}: time {tt[1]!r} does not increase")
+        raise _bad(path, f"line {lineno[1]}: time {float(tt[1]):.10g} s does not increase")
     bad = np.flatnonzero(np.abs(d - dt) > DT_TOLERANCE * dt)
     if bad.size:
         i = int(bad[0]) + 1
-        raise _bad(path, f"non-uniform time step: line {lineno[i]} (t = {tt[i]!r} s) is {d[i - 1]!r} s after the "
-                   f"previous sample, the first step is {dt!r} s")
+        raise _bad(path, f"non-uniform time step: line {lineno[i]} (t = {float(tt[i]):.10g} s) is "
+                   f"{float(d[i - 1]):.10g} s after the previous sample, the first step is {dt:.10g} s")
     if not np.all(np.isfinite(a)):
         raise _bad(path, "an acceleration is not finite")
     return Motion(dt, np.asarray(a) * MOTION_UNITS[units], f"{path.name} ({units})", path.name)

@@ -38,7 +38,20 @@ def _say(quiet: bool) -> Callable[[str], None]:
 
 def _parallel(fn: Callable[[Any], Any], items: list, client: Any, scheduler: str | None,
               workers: int | None) -> Any:
-    """``(index, value, ok)`` of ``fn`` over ``items`` in completion order (:func:`map_completed`)."""
+    """``(index, value, ok)`` of ``fn`` over ``items`` in completion order.
+
+    On a Dask cluster (:func:`grainmech.parallel.map_completed`) when a client, a
+    scheduler or more than one worker is given; in this process, one item after the other,
+    otherwise (what one in-process Dask worker would do, without starting a cluster).
+    """
+    if client is None and scheduler is None and (workers is None or workers == 1):
+        for i, item in enumerate(items):
+            try:
+                value, ok = fn(item), True
+            except Exception as exc:  # noqa: BLE001 (reported as the item's failure, as on Dask)
+                value, ok = exc, False
+            yield i, value, ok
+        return
     from grainmech.parallel import map_completed, open_client
 
     if client is not None:
@@ -61,7 +74,8 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
         their inputs are unchanged.
     client, scheduler, workers
         As :func:`grainmech.sweep.run_sweep`: a Dask client, or a scheduler address, or a
-        number of local workers (default: one in-process worker).
+        number of local workers; default (none of them, or ``workers = 1``): the layers
+        one after the other in this process.
     quiet : bool
         No progress lines on stderr.
     response : bool
