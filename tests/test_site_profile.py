@@ -39,7 +39,7 @@ friction = 0.5
 [quadrature]
 degree = 5
 [test]
-amplitudes = [1e-6, 1e-5, 1e-4]
+amplitudes = [1e-6, 1e-5, 1e-4, 1e-3]
 n_cycles = 2
 steps_per_cycle = 16
 [[layers]]
@@ -182,7 +182,10 @@ def test_outputs_and_anchoring(site_run):
     assert abs(a["mismatch"]) < 1e-9 and deep["G_max_Pa"] == pytest.approx(a["G_target_Pa"], rel=1e-9)
     assert deep["vs_model_m_s"] == pytest.approx(200.0, rel=1e-9)
     c = read_curves(out / "curves/02-deep.csv")
+    # 1e-3 leaves the envelope of sands (affine model): left out of the curve file, as in grainmech run
+    assert deep["amplitudes"] == [1e-6, 1e-5, 1e-4, 1e-3] and deep["beyond_envelope"] == [False] * 3 + [True]
     assert c.g_max == pytest.approx(deep["G_max_Pa"]) and list(c.strain) == [1e-6, 1e-5, 1e-4]
+    assert "beyond the envelope of sands left out: [0.001]" in c.comment
     assert c.g_ratio[0] > 0.99 and np.all(np.diff(c.g_ratio) < 0)
     rows = list(csv.DictReader((out / "layers.csv").open()))
     assert [r["status"] for r in rows] == ["ok", "ok"]
@@ -265,7 +268,7 @@ def test_stopped_layer_is_reported_others_complete_exit_1(tmp_path, cli, monkeyp
     assert res.rc == 1
     rows = list(csv.DictReader((tmp_path / "o/layers.csv").open()))
     assert rows[0]["status"] == "stopped" and "step 3 failed" in rows[0]["message"]
-    assert rows[0]["amplitudes done"] == "1" and rows[1]["status"] == "ok"
+    assert rows[0]["amplitudes done"] == "1" and rows[1]["status"] == "ok" and rows[1]["amplitudes done"] == "4"
     assert "1 stopped" in res.out
 
 

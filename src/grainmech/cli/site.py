@@ -61,7 +61,7 @@ def main(args: argparse.Namespace) -> int:
     sr = s["site_response"]
     if sr.get("run") is False:
         print(f"site response: {sr['reason']}")
-    for w in s["warnings"]:
+    for w in [f"layer {r['name']!r}: {w}" for r in s["layers"] for w in r.get("warnings", [])] + s["warnings"]:
         print(f"grainmech: warning: {w}", file=sys.stderr)
     print(f"grainmech site: {s['n_layers']} layers: {s['succeeded']} completed, {s['stopped']} stopped, "
           f"{s['failed']} failed, {s['reused']} reused; {args.outdir}/index.html")

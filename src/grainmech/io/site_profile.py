@@ -84,19 +84,21 @@ def write_layers_table(path: str | Path, records: list[dict]) -> Path:
 def write_layer_curves(folder: str | Path, rec: dict, source: str) -> list[str]:
     """The layer's curve files in the site-response format; returns their names (relative to ``folder``).
 
-    ``<slug>.csv``: the model's completed amplitudes (none if no amplitude completed);
+    ``<slug>.csv``: the model's completed amplitudes, those beyond the envelope of sands
+    left out (``site_curve`` of the record; no file if none is left);
     ``<slug>-darendeli.csv``: Darendeli (2001) at the layer's mean effective stress.
     """
     folder = Path(folder)
     out = []
     p = rec["p_eff_Pa"]
-    if rec.get("amplitudes"):
-        g = min(rec["G_ratio"])
-        if g > 0:
-            write_curves(folder / f"{rec['slug']}.csv", rec["amplitudes"], rec["G_ratio"], rec["damping"],
-                         g_max=rec["G_max_Pa"], source=f"{source}: layer {rec['name']!r}, {rec['method']} model, "
-                         f"{rec['grains']}, mean effective stress {p:.6g} Pa")
-            out.append(f"{rec['slug']}.csv")
+    c = rec.get("site_curve") or {}
+    if c.get("strain"):
+        left = c.get("left_out") or []
+        write_curves(folder / f"{rec['slug']}.csv", c["strain"], c["G_ratio"], c["damping"],
+                     g_max=rec["G_max_Pa"], source=f"{source}: layer {rec['name']!r}, {rec['method']} model, "
+                     f"{rec['grains']}, mean effective stress {p:.6g} Pa"
+                     + (f"; amplitudes beyond the envelope of sands left out: {left}" if left else ""))
+        out.append(f"{rec['slug']}.csv")
     d = rec.get("darendeli")
     if d:
         write_curves(folder / f"{rec['slug']}-darendeli.csv", d["strain"], d["G_ratio"], d["damping"],

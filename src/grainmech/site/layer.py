@@ -179,6 +179,9 @@ def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
 
     ``status`` is ``"ok"`` when every amplitude completed, ``"stopped"`` when the model
     stopped (the record keeps the amplitudes done and the model's message).
+    ``site_curve`` holds the curves for site response: the completed amplitudes except
+    those beyond the envelope of sands (unless ``[model] keep_beyond_envelope``), the rule
+    of ``grainmech run``'s ``site_response_curves.csv``.
     """
     from grainmech.jobs import CyclicOutcome, execute_run
 
@@ -205,6 +208,14 @@ def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
                darendeli=_darendeli(spec, layer, amps[order]), empirical_G_max=out.empirical_G_max,
                warnings=list(out.warnings), details={k: v for k, v in out.details.items() if k != "notes"},
                config=layer_config(layer, modulus))
+    # the curves for site response: as grainmech run's site_response_curves.csv, an
+    # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope
+    keep = (~out.beyond_envelope | bool(out.keep_beyond_envelope))[order]
+    rec["beyond_envelope"] = out.beyond_envelope[order].tolist()
+    rec["site_curve"] = {"strain": amps[order][keep].tolist(),
+                         "G_ratio": np.asarray(out.G_ratio)[order][keep].tolist(),
+                         "damping": np.asarray(out.damping)[order][keep].tolist(),
+                         "left_out": amps[order][~keep].tolist()}
     if anchor:
         a = dict(anchor)
         a["G_checked_Pa"] = g_max
@@ -219,5 +230,6 @@ def failed_record(layer: Layer, error: BaseException) -> dict:
     """The record of a layer whose task raised (``status = "failed"``)."""
     rec = layer_facts(layer)
     rec.update(key=layer_key(layer), status="failed", message=f"{type(error).__name__}: {error}",
-               amplitudes=[], G_ratio=[], damping=[], G_max_Pa=None, vs_model_m_s=None, warnings=[])
+               amplitudes=[], G_ratio=[], damping=[], G_max_Pa=None, vs_model_m_s=None, warnings=[],
+               site_curve={"strain": [], "G_ratio": [], "damping": [], "left_out": []})
     return rec

@@ -56,10 +56,11 @@ def _soil(rec: dict, curves: str, reference: dict) -> Any:
                                                ocr=ref.get("ocr", 1.0), stress_mean=rec["p_eff_Pa"] / 1e3,
                                                freq=ref.get("frequency", 1.0), num_cycles=ref.get("n_cycles", 10.0))
     name = f"grainmech {rec['name']}"
-    strains = np.asarray(rec["amplitudes"], dtype=float)
+    c = rec["site_curve"]
+    strains = np.asarray(c["strain"], dtype=float)
     return pystrata.site.SoilType(
-        name, unit_wt, pystrata.site.NonlinearProperty(name, strains, np.asarray(rec["G_ratio"]), "mod_reduc"),
-        pystrata.site.NonlinearProperty(name, strains, np.asarray(rec["damping"]), "damping"))
+        name, unit_wt, pystrata.site.NonlinearProperty(name, strains, np.asarray(c["G_ratio"]), "mod_reduc"),
+        pystrata.site.NonlinearProperty(name, strains, np.asarray(c["damping"]), "damping"))
 
 
 def site_vs(rec: dict) -> float:
@@ -117,12 +118,13 @@ def _strain_warnings(records: list[dict], run: dict) -> list[str]:
     out = []
     for r in records:
         inside = (z >= r["top_m"]) & (z <= r["bottom_m"])
-        if not inside.any() or not r.get("amplitudes"):
+        last = max(r["site_curve"]["strain"], default=None)
+        if not inside.any() or last is None:
             continue
         peak = float(s[inside].max())
-        if peak > max(r["amplitudes"]):
+        if peak > last:
             out.append(f"site response with grainmech's curves, layer {r['name']!r}: strains up to {peak:.3g}, beyond "
-                       f"the last amplitude of its curves ({max(r['amplitudes']):.3g}); pystrata holds G/Gmax and "
+                       f"the last amplitude of its curves ({last:.3g}); pystrata holds G/Gmax and "
                        "damping at their last values there, so the response of this layer is not the model's")
     return out
 
@@ -142,10 +144,11 @@ def site_response(records: list[dict], bedrock: Any, water_table: float, motion:
                                       "time_step_s": motion.time_step, "points": int(len(motion.accel_g)),
                                       "pga_g": motion.pga_g, "location": location},
                            "vs_m_s": [site_vs(r) for r in records], "runs": {}, "warnings": []}
-    missing = [r["name"] for r in records if not r.get("amplitudes")]
+    missing = [r["name"] for r in records if not r["site_curve"]["strain"]]
     if missing:
         res["warnings"].append(f"no site response with grainmech's curves: layer(s) {missing} have no curve "
-                               "(their model stopped before the first amplitude)")
+                               "(their model stopped before the first amplitude, or every amplitude left the "
+                               "envelope of sands)")
     else:
         run = run_column(build_profile(records, bedrock, water_table, "grainmech"), motion, location)
         run["label"] = "grainmech curves"
