@@ -31,6 +31,7 @@ from typing import Any
 from grainmech.errors import ConfigError
 from grainmech.io.config import Section
 from grainmech.io.motion import MOTION_UNITS
+from grainmech.jobs import RUN_TEST_KINDS
 
 __all__ = ["SiteProfile", "Layer", "Bedrock", "MotionSpec", "read_profile", "jaky_k0", "layer_stresses",
            "GRAVITY", "GAMMA_WATER", "GRAIN_MODULUS_RANGE"]
@@ -369,9 +370,10 @@ def read_profile(cfg: dict, base_dir: str | Path | None = None, source: str = "p
     if method not in SITE_METHODS:
         raise ConfigError("model.method", method, f"a profile runs one model: one of {list(SITE_METHODS)}")
     test = run_base.setdefault("test", {})
-    if test.get("kind", "cyclic-simple-shear") != "cyclic-simple-shear":
-        raise ConfigError("test.kind", test.get("kind"), "a profile runs cyclic simple shear")
-    test["kind"] = "cyclic-simple-shear"
+    cyclic = RUN_TEST_KINDS[0]  # cyclic simple shear, the test of every layer
+    if test.get("kind", cyclic) != cyclic:
+        raise ConfigError("test.kind", test.get("kind"), f"a profile runs {cyclic!r}")
+    test["kind"] = cyclic
     layers = _read_layers(root, run_base, wt, gamma_w, k0_given)
     bottom = layers[-1].bottom
     if wt > bottom and math.isfinite(wt):
