@@ -276,3 +276,20 @@ def test_read_profile_rejects_two_methods():
     cfg = tomllib.loads(PROFILE.replace('method = "affine"', 'method = ["affine", "packing"]'))
     with pytest.raises(ConfigError, match="model.method"):
         read_profile(cfg)
+
+
+def test_anchoring_that_fails_in_the_model_stops_that_layer_only(tmp_path, cli, monkeypatch):
+    """A model that cannot give its Gmax at a layer's stress (e.g. the packing brought to
+    it fails) is not bad input: that layer's row says so, the other completes, exit 1."""
+    import grainmech.site.layer as layer_mod
+    from grainmech.errors import GrainmechError
+
+    def broken(spec):
+        raise GrainmechError("bringing the packing to the stress failed: step 4 (test)")
+
+    monkeypatch.setattr(layer_mod, "model_gmax", broken)
+    res = cli("site", _write(tmp_path), "-o", tmp_path / "o", "--quiet")
+    assert res.rc == 1
+    rows = list(csv.DictReader((tmp_path / "o/layers.csv").open()))
+    assert rows[1]["status"] == "stopped" and "anchoring to the measured Vs failed" in rows[1]["message"]
+    assert "step 4 (test)" in rows[1]["message"] and rows[0]["status"] == "ok"

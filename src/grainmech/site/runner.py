@@ -23,6 +23,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from grainmech.errors import ConfigError
 from grainmech.site.layer import anchor_task, check_anchor, failed_record, layer_key, prepare_layer, run_task
 from grainmech.site.profile import SiteProfile
 
@@ -124,24 +125,36 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
             records[layer.index] = rec
     todo = [la for la in profile.layers if la.index not in records]
     reused = len(records)
+    ran = len(todo)
     say(f"grainmech site: {profile.source}: {len(profile.layers)} layers ({profile.method} model), "
         f"{reused} reused, {len(todo)} to run")
     anchors: dict[int, dict] = {}
+    errors: dict[int, BaseException] = {}
     need = [la for la in todo if la.vs is not None]
     if need:  # 2. anchoring: a bad vs is an input error, raised before anything is written
         say(f"anchoring {len(need)} layer(s) to their measured Vs")
-        errors = {}
         for i, value, ok in _parallel(anchor_task, [(la, base) for la in need], *cluster):
             if ok:
                 anchors[need[i].index] = value
             else:
                 errors[need[i].index] = value
         for la in need:
-            if la.index in errors:
-                raise errors[la.index]
-            check_anchor(la, anchors[la.index])
-    if todo:  # 3. the layers, each saved as it finishes
+            err = errors.get(la.index)
+            if isinstance(err, ConfigError):
+                raise err
+            if err is None:
+                check_anchor(la, anchors[la.index])
+    if todo:
         ensure_dir(ldir)
+    for la in need:  # a model that cannot give its Gmax at the layer's stress: the layer stops there
+        if la.index in errors:
+            rec = failed_record(la, errors[la.index])
+            rec.update(status="stopped", message=f"anchoring to the measured Vs failed: {rec['message']}")
+            write_layer_record(ldir / f"{la.slug}.json", rec)
+            records[la.index] = rec
+            say(f"{la.label}: stopped: {rec['message']}")
+    todo = [la for la in todo if la.index not in records]
+    if todo:  # 3. the layers, each saved as it finishes
         tasks = [(la, base, anchors.get(la.index)) for la in todo]
         for i, value, ok in _parallel(run_task, tasks, *cluster):
             la = todo[i]
@@ -154,5 +167,5 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
     ordered = [records[la.index] for la in profile.layers]
     from grainmech.site.outputs import write_outputs
 
-    return write_outputs(folder.staging, profile, ordered, reused=reused, ran=len(todo), response=response,
+    return write_outputs(folder.staging, profile, ordered, reused=reused, ran=ran, response=response,
                          say=say, seconds=time.perf_counter() - t0, motion=motion)
