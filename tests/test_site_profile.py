@@ -293,3 +293,20 @@ def test_anchoring_that_fails_in_the_model_stops_that_layer_only(tmp_path, cli, 
     rows = list(csv.DictReader((tmp_path / "o/layers.csv").open()))
     assert rows[1]["status"] == "stopped" and "anchoring to the measured Vs failed" in rows[1]["message"]
     assert "step 4 (test)" in rows[1]["message"] and rows[0]["status"] == "ok"
+
+
+def test_without_pystrata_curves_are_written_and_the_install_is_named(tmp_path, cli, monkeypatch):
+    """With [motion] but no pystrata: the curve files the recipe reads, and how to install it."""
+    import grainmech.site.strata as strata
+
+    monkeypatch.setattr(strata, "pystrata_missing",
+                        lambda: f"pystrata is not installed (test); install it with: {strata.INSTALL_HINT}")
+    (tmp_path / "m.csv").write_text("".join(f"{0.01 * k:.2f},{0.01 * (k % 4)}\n" for k in range(50)))
+    text = PROFILE + ('\n[bedrock]\nvs = "760 m/s"\nunit_weight = "22 kN/m^3"\n'
+                      '[motion]\nfile = "m.csv"\nunits = "g"\n')
+    res = cli("site", _write(tmp_path, text), "-o", tmp_path / "o", "--quiet")
+    assert res.rc == 0
+    assert 'pip install "grainmech[site]"' in res.out
+    assert (tmp_path / "o/curves/01-top.csv").exists() and not (tmp_path / "o/response.png").exists()
+    s = json.loads((tmp_path / "o/summary.json").read_text())
+    assert s["site_response"]["run"] is False and "grainmech[site]" in s["site_response"]["reason"]
