@@ -228,10 +228,6 @@ def layer_stresses(top: float, thickness: float, gamma: float, sigma_above: floa
     return sigma_v, u, sv, sh, (sv + 2.0 * sh) / 3.0
 
 
-def _length(sec: Section, k: str, default: Any = None, *, positive: bool = True) -> Any:
-    return sec.number(k, "m", default, min=0, min_inclusive=not positive)
-
-
 def _grains(item: Section, run: dict, key_map: dict, label: str) -> None:
     """The layer's grain keys (:data:`GRAIN_KEYS`) and override tables into its run config."""
     if any(item.has(k) for k in ("packing", "network", "particles", "format")):
