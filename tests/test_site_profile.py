@@ -86,11 +86,11 @@ def test_jaky_rule():
 
 def test_example_profile_reads_and_its_stated_stresses_hold():
     """examples/site_sand_column.toml: 30 m, three layers, water table; the mean effective
-    stresses its header states (36, 84, 161 kPa)."""
+    stresses its header states (61, 112, 176 kPa)."""
     prof = load_profile(EX / "site_sand_column.toml")
-    assert prof.depth == 30.0 and len(prof.layers) == 3 and prof.water_table == 3.0
+    assert prof.depth == 30.0 and len(prof.layers) == 3 and prof.water_table == 5.0
     assert prof.method == "packing" and prof.motion is not None and prof.bedrock is not None
-    assert [round(la.p_eff / 1e3) for la in prof.layers] == [36, 84, 161]
+    assert [round(la.p_eff / 1e3) for la in prof.layers] == [61, 112, 176]
     assert prof.layers[0].k0 == pytest.approx(1 - math.sin(math.radians(33)))
 
 
