@@ -31,7 +31,7 @@ from grainmech._mpi import mpi_world_size
 from grainmech.errors import GrainmechError, Terminated
 
 #: sub-command modules, each with ``register(subparsers)``
-_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate", "pack")
+_COMMANDS = ("stiffness", "contact", "run", "dem", "reproduce", "sweep", "calibrate", "pack", "site")
 
 
 def build_parser() -> argparse.ArgumentParser:

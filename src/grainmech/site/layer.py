@@ -1,0 +1,235 @@
+"""One layer of a profile: its run config, the anchoring to a measured Vs, the run, its record.
+
+Every layer is one ``grainmech run`` (cyclic simple shear) at the layer's mean effective
+stress, prepared and executed by :func:`grainmech.jobs.prepare_run` and
+:func:`grainmech.jobs.execute_run` -- the packing model brings its packing to that
+stress with :meth:`grainmech.driver.packing.PackingPoint.at_stress` there, the affine
+model takes the pressure directly. The functions called in worker processes
+(:func:`anchor_task`, :func:`run_task`) take and return plain picklable values.
+
+Anchoring to a measured shear-wave velocity (issue 31 item 2). The target is
+``G_target = rho vs^2``. For Hertz-type contacts at fixed contact forces the contact
+stiffnesses scale as the grains' modulus to the power 2/3: Hertz (seed Eq. 3.1-3.7)
+``k_n = 2 E* a`` with ``a^3 = 3 N R / (4 E*)`` gives ``k_n ~ E*^(2/3) N^(1/3)``, and
+Mindlin's ``k_t = 8 G* a (1 - T / (mu N))^(1/3)`` gives ``k_t ~ G*^(2/3)`` at fixed
+``N``, ``T`` and Poisson's ratio. At a given stress the forces of the affine model are
+fixed by the stress alone, so its Gmax scales exactly as ``G_grain^(2/3)``; the grain
+shear modulus is therefore multiplied by ``(G_target / G_model)^(3/2)`` once, and the
+run at that modulus (its own Gmax) is the check: reported beside the target. The
+packing model's forces at the layer's stress come from a stress-controlled path that
+also depends on the modulus (``at_stress``), so there the check can differ from the
+target by a little; the record says by how much.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from grainmech.errors import ConfigError, GrainmechError
+from grainmech.site.profile import GRAIN_MODULUS_RANGE, Layer
+
+__all__ = ["layer_config", "prepare_layer", "model_gmax", "anchor_task", "check_anchor", "run_task",
+           "layer_key", "DARENDELI_STRAINS", "ANCHOR_TOLERANCE"]
+
+#: strains [decimal] of the Darendeli (2001) curves written beside the model's
+#: (pystrata's default grid of ``DarendeliSoilType``: 1e-6 ... 10^-1.5, 20 points)
+DARENDELI_STRAINS = np.logspace(-6, -1.5, num=20)
+#: relative difference between the anchored run's Gmax and rho vs^2 above which the
+#: record flags the anchoring
+ANCHOR_TOLERANCE = 0.01
+
+
+def layer_config(layer: Layer, grain_modulus: float | None = None) -> dict:
+    """The ``grainmech run`` config of ``layer``: its tables, ``[initial] pressure = p'``.
+
+    ``grain_modulus`` [Pa] replaces ``contacts.shear_modulus`` (the anchored value).
+    """
+    cfg = copy.deepcopy(layer.run_config)
+    cfg["initial"] = {"pressure": float(layer.p_eff)}
+    if grain_modulus is not None:
+        cfg.setdefault("contacts", {})["shear_modulus"] = float(grain_modulus)
+    return cfg
+
+
+def layer_key(layer: Layer) -> str:
+    """A short hash of everything that decides a layer's result (config, stress, vs)."""
+    blob = json.dumps({"config": layer_config(layer), "vs": layer.vs, "p": layer.p_eff,
+                       "rho": layer.density}, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode("utf-8")).hexdigest()[:12]
+
+
+def _layer_error(layer: Layer, exc: ConfigError) -> ConfigError:
+    """``exc`` (naming a run-config key) re-raised naming the profile's key and the layer."""
+    mapped = layer.key_map.get(exc.key, exc.key)
+    key = f"{mapped} (layer {layer.name!r})" if mapped.startswith("layers[") else f"{layer.label}: {mapped}"
+    return ConfigError(key, exc.value, exc.problem)
+
+
+def prepare_layer(layer: Layer, base_dir: str | Path | None, grain_modulus: float | None = None) -> Any:
+    """The :class:`grainmech.jobs.RunSpec` of ``layer`` (config errors name the layer and key)."""
+    from grainmech.jobs import prepare_run
+
+    try:
+        return prepare_run(layer_config(layer, grain_modulus), base_dir)
+    except ConfigError as exc:
+        raise _layer_error(layer, exc) from None
+
+
+def model_gmax(spec: Any) -> float:
+    """The small-strain shear modulus [Pa] the layer's run will normalise its curves by.
+
+    The same evaluation as the run's own ``G_max``: the tangent of the initial state
+    condensed with the test's control (``sigma_zz`` free at constant stress); for the
+    affine model the tangent of :meth:`MaterialPoint.isotropic`
+    (:func:`grainmech.analysis.modulus_reduction`), for the packing model
+    :func:`grainmech.jobs.packing_gmax` (elastic tangent of the packing brought to the
+    layer's stress).
+    """
+    import dataclasses
+
+    from grainmech.analysis import condensed_modulus
+    from grainmech.jobs import cyclic_control, packing_gmax
+
+    method = spec.methods[0]
+    if method == "affine":
+        from grainmech.driver import MaterialPoint
+
+        point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+        return float(condensed_modulus(point.tangent, 4, [bool(b) for b in cyclic_control(spec.constant)]))
+    pg = packing_gmax(dataclasses.replace(spec, gmax_grains=spec.grains), lambda msg: None)
+    if "error" in pg:
+        raise GrainmechError(pg["error"])
+    return float(pg["G_max_Pa"])
+
+
+def anchor_task(task: tuple[Layer, str | None]) -> dict:
+    """Worker function: the grain modulus that gives the layer its measured Vs.
+
+    Returns a JSON-ready dict: ``vs_measured_m_s``, ``G_target_Pa`` (``rho vs^2``),
+    ``G_model_Pa`` (Gmax at the config's grain modulus), ``grain_modulus_Pa`` (the
+    config's), ``scale`` (``(G_target / G_model)^(3/2)``, the factor on the grain
+    modulus), ``grain_modulus_anchored_Pa``.
+    """
+    from grainmech.contact import Hertz
+
+    layer, base_dir = task
+    if layer.vs is None:
+        raise ValueError(f"{layer.label} has no vs")
+    spec = prepare_layer(layer, base_dir)
+    law = spec.packing_law if spec.packing_law is not None else spec.law
+    if not isinstance(law, Hertz):
+        raise ConfigError(f"layers[{layer.index}].vs (layer {layer.name!r})", layer.vs,
+                          f"anchoring to a measured Vs rescales the grains' shear modulus by the Hertz 2/3-power "
+                          f"rule; the contact law {type(law).__name__} has no grain modulus")
+    g0 = model_gmax(spec)
+    target = layer.density * layer.vs ** 2
+    scale = (target / g0) ** 1.5
+    return {"vs_measured_m_s": float(layer.vs), "G_target_Pa": float(target), "G_model_Pa": g0,
+            "grain_modulus_Pa": float(law.shear_modulus), "scale": float(scale),
+            "grain_modulus_anchored_Pa": float(law.shear_modulus * scale)}
+
+
+def check_anchor(layer: Layer, anchor: dict) -> None:
+    """Refuse an anchoring that needs a grain shear modulus outside 1-1000 GPa (ConfigError)."""
+    lo, hi = GRAIN_MODULUS_RANGE
+    g = anchor["grain_modulus_anchored_Pa"]
+    if not (lo <= g <= hi):
+        raise ConfigError(f"layers[{layer.index}].vs (layer {layer.name!r})", layer.vs,
+                          f"would need a grain shear modulus of {g / 1e9:.4g} GPa ({anchor['scale']:.4g} x "
+                          f"{anchor['grain_modulus_Pa'] / 1e9:.4g} GPa: the model's Gmax "
+                          f"{anchor['G_model_Pa'] / 1e6:.4g} MPa against rho vs^2 = {anchor['G_target_Pa'] / 1e6:.4g} "
+                          f"MPa), outside {lo / 1e9:g}-{hi / 1e9:g} GPa")
+
+
+def _darendeli(spec: Any, layer: Layer, amplitudes: np.ndarray) -> dict:
+    """Darendeli (2001) at the layer's mean effective stress, on its grid and at the model's amplitudes."""
+    from grainmech.analysis import darendeli
+
+    ref = spec.reference or {}
+    kw = dict(pi=ref.get("pi", 0.0), ocr=ref.get("ocr", 1.0), n_cycles=ref.get("n_cycles", 10.0),
+              frequency=ref.get("frequency", 1.0))
+    grid = darendeli(DARENDELI_STRAINS, layer.p_eff, **kw)
+    out = {"strain": DARENDELI_STRAINS.tolist(), "G_ratio": grid.G_ratio.tolist(), "damping": grid.damping.tolist(),
+           "gamma_r": float(grid.gamma_r), "d_min": float(grid.d_min), "inputs": kw,
+           "mean_stress_atm": layer.p_eff / 101325.0}
+    if len(amplitudes):
+        at = darendeli(amplitudes, layer.p_eff, **kw)
+        out.update(at_amplitudes_G_ratio=at.G_ratio.tolist(), at_amplitudes_damping=at.damping.tolist())
+    return out
+
+
+def layer_facts(layer: Layer) -> dict:
+    """The layer's geometry and stresses (JSON-ready; units in the names)."""
+    return {"index": layer.index, "name": layer.name, "slug": layer.slug, "top_m": layer.top,
+            "bottom_m": layer.bottom, "mid_m": layer.mid, "thickness_m": layer.thickness,
+            "unit_weight_N_m3": layer.unit_weight, "density_kg_m3": layer.density, "k0": layer.k0,
+            "sigma_v_Pa": layer.sigma_v, "u_Pa": layer.u, "sigma_v_eff_Pa": layer.sigma_v_eff,
+            "sigma_h_eff_Pa": layer.sigma_h_eff, "p_eff_Pa": layer.p_eff, "vs_measured_m_s": layer.vs}
+
+
+def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
+    """Worker function: run one layer; return its record (JSON-ready dict).
+
+    ``status`` is ``"ok"`` when every amplitude completed, ``"stopped"`` when the model
+    stopped (the record keeps the amplitudes done and the model's message).
+    ``site_curve`` holds the curves for site response: the completed amplitudes except
+    those beyond the envelope of sands (unless ``[model] keep_beyond_envelope``), the rule
+    of ``grainmech run``'s ``site_response_curves.csv``.
+    """
+    from grainmech.jobs import CyclicOutcome, execute_run
+
+    layer, base_dir, anchor = task
+    t0 = time.perf_counter()
+    modulus = anchor["grain_modulus_anchored_Pa"] if anchor else None
+    spec = prepare_layer(layer, base_dir, modulus)
+    out = execute_run(spec)
+    if not isinstance(out, CyclicOutcome):  # read_profile allows one method and cyclic simple shear
+        raise GrainmechError(f"{layer.label}: expected one cyclic-simple-shear outcome, got {type(out).__name__}")
+    law = spec.packing_law if spec.packing_law is not None else spec.law
+    amps = np.asarray(out.amplitudes, dtype=float)
+    order = np.argsort(amps, kind="stable")
+    g_max = float(out.G_max)
+    rec: dict[str, Any] = layer_facts(layer)
+    rec.update(key=layer_key(layer), method=spec.methods[0],
+               grains=(spec.grains.label if spec.grains is not None else
+                       f"analytical fabric, void ratio {spec.void_ratio}"),
+               contact_law=type(law).__name__, grain_shear_modulus_Pa=float(getattr(law, "shear_modulus", np.nan)),
+               status="ok" if out.success else "stopped", message=str(out.message),
+               G_max_Pa=g_max, vs_model_m_s=float(np.sqrt(g_max / layer.density)) if g_max > 0 else None,
+               amplitudes=amps[order].tolist(), G_ratio=np.asarray(out.G_ratio)[order].tolist(),
+               damping=np.asarray(out.damping)[order].tolist(),
+               darendeli=_darendeli(spec, layer, amps[order]), empirical_G_max=out.empirical_G_max,
+               warnings=list(out.warnings), details={k: v for k, v in out.details.items() if k != "notes"},
+               config=layer_config(layer, modulus))
+    # the curves for site response: as grainmech run's site_response_curves.csv, an
+    # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope
+    keep = (~out.beyond_envelope | bool(out.keep_beyond_envelope))[order]
+    rec["beyond_envelope"] = out.beyond_envelope[order].tolist()
+    rec["site_curve"] = {"strain": amps[order][keep].tolist(),
+                         "G_ratio": np.asarray(out.G_ratio)[order][keep].tolist(),
+                         "damping": np.asarray(out.damping)[order][keep].tolist(),
+                         "left_out": amps[order][~keep].tolist()}
+    if anchor:
+        a = dict(anchor)
+        a["G_checked_Pa"] = g_max
+        a["mismatch"] = g_max / a["G_target_Pa"] - 1.0 if np.isfinite(g_max) else None
+        a["flag"] = bool(a["mismatch"] is None or abs(a["mismatch"]) > ANCHOR_TOLERANCE)
+        rec["anchor"] = a
+    rec["seconds"] = time.perf_counter() - t0
+    return rec
+
+
+def failed_record(layer: Layer, error: BaseException) -> dict:
+    """The record of a layer whose task raised (``status = "failed"``)."""
+    rec = layer_facts(layer)
+    rec.update(key=layer_key(layer), status="failed", message=f"{type(error).__name__}: {error}",
+               amplitudes=[], G_ratio=[], damping=[], G_max_Pa=None, vs_model_m_s=None, warnings=[],
+               site_curve={"strain": [], "G_ratio": [], "damping": [], "left_out": []})
+    return rec

@@ -1,0 +1,171 @@
+"""Run a soil profile: every layer on dask.distributed, saved as it finishes, resumable.
+
+Order of work (``docs/site-profile.md``):
+
+1. every layer's run config is checked (:func:`grainmech.site.layer.prepare_layer`) --
+   a bad layer stops everything with one line naming it, before anything is written;
+2. the layers with a measured ``vs`` that have no record yet are anchored
+   (:func:`grainmech.site.layer.anchor_task`, in parallel); a ``vs`` that needs a grain
+   modulus outside 1-1000 GPa is a bad input (nothing written);
+3. the layers without a record run (:func:`grainmech.site.layer.run_task`, in
+   parallel on the workers of :func:`grainmech.parallel.open_client`, as
+   ``grainmech sweep`` does); each record is written to ``OUTDIR/layers/`` as soon as it
+   arrives, so a killed run restarted on the same folder reruns only the unfinished ones;
+4. curve files, ``layers.csv``, ``profile.png``, the site response (with ``[motion]``
+   and pystrata), ``summary.json`` and ``index.html``.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from grainmech.errors import ConfigError
+from grainmech.site.layer import anchor_task, check_anchor, failed_record, layer_key, prepare_layer, run_task
+from grainmech.site.profile import SiteProfile
+
+__all__ = ["run_site"]
+
+
+def _say(quiet: bool) -> Callable[[str], None]:
+    def say(msg: str) -> None:
+        if not quiet:
+            print(msg, file=sys.stderr, flush=True)
+    return say
+
+
+def _parallel(fn: Callable[[Any], Any], items: list, client: Any, scheduler: str | None,
+              workers: int | None) -> Any:
+    """``(index, value, ok)`` of ``fn`` over ``items`` in completion order.
+
+    On a Dask cluster (:func:`grainmech.parallel.map_completed`) when a client, a
+    scheduler or more than one worker is given; in this process, one item after the other,
+    otherwise (what one in-process Dask worker would do, without starting a cluster).
+    """
+    if client is None and scheduler is None and (workers is None or workers == 1):
+        for i, item in enumerate(items):
+            try:
+                value, ok = fn(item), True
+            except Exception as exc:  # noqa: BLE001 (reported as the item's failure, as on Dask)
+                value, ok = exc, False
+            yield i, value, ok
+        return
+    from grainmech.parallel import map_completed, open_client
+
+    if client is not None:
+        yield from map_completed(fn, items, client=client)
+        return
+    with open_client(scheduler, workers) as cl:
+        yield from map_completed(fn, items, client=cl)
+
+
+def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, scheduler: str | None = None,
+             workers: int | None = None, quiet: bool = True, response: bool = True) -> dict:
+    """Run every layer of ``profile`` not yet recorded in ``outdir``; write every output.
+
+    Parameters
+    ----------
+    profile : SiteProfile
+        From :func:`grainmech.site.read_profile` / :func:`grainmech.site.load_profile`.
+    outdir : path
+        Output folder; records of finished layers in ``outdir/layers`` are reused when
+        their inputs are unchanged.
+    client, scheduler, workers
+        As :func:`grainmech.sweep.run_sweep`: a Dask client, or a scheduler address, or a
+        number of local workers; default (none of them, or ``workers = 1``): the layers
+        one after the other in this process.
+    quiet : bool
+        No progress lines on stderr.
+    response : bool
+        Run the site-response calculation when ``[motion]`` is given and pystrata is
+        installed.
+
+    Returns
+    -------
+    dict
+        The summary (also ``summary.json``): ``succeeded``, ``stopped``, ``failed``,
+        ``reused``, ``ran``, ``files``, ``layers`` (the records) ...
+
+    Raises
+    ------
+    ConfigError
+        A bad layer or anchoring (nothing written).
+    """
+    from grainmech.io.outdir import output_folder
+
+    say = _say(quiet)
+    t0 = time.perf_counter()
+    base = str(profile.base_dir.resolve())
+    for layer in profile.layers:  # 1. every layer's config, before any work
+        prepare_layer(layer, base)
+    motion = None
+    if profile.motion is not None:  # a bad motion file is a bad input too
+        from grainmech.io.motion import read_motion
+
+        motion = read_motion(profile.motion.path, profile.motion.format, profile.motion.units)
+    with output_folder(outdir, "site") as folder:
+        summary = _run_in(folder, profile, base, say, (client, scheduler, workers), response, motion, t0)
+        folder.commit(success=summary["stopped"] == 0 and summary["failed"] == 0)
+    return summary
+
+
+def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], None], cluster: tuple,
+            response: bool, motion: Any, t0: float) -> dict:
+    from grainmech.io.results import ensure_dir
+    from grainmech.io.site_profile import read_layer_record, write_layer_record
+
+    ldir = folder.path / "layers"
+    records: dict[int, dict] = {}
+    for layer in profile.layers:
+        rec = read_layer_record(ldir / f"{layer.slug}.json", layer_key(layer))
+        if rec is not None:
+            records[layer.index] = rec
+    todo = [la for la in profile.layers if la.index not in records]
+    reused = len(records)
+    ran = len(todo)
+    say(f"grainmech site: {profile.source}: {len(profile.layers)} layers ({profile.method} model), "
+        f"{reused} reused, {len(todo)} to run")
+    anchors: dict[int, dict] = {}
+    errors: dict[int, BaseException] = {}
+    need = [la for la in todo if la.vs is not None]
+    if need:  # 2. anchoring: a bad vs is an input error, raised before anything is written
+        say(f"anchoring {len(need)} layer(s) to their measured Vs")
+        for i, value, ok in _parallel(anchor_task, [(la, base) for la in need], *cluster):
+            if ok:
+                anchors[need[i].index] = value
+            else:
+                errors[need[i].index] = value
+        for la in need:
+            err = errors.get(la.index)
+            if isinstance(err, ConfigError):
+                raise err
+            if err is None:
+                check_anchor(la, anchors[la.index])
+    if todo:
+        ensure_dir(ldir)
+    for la in need:  # a model that cannot give its Gmax at the layer's stress: the layer stops there
+        if la.index in errors:
+            rec = failed_record(la, errors[la.index])
+            rec.update(status="stopped", message=f"anchoring to the measured Vs failed: {rec['message']}")
+            write_layer_record(ldir / f"{la.slug}.json", rec)
+            records[la.index] = rec
+            say(f"{la.label}: stopped: {rec['message']}")
+    todo = [la for la in todo if la.index not in records]
+    if todo:  # 3. the layers, each saved as it finishes
+        tasks = [(la, base, anchors.get(la.index)) for la in todo]
+        for i, value, ok in _parallel(run_task, tasks, *cluster):
+            la = todo[i]
+            rec = value if ok else failed_record(la, value)
+            write_layer_record(ldir / f"{la.slug}.json", rec)
+            records[la.index] = rec
+            say(f"[{len(records)}/{len(profile.layers)}] {la.label}: {rec['status']}"
+                + ("" if rec["status"] == "ok" else f": {rec['message']}")
+                + (f" ({rec['seconds']:.1f} s)" if rec.get("seconds") is not None else ""))
+    ordered = [records[la.index] for la in profile.layers]
+    from grainmech.site.outputs import write_outputs
+
+    return write_outputs(folder.staging, profile, ordered, reused=reused, ran=ran, response=response,
+                         say=say, seconds=time.perf_counter() - t0, motion=motion)
