@@ -6,6 +6,12 @@ Hertz / Mindlin-Deresiewicz spheres (8^3 cells, 5 % vacancies: 1946 grains), equ
 first (not timed with the curves). Prints wall times, Newton and GMRES iterations per
 step and the throughput. Target: <= 30 s for the curves on 2 cores.
 
+Shipped packings: ``python benchmarks/bench_packing_driver.py shipped [dense,medium,loose]``
+runs 2 cycles x 40 steps at 1e-4 (constant stress, Mindlin-Deresiewicz with quartz, the
+compiled law) on each shipped packing from its own 100 kPa and prints one row each: wall
+time, its ratio to the dgemm yardstick, whether it completed and the issue-29 targets
+(1e-4 on 'dense' <= 20 s, on 'loose' <= 60 s, 2 cores).
+
 Run: ``python benchmarks/bench_packing_driver.py [n_cells] [law_backend] [fast]``
 (``law_backend``: ``numpy``, the reference law, or ``auto``, the compiled kernel when
 numba is present; ``fast``: ``PackingOptions(reproducible=False)``, PARDISO on every
@@ -30,7 +36,41 @@ from grainmech.driver.packing import (PackingOptions, PackingPoint, equilibrate_
                                       perturbed_fcc_network)
 
 
+#: issue 29's wall-time targets [s] for 2 cycles x 40 steps at 1e-4 on 2 cores
+TARGETS = {"dense": 20.0, "loose": 60.0}
+
+
+def shipped(names: list[str]) -> None:
+    """One row per shipped packing: 1e-4, 2 cycles x 40 steps, wall time and dgemm ratio."""
+    from grainmech.driver import cyclic_simple_shear
+    from grainmech.driver.packing import run_packing
+    from grainmech.packing import QUARTZ, load_packing
+
+    dg = dgemm_seconds()
+    print(f"dgemm yardstick (n = 2048): {dg:.3f} s")
+    print("| packing | grains | result | max residual | s | dgemm | target |")
+    print("|---|---|---|---|---|---|---|", flush=True)
+    for name in names:
+        net = load_packing(name)
+        law = MindlinDeresiewicz(QUARTZ.shear_modulus, QUARTZ.poisson, float(net.radii.mean()),
+                                 friction=QUARTZ.friction)
+        opts = PackingOptions(law_backend="auto", tangent="none")
+        pt = PackingPoint.from_network(net, law, options=opts)
+        _ = pt.preconditioner()
+        t0 = time.perf_counter()
+        res = run_packing(pt, cyclic_simple_shear(1e-4, 2, 40), opts)
+        sec = time.perf_counter() - t0
+        tgt = TARGETS.get(name)
+        met = "" if tgt is None else f"<= {tgt:g} s: {'met' if sec <= tgt and res.success else 'NOT met'}"
+        print(f"| {name} | {pt.n_grains} | {'completed' if res.success else res.message} | "
+              f"{res.residual.max():.3g} | {sec:.1f} | {sec / dg:.0f} | {met} |", flush=True)
+
+
 def main() -> None:
+    """The fcc benchmark, or the shipped packings' rows (``shipped``)."""
+    if len(sys.argv) > 1 and sys.argv[1] == "shipped":
+        shipped((sys.argv[2] if len(sys.argv) > 2 else "dense,medium,loose").split(","))
+        return
     n_cells = int(sys.argv[1]) if len(sys.argv) > 1 else 8
     backend = sys.argv[2] if len(sys.argv) > 2 else "numpy"
     law = MindlinDeresiewicz(29e9, 0.15, 1.0, friction=0.5)

@@ -335,6 +335,29 @@ def test_at_stress_then_modulus_reduction(packing):
         PackingPoint.at_stress(packing, MD, -1.0)
 
 
+def test_gmax_pressure_exponent_and_geometric_steps(packing):
+    """``at_stress`` from the packing's own pressure p0 to p0/4 and 4 p0 (geometric steps,
+    one per 25 % of pressure: 7 each way), then the elastic Gmax (``elastic_tangent``
+    C_55). The exponent of G against p lies between Hertz's 1/3, what a packing whose
+    every contact force scales with p gives at fixed fabric (contact stiffnesses
+    ``~ a ~ N^(1/3)``, seed Eq. 3.7/3.11), and Hardin & Richart's (1963) 0.5 for sands,
+    whose fabric changes (contacts gained under load, lost on unloading, raise it). The
+    103-grain packing (coordination ~11, no gap closes within 4x) is near the Hertz end.
+    The prepared point is in equilibrium: the imbalance its last step leaves is held."""
+    p0 = float(PackingPoint.from_network(packing, MD).stress[:3].mean())
+    ps, gs = [], []
+    for f in (0.25, 1.0, 4.0):
+        pt = PackingPoint.at_stress(packing, MD, f * p0) if f != 1.0 else PackingPoint.from_network(packing, MD)
+        if f != 1.0:
+            assert any(" in 7 stress-controlled steps" in n for n in pt.notes)
+            assert unbalanced_force_ratio(pt) < 1e-10
+            np.testing.assert_allclose(pt.stress, f * p0 * np.array([1, 1, 1, 0, 0, 0]), rtol=0, atol=1e-6 * p0)
+        ps.append(f * p0)
+        gs.append(pt.elastic_tangent[4, 4])
+    n = np.polyfit(np.log(ps), np.log(gs), 1)[0]
+    assert 1 / 3 - 0.02 <= n <= 0.5
+
+
 def test_input_imbalance_held_or_relaxed(packing):
     """``imbalance="hold"`` keeps the input stress exactly and balances the input's residual
     forces by constant grain loads; ``"relax"`` removes them by moving the grains; both end
@@ -482,3 +505,38 @@ def test_named_factorisation_not_installed_says_how_to_install(monkeypatch):
         with pytest.raises(GrainmechError, match=rf"factorization = '{backend}' needs {module}.*grainmech\[sparse\]"):
             _Factor(sp.eye(4).tocsr(), backend)
     assert _Factor(sp.eye(4).tocsr(), "auto").name == "superlu"  # auto falls back
+
+
+def test_updates_leave_the_mechanisms_of_grains_alone(packing):
+    """The rule for grains that lose contacts (``driver/_packing_iter._hold_mechanisms``): an
+    update keeps no part along a grain's mechanisms (null space of its columns of ``G`` over
+    its closed contacts, by SVD of the assembled kinematic matrix: an independent
+    computation) and the rest of it whole; a grain with no closed contact does not move at
+    all; once its contacts close again the update is untouched. Grains held by 0, 1, 2
+    closed contacts are made by opening contacts of the 103-grain packing."""
+    from grainmech.driver._packing_iter import _hold_mechanisms
+
+    pt = PackingPoint.from_network(packing, MD)
+    kin = pt.kinematics
+    x = np.random.default_rng(3).standard_normal(kin.n_free)
+    closed = np.ones(kin.n_contacts, bool)
+    np.testing.assert_array_equal(_hold_mechanisms(kin, x, pt.radii, closed), x)  # 12 contacts each
+    for g, keep in ((5, 2), (9, 1), (20, 0)):
+        cs = np.flatnonzero((kin.a == g) | (kin.b == g))
+        closed[cs[keep:]] = False
+    out, full = kin.full(_hold_mechanisms(kin, x, pt.radii, closed)), kin.full(x)
+    np.testing.assert_array_equal(out[20], 0.0)
+    G = kin.G.toarray()
+    dims = set()
+    for g in range(kin.n_grains):
+        cols = np.flatnonzero(np.flatnonzero(kin.free) // 6 == g)
+        dof = np.flatnonzero(kin.free)[cols] % 6
+        rows = np.repeat(closed & ((kin.a == g) | (kin.b == g)), 3)
+        sc = np.where(dof >= 3, pt.radii[g], 1.0)
+        Ws = G[np.ix_(rows, cols)] / sc if rows.any() else np.zeros((1, cols.size))
+        _, sv, Vt = np.linalg.svd(Ws)
+        N = Vt[int(np.sum(sv > 1e-6 * max(sv.max(initial=0.0), 1.0))):].T
+        dims.add(N.shape[1])
+        d, o = full[g][dof] * sc, out[g][dof] * sc  # (u, R theta)
+        np.testing.assert_allclose(o, d - N @ (N.T @ d), rtol=0, atol=1e-12 * np.abs(d).max())
+    assert {0, 1, 3, 6} <= dims

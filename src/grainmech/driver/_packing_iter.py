@@ -25,7 +25,7 @@ from grainmech.driver._packing_ops import (
     _cross_rows,
     voigt_of,
 )
-from grainmech.driver._packing_options import PackingOptions, _Context, _StepFailure
+from grainmech.driver._packing_options import ACCEPT_MAX_FORCE, PackingOptions, _Context, _StepFailure
 
 if TYPE_CHECKING:
     from grainmech.driver._packing_point import PackingPoint
@@ -271,41 +271,68 @@ def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
 
     A grain's closed contacts resist its motions ``q_p`` that change their relative
     displacements (``W_p q_p != 0``, ``W_p`` the grain's blocks of ``G`` over its closed
-    contacts, neighbours held). Along the others, its mechanisms ``W_p phi = 0``, nothing
-    can balance a load: a grain whose contacts have all opened (six such motions), a
-    grain held by one contact (rotations about the contact point) or by two (rolling
-    about the line through its two contact points, in this fixed geometry). A load there
-    makes the grain drift without bound in this fixed geometry (and roll or fly off in a
-    DEM), so that share of the held load is dropped: the part kept does no work on any
-    such motion (it is the load minus its orthogonal projection on them, rotations
-    scaled by the grain radius). The first case was the rule before; the second drove a
-    grain held by two weak contacts of the 500-grain packing of ``docs/packing-driver.md``
-    around its contact axis by 0.17 rad and 4 % of its radius in 68 steps at
-    γ = 3e-5, until the small-strain check stopped the run.
+    contacts, neighbours held). Along the others, its mechanisms ``W_p phi = 0``
+    (:func:`_mechanisms`), nothing can balance a load: a grain whose contacts have all
+    opened (six such motions), a grain held by one contact (rotations about the contact
+    point) or by two (rolling about the line through its two contact points, in this
+    fixed geometry). A load there makes the grain drift without bound in this fixed
+    geometry (and roll or fly off in a DEM), so that share of the held load is dropped:
+    the part kept does no work on any such motion (it is the load minus its orthogonal
+    projection on them, rotations scaled by the grain radius). The first case was the
+    rule before; the second drove a grain held by two weak contacts of the 500-grain
+    packing of ``docs/packing-driver.md`` around its contact axis by 0.17 rad and 4 % of
+    its radius in 68 steps at γ = 3e-5, until the small-strain check stopped the run.
     """
     kin = point.kinematics
     if point.load is None:
         return np.zeros(kin.n_free)
     closed = ~np.asarray(resp.open, bool)
-    # the same contacts stay closed over most updates and steps: cached per kinematics
-    # (shared by every point of a run) and closed set
     memo = _HELD.setdefault(kin, {})
     key = closed.tobytes()
     got = memo.get(key)
     if got is not None and got[0] is point.load:
         return got[1]
-    P = kin.n_grains
-    R = point.radii
-    # only a grain with at most two closed contacts has mechanisms (a rigid motion that
-    # moves none of three points of a sphere is zero: no line passes through three of
-    # them); the others' loads are kept whole
-    ncl = np.bincount(kin.a[closed], minlength=P) + np.bincount(kin.b[closed], minlength=P)
-    few = ncl <= 2
+    g, proj, scale = _mechanisms(kin, point.radii, closed)
     if len(memo) >= 16:
         memo.clear()
-    if not few.any():
+    if not g.size:
         memo[key] = (point.load, point.load)
         return point.load
+    full = kin.full(point.load)
+    ls = full[g] / scale  # (force, moment / R)
+    full[g] -= np.einsum("pij,pj->pi", proj, ls) * scale
+    kept = full.reshape(-1)[kin.free]
+    memo[key] = (point.load, kept)
+    return kept
+
+
+def _mechanisms(kin: Kinematics, R: np.ndarray, closed: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Grains with mechanisms and the projectors onto them: ``(g, proj (k, 6, 6), scale (k, 6))``.
+
+    A grain's closed contacts resist its motions ``q_p`` with ``W_p q_p != 0`` (``W_p``
+    its blocks of ``G`` over its closed contacts, neighbours held); its mechanisms are
+    ``W_p phi = 0``. Only a grain with at most two closed contacts has any (a rigid motion
+    that moves none of three points of a sphere is zero: no line passes through three of
+    them): six with none, three rotations about the one contact point, one rolling about
+    the line through two. ``proj`` is the orthogonal projector onto them in the scaled
+    coordinates ``(u, R theta)`` (and ``(F, M / R)`` for loads), ``scale`` the grain's
+    ``(1, 1, 1, R, R, R)``. Cached per kinematics and closed set (the same contacts stay
+    closed over most updates and steps).
+    """
+    memo = _MECH.setdefault(kin, {})
+    key = closed.tobytes()
+    got = memo.get(key)
+    if got is not None:
+        return got
+    if len(memo) >= 16:
+        memo.clear()
+    P = kin.n_grains
+    ncl = np.bincount(kin.a[closed], minlength=P) + np.bincount(kin.b[closed], minlength=P)
+    few = ncl <= 2
+    g = np.flatnonzero(few)
+    if not g.size:
+        memo[key] = out = (g, np.zeros((0, 6, 6)), np.zeros((0, 6)))
+        return out
     # blocks of the relative displacement of each closed contact in the motion of its grain
     # A ([I, -[r_A]x]) and of its grain B ([-I, [r_B]x]), rotations scaled by the radius
     closed = closed & (few[kin.a] | few[kin.b])
@@ -319,20 +346,44 @@ def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
     gb = np.einsum("cki,ckj->cij", W[1], W[1]).reshape(-1, 36)
     gram = np.stack([np.bincount(a, ga[:, k], P) + np.bincount(b, gb[:, k], P) for k in range(36)],
                     axis=1).reshape(P, 6, 6)
-    g = np.flatnonzero(few)
     w, U = np.linalg.eigh(gram[g])  # ascending; the grain's mechanisms have w ~ 0 (entries O(1))
-    null = w < 1e-9 * np.maximum(w[:, -1:], 1.0)
+    null = (w < 1e-9 * np.maximum(w[:, -1:], 1.0)).astype(float)
+    proj = np.einsum("pik,pk,pjk->pij", U, null, U)
     scale = np.concatenate([np.ones((g.size, 3)), np.repeat(R[g][:, None], 3, axis=1)], axis=1)
-    full = kin.full(point.load)
-    ls = full[g] / scale  # (force, moment / R)
-    full[g] -= np.einsum("pik,pk,pjk,pj->pi", U, null.astype(float), U, ls) * scale
-    kept = full.reshape(-1)[kin.free]
-    memo[key] = (point.load, kept)
-    return kept
+    memo[key] = out = (g, proj, scale)
+    return out
+
+
+def _hold_mechanisms(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, closed: np.ndarray) -> np.ndarray:
+    """Grain update ``dxq`` without its parts along each grain's mechanisms (:func:`_mechanisms`).
+
+    The driver's rule for a grain that loses contacts (``docs/packing-driver.md``,
+    "Opening and closing"): a motion along a mechanism changes no contact, so no force
+    acts along it (the contacts do no work on it and the held load's share there is
+    dropped, :func:`_held_load`) and equilibrium does not fix it. The grain keeps its
+    fluctuation along it, i.e. follows the mean strain there: the least-norm solution, as
+    ``H^+`` does in the relaxed tensor (Lemaitre & Maloney 2006, Eq. 12). A grain with no
+    closed contact thus leaves the unknowns entirely; a grain with one or two keeps the
+    motions they resist. It comes back as soon as a tracked pair closes (``closed`` is
+    the iterate's), by the affine motion or by a neighbour's update. Without this rule
+    the elastic operator, which holds these motions only by its small shift
+    (``regularization``) or by contacts that have opened since it was factorised, turns
+    the neighbours' residuals into large moves along them: on 'medium' brought from 100
+    to 800 kPa, grains rolled on two contacts and drifted by 5 % of their radius, until
+    the small-strain check stopped the run.
+    """
+    g, proj, scale = _mechanisms(kin, R, closed)
+    if not g.size:
+        return dxq
+    full = kin.full(dxq)
+    full[g] -= np.einsum("pij,pj->pi", proj, full[g] * scale) / scale
+    return full.reshape(-1)[kin.free]
 
 
 #: _held_load's results per kinematics (weak: dropped with the run's points)
 _HELD: WeakKeyDictionary = WeakKeyDictionary()
+#: _mechanisms' results per kinematics
+_MECH: WeakKeyDictionary = WeakKeyDictionary()
 
 
 def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, approach: np.ndarray,
@@ -358,6 +409,29 @@ def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarra
     np.minimum.at(f, kin.b[over], fc)
     mv = kin.full(dxq) * f[:, None]
     return mv.reshape(-1)[kin.free]
+
+
+def _at_rest(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float, bar: float) -> bool:
+    """Whether out-of-balance forces ``rq`` leave the packing at rest by a DEM's measure.
+
+    The mean over grains of ``sqrt(|F_p|^2 + (|M_p|/R_p)^2)`` at most ``bar`` times the
+    mean contact force ``fref`` (:func:`unbalanced_force_ratio`, ``kind="mean"``) and the
+    largest grain's ``|F_p|``, ``|M_p|/R_p`` at most ``ACCEPT_MAX_FORCE`` times it
+    (``PackingOptions.accept_unbalanced``).
+    """
+    if fref <= 0.0:
+        return False
+    g = kin.full(rq)
+    F = np.linalg.norm(g[:, :3], axis=1)
+    M = np.linalg.norm(g[:, 3:], axis=1) / R
+    return bool(np.mean(np.hypot(F, M)) <= bar * fref and max(F.max(), M.max()) <= ACCEPT_MAX_FORCE * fref)
+
+
+def _unbalanced(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float) -> float:
+    """Mean unbalanced force ratio of out-of-balance forces ``rq`` (trace output)."""
+    g = kin.full(rq)
+    return float(np.mean(np.hypot(np.linalg.norm(g[:, :3], axis=1), np.linalg.norm(g[:, 3:], axis=1) / R))
+                 / max(fref, 1e-300))
 
 
 def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:

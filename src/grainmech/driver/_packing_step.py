@@ -33,16 +33,19 @@ from grainmech.driver._packing_iter import (  # noqa: F401 (re-exported: the nam
     _HELD,
     _STIFF_BACKTRACKS,
     _anderson,
+    _at_rest,
     _clip,
     _closing_cap,
     _debug,
     _direction,
     _grain_report,
     _held_load,
+    _hold_mechanisms,
     _slip_rotation,
     _step_tangent,
     _stress_ambiguity,
     _trust,
+    _unbalanced,
 )
 from grainmech.driver._packing_ops import (
     Preconditioner,
@@ -90,11 +93,11 @@ _MU_FLOOR = 1e-9
 
 def _scales(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
             opts: PackingOptions) -> tuple:
-    """Scales of one (sub)step of :func:`_solve`: ``(V, nq, ms, sref, Rg, abar, move, tolq, tole)``.
+    """Scales of one (sub)step of :func:`_solve`: ``(V, nq, ms, sref, Rg, abar, move, tolq, tole, fref)``.
 
     The volume, the numbers of unknowns, the stress scale, the radii, the mean approach of
-    the closed contacts, the trust limit ``move`` of one update and the force and stress
-    tolerances.
+    the closed contacts, the trust limit ``move`` of one update, the force and stress
+    tolerances and the mean contact force.
     """
     kin = point.kinematics
     V = point.volume
@@ -121,7 +124,7 @@ def _scales(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.nda
     move = max(move, 2.0 * de_max * lmean)
     tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
     tole = opts.rtol * sref * V
-    return V, nq, ms, sref, Rg, abar, move, tolq, tole
+    return V, nq, ms, sref, Rg, abar, move, tolq, tole, fref
 
 
 def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
@@ -155,7 +158,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     loop below).
     """
     opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
-    V, nq, ms, sref, Rg, abar, move, tolq, tole = _scales(point, S, de_E, target, prec, opts)
+    V, nq, ms, sref, Rg, abar, move, tolq, tole, fref = _scales(point, S, de_E, target, prec, opts)
     Dq, De = prec.dq, prec.de[S]
 
     fast = _compiled_glue(point)
@@ -180,8 +183,10 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         """The update within the trust limit ``move``, each grain by itself.
 
         A grain on a mechanism (free, rolling or sliding away) must not cut the others'
-        update; every contact the update closes is stopped near touch (:func:`_closing_cap`).
+        update; every contact the update closes is stopped near touch (:func:`_closing_cap`);
+        no grain moves along its mechanisms in the iterate ``st`` (:func:`_hold_mechanisms`).
         """
+        dxq = _hold_mechanisms(kin, dxq, Rg, st.approach > 0.0)
         if fast is not None:
             return fast.limit(dxq, dxe, S, Rg, move, st.approach / point.scale if abar > 0 else None,
                               _CLOSE_CAP * abar)
@@ -213,7 +218,11 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         # (the stress-controlled components within the same bound); ``factor`` scales the
         # bound (PackingOptions.settle)
         bound = factor * amb_ok
-        return bool(_stress_ambiguity(kin, rq, Rg) <= bound and (ms == 0 or np.all(np.abs(re) <= bound)))
+        stress_ok = ms == 0 or bool(np.all(np.abs(re) <= bound))
+        if stress_ok and _stress_ambiguity(kin, rq, Rg) <= bound:
+            return True
+        return bool(stress_ok and factor == 1.0 and opts.accept_unbalanced > 0
+                    and _at_rest(kin, rq, Rg, fref, opts.accept_unbalanced))
 
     def unsettled(rq: np.ndarray, re: np.ndarray) -> str:
         """The stress uncertainty left, against what ``accept`` asks, for a failure message."""
@@ -299,7 +308,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         if dbg:
             dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
                 f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
-            dbg(_grain_report(kin, rq, tolq, resp)
+            dbg(_grain_report(kin, rq, tolq, resp) + f"; mean unbalanced {_unbalanced(kin, rq, Rg, fref):.2g}"
                 + f"; stress ambiguity {_stress_ambiguity(kin, rq, Rg) / (sref * V):.2g}"
                 + (f", stress residual {float(np.max(np.abs(re))) / (sref * V):.2g}" if ms else ""))
         if converged(rq, re):
