@@ -32,8 +32,10 @@ compression positive, engineering shears, Voigt order ``xx yy zz yz xz xy``.
 
 from __future__ import annotations
 
+import ctypes
 import math
 import multiprocessing as mp
+import os
 import queue
 import signal
 from collections.abc import Callable, Sequence
@@ -579,9 +581,21 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
 
 
 def _worker_init() -> None:
-    """A DEM worker process leaves Ctrl-C and SIGTERM to the parent (which ends the pool)."""
+    """A DEM worker process leaves Ctrl-C and SIGTERM to the parent (which ends the pool).
+
+    On Linux it also asks for SIGTERM when its parent ends (``prctl(PR_SET_PDEATHSIG)``),
+    so that a parent killed without cleaning up (a script ended by ``kill``) leaves no
+    LAMMPS running.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    parent = os.getppid()
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        return
+    if os.getppid() != parent:  # the parent ended before the request took effect
+        os._exit(143)
 
 
 def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
