@@ -4,7 +4,7 @@ Without CONFIG it runs the built-in default (``grainmech/data/default_run.toml``
 simple shear of an isotropic Hertz-Mindlin/Mindlin-Deresiewicz quartz sand with three
 kinematic models (the seed's affine model at seven amplitudes, the shipped 'dense' packing
 with every grain in equilibrium at 1e-6 ... 1e-4, and the same grains in LAMMPS at 3e-4 and
-1e-3; 127 s on 2 cores, ``docs/performance.md``), and writes CSV tables, a JSON summary and
+1e-3; 117 s on 2 cores, ``docs/performance.md``), and writes CSV tables, a JSON summary and
 PNG plots (loops, G/Gmax and damping with Darendeli 2001 and Hardin-Drnevich 1972 for the
 same mean stress) to OUTDIR (default ``./grainmech-out/run``).
 """
