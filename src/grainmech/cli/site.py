@@ -15,6 +15,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from grainmech.cli._options import add_cluster_options
+
 
 def register(sub: Any) -> None:
     """Add the ``grainmech site`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
@@ -25,11 +27,7 @@ def register(sub: Any) -> None:
     p.add_argument("profile", help="profile file (see examples/site_sand_column.toml)")
     p.add_argument("-o", "--outdir", default=default_outdir("site"),
                    help="output folder; finished layers in it are reused (default ./%(default)s)")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--workers", type=int, metavar="N",
-                   help="N local workers (N > 1: worker processes); default: one in-process worker")
-    g.add_argument("--scheduler", metavar="ADDRESS",
-                   help="address of a running dask scheduler, e.g. tcp://10.0.0.5:8786")
+    add_cluster_options(p)
     p.add_argument("--no-response", action="store_true", help="do not run pystrata even with [motion]")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=main)

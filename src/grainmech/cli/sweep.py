@@ -13,6 +13,8 @@ import argparse
 import sys
 from typing import Any
 
+from grainmech.cli._options import add_cluster_options
+
 
 def register(sub: Any) -> None:
     """Add the ``grainmech sweep`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
@@ -27,11 +29,7 @@ def register(sub: Any) -> None:
     p.add_argument("sweep", help="sweep file (see examples/sweep_*.toml)")
     p.add_argument("-o", "--outdir", default=default_outdir("sweep"),
                    help="output folder; finished points in it are reused (default ./%(default)s)")
-    g = p.add_mutually_exclusive_group()
-    g.add_argument("--workers", type=int, metavar="N",
-                   help="N local workers (N > 1: worker processes); default: one in-process worker")
-    g.add_argument("--scheduler", metavar="ADDRESS",
-                   help="address of a running dask scheduler, e.g. tcp://10.0.0.5:8786")
+    add_cluster_options(p)
     p.add_argument("--retry-failed", action="store_true", help="run again the points recorded as failed")
     p.add_argument("--no-plots", action="store_true", help="do not write summary.png")
     p.add_argument("--quiet", action="store_true", help="no progress messages")

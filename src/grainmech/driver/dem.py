@@ -48,7 +48,7 @@ import numpy as np
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact.forms import law_forms
 from grainmech.driver.base import DriverResult, StepFailure
-from grainmech.driver.dem_mpi import run_dem_ranks
+from grainmech.driver.dem_mpi import Tick, run_dem_ranks
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
@@ -72,7 +72,6 @@ PRESSURE_TOLERANCE = 5e-3
 #: run's equilibria do not depend on it (it sets the time step and the drags only)
 DEFAULT_DENSITY = 2650.0
 
-Tick = Callable[[int, float], None]
 
 
 @dataclass(frozen=True)

@@ -43,6 +43,7 @@ if TYPE_CHECKING:  # the DEM model imports this module; these are for the annota
     from grainmech.driver.paths import LoadPath
     from grainmech.network import ContactNetwork
 
+#: progress callback of a relaxation: ``(LAMMPS time steps so far, unbalanced force ratio)``
 Tick = Callable[[int, float], None]
 
 __all__ = ["run_dem_ranks", "mpiexec"]
