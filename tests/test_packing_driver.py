@@ -457,7 +457,7 @@ def test_committed_relaxation_agrees_with_newton(point):
     -3.42 % (ratios 0.60, 0.62: slower than first order). Asserted: the loss at least
     halves within 0.6, the error falls by at least 30 % per halving of the step."""
     forced = PackingOptions(max_iter=1, rtol_accept=1e-8, rtol_step=0.0, relax_depth=0, relax_iter=300,
-                            tangent="none", anderson=0)
+                            tangent="none", anderson=0, accept_unbalanced=0.0)
     err, loss = [], []
     for spc in (8, 16):
         path = cyclic_simple_shear(1e-4, 2, spc, constant="volume")

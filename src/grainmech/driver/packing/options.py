@@ -57,17 +57,20 @@ class PackingOptions:
         at γ = 3e-4 it stopped the run at a contact at touch whose uncertainty was
         ~3 Pa against a 40 kPa shear amplitude, see ``docs/packing-driver.md``).
     accept_unbalanced : float
-        ``0`` (default): off. Otherwise a (sub)step whose iterations stall is also accepted
-        when the packing is at rest by a DEM's measure: the mean unbalanced force ratio
-        (:func:`unbalanced_force_ratio`, mean over grains of the out-of-balance force and
-        moment over the mean contact force) is at most this, the largest grain's at most
-        ``ACCEPT_MAX_FORCE = 0.05`` of the mean contact force, and every stress-controlled
-        component within the stress bound above. :meth:`PackingPoint.at_stress` uses
-        ``1e-4`` (a DEM packing is taken as static below 1e-4 … 1e-5; the shipped ones
-        were made to 2e-5): bringing the shipped 'medium' packing from 100 to 25 kPa, its
-        steps near 37 kPa stalled at a largest grain residual of 0.0075 of the mean
-        contact force, where a few contacts slide on each of many grains (a fixed
-        geometry cannot rearrange them), and the run stopped.
+        A (sub)step whose iterations stall is also accepted when the packing is at rest by
+        a DEM's measure: the mean unbalanced force ratio (:func:`unbalanced_force_ratio`,
+        mean over grains of the out-of-balance force and moment over the mean contact
+        force) is at most this, the largest grain's at most ``ACCEPT_MAX_FORCE = 0.05`` of
+        the mean contact force, and every stress-controlled component within the stress
+        bound above. The default ``1e-4`` is the DEM model's own criterion
+        (:class:`grainmech.driver.dem.DemSettings` ``tol``; a DEM packing is taken as
+        static below 1e-4 … 1e-5, the shipped ones were made to 2e-5), so a step the
+        packing model accepts is at least as balanced as one the DEM model records.
+        ``0``: off (only the stress-uncertainty tests above). On the shipped 'medium'
+        packing at 1e-4 and constant volume, steps stalled at a mean ratio of 2e-5 … 1e-4
+        with a few contacts sliding on each of many grains (a fixed geometry cannot
+        rearrange them); with ``0`` the run was still halving a step after 34 min, with
+        ``1e-4`` it completed (``docs/packing-driver.md``).
     max_iter : int
         Newton iterations per (sub)step.
     max_depth : int
@@ -168,7 +171,7 @@ class PackingOptions:
     rtol: float = 1e-8
     rtol_accept: float = 1e-5
     rtol_step: float = 1e-3
-    accept_unbalanced: float = 0.0
+    accept_unbalanced: float = 1e-4
     max_iter: int = 25
     max_depth: int = 6
     max_backtracks: int = 8
