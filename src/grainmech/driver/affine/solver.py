@@ -14,7 +14,7 @@ until then.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -26,8 +26,9 @@ from grainmech.driver.affine.point import (
     geometric_stiffness,
     tangent,
 )
-from grainmech.driver.base import DriverResult
-from grainmech.driver.paths import LoadPath, PathTargets
+from grainmech.driver.base import DriverResult, StepFailure
+from grainmech.driver.loop import follow_path
+from grainmech.driver.paths import LoadPath
 from grainmech.errors import ConfigError, GrainmechError
 
 __all__ = ["run", "DriverResult", "SolverOptions"]
@@ -97,12 +98,6 @@ class SolverOptions:
             raise ConfigError("max_depth", self.max_depth, "must lie in [0, 30]")
 
 
-class _StepFailure(Exception):
-    def __init__(self, cause: str) -> None:
-        super().__init__(cause)
-        self.cause = cause
-
-
 def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: np.ndarray,
            opts: SolverOptions, fused: bool = False) -> tuple[MaterialPoint, int, Any, bool]:
     """Newton iterations for one (sub)step; returns (point, iterations, response).
@@ -163,15 +158,15 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
         cond = np.linalg.cond(J)
         if not np.isfinite(cond) or cond > 1e13:
             sl, op = _fractions(point.contacts, ev.response)
-            raise _StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
+            raise StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
                                f"sliding, {100 * op:.0f}% open")
         de[sc] = de[sc] - np.linalg.solve(J, r)
         if not np.all(np.isfinite(de)):
-            raise _StepFailure("Newton update not finite")
+            raise StepFailure("Newton update not finite")
     if best is not None:
         return best[1], opts.max_iter, best[2], True
     sl, op = _fractions(point.contacts, ev.response)
-    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
+    raise StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
                        f"{np.abs(r).max():.3g} > {tol:.3g}), {100 * sl:.0f}% of contacts sliding, "
                        f"{100 * op:.0f}% open")
 
@@ -186,12 +181,12 @@ def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters, fused=False)
         counters[2] += float(np.dot(point.contacts.weights, resp.dissipation))
         counters[3] += float(np.dot(0.5 * (point.stress + new.stress), new.strain - point.strain))
         return new
-    except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
-        err = _StepFailure(f"contact law error: {exc}")
-    except _StepFailure as exc:
+    except StepFailure as exc:
         err = exc
+    except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
+        err = StepFailure(f"contact law error: {exc}")
     if depth >= opts.max_depth:
-        raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")
+        raise StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")
     tm = 0.5 * (t0 + t1)
     mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters, fused)
     return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters, fused)
@@ -232,51 +227,77 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
             return res
     if fused and path.stress_control.any():
         return _run_mixed(point, path, options)
+    return _run_steps(point, path, options, fused)
+
+
+@dataclass(frozen=True)
+class _Stepping:
+    """The affine point as a :class:`~grainmech.driver.base.SteppingPoint` of :func:`follow_path`.
+
+    ``step`` is one step of the Python loop (:func:`_subdivided`: Newton, halvings);
+    ``counters`` are the last step's substeps, iterations, dissipation, work and
+    (sub)steps accepted at the law's resolution.
+    """
+
+    point: MaterialPoint
+    options: SolverOptions
+    fused: bool
+    counters: tuple = (0, 0, 0.0, 0.0, 0)
+
+    @property
+    def stress(self) -> np.ndarray:
+        return self.point.stress
+
+    @property
+    def strain(self) -> np.ndarray:
+        return self.point.strain
+
+    def fractions(self) -> tuple[float, float]:
+        return self.point.fractions()
+
+    def stored_energy(self) -> float:
+        return self.point.stored_energy()
+
+    def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> _Stepping:
+        """One step from this state (targets ``target`` on the stress-controlled components)."""
+        counters: list[Any] = [0, 0, 0.0, 0.0, 0]
+        t0 = np.where(stress_control, self.point.stress, 0.0)
+        new = _subdivided(self.point, stress_control, d_strain, t0, target, 0, self.options, counters, self.fused)
+        return replace(self, point=new, counters=tuple(counters))
+
+
+def _run_steps(point: MaterialPoint, path: LoadPath, options: SolverOptions, fused: bool) -> DriverResult:
+    """:func:`run` step by step through the one path loop (:func:`grainmech.driver.loop.follow_path`)."""
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
                                              "sub", "it")}
+    acc = {"diss": 0.0, "work": 0.0, "loose": 0}
 
-    def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
+    def record(st: _Stepping, k: int) -> None:
+        pt = st.point
+        sub, it, diss, work, loose = st.counters
+        acc["diss"] += diss
+        acc["work"] += work
+        acc["loose"] += loose
         sl, op = pt.fractions()
         rows["strain"].append(pt.strain.copy())
         rows["stress"].append(pt.stress.copy())
         rows["tangent"].append(pt.tangent)
         rows["sl"].append(sl)
         rows["op"].append(op)
-        rows["diss"].append(diss)
-        rows["work"].append(work)
+        rows["diss"].append(acc["diss"])
+        rows["work"].append(acc["work"])
         rows["stored"].append(pt.stored_energy())
         rows["sub"].append(sub)
         rows["it"].append(it)
 
-    record(point, 0.0, 0.0, 0, 0)
-    diss = work = 0.0
-    targets = PathTargets(point.stress, point.strain)
-    n_loose = 0
-    success, status, message = True, 0, f"completed {m} steps"
-    for k in range(m):
-        sc = path.stress_control[k]
-        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
-        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
-        t0 = np.where(sc, point.stress, 0.0)
-        counters: list[Any] = [0, 0, 0.0, 0.0, 0]
-        try:
-            point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters,
-                                fused)
-        except _StepFailure as exc:
-            success, status = False, 1
-            message = f"step {k + 1}: stress target not reachable: {exc.cause}"
-            break
-        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
-        diss += counters[2]
-        work += counters[3]
-        n_loose += counters[4]
-        record(point, diss, work, counters[0], counters[1])
-    if n_loose:
-        message += (f" ({n_loose} (sub)step(s) accepted at the contact law's resolution: stress residual "
+    final, success, status, message = follow_path(
+        _Stepping(point, options, fused), path, record,
+        word_failure=lambda k, exc: f"step {k}: stress target not reachable: {exc.cause}")
+    if acc["loose"]:
+        message += (f" ({acc['loose']} (sub)step(s) accepted at the contact law's resolution: stress residual "
                     f"<= {options.rtol_accept:g} x stress scale)")
-
     arr = {k: np.array(v) for k, v in rows.items()}
-    return _result(success, status, message, arr, point, m, options)
+    return _result(success, int(status), message, arr, cast(_Stepping, final).point, len(path), options)
 
 
 def _result(success: bool, status: int, message: str, arr: dict, point: MaterialPoint, m: int,
