@@ -14,22 +14,18 @@ until then.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from grainmech.driver.affine.point import (
-    MaterialPoint,
-    _fractions,
-    consistent_tangent,
-    evaluate,
-    geometric_stiffness,
-    tangent,
-)
+from grainmech.driver.affine.response import _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
 from grainmech.driver.base import DriverResult, StepFailure
 from grainmech.driver.loop import follow_path
 from grainmech.driver.paths import LoadPath
 from grainmech.errors import ConfigError, GrainmechError
+
+if TYPE_CHECKING:  # the point imports this module (MaterialPoint.at_stress runs a path)
+    from grainmech.driver.affine.point import MaterialPoint
 
 __all__ = ["run", "DriverResult", "SolverOptions"]
 
