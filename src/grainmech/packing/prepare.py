@@ -44,6 +44,7 @@ import numpy as np
 from grainmech.contact.geometry import hertz_kn, hertz_radius
 from grainmech.errors import GrainmechError
 from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
+from grainmech.network.data import solid_volume, void_ratio
 
 __all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
            "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
@@ -226,7 +227,7 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
 
     r = np.asarray(radii, float)
     n = r.size
-    L = float((np.sum(4.0 / 3.0 * np.pi * r ** 3) / solid_fraction) ** (1.0 / 3.0))
+    L = float((solid_volume(r) / solid_fraction) ** (1.0 / 3.0))
     if L < 4.0 * r.max():
         raise GrainmechError(f"too few grains: the periodic cell ({L:.3g} m) would be less than two of the "
                              f"largest diameters ({2 * r.max():.3g} m) across; use more grains")
@@ -426,7 +427,7 @@ def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
 def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool = True) -> dict:
     """Void ratio, coordination (with and without rattlers), fabric, Love-Weber stress."""
     R = net.require_radii("the packing summary")
-    vs = float(np.sum(4.0 / 3.0 * np.pi * R ** 3))
+    vs = solid_volume(R)
     V = net.volume
     st = network_stress(net)
     s = np.asarray(st.stress)
@@ -435,7 +436,7 @@ def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool
     N = net.normal_force
     return {
         "n_grains": net.n_particles, "n_contacts": net.n_contacts,
-        "volume_m3": V, "void_ratio": V / vs - 1.0, "solid_fraction": vs / V,
+        "volume_m3": V, "void_ratio": void_ratio(V, vs), "solid_fraction": vs / V,
         "radius_min_m": float(R.min()), "radius_max_m": float(R.max()),
         "radius_mean_m": float(R.mean()),
         "stress_Pa": s.tolist(), "mean_stress_Pa": float(np.trace(s) / 3.0),
@@ -492,7 +493,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
     pos, L = place_gas(radii, settings.initial_solid_fraction, rng)
     target = np.concatenate([settings.stress, np.zeros(3)])
     tmean = float(np.mean(settings.stress))
-    vs = float(np.sum(4.0 / 3.0 * np.pi * radii ** 3))
+    vs = solid_volume(radii)
     # strain scale of the contacts at the target: delta/(2R) ~ (p/E*)^(2/3) (Hertz, seed Eq. 3.6)
     eps_t = float((tmean / mat.e_star) ** (2.0 / 3.0))
     # contact frequency at the target for the mean grain (kn = 2 E* a, a = sqrt(R* delta))
@@ -522,12 +523,13 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                 raise PreparationError(
                     f"preparation did not converge in max_steps = {settings.max_steps} time steps "
                     f"(stage {'compression' if stage == 1 else 'relaxation'}: mean stress {p[:3].mean():.4g} Pa "
-                    f"for target {tmean:.4g} Pa, void ratio {_cell(lmp)[0].diagonal().prod() / vs - 1:.3f})", last_net)
+                    f"for target {tmean:.4g} Pa, void ratio "
+                    f"{void_ratio(_cell(lmp)[0].diagonal().prod(), vs):.3f})", last_net)
             p = _stress6(lmp)
             # > 0: too much compression (or too much shear stress) -> expand (or shear back)
             err = (p - target) / tmean
             cell = _cell(lmp)[0]
-            e_now = float(np.prod(np.diag(cell)) / vs - 1.0)
+            e_now = void_ratio(float(np.prod(np.diag(cell))), vs)
             pm = float(p[:3].mean())
             # servo strain increment per chunk (module notes): capped by the inertial number
             # I = rate d sqrt(rho / p) (GDR MiDi 2004) at the current stress
