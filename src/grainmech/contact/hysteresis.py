@@ -9,7 +9,7 @@ implements the same algorithm and is held to this one by tests.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -77,8 +77,8 @@ def _secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.nda
     ``kn = dN/dalpha``. Falls back to ``kt0(N1)`` when the approach does not change.
     """
     forms = law_forms(params)
-    if isinstance(params, LinearSpring):  # forms.linear
-        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)
+    if forms.linear:
+        return np.where((N0 > 0) | (N1 > 0), cast(LinearSpring, params).ks, 0.0)
     r = forms.ratio
     da = a1 - a0
     dN = N1 - N0
