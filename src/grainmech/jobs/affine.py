@@ -9,8 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import partial
 
-from grainmech.analysis import modulus_reduction
-from grainmech.driver import MaterialPoint, run
+from grainmech.driver import MaterialPoint, modulus_reduction, run
 from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.packing import packing_gmax
 from grainmech.jobs.spec import RunSpec

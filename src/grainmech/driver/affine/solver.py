@@ -13,21 +13,24 @@ until then.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.driver.affine.response import _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
 from grainmech.driver.base import DriverResult, StepFailure
-from grainmech.driver.loop import follow_path
+from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath
 from grainmech.errors import ConfigError, GrainmechError
 
 if TYPE_CHECKING:  # the point imports this module (MaterialPoint.at_stress runs a path)
     from grainmech.driver.affine.point import MaterialPoint
 
-__all__ = ["run", "DriverResult", "SolverOptions"]
+__all__ = ["run", "DriverResult", "SolverOptions", "modulus_reduction"]
 
 
 @dataclass(frozen=True)
@@ -471,3 +474,41 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
     arr = {key: np.concatenate([np.asarray(v, dtype=float) if key not in ("sub", "it") else np.asarray(v)
                                 for v in vals]) for key, vals in rows.items()}
     return _result(success, status, message, arr, point, m, options)
+
+
+def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
+                      steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
+                      progress: Callable[[int, float, Any], None] | None = None,
+                      raise_on_failure: bool = True,
+                      on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                      **run_options: Any) -> ModulusReduction:
+    """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
+
+    Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
+    ``G_max`` is the tangent shear modulus of ``point`` condensed with the path's control
+    (``sigma_zz`` free at constant normal stress; plain ``C_55`` at constant volume).
+
+    Parameters
+    ----------
+    constant : {"stress", "volume"}
+        Constant normal stress ``sigma_zz`` (default) or constant volume (every other
+        strain component held; see :func:`grainmech.driver.cyclic_simple_shear`).
+    progress : callable ``(index, amplitude, path)``, optional
+        Called before each amplitude is run.
+    raise_on_failure : bool
+        If False, a failed amplitude is recorded and the others still run (each from
+        ``point``); the result has ``success`` False and a ``message`` naming every failed
+        amplitude (:func:`grainmech.driver.loop.cyclic_series`).
+    on_amplitude : callable ``(ModulusReduction)``, optional
+        Called after each completed amplitude with the series so far (what an
+        interrupted run can still report).
+
+    Raises
+    ------
+    GrainmechError
+        If a run fails and ``raise_on_failure`` (its message is passed on).
+    """
+    return cyclic_series(lambda path: run(point, path, **run_options), amplitudes,
+                         lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
+                         n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
+                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
