@@ -27,6 +27,7 @@ from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 from grainmech.contact.params import Hertz
 from grainmech.conventions import SEED_ORDER_2D, SEED_ORDER_3D, reorder
 from grainmech.errors import GrainmechError
+from grainmech.fabric.packing import contact_ends_per_volume, contacts_per_volume
 
 __all__ = [
     "packing_scale",
@@ -81,8 +82,6 @@ def packing_scale(void_ratio: float, coordination: float, radius: float, *, dim:
     (contacts_per_volume, length) : (float, float)
         Multiply ``contacts_per_volume * length**2`` for the closed forms' ``scale``.
     """
-    from grainmech.fabric.packing import contact_ends_per_volume, contacts_per_volume
-
     if dim not in (2, 3):
         raise GrainmechError(f"dim must be 2 or 3, got {dim!r}")
     rho = _positive("radius", radius)

@@ -15,9 +15,17 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis import (
+    SAND_PEAK_FRICTION_DEG,
+    darendeli,
+    hardin_drnevich,
+    hardin_drnevich_reference,
+    mohr_coulomb_ratio,
+)
 from grainmech.analysis.strength import path_strength
 from grainmech.io.html import PageSection, write_page
 from grainmech.io.results import (
+    atomic_write,
     driver_table,
     ensure_dir,
     soil_path_table,
@@ -60,8 +68,6 @@ def _reference_curves(out: Any) -> dict:
     them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
     the only one available and is used (``hd_gmax_source`` says which).
     """
-    from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
-
     amps = np.asarray(out.amplitudes)
     ref = out.reference
     lo, hi = float(amps.min()), float(amps.max())
@@ -255,8 +261,6 @@ def _cyclic_checks(o: Any) -> dict:
     amplitudes left out of ``site_response_curves.csv``) and ``amplitude_warnings`` (the
     sentences, also in ``warnings``).
     """
-    from grainmech.analysis import SAND_PEAK_FRICTION_DEG, mohr_coulomb_ratio
-
     n = len(o.G)
     env = o.envelope[:n]
     beyond = [bool(e["beyond_any"]) for e in env]
@@ -540,8 +544,6 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
     ``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
     :class:`grainmech.outcomes.ContactOutcome`. Returns the paths written.
     """
-    from grainmech.io.results import atomic_write
-
     d = ensure_dir(outdir)
     cols = out.columns
 
@@ -578,8 +580,6 @@ def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[P
     ``summary.json``, the stiffness matrices and engineering constants as CSV, and the
     rose / normal-density plots of a :class:`grainmech.outcomes.DemOutcome`.
     """
-    from grainmech.io.results import atomic_write
-
     d = ensure_dir(outdir)
     rep = out.report
     written = [write_json(d / "summary.json", rep)]

@@ -15,6 +15,7 @@ from grainmech.assembly import StressResult, love_weber_stress
 from grainmech.contact.geometry import hertz_kn, hertz_radius, hertz_radius_from_approach, mindlin_kt0
 from grainmech.contact.params import Hertz
 from grainmech.errors import GrainmechError
+from grainmech.fabric import anisotropy, fabric_tensor
 from grainmech.network.data import ContactNetwork
 
 __all__ = ["network_stress", "network_fabric", "FabricResult", "rattlers", "rattler_threshold",
@@ -71,8 +72,6 @@ def network_fabric(net: ContactNetwork, *, force_carrying: bool = False) -> Fabr
     force_carrying : bool
         Only contacts with ``N > 0``.
     """
-    from grainmech.fabric import anisotropy, fabric_tensor
-
     sel = net.normal_force > 0 if force_carrying else slice(None)
     n = net.normals[sel]
     if n.shape[0] == 0:

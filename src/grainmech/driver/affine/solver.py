@@ -21,10 +21,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
+from grainmech.contact._errors import ReversalMemoryError
+from grainmech.contact.interface import ContactLaw
+from grainmech.contact.law import max_reversals
 from grainmech.driver.affine.response import _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
 from grainmech.driver.base import DriverResult, StepFailure
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath
+from grainmech.elasticity import engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
 
 if TYPE_CHECKING:  # the point imports this module (MaterialPoint.at_stress runs a path)
@@ -303,8 +307,6 @@ def _result(success: bool, status: int, message: str, arr: dict, point: Material
             options: SolverOptions) -> DriverResult:
     eng: dict = {}
     if options.engineering:
-        from grainmech.elasticity import engineering_constants
-
         dicts: list[dict | None] = []
         for C in arr["tangent"]:
             try:
@@ -353,8 +355,6 @@ def _compiled_law(point: MaterialPoint) -> bool:
     A :class:`~grainmech.contact.interface.ContactLaw` with numba present, the law
     supported and the backend not ``numpy``.
     """
-    from grainmech.contact.interface import ContactLaw
-
     return isinstance(point.law, ContactLaw) and point.law.compiled
 
 
@@ -394,8 +394,6 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
 
 def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str:
     """The failure cause of a compiled segment, worded as :func:`_solve` words it."""
-    from grainmech.contact._errors import ReversalMemoryError
-    from grainmech.contact.law import max_reversals
     from grainmech.driver.affine import _mixed
 
     code = seg["cause"]
