@@ -479,6 +479,7 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
                       progress: Callable[[int, float, Any], None] | None = None,
                       raise_on_failure: bool = True,
                       on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                      runner: Callable[..., DriverResult] | None = None,
                       **run_options: Any) -> ModulusReduction:
     """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
 
@@ -500,13 +501,17 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     on_amplitude : callable ``(ModulusReduction)``, optional
         Called after each completed amplitude with the series so far (what an
         interrupted run can still report).
+    runner : callable ``(point, path, **run_options) -> DriverResult``, optional
+        What runs each amplitude's path; default :func:`run` (the caller's own reference
+        to it: ``grainmech.jobs`` passes the ``grainmech.driver.run`` it imported).
 
     Raises
     ------
     GrainmechError
         If a run fails and ``raise_on_failure`` (its message is passed on).
     """
-    return cyclic_series(lambda path: run(point, path, **run_options), amplitudes,
+    run_path = run if runner is None else runner
+    return cyclic_series(lambda path: run_path(point, path, **run_options), amplitudes,
                          lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
                          n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
                          progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
