@@ -540,3 +540,32 @@ def test_updates_leave_the_mechanisms_of_grains_alone(packing):
         d, o = full[g][dof] * sc, out[g][dof] * sc  # (u, R theta)
         np.testing.assert_allclose(o, d - N @ (N.T @ d), rtol=0, atol=1e-12 * np.abs(d).max())
     assert {0, 1, 3, 6} <= dims
+
+
+def test_step_budget_stops_the_run_and_keeps_results():
+    """PackingOptions.max_step_work: a step that spends its budget (residual evaluations plus
+    GMRES iterations) stops the run with status 1, naming the budget and the out-of-balance
+    measures reached, and keeps the steps before. On the shipped 'medium' packing at 1e-4
+    the third step costs 261 (docs/packing-driver.md, "Step budget"), so a budget of 100
+    stops the run within its first steps. Every accepted step stays within the equilibrium
+    bar of issue 29 (largest grain residual <= 0.05 of the mean contact force)."""
+    from grainmech.driver._packing_options import ACCEPT_MAX_FORCE
+    from grainmech.packing import QUARTZ, load_packing
+
+    net = load_packing("medium")
+    law = MindlinDeresiewicz(QUARTZ.shear_modulus, QUARTZ.poisson, float(net.radii.mean()),
+                             friction=QUARTZ.friction)
+    pt = PackingPoint.from_network(net, law)
+    r = run_packing(pt, cyclic_simple_shear(1e-4, 1, 40, constant="stress"),
+                    PackingOptions(law_backend="auto", tangent="none", max_step_work=100))
+    assert not r.success and r.status == 1
+    k = len(r.strain) - 1
+    assert 1 <= k < 40
+    assert f"step {k + 1}: no equilibrium found: no equilibrium within max_step_work = 100" in r.message
+    assert "mean unbalanced force ratio" in r.message and f"results kept up to step {k}" in r.message
+    assert r.cost.shape == (k + 1,) and r.cost[0] == 0 and np.all((r.cost[1:] > 0) & (r.cost[1:] <= 100))
+    assert r.residual.max() <= ACCEPT_MAX_FORCE
+    assert PackingOptions().max_step_work == 50000
+    for bad in (50, 1.5e4, True):
+        with pytest.raises(ParameterError, match="max_step_work"):
+            PackingOptions(max_step_work=bad)

@@ -59,8 +59,10 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     ``d_k / d_(k-1)`` (the a-posteriori bound of a contraction; infinite until two
     ratios below 1 are known). After ``_AA_PATIENCE`` iterations without progress the best point is accepted if
     its stress is settled; otherwise the history restarts from it (at most
-    ``_AA_RESTARTS`` times: the differences gathered across a kink of the laws mix two
-    branches; on 'dense' at 1e-4 this took 10 steps from 24.6 s to 14.5 s).
+    ``_AA_RESTARTS`` times, and only from a point better than the one the history
+    started from, which would replay the same iterates: the differences gathered across
+    a kink of the laws mix two branches; on 'dense' at 1e-4 this took 10 steps from
+    24.6 s to 14.5 s).
 
     Returns
     -------
@@ -73,7 +75,7 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
     F: list = []
     dXs: list = []  # X[k+1] - X[k]
     dFs: list = []  # (F[k+1] - F[k]) / D
-    best = (xq, xe, cur, m)
+    best = start = (xq, xe, cur, m)
     ref, stall = m, 0  # merit of the last iteration that made progress, iterations since
     restarts = 0
     it = 0
@@ -137,14 +139,16 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
         if m < _AA_PROGRESS * ref:
             ref, stall = m, 0
         if stall > _AA_PATIENCE:
-            if restarts >= _AA_RESTARTS or accept(best[2][3], best[2][4]):
+            # a restart from the point this history started from replays the same
+            # iterates (the map is deterministic): only a better point is worth one
+            if restarts >= _AA_RESTARTS or best is start or accept(best[2][3], best[2][4]):
                 break
             # a stall at a kink of the laws: the differences gathered across it mix two
             # branches; start again from the best point with an empty history
             restarts += 1
             if dbg:
                 dbg(f"   anderson stalled: restart {restarts} from the best point (merit {best[3]:.3g})")
-            xq, xe, cur, m = best
+            xq, xe, cur, m = start = best
             X, F, dXs, dFs = [], [], [], []
             ref, stall = m, 0
     xq, xe, cur, m = best
@@ -421,22 +425,47 @@ def _at_rest(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float, bar: f
     """
     if fref <= 0.0:
         return False
-    g = kin.full(rq)
+    g = _grain_residuals(kin, rq)
     F = np.linalg.norm(g[:, :3], axis=1)
     M = np.linalg.norm(g[:, 3:], axis=1) / R
     return bool(np.mean(np.hypot(F, M)) <= bar * fref and max(F.max(), M.max()) <= ACCEPT_MAX_FORCE * fref)
 
 
+def _grain_residuals(kin: Kinematics, rq: np.ndarray) -> np.ndarray:
+    """(P, 6) out-of-balance forces and moments of every grain from ``rq`` (n_free,).
+
+    The translation of grain 0 is pinned (not an unknown, :class:`Kinematics`); its
+    out-of-balance force follows from the others', as the contact forces sum to zero:
+    ``F_0 = -sum_(p>0) F_p``. Small residuals of many grains in one direction add up
+    there (on 'dense' at 3e-4 a step left 0.17 of the mean contact force on grain 0 while
+    no free unknown was above 0.01).
+    """
+    g = kin.full(rq)
+    g[0, :3] = -g[1:, :3].sum(axis=0)
+    return g
+
+
+def _largest(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
+    """The largest grain's ``|F_p|`` or ``|M_p|/R_p`` of out-of-balance forces ``rq`` [force].
+
+    Over the mean contact force this is :func:`unbalanced_force_ratio` with ``kind="max"``,
+    the residual :class:`PackingResult` reports.
+    """
+    g = _grain_residuals(kin, rq)
+    return float(max(np.linalg.norm(g[:, :3], axis=1).max(initial=0.0),
+                     (np.linalg.norm(g[:, 3:], axis=1) / R).max(initial=0.0)))
+
+
 def _unbalanced(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float) -> float:
     """Mean unbalanced force ratio of out-of-balance forces ``rq`` (trace output)."""
-    g = kin.full(rq)
+    g = _grain_residuals(kin, rq)
     return float(np.mean(np.hypot(np.linalg.norm(g[:, :3], axis=1), np.linalg.norm(g[:, 3:], axis=1) / R))
                  / max(fref, 1e-300))
 
 
 def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
     """``sum_p (|F_p| R_p + |M_p|)`` [force length] of out-of-balance forces and moments ``rq``."""
-    g = kin.full(rq)
+    g = _grain_residuals(kin, rq)
     return float(np.sum(np.linalg.norm(g[:, :3], axis=1) * R + np.linalg.norm(g[:, 3:], axis=1)))
 
 

@@ -154,6 +154,15 @@ class PackingOptions:
         0.1 completed them too (G 133.40 against 133.5 MPa, damping 3.156 against 3.158
         %): round-off picks the path there. If a run on a loose packing stops, try
         ``settle=0``.
+    max_step_work : int
+        Budget of one step of the path (all its substeps together), in residual
+        evaluations plus GMRES iterations (about one contact-law update or one solve with
+        the factorised operator each; ``PackingResult.cost`` reports what each step
+        used). A step that spends it stops the run (status 1) with the step, the
+        out-of-balance measures reached and the results so far: where a fixed geometry has
+        no equilibrium (grains that would roll off and rearrange in a DEM), halving and
+        committed relaxation otherwise crawl on for tens of minutes. The default is set
+        from the measurements in ``docs/packing-driver.md`` ("Step budget").
     """
 
     rtol: float = 1e-8
@@ -177,6 +186,7 @@ class PackingOptions:
     reproducible: bool = True
     anderson: int = 10
     settle: float = 0.1
+    max_step_work: int = 50000
 
     def __post_init__(self) -> None:
         if not (0 < self.rtol < 1e-2):
@@ -213,6 +223,8 @@ class PackingOptions:
             raise ParameterError("anderson", self.anderson, "must be an integer in [0, 50]")
         if isinstance(self.settle, bool) or not isinstance(self.settle, (int, float)) or not 0 <= self.settle <= 1:
             raise ParameterError("settle", self.settle, "must be a number in [0, 1]")
+        if isinstance(self.max_step_work, bool) or not isinstance(self.max_step_work, int) or self.max_step_work < 100:
+            raise ParameterError("max_step_work", self.max_step_work, "must be an integer >= 100")
 
 
 def _law_scale(params: object, Rs: np.ndarray) -> np.ndarray:
@@ -257,6 +269,14 @@ class _StepFailure(Exception):
         self.cause = cause
 
 
+class _OutOfBudget(Exception):
+    """A step spent ``PackingOptions.max_step_work`` (not a :class:`_StepFailure`: no halving retries it)."""
+
+    def __init__(self, cause: str) -> None:
+        super().__init__(cause)
+        self.cause = cause
+
+
 @dataclass
 class _Context:
     """Per-run solver state: preconditioner and counters."""
@@ -277,3 +297,11 @@ class _Context:
     newton_ok: bool = True  # the last (sub)step's consistent-tangent updates worked
     energy: bool = False  # line search on the potential energy (frictionless laws only)
     settled: int = 0  # (sub)steps whose Anderson iterations stopped with the stress settled (settle)
+    evals: int = 0  # residual evaluations
+    budget: int = 0  # evals + krylov at which the current step is out of budget (0: none)
+    worst: str = ""  # out-of-balance measures of the last residual evaluated, for the budget message
+
+    @property
+    def work(self) -> int:
+        """Residual evaluations plus GMRES iterations so far (``PackingOptions.max_step_work``)."""
+        return self.evals + self.krylov

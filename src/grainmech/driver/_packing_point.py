@@ -28,6 +28,7 @@ from grainmech.contact import (
     update,
 )
 from grainmech.driver import DriverResult, LoadPath
+from grainmech.driver._packing_iter import _grain_residuals
 from grainmech.driver._packing_ops import (
     Kinematics,
     Preconditioner,
@@ -46,6 +47,7 @@ from grainmech.driver._packing_options import (
     _frictional,
     _law_kw,
     _law_scale,
+    _OutOfBudget,
     _StepFailure,
 )
 from grainmech.driver._packing_step import _held_load, _subdivided
@@ -495,13 +497,11 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     Returns 0 for a packing without contact forces.
     """
     b = point.kinematics.balance(point.forces)
-    g = point.kinematics.full(b if point.load is None else b - _held_load(point, point.response))
+    g = _grain_residuals(point.kinematics, b if point.load is None else b - _held_load(point, point.response))
     fm = np.linalg.norm(point.forces, axis=1)
     fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
     if fmean == 0.0:
         return 0.0
-    # the pinned translation of grain 0 is not in G: its balance follows from the others
-    g[0, :3] = -g[1:, :3].sum(axis=0)
     F = np.linalg.norm(g[:, :3], axis=1)
     M = np.linalg.norm(g[:, 3:], axis=1) / point.radii
     if kind == "max":
@@ -578,6 +578,8 @@ class PackingResult(DriverResult):
         relaxation (``PackingOptions.relax_depth``): the work of the out-of-balance forces
         on its updates, which a quasi-static DEM dissipates by its numerical damping. The
         energy balance of a path is ``work = dissipation + stored change + relaxation_loss``.
+    cost : (k+1,) int, residual evaluations plus GMRES iterations each step used
+        (``PackingOptions.max_step_work`` is the budget of one step)
     factorizations : int, factorisations of the elastic operator in the run
     notes : tuple of str (rattlers, gap pairs, ...)
 
@@ -594,6 +596,7 @@ class PackingResult(DriverResult):
     factorizations: int = 0
     notes: tuple = ()
     relaxation_loss: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cost: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
 
 
 def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None, *,
@@ -648,10 +651,10 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
     nan66 = np.full((6, 6), np.nan)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
-                                             "stored", "sub", "it", "res", "fl", "cl", "kr")}
+                                             "stored", "sub", "it", "res", "fl", "cl", "kr", "spent")}
 
     def record(pt: PackingPoint, diss: float, work: float, loss: float, sub: int, it: int, kr: int,
-               tang: bool) -> None:
+               tang: bool, spent: int) -> None:
         sl, op = pt.fractions()
         rows["strain"].append(pt.strain.copy())
         rows["stress"].append(pt.stress.copy())
@@ -668,6 +671,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         rows["fl"].append(pt.fluctuation())
         rows["cl"].append(int(np.sum(~np.asarray(pt.response.open, bool))))
         rows["kr"].append(kr)
+        rows["spent"].append(spent)
 
     rows["strain"].append(point.strain.copy())
     rows["stress"].append(point.stress.copy())
@@ -677,7 +681,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                    ("stored", point.stored_energy()),
                  ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
                  ("fl", point.fluctuation()), ("cl", int(np.sum(~np.asarray(point.response.open, bool)))),
-                 ("kr", 0)):
+                 ("kr", 0), ("spent", 0)):
         rows[key].append(v)
     diss = work = loss = 0.0
     targets = PathTargets(point.stress, point.strain)
@@ -694,14 +698,17 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
             break
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
         counters = [0, 0, 0.0, 0.0, 0.0]
-        kr0 = ctx.krylov
+        kr0, w0 = ctx.krylov, ctx.work
+        ctx.budget = w0 + opts.max_step_work
         try:
             new = _subdivided(point, sc, d_strain, np.where(sc, point.stress, 0.0),
                               np.where(sc, new_t_stress, 0.0), 0, ctx, counters)
-        except _StepFailure as exc:
+        except (_StepFailure, _OutOfBudget) as exc:
             success, status = False, STATUS_FAILED
             message = f"step {k + 1}: no equilibrium found: {exc.cause}; results kept up to step {k}"
             break
+        finally:
+            ctx.budget = 0
         fl = new.fluctuation()
         big = float(np.abs(new.strain).max())
         if fl > opts.max_fluctuation or big > opts.max_strain:
@@ -719,7 +726,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         loss += counters[4]
         last = k == m - 1
         record(point, diss, work, loss, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
-               opts.tangent == "every" or (opts.tangent == "ends" and last))
+               opts.tangent == "every" or (opts.tangent == "ends" and last), ctx.work - w0)
         if on_step is not None:
             on_step(k + 1, m)
     arr = {k: np.array(v) for k, v in rows.items()}
@@ -746,4 +753,4 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                          + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
                              "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
                              "quasi-static DEM)",) if ctx.relaxations else ()),
-                         relaxation_loss=arr["loss"])
+                         relaxation_loss=arr["loss"], cost=arr["spent"].astype(int))

@@ -17,7 +17,7 @@ re-exported here.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from grainmech.driver._packing_iter import (  # noqa: F401 (re-exported: the nam
     _grain_report,
     _held_load,
     _hold_mechanisms,
+    _largest,
     _slip_rotation,
     _step_tangent,
     _stress_ambiguity,
@@ -53,7 +54,15 @@ from grainmech.driver._packing_ops import (
     contact_tangent,
     voigt_of,
 )
-from grainmech.driver._packing_options import PackingOptions, _Context, _frictional, _law_kw, _StepFailure  # noqa: F401
+from grainmech.driver._packing_options import (  # noqa: F401
+    ACCEPT_MAX_FORCE,
+    PackingOptions,
+    _Context,
+    _frictional,
+    _law_kw,
+    _OutOfBudget,
+    _StepFailure,
+)
 from grainmech.driver._packing_trial import (  # noqa: F401
     _GLUE,
     _compiled_glue,
@@ -146,6 +155,20 @@ def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.
     return v, xq, xe, fac
 
 
+def _out_of_budget(kin: Any, rq: np.ndarray, Rg: np.ndarray, fref: float, resp: Any, ctx: _Context) -> None:
+    """Raise :class:`_OutOfBudget` with the out-of-balance measures of the iterate ``rq``."""
+    g = kin.full(rq)
+    worst = float(np.max(np.hypot(np.linalg.norm(g[:, :3], axis=1), np.linalg.norm(g[:, 3:], axis=1) / Rg)))
+    closed = ~np.asarray(resp.open, bool)
+    sliding = int(np.sum(np.asarray(resp.sliding, bool) & closed))
+    raise _OutOfBudget(
+        f"no equilibrium within max_step_work = {ctx.opts.max_step_work} residual evaluations and GMRES "
+        f"iterations (mean unbalanced force ratio {_unbalanced(kin, rq, Rg, fref):.2g}, largest grain "
+        f"{worst / max(fref, 1e-300):.2g} of the mean contact force; {sliding} of {int(closed.sum())} closed "
+        "contacts sliding): grains that a DEM would let roll and rearrange find no balance in this fixed "
+        "geometry")
+
+
 def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
            counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
     """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
@@ -175,6 +198,9 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         if point.load is not None:
             rq = rq - _held_load(point, resp)
         re = vs[S] - V * target[S]
+        ctx.evals += 1
+        if ctx.budget and ctx.work >= ctx.budget:
+            _out_of_budget(kin, rq, Rg, fref, resp, ctx)
         return st, resp, f, rq, re, vs, de
 
     w0 = _potential(point, point.state, point.response) if ctx.energy else None
@@ -217,11 +243,15 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
         # (the imbalance left is not lost: the next step starts from it and removes it)
         # (the stress-controlled components within the same bound); ``factor`` scales the
         # bound (PackingOptions.settle)
+        # (never with a grain out of balance by more than ACCEPT_MAX_FORCE of the mean
+        # contact force: the bar of "every accepted step in equilibrium" as reported,
+        # PackingResult.residual)
         bound = factor * amb_ok
-        stress_ok = ms == 0 or bool(np.all(np.abs(re) <= bound))
-        if stress_ok and _stress_ambiguity(kin, rq, Rg) <= bound:
+        if (ms and not bool(np.all(np.abs(re) <= bound))) or _largest(kin, rq, Rg) > ACCEPT_MAX_FORCE * fref:
+            return False
+        if _stress_ambiguity(kin, rq, Rg) <= bound:
             return True
-        return bool(stress_ok and factor == 1.0 and opts.accept_unbalanced > 0
+        return bool(factor == 1.0 and opts.accept_unbalanced > 0
                     and _at_rest(kin, rq, Rg, fref, opts.accept_unbalanced))
 
     def unsettled(rq: np.ndarray, re: np.ndarray) -> str:
