@@ -42,9 +42,9 @@ __all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves"
 
 
 def __getattr__(name: str) -> Any:
-    """``modulus_reduction`` (the affine model's series) from :mod:`grainmech.driver.affine.solver`, on first use."""
+    """``modulus_reduction`` (the affine model's series, :mod:`grainmech.driver.affine.solver`), on first use."""
     if name == "modulus_reduction":
-        from grainmech.driver.affine.solver import modulus_reduction  # noqa: PLC0415 (the driver imports analysis)
+        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (the driver imports analysis)
 
         return modulus_reduction
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -274,3 +274,16 @@ class ModulusReduction:
     def G_ratio(self) -> np.ndarray:
         """Secant modulus ratio ``G / G_max`` [-] per amplitude, shape (n_amplitudes,)."""
         return self.G / self.G_max
+
+
+def __getattr__(name: str) -> Any:
+    """``modulus_reduction``, the affine model's series, where it was defined before: found on first use.
+
+    It lives with the affine driver now (:func:`grainmech.driver.modulus_reduction`); the
+    driver imports this module, so this module does not import the driver at its top.
+    """
+    if name == "modulus_reduction":
+        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (see the docstring)
+
+        return modulus_reduction
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
