@@ -25,9 +25,11 @@ from grainmech.assembly import ContactSet, static_contact_forces
 from grainmech.contact.interface import coulomb_limit, make_law
 from grainmech.contact.law import ContactResponse
 from grainmech.conventions import stress_to_vector, vector_to_stress
-from grainmech.driver.affine.response import (  # noqa: F401 (consistent_tangent, _fractions: names this module had)
+from grainmech.driver.affine.response import (  # noqa: F401 (names this module had, private ones included)
     Evaluation,
     _fractions,
+    _project,
+    _step_jacobian,
     _stress,
     consistent_tangent,
     evaluate,
