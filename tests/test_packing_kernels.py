@@ -1,6 +1,6 @@
 """Compiled iteration glue of the packing driver against its NumPy reference.
 
-``driver/_packing_kernels.py`` (relative displacements ``Delta = G q + l . eps``, seed
+``driver/packing/_kernels.py`` (relative displacements ``Delta = G q + l . eps``, seed
 Eq. 2.13; forces, out-of-balance ``G^T f`` and ``V sigma``, Love-Weber seed Eq. 2.6; the
 per-grain trust limit and the closing cap) and ``contact.law.CompiledUpdate`` (the
 compiled law from one start state, its inputs converted once) must give the same bits
@@ -16,10 +16,7 @@ pytest.importorskip("numba")
 
 from grainmech.contact import HertzMindlin, LinearSpring, MindlinDeresiewicz, update  # noqa: E402
 from grainmech.contact.law import CompiledUpdate, compiled_kernel, state_from_normal_force  # noqa: E402
-from grainmech.driver import _packing_kernels as K  # noqa: E402
-from grainmech.driver import _packing_step as PS  # noqa: E402
 from grainmech.driver import cyclic_simple_shear  # noqa: E402
-from grainmech.driver._packing_ops import voigt_of  # noqa: E402
 from grainmech.driver.packing import (  # noqa: E402
     PackingOptions,
     PackingPoint,
@@ -27,6 +24,9 @@ from grainmech.driver.packing import (  # noqa: E402
     perturbed_fcc_network,
     run_packing,
 )
+from grainmech.driver.packing import _kernels as K  # noqa: E402
+from grainmech.driver.packing import step as PS  # noqa: E402
+from grainmech.driver.packing._operators import voigt_of  # noqa: E402
 
 MD = MindlinDeresiewicz(29e9, 0.15, 1.0, friction=0.5)
 

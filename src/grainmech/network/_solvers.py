@@ -120,7 +120,7 @@ def shared_pardiso() -> Any:
 
     It holds the MKL library and its ``pardiso`` entry point: the relaxed tensor factors
     through it (under ``_PARDISO_LOCK``), the packing driver calls ``pardiso`` directly
-    with its own factor handles (``driver._packing_ops._Factor``). Made once: even with
+    with its own factor handles (``driver.packing._operators._Factor``). Made once: even with
     :func:`pardiso_solver`'s look-up, pypardiso's constructor is not free.
     """
     return pardiso_solver(2)

@@ -19,9 +19,9 @@ equilibrium residuals), :class:`PackingOptions`, :func:`packing_modulus_reductio
 :func:`unbalanced_force_ratio`. The derivation and its sources are in
 ``docs/packing-driver.md``.
 
-Modules: the options in :mod:`grainmech.driver._packing_options`, the point and the run in
-:mod:`grainmech.driver._packing_point`, the step solver in
-:mod:`grainmech.driver._packing_step`; this module holds the modulus reduction, the
+Modules: the options in :mod:`grainmech.driver.packing.options`, the point and the run in
+:mod:`grainmech.driver.packing.point`, the step solver in
+:mod:`grainmech.driver.packing.step`; this module holds the modulus reduction, the
 preparation of packings and the first run's compilation ahead, and re-exports the rest.
 """
 
@@ -41,7 +41,8 @@ from grainmech.contact import (
     LinearSpring,
 )
 from grainmech.driver import LoadPath, cyclic_simple_shear
-from grainmech.driver._packing_options import (  # noqa: F401 (re-exported: the names this module always had)
+from grainmech.driver.loop import cyclic_series
+from grainmech.driver.packing.options import (  # noqa: F401 (re-exported: the names this module always had)
     STATUS_DONE,
     STATUS_FAILED,
     STATUS_SMALL_STRAIN,
@@ -49,7 +50,7 @@ from grainmech.driver._packing_options import (  # noqa: F401 (re-exported: the 
     _check_params,
     _law_scale,
 )
-from grainmech.driver._packing_point import (  # noqa: F401
+from grainmech.driver.packing.point import (  # noqa: F401
     PackingPoint,
     PackingResult,
     _gap_pairs,
@@ -58,7 +59,6 @@ from grainmech.driver._packing_point import (  # noqa: F401
     run_packing,
     unbalanced_force_ratio,
 )
-from grainmech.driver.loop import cyclic_series
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import Box, ContactNetwork, lattice_network
 

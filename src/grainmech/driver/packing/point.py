@@ -1,0 +1,756 @@
+"""The packing driver's material point and run (:mod:`grainmech.driver.packing`).
+
+:class:`PackingPoint` (a converged state of a packing of grains: ``from_network``,
+``at_stress``, tangents, energies), :func:`unbalanced_force_ratio`, the relaxed tangent by
+GMRES per column (``_relaxed_tangent``), and the run: :func:`run_packing` ->
+:class:`PackingResult`, whose steps the step solver :mod:`grainmech.driver.packing.step`
+takes. The point's constructors run the driver (to settle the input, to reach a stress),
+so the two live together. The derivation is in ``docs/packing-driver.md``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from functools import cached_property
+from typing import Any, cast
+
+import numpy as np
+import scipy.sparse.linalg as spla
+from scipy.spatial import cKDTree
+
+from grainmech.contact import (
+    ContactState,
+    LinearSpring,
+    state_from_approach,
+    state_from_forces,
+    update,
+)
+from grainmech.driver import DriverResult, LoadPath
+from grainmech.driver.packing._iterations import _grain_residuals
+from grainmech.driver.packing._operators import (
+    Kinematics,
+    Preconditioner,
+    block_diagonal,
+    contact_tangent,
+    openblas_one_thread,
+    voigt_of,
+)
+from grainmech.driver.packing.options import (
+    STATUS_DONE,
+    STATUS_FAILED,
+    STATUS_SMALL_STRAIN,
+    PackingOptions,
+    _check_params,
+    _Context,
+    _frictional,
+    _law_kw,
+    _law_scale,
+    _OutOfBudget,
+    _StepFailure,
+)
+from grainmech.driver.packing.step import _held_load, _subdivided
+from grainmech.driver.paths import PathTargets
+from grainmech.errors import GrainmechError, ParameterError
+from grainmech.network import ContactNetwork, rattlers
+
+#: ``PackingOptions.accept_unbalanced`` of :meth:`PackingPoint.at_stress` (a DEM packing's "at rest")
+AT_STRESS_UNBALANCED = 1e-4
+
+__all__ = ["PackingPoint", "PackingResult", "run_packing", "unbalanced_force_ratio"]
+
+
+def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs of non-rattler grains not in contact whose gap is below ``gap`` times their mean radius."""
+    pos, R, box = net.positions, net.require_radii("tracking gap pairs"), net.box
+    idx = np.flatnonzero(alive)
+    if idx.size < 2 or gap <= 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))
+    cut = 2.0 * float(R[idx].max()) * (1.0 + gap)
+    if np.allclose(box.cell, np.diag(np.diag(box.cell))) and box.periodic.all():
+        L = np.diag(box.cell)
+        tree = cKDTree(np.mod(pos[idx] - box.origin, L), boxsize=L)
+        pr = tree.query_pairs(min(cut, 0.4999 * float(L.min())), output_type="ndarray")
+        I, J = idx[pr[:, 0]], idx[pr[:, 1]]
+    else:
+        if idx.size > 4000:
+            raise ParameterError("gap", gap, "gap-pair search in a non-orthogonal or non-periodic cell is "
+                              "limited to 4000 grains; use gap = 0")
+        I, J = np.triu_indices(idx.size, 1)
+        I, J = idx[I], idx[J]
+    br = box.minimum_image(pos[J] - pos[I])
+    d = np.linalg.norm(br, axis=1)
+    g = d - R[I] - R[J]
+    keep = (g > 0) & (g < gap * 0.5 * (R[I] + R[J]))
+    I, J, br = I[keep], J[keep], br[keep]
+    # drop pairs already listed as contacts
+    P = net.n_particles
+    listed = set((np.minimum(net.i, net.j) * P + np.maximum(net.i, net.j)).tolist())
+    key = np.minimum(I, J) * P + np.maximum(I, J)
+    new = np.array([k not in listed for k in key.tolist()], dtype=bool)
+    return I[new], J[new], br[new]
+
+
+@dataclass(frozen=True, eq=False)
+class PackingPoint:
+    """Converged state of a packing (see module notes and ``docs/packing-driver.md``).
+
+    Attributes
+    ----------
+    network : ContactNetwork
+        The input packing (reference geometry).
+    params : contact law parameters (material constants and friction; the radius of each
+        contact comes from its grains, see :func:`_law_scale`).
+    kinematics : private geometry of the tracked contacts (non-rattler grains).
+    grains : int array (P,)
+        Rows of ``network`` of the grains kept (rattlers excluded).
+    radii : array (P,) [length]
+    contact_rows : int array (C,)
+        Row of ``network`` of each tracked contact, ``-1`` for a pair tracked because of
+        its small initial gap.
+    scale : array (C,)
+        Law displacement scale ``s_c``.
+    state : ContactState
+        Contact law state (law space: displacements times ``s_c``).
+    response : ContactResponse
+        Law response at ``state`` (law space).
+    forces : array (C, 3)
+        Contact forces (by A on B, compression positive) [force].
+    q : array (P, 6)
+        Grain fluctuations (translation [length], rotation [rad]); grain 0's translation
+        is pinned (global translation).
+    strain, stress : arrays (6,)
+        Total strain since the input state (engineering shear, compression positive) and
+        Love-Weber stress (seed Eq. 2.6), library order ``xx, yy, zz, yz, xz, xy``.
+    volume : float
+    n_rattlers : int
+    initially_closed : bool array (C,)
+        Contacts carrying force in the input state.
+    notes : tuple of str
+    load : array (n_free,) or None
+        Constant external grain loads (force, moment) that balance the input's
+        out-of-balance forces (``imbalance="hold"`` of :meth:`from_network`); ``None``: none.
+    """
+
+    network: ContactNetwork
+    params: Any
+    kinematics: Kinematics
+    grains: np.ndarray
+    radii: np.ndarray
+    contact_rows: np.ndarray
+    scale: np.ndarray
+    state: ContactState
+    response: Any
+    forces: np.ndarray
+    q: np.ndarray
+    strain: np.ndarray
+    stress: np.ndarray
+    volume: float
+    n_rattlers: int
+    initially_closed: np.ndarray
+    notes: tuple = ()
+    law_backend: str | None = "numpy"
+    factorization: str = "auto"
+    load: np.ndarray | None = None
+    regularization: float = 1e-4
+    reproducible: bool = True
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    # ------------------------------------------------------------------ constructor
+    @classmethod
+    def from_network(cls, net: ContactNetwork, params: Any, *, forces: str = "auto", gap: float = 0.05,
+                     max_unbalanced: float = 1e-2, imbalance: str = "hold",
+                     options: PackingOptions | None = None) -> PackingPoint:
+        """Packing point from a contact network and a contact law.
+
+        Parameters
+        ----------
+        net : ContactNetwork
+            3D, periodic packing with radii (spheres).
+        params : Hertz, HertzMindlin, MindlinDeresiewicz or LinearSpring
+            Material constants and friction; each contact uses the effective radius
+            ``R_A R_B / (R_A + R_B)`` of its grains.
+        forces : {"auto", "stored", "overlap"}
+            ``stored``: the network's contact forces (normal part from ``f . n``,
+            tangential part placed on the virgin Mindlin-Deresiewicz branch,
+            :func:`grainmech.contact.state_from_forces`); ``overlap``: normal forces from
+            the overlaps by the law (Hertz, seed Eq. 3.6), no tangential force; ``auto``:
+            stored if any force is non-zero, else overlap.
+        gap : float
+            Pairs of grains not in contact whose gap is below ``gap`` times their mean
+            radius are tracked (open) so that they can close.
+        max_unbalanced : float
+            Largest accepted :func:`unbalanced_force_ratio` of the input (mean-based);
+            above it the packing is not mechanically stable and a
+            :class:`~grainmech.errors.GrainmechError` says so.
+        imbalance : {"hold", "relax", "none"}
+            What to do with the input's remaining out-of-balance forces and moments (a DEM
+            packing at rest keeps a small imbalance, its unbalanced force ratio).
+            ``"hold"``: the input is the equilibrium state, its out-of-balance forces are
+            held as constant external loads on the grains (:attr:`load`), so the stress and
+            the contact states are exactly the input's; ``"relax"``: remove them with one
+            strain-controlled step of zero increment (the grains move; contacts at the
+            Coulomb limit may slide; the stress change is in ``notes``); ``"none"``: keep
+            them in the residual (the first step removes them).
+
+        Raises
+        ------
+        GrainmechError (a ValueError)
+            Bad input, naming the field and the value.
+        """
+        _check_params(params)
+        opts = options or PackingOptions()
+        if not isinstance(net, ContactNetwork):
+            raise ParameterError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
+        if net.dim != 3:
+            raise ParameterError("network.dim", net.dim, "the packing driver works in 3D")
+        if net.radii is None:
+            raise ParameterError("network.radii", None, "are required (spheres): give the particle radii")
+        if not net.box.periodic.all():
+            raise ParameterError("network.box.periodic", net.box.periodic.tolist(),
+                              "must be periodic in x, y and z (walls are not modelled)")
+        if imbalance not in ("hold", "relax", "none"):
+            raise ParameterError("imbalance", imbalance, "must be 'hold', 'relax' or 'none'")
+        if forces not in ("auto", "stored", "overlap"):
+            raise ParameterError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
+        if not (gap >= 0 and math.isfinite(gap)):
+            raise ParameterError("gap", gap, "must be finite and >= 0")
+        if net.n_contacts == 0:
+            raise ParameterError("network", net.source, "has no contacts")
+        n, L = net.normals, net.branch_length
+        RA, RB = net.radii[net.i], net.radii[net.j]
+        if forces == "auto":
+            forces = "stored" if np.any(net.force != 0) else "overlap"
+        notes: list[str] = []
+        if forces == "stored":
+            N = np.einsum("ij,ij->i", net.force, n)
+            T = net.force - N[:, None] * n
+        else:
+            alpha = net.overlap if net.overlap is not None else RA + RB - L
+            Rs = RA * RB / (RA + RB)
+            N = state_from_approach(params, np.maximum(alpha, 0.0) * _law_scale(params, Rs)).normal_force
+            T = np.zeros_like(net.force)
+        carrying = N > 0
+        frictional = _frictional(params)
+        if not frictional and np.any(T[carrying] != 0):
+            Tm = np.linalg.norm(T, axis=1)
+            if Tm.max() > 1e-9 * max(float(N.max()), 1e-300):
+                notes.append(f"frictionless law: tangential forces of the input dropped (largest "
+                             f"|T|/N = {float(np.max(Tm[carrying] / N[carrying])):.3g})")
+            T = np.zeros_like(T)
+        T = np.where(carrying[:, None], T, 0.0)
+        min_c = 2 if frictional else 4
+        ratt = rattlers(net, min_c, carrying)
+        alive = ~ratt
+        if not alive.any():
+            raise GrainmechError(f"{net.source or 'network'}: every grain is a rattler (fewer than {min_c} "
+                                 f"force-carrying contacts, removed iteratively; {int(carrying.sum())} of "
+                                 f"{net.n_contacts} contacts carry force): nothing is left to load")
+        notes.append(f"rattlers: {int(ratt.sum())} of {net.n_particles} grains excluded (fewer than {min_c} "
+                     f"force-carrying contacts, {'frictional' if frictional else 'frictionless'} rule, "
+                     "removed iteratively)")
+        keep_c = alive[net.i] & alive[net.j]
+        gi, gj, gbr = _gap_pairs(net, gap, alive)
+        if gi.size:
+            notes.append(f"{gi.size} pairs with a gap below {gap:g} x mean radius tracked (open)")
+        rows = np.concatenate([np.flatnonzero(keep_c), -np.ones(gi.size, dtype=int)])
+        I = np.concatenate([net.i[keep_c], gi])
+        J = np.concatenate([net.j[keep_c], gj])
+        br = np.concatenate([net.branch[keep_c], gbr])
+        Lc = np.linalg.norm(br, axis=1)
+        nc = br / Lc[:, None]
+        Ra, Rb = net.radii[I], net.radii[J]
+        Rs = Ra * Rb / (Ra + Rb)
+        s = _law_scale(params, Rs)
+        Nk, Tk = N[keep_c], T[keep_c]
+        # contact law state (law space): listed contacts at their forces, gap pairs open
+        if frictional:
+            mag = np.linalg.norm(Tk, axis=1)
+            muN = params.friction * Nk
+            over = mag > muN * (1 + 1e-6)
+            if np.any(over):
+                k = int(np.flatnonzero(over)[0])
+                raise GrainmechError(f"contact {int(rows[k])}: |T| = {mag[k]:.6g} exceeds mu N = {muN[k]:.6g} "
+                                     f"(friction {params.friction:g}); use forces='overlap' or the packing's "
+                                     "friction coefficient")
+            cap = np.where(mag > muN, muN / np.where(mag > 0, mag, 1.0), 1.0)
+            st_l = state_from_forces(params, Nk, Tk * cap[:, None])
+        else:
+            st_l = state_from_forces(params, Nk, np.zeros_like(Tk))
+        st_g = state_from_approach(params, -(Lc[Nk.size:] - Ra[Nk.size:] - Rb[Nk.size:]) * s[Nk.size:])
+        state = ContactState(*(np.concatenate([x, y]) for x, y in zip(st_l, st_g)))
+        grains = np.flatnonzero(alive)
+        newidx = -np.ones(net.n_particles, dtype=int)
+        newidx[grains] = np.arange(grains.size)
+        kin = Kinematics.build(newidx[I], newidx[J], nc, br, Ra, Rb, grains.size)
+        V = net.volume
+        st0, resp0 = update(params, state, np.zeros(state.n_contacts), np.zeros((state.n_contacts, 3)),
+                            **_law_kw(opts.law_backend))
+        f = resp0.normal_force[:, None] * nc + resp0.tangential_force
+        pt = cls(net, params, kin, grains, net.radii[grains], rows, s, st0, resp0, f,
+                 np.zeros((grains.size, 6)), np.zeros(6), voigt_of(f, br) / V, V, int(ratt.sum()),
+                 np.concatenate([Nk > 0, np.zeros(gi.size, bool)]), tuple(notes), opts.law_backend,
+                 opts.factorization, regularization=opts.regularization, reproducible=opts.reproducible)
+        ufr = unbalanced_force_ratio(pt)
+        if not ufr <= max_unbalanced:
+            raise GrainmechError(
+                f"{net.source or 'network'} is not mechanically stable: unbalanced force ratio {ufr:.3g} "
+                f"> max_unbalanced = {max_unbalanced:g} (mean out-of-balance force and moment/radius per "
+                "grain over the mean contact force). Equilibrate it first (DEM, or "
+                "grainmech.driver.packing.equilibrate_network)")
+        pt = replace(pt, notes=pt.notes + (f"input unbalanced force ratio {ufr:.3g}",))
+        if imbalance == "hold":
+            pt = replace(pt, load=kin.balance(f), notes=pt.notes + (
+                "the input's out-of-balance forces and moments are held as constant external grain loads "
+                "(the input is the equilibrium state)",))
+        elif imbalance == "relax":
+            res = run_packing(pt, LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6))),
+                              options=replace(opts, tangent="none"))
+            if not res.success:
+                raise GrainmechError(f"{net.source or 'network'}: equilibrating the input failed: {res.message}")
+            eq = cast(PackingPoint, res.final)
+            ds = float(np.abs(eq.stress - pt.stress).max() / max(np.abs(pt.stress).max(), 1e-300))
+            pt = replace(eq, strain=np.zeros(6), q=np.zeros_like(eq.q),
+                         notes=eq.notes + (f"equilibrated at fixed strain: stress changed by {ds:.3g} "
+                                           "(relative); residual fluctuations reset to zero",),
+                         _cache={"prec": pt.preconditioner()})  # same contacts, same elastic operator to ~ufr
+        return pt
+
+    @classmethod
+    def at_stress(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], *,
+                  n_steps: int | None = None, options: PackingOptions | None = None,
+                  **from_network: Any) -> PackingPoint:
+        """Packing point brought to a confining stress by a stress-controlled straight path.
+
+        :meth:`from_network`, then ``n_steps`` all-stress-controlled steps of
+        :func:`run_packing` from the packing's stress ``s0`` to ``sigma`` (a pressure ``p``
+        means ``p I``), with the contact laws' history. The strain of the path is kept.
+        The steps are geometric in the mean stress: step ``k`` of ``n`` reaches
+        ``s0 + (sigma - s0) (r^k - 1) / (r^n - 1)``, ``r = (p / p0)^(1/n)`` (equal ratios
+        of the pressure, so equal relative changes of the Hertz contact stiffnesses,
+        ``k ∝ p^(1/3)``; linear when the mean stress does not change). ``n_steps=None``:
+        one step per 25 % of pressure change, ``ceil(|ln(p / p0)| / ln 1.25)``, at least 1.
+        The steps accept a stalled iteration when the packing is at rest by a DEM's
+        measure (``PackingOptions.accept_unbalanced``, ``1e-4`` unless set), and the
+        imbalance the last step leaves is held as constant grain loads, as the input's
+        is (``imbalance="hold"``), so that paths from the returned point start in
+        equilibrium.
+
+        Raises
+        ------
+        GrainmechError
+            If the path fails or leaves the small-strain range (the message says where).
+        """
+        sig = np.asarray(sigma, dtype=float)
+        if sig.ndim == 0:
+            if not (math.isfinite(float(sig)) and float(sig) > 0):
+                raise ParameterError("sigma", float(sig),
+                                     "a confining pressure must be positive (compression positive)")
+            sig = float(sig) * np.array([1.0, 1, 1, 0, 0, 0])
+        if sig.shape != (6,) or not np.all(np.isfinite(sig)):
+            raise ParameterError("sigma", np.shape(sigma), "must be a pressure or a finite (6,) stress vector")
+        opts = options or PackingOptions()
+        pt = cls.from_network(net, params, options=opts, **from_network)
+        run_opts = replace(opts, tangent="none", accept_unbalanced=opts.accept_unbalanced or AT_STRESS_UNBALANCED)
+        res = run_packing(pt, _stress_path(pt.stress, sig, n_steps), run_opts)
+        if not res.success:
+            raise GrainmechError(f"{net.source or 'network'}: bringing the packing to the stress "
+                                 f"{np.round(sig, 6).tolist()} failed: {res.message}")
+        fin = cast(PackingPoint, res.final)
+        ufr = unbalanced_force_ratio(fin)
+        # the prepared state is the equilibrium state, as the input is (imbalance="hold"):
+        # its out-of-balance forces are held as constant grain loads from here on
+        return replace(fin, load=fin.kinematics.balance(fin.forces), notes=fin.notes + (
+            f"brought from the input stress to {np.round(sig, 6).tolist()} in {len(res.strain) - 1} stress-controlled "
+            "steps "
+            f"(volumetric strain {float(res.final.strain[:3].sum()):.3g}); its unbalanced force ratio "
+            f"{ufr:.3g} (largest grain {unbalanced_force_ratio(fin, kind='max'):.3g}) is held as constant grain "
+            "loads",), _cache={})
+
+    # ------------------------------------------------------------------ derived
+    @property
+    def n_grains(self) -> int:
+        """Number of grains kept (rattlers excluded)."""
+        return int(self.grains.size)
+
+    @property
+    def n_contacts(self) -> int:
+        """Number of tracked contacts (listed ones and gap pairs)."""
+        return self.kinematics.n_contacts
+
+    @property
+    def frictional(self) -> bool:
+        """Whether the contact law has a finite, non-zero friction coefficient."""
+        return _frictional(self.params)
+
+    def contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
+        """Consistent and elastic contact tangents (C, 3, 3) of the current state [force/length]."""
+        r, s, kin = self.response, self.scale, self.kinematics
+        closed = ~np.asarray(r.open, bool)
+        kn = np.where(closed, r.kn, 0.0) * s
+        ksp = np.where(closed, r.ks_perp, 0.0) * s
+        K = contact_tangent(kin.n, kn, np.where(closed, r.ks, 0.0) * s, ksp,
+                            np.where(closed, r.ktn, 0.0) * s, r.axis)
+        K0 = contact_tangent(kin.n, kn, ksp, ksp, np.zeros_like(kn), r.axis)
+        return K, K0
+
+    def preconditioner(self) -> Preconditioner:
+        """Factorised elastic operator of this state (cached)."""
+        if "prec" not in self._cache:
+            self._cache["prec"] = Preconditioner(self.kinematics, self.contact_stiffness()[1], self.factorization,
+                                                 self.regularization, self.reproducible)
+        return self._cache["prec"]
+
+    @cached_property
+    def tangent(self) -> np.ndarray:
+        """Relaxed tangent (6, 6), Voigt, library order [stress]: ``(1/V)(A - B^T H^-1 B)``.
+
+        ``H = G^T K G``, ``B = G^T K E``, ``A = E^T K E`` with the consistent contact tangent
+        ``K`` of the current state (Lemaitre & Maloney 2006, Eq. 12; with ``K = kn n n +
+        ks (I - n n)`` this is :func:`grainmech.network.relaxed_stiffness`).
+        """
+        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max)
+
+    @cached_property
+    def elastic_tangent(self) -> np.ndarray:
+        """Relaxed tangent (6, 6) with the elastic (no-slip) contact stiffness [stress].
+
+        ``K0 = kn n n + ks_perp (I - n n)`` of the current state.
+
+        The stiffness of a small strain reversal from this state: at the reversal every
+        Mindlin-Deresiewicz contact unloads with its no-slip stiffness ``8 G* a``
+        (seed Eq. 3.11; Mindlin & Deresiewicz 1953), whatever its tangential force. This is
+        the small-strain modulus a small cycle or a shear wave measures (``G_max``); it
+        equals :attr:`tangent` when no contact carries a tangential force.
+
+        The elastic operator ``H0`` is the one the point's preconditioner factorised
+        (shifted by ``PackingOptions.regularization``), and the factorisation already
+        holds ``(H0 + S)^-1 B0`` (its Schur complement), refined to ``Y = H0^-1 B0`` by CG
+        with the factor (``Preconditioner.exact_Y``): the tangent is ``(A0 - B0^T Y) / V``
+        (the condensation of :func:`_relaxed_tangent`) with no further factorisation,
+        when the residual ``|H0 Y - B0|`` of every column is below ``1e-8 |B0|``;
+        otherwise GMRES per column as for :attr:`tangent`. On the shipped packings the two agree to 6e-8 (medium),
+        2e-10 (dense), 6e-9 (loose); GMRES needed 0.4-4 s there (one iteration per
+        near-floppy mode: grains held by two contacts), the direct form 2 ms.
+        """
+        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max, elastic=True)
+
+    def fluctuation(self) -> float:
+        """Largest displacement fluctuation over its radius (mean translation removed) of a force-carrying grain.
+
+        Over the grains with at least one closed contact: the small-strain check
+        (``PackingOptions.max_fluctuation``) is on the geometry of the force network. A
+        grain without a closed contact carries nothing, whatever its position (a rattler
+        in its cage; it does not move while free, ``docs/packing-driver.md``, "Opening and
+        closing"); bringing 'medium' from 100 to 800 kPa, such grains had been pushed by
+        their closing neighbours by up to 5 % of their radius.
+        """
+        if not self.n_grains:
+            return 0.0
+        u = self.q[:, :3] - self.q[:, :3].mean(axis=0)
+        kin = self.kinematics
+        closed = ~np.asarray(self.response.open, bool)
+        carrying = (np.bincount(kin.a[closed], minlength=self.n_grains)
+                    + np.bincount(kin.b[closed], minlength=self.n_grains)) > 0
+        return float(np.max(np.linalg.norm(u, axis=1) / self.radii, where=carrying, initial=0.0))
+
+    def dissipated(self) -> float:
+        """Cumulative frictional dissipation per unit volume since the input state."""
+        return float(np.sum(self.state.dissipated_energy / self.scale) / self.volume)
+
+    def stored_energy(self) -> float:
+        """Elastic energy per unit volume held by the contacts (estimate).
+
+        Hertz: ``(2/5) N alpha`` (seed Eq. 3.6 integrated) plus ``|T|^2 / (2 k_t0)`` with the
+        no-slip stiffness ``k_t0 = 8 G* a``; linear springs ``N^2/(2 kn) + |T|^2/(2 ks)``.
+        The tangential term is exact for a spring and an estimate for Mindlin-Deresiewicz.
+        """
+        r, st = self.response, self.state
+        closed = ~np.asarray(r.open, bool)
+        T2 = np.einsum("ij,ij->i", r.tangential_force, r.tangential_force)
+        kt = r.ks_perp * self.scale
+        et = np.where(closed & (kt > 0), T2 / (2 * np.where(kt > 0, kt, 1.0)), 0.0)
+        if isinstance(self.params, LinearSpring):
+            en = r.normal_force ** 2 / (2 * self.params.kn)
+        else:
+            en = 0.4 * r.normal_force * np.maximum(st.approach, 0.0) / self.scale
+        return float(np.sum(np.where(closed, en, 0.0) + et) / self.volume)
+
+    def fractions(self) -> tuple[float, float]:
+        """(sliding fraction of the closed contacts, fraction of the initially closed contacts now open)."""
+        r = self.response
+        closed = ~np.asarray(r.open, bool)
+        sl = float(np.sum(np.asarray(r.sliding, bool) & closed) / max(int(closed.sum()), 1))
+        ic = self.initially_closed
+        op = float(np.sum(ic & ~closed) / max(int(ic.sum()), 1))
+        return sl, op
+
+
+def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
+    """Out-of-balance measure of a packing point.
+
+    ``kind="mean"``: mean over grains of ``sqrt(|F_p|^2 + (|M_p|/R_p)^2)`` over the mean
+    ``|f_c|`` of the force-carrying contacts (the usual DEM "unbalanced force ratio",
+    e.g. YADE's ``unbalancedForce``, with moments added); ``kind="max"``: the largest
+    of ``|F_p|``, ``|M_p|/R_p`` over the same mean (the driver's convergence measure).
+    Returns 0 for a packing without contact forces.
+    """
+    b = point.kinematics.balance(point.forces)
+    g = _grain_residuals(point.kinematics, b if point.load is None else b - _held_load(point, point.response))
+    fm = np.linalg.norm(point.forces, axis=1)
+    fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
+    if fmean == 0.0:
+        return 0.0
+    F = np.linalg.norm(g[:, :3], axis=1)
+    M = np.linalg.norm(g[:, 3:], axis=1) / point.radii
+    if kind == "max":
+        return float(max(F.max(), M.max()) / fmean)
+    return float(np.mean(np.hypot(F, M)) / fmean)
+
+
+def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False,
+                     direct: bool = True) -> np.ndarray:
+    """Relaxed tangent (6, 6) of ``point`` by GMRES per column.
+
+    With its consistent contact tangent, or with the elastic one (``elastic``); the
+    elastic one straight from the preconditioner's ``Y = H0^-1 B0`` when that solves this
+    point's operator (``direct``, see :attr:`PackingPoint.elastic_tangent`).
+    """
+    kin = point.kinematics
+    K = point.contact_stiffness()[1 if elastic else 0]
+    Kb = block_diagonal(K)
+    KE = Kb @ kin.E
+    B = kin.Gt @ KE
+    A = kin.E.T @ KE
+    if elastic and direct and prec.Y.shape == B.shape:
+        # the preconditioner factorised this operator (shifted) and holds Y = (H0 + S)^-1 B0:
+        # refined to H0^-1 B0 by CG with that factor, no further factorisation, when it
+        # solves this point's operator (PackingPoint.elastic_tangent)
+        Y = prec.exact_Y()[0]
+        R = kin.Gt @ (Kb @ (kin.G @ Y)) - B
+        if np.all(np.linalg.norm(R, axis=0) <= 1e-8 * np.linalg.norm(B, axis=0)):
+            return (A - B.T @ Y) / point.volume
+    D = prec.dq
+    nq = kin.n_free
+    S0 = np.zeros(6, bool)
+    op = spla.LinearOperator((nq, nq), matvec=lambda y: D * (kin.Gt @ (Kb @ (kin.G @ (D * y)))), dtype=float)
+    pc = spla.LinearOperator((nq, nq), matvec=lambda z: prec.apply(z / D, np.zeros(0), S0)[0] / D, dtype=float)
+    X = np.zeros((nq, 6))
+    for k in range(6):
+        if not np.any(B[:, k]):
+            continue
+        y, _ = spla.gmres(op, D * B[:, k], rtol=1e-10, atol=0.0, restart=krylov_max, maxiter=3, M=pc)
+        X[:, k] = D * y
+    C = (A - (kin.E.T @ (Kb @ (kin.G @ X)))) / point.volume
+    return C
+
+
+def _stress_path(s0: np.ndarray, s1: np.ndarray, n_steps: int | None) -> LoadPath:
+    """All-stress-controlled path from ``s0`` to ``s1``, geometric in the mean stress (``at_stress``)."""
+    p0, p1 = float(np.mean(s0[:3])), float(np.mean(s1[:3]))
+    ratio = p1 / p0 if p0 > 0 and p1 > 0 else 1.0
+    if n_steps is None:
+        n_steps = max(1, math.ceil(abs(math.log(ratio)) / math.log(1.25) - 1e-9))
+    if int(n_steps) < 1:
+        raise ParameterError("n_steps", n_steps, "must be >= 1")
+    n = int(n_steps)
+    k = np.arange(n + 1)
+    w = k / n if abs(ratio - 1.0) < 1e-12 else (ratio ** (k / n) - 1.0) / (ratio - 1.0)
+    targets = s0 + w[:, None] * (s1 - s0)
+    return LoadPath(np.ones((n, 6), bool), np.diff(targets, axis=0))
+
+
+# --------------------------------------------------------------------------- results and run
+
+@dataclass(frozen=True)
+class PackingResult(DriverResult):
+    """:class:`grainmech.driver.DriverResult` of the packing driver, plus per-step data.
+
+    Attributes
+    ----------
+    residual : (k+1,) unbalanced force ratio at the end of each step (``kind="max"`` of
+        :func:`unbalanced_force_ratio`)
+    fluctuation : (k+1,) largest grain displacement fluctuation / radius
+    closed : (k+1,) int, number of closed contacts
+    krylov : (k+1,) int, GMRES iterations of the step
+    relaxation_loss : (k+1,) cumulative energy per unit volume [stress] removed by committed
+        relaxation (``PackingOptions.relax_depth``): the work of the out-of-balance forces
+        on its updates, which a quasi-static DEM dissipates by its numerical damping. The
+        energy balance of a path is ``work = dissipation + stored change + relaxation_loss``.
+    cost : (k+1,) int, residual evaluations plus GMRES iterations each step used
+        (``PackingOptions.max_step_work`` is the budget of one step)
+    factorizations : int, factorisations of the elastic operator in the run
+    notes : tuple of str (rattlers, gap pairs, ...)
+
+    ``status``: 0 done, 1 a step failed, 2 the path left the small-strain range.
+    ``tangent`` rows that were not computed (see :attr:`PackingOptions.tangent`) are NaN.
+    ``sliding_fraction`` is over the closed contacts; ``open_fraction`` the fraction of
+    the initially closed contacts that are open.
+    """
+
+    residual: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fluctuation: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    closed: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    krylov: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    factorizations: int = 0
+    notes: tuple = ()
+    relaxation_loss: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    cost: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+
+
+def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None, *,
+                on_step: Callable[[int, int], None] | None = None, **kwargs: Any) -> PackingResult:
+    """Drive a packing along a loading path (mixed strain/stress control).
+
+    Same path semantics as :func:`grainmech.driver.run`: per step and component a control
+    kind (strain or stress) and an increment; targets do not drift; a component switching
+    control restarts from the current value. Each step is solved by Newton iterations on
+    all grain fluctuations and the stress-controlled strain components together (consistent
+    tangent, GMRES preconditioned by the factorised elastic operator, line search), halved
+    up to ``max_depth`` times when it does not converge.
+
+    Parameters
+    ----------
+    point : PackingPoint
+    path : LoadPath
+    options : PackingOptions, optional
+    on_step : callable, optional
+        Called as ``on_step(k, n)`` after step ``k`` of ``n`` is done (progress reports).
+    **kwargs : fields of :class:`PackingOptions` as a shortcut.
+
+    Returns
+    -------
+    PackingResult
+        ``success`` False (status 1: a step failed, 2: small-strain range left) keeps
+        every step done before, with the message naming the step and the cause.
+    """
+    opts = options or PackingOptions(law_backend=point.law_backend, factorization=point.factorization,
+                                     regularization=point.regularization, reproducible=point.reproducible)
+    if kwargs:
+        opts = replace(opts, **kwargs)
+    with openblas_one_thread():
+        return _run(point, path, opts, on_step=on_step)
+
+
+def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
+         on_step: Callable[[int, int], None] | None = None) -> PackingResult:
+    """:func:`run_packing` with its options resolved (``energy``: potential-energy line search)."""
+    if not isinstance(path, LoadPath):
+        raise ParameterError("path", type(path).__name__, "must be a LoadPath")
+    if not isinstance(point, PackingPoint):
+        raise ParameterError("point", type(point).__name__, "must be a PackingPoint")
+    if (opts.regularization, opts.reproducible) != (point.regularization, point.reproducible):
+        # the cached factor has another shift or threading
+        point = replace(point, regularization=opts.regularization, reproducible=opts.reproducible,
+                        _cache={k: v for k, v in point._cache.items() if k != "prec"})
+    point = replace(point, law_backend=opts.law_backend, factorization=opts.factorization, _cache=point._cache) \
+        if (opts.law_backend, opts.factorization) != (point.law_backend, point.factorization) else point
+    m = len(path)
+    fresh = "prec" not in point._cache
+    ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
+    nan66 = np.full((6, 6), np.nan)
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
+                                             "stored", "sub", "it", "res", "fl", "cl", "kr", "spent")}
+
+    def record(pt: PackingPoint, diss: float, work: float, loss: float, sub: int, it: int, kr: int,
+               tang: bool, spent: int) -> None:
+        sl, op = pt.fractions()
+        rows["strain"].append(pt.strain.copy())
+        rows["stress"].append(pt.stress.copy())
+        rows["tangent"].append(_relaxed_tangent(pt, ctx.prec, opts.krylov_max) if tang else nan66)
+        rows["sl"].append(sl)
+        rows["op"].append(op)
+        rows["diss"].append(diss)
+        rows["work"].append(work)
+        rows["loss"].append(loss)
+        rows["stored"].append(pt.stored_energy())
+        rows["sub"].append(sub)
+        rows["it"].append(it)
+        rows["res"].append(unbalanced_force_ratio(pt, kind="max"))
+        rows["fl"].append(pt.fluctuation())
+        rows["cl"].append(int(np.sum(~np.asarray(pt.response.open, bool))))
+        rows["kr"].append(kr)
+        rows["spent"].append(spent)
+
+    rows["strain"].append(point.strain.copy())
+    rows["stress"].append(point.stress.copy())
+    rows["tangent"].append(nan66 if opts.tangent == "none" else point.tangent)
+    sl0, op0 = point.fractions()
+    for key, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("loss", 0.0),
+                   ("stored", point.stored_energy()),
+                 ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
+                 ("fl", point.fluctuation()), ("cl", int(np.sum(~np.asarray(point.response.open, bool)))),
+                 ("kr", 0), ("spent", 0)):
+        rows[key].append(v)
+    diss = work = loss = 0.0
+    targets = PathTargets(point.stress, point.strain)
+    success, status, message = True, STATUS_DONE, f"completed {m} steps"
+    for k in range(m):
+        sc = path.stress_control[k]
+        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
+        if np.abs(new_t_strain[~sc]).max(initial=0.0) > opts.max_strain:
+            j = int(np.argmax(np.where(~sc, np.abs(new_t_strain), -1.0)))
+            success, status = False, STATUS_SMALL_STRAIN
+            message = (f"step {k + 1}: strain component {j} would reach {new_t_strain[j]:.3g}, beyond "
+                       f"max_strain = {opts.max_strain:g} (small-strain, fixed-geometry model); results kept "
+                       f"up to step {k}")
+            break
+        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
+        counters = [0, 0, 0.0, 0.0, 0.0]
+        kr0, w0 = ctx.krylov, ctx.work
+        ctx.budget = w0 + opts.max_step_work
+        try:
+            new = _subdivided(point, sc, d_strain, np.where(sc, point.stress, 0.0),
+                              np.where(sc, new_t_stress, 0.0), 0, ctx, counters)
+        except (_StepFailure, _OutOfBudget) as exc:
+            success, status = False, STATUS_FAILED
+            message = f"step {k + 1}: no equilibrium found: {exc.cause}; results kept up to step {k}"
+            break
+        finally:
+            ctx.budget = 0
+        fl = new.fluctuation()
+        big = float(np.abs(new.strain).max())
+        if fl > opts.max_fluctuation or big > opts.max_strain:
+            success, status = False, STATUS_SMALL_STRAIN
+            what = (f"a grain's displacement fluctuation reached {fl:.3g} of its radius (max_fluctuation = "
+                    f"{opts.max_fluctuation:g})" if fl > opts.max_fluctuation else
+                    f"a strain component reached {big:.3g} (max_strain = {opts.max_strain:g})")
+            message = (f"step {k + 1}: left the small-strain range: {what}; the fixed-geometry model no longer "
+                       f"applies; results kept up to step {k}")
+            break
+        point = new
+        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
+        diss += counters[2]
+        work += counters[3]
+        loss += counters[4]
+        last = k == m - 1
+        record(point, diss, work, loss, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
+               opts.tangent == "every" or (opts.tangent == "ends" and last), ctx.work - w0)
+        if on_step is not None:
+            on_step(k + 1, m)
+    arr = {k: np.array(v) for k, v in rows.items()}
+    if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
+        arr["tangent"][-1] = _relaxed_tangent(point, ctx.prec, opts.krylov_max)
+    return PackingResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"], arr["sl"],
+                         arr["op"], arr["diss"], arr["work"], arr["stored"], arr["sub"].astype(int),
+                         arr["it"].astype(int), cast(Any, point), m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
+                         arr["kr"].astype(int), ctx.factorizations,
+                         point.notes + ((f"{ctx.accepted} (sub)steps accepted with their stress settled (uncertainty "
+                                         f"below rtol_accept = {opts.rtol_accept:g} of the stress scale or rtol_step "
+                                         f"= {opts.rtol_step:g} of the step's stress change) before every grain "
+                                         f"reached rtol = {opts.rtol:g} (the iterations stalled at a kink of the "
+                                         "contact laws)",) if ctx.accepted else ())
+                         + ((f"{ctx.settled} (sub)steps stopped once the stress uncertainty left and the "
+                             f"estimated stress change still to come were below settle = {opts.settle:g} times "
+                             f"the acceptance bound (rtol_accept = {opts.rtol_accept:g} of the stress scale or "
+                             f"rtol_step = {opts.rtol_step:g} of the step's stress change), before every grain "
+                             f"reached rtol = {opts.rtol:g}",)
+                            if ctx.settled else ())
+                         + ((f"{ctx.anderson_ok} (sub)steps solved by Anderson-accelerated elastic iterations "
+                             f"({ctx.anderson} iterations), the others by Newton-Krylov",)
+                            if ctx.anderson else ())
+                         + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
+                             "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
+                             "quasi-static DEM)",) if ctx.relaxations else ()),
+                         relaxation_loss=arr["loss"], cost=arr["spent"].astype(int))

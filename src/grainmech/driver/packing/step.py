@@ -1,0 +1,545 @@
+"""Step solver of the packing driver (:mod:`grainmech.driver.packing`).
+
+One (sub)step: Newton-Krylov iterations on every grain's fluctuation and the
+stress-controlled strains, with the consistent contact tangent, right-preconditioned
+GMRES, a per-grain trust limit, a line search, pseudo-transient continuation where Newton
+fails, and step halving. The method and its sources are in ``docs/packing-driver.md``.
+
+The (sub)step: :func:`_solve` (predictor, Anderson iterations, Newton-Krylov with line
+search, pseudo-transient continuation, committed relaxation, acceptance) and
+:func:`_subdivided` (step halving). The laws at a trial increment are in
+:mod:`grainmech.driver.packing._trial`, the iteration pieces (Anderson, Krylov
+direction, trust limits, tangents) in :mod:`grainmech.driver.packing._iterations`, options and
+the solver's state in :mod:`grainmech.driver.packing.options`; their names are
+re-exported here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from grainmech.contact import (
+    ContactState,
+    HertzMindlin,
+    LinearSpring,
+)
+from grainmech.driver.packing._iterations import (  # noqa: F401 (re-exported: the names this module always had)
+    _AA_PATIENCE,
+    _AA_PROGRESS,
+    _AA_RESTARTS,
+    _HELD,
+    _STIFF_BACKTRACKS,
+    _anderson,
+    _at_rest,
+    _clip,
+    _closing_cap,
+    _debug,
+    _direction,
+    _grain_report,
+    _held_load,
+    _hold_mechanisms,
+    _largest,
+    _slip_rotation,
+    _step_tangent,
+    _stress_ambiguity,
+    _trust,
+    _unbalanced,
+)
+from grainmech.driver.packing._operators import (
+    Preconditioner,
+    block_diagonal,
+    contact_tangent,
+    voigt_of,
+)
+from grainmech.driver.packing._trial import (  # noqa: F401
+    _GLUE,
+    _compiled_glue,
+    _evaluate,
+    _Glue,
+    _law_call,
+    _law_step,
+    _potential,
+)
+from grainmech.driver.packing.options import (  # noqa: F401
+    ACCEPT_MAX_FORCE,
+    PackingOptions,
+    _Context,
+    _frictional,
+    _law_kw,
+    _OutOfBudget,
+    _StepFailure,
+)
+
+if TYPE_CHECKING:
+    from grainmech.driver.packing.point import PackingPoint
+
+
+#: pseudo-time shift of the Newton system (Jacobi-scaled: 1 ~ a grain's own elastic
+#: stiffness): first value after a failed line search, growth factor, value below which
+#: Newton takes over again, ceiling
+_MU_FIRST, _MU_GROW, _MU_NEWTON, _MU_MAX = 1e-3, 10.0, 1e-7, 1e3
+#: retries with a larger shift when an update grows the residual more than _PTC_GROWTH times
+_MU_GROWTHS, _PTC_GROWTH = 6, 3.0
+#: an update lowering the residual by less than this factor is a stall
+_PTC_STALL = 0.9
+#: continuation that has not lowered the residual below _PTC_PROGRESS times its value
+#: _PTC_PATIENCE iterations before gives up (the substep is halved or relaxed)
+_PTC_PATIENCE, _PTC_PROGRESS = 6, 0.5
+#: an update closes an open contact to at most this fraction of the mean approach
+_CLOSE_CAP = 0.05
+#: committed relaxation: the shift shrinks by at least this factor after each update taken;
+#: GMRES tolerance of its updates (each update is committed and the next one corrects it,
+#: so a rough direction does; inexact Newton forcing term, Eisenstat & Walker 1996)
+_RELAX_MU_CUT, _RELAX_KRYLOV_RTOL = 0.3, 0.1
+
+
+#: shift of every Newton system: keeps a free grain (no closed contact) where it is
+_MU_FLOOR = 1e-9
+
+
+def _scales(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
+            opts: PackingOptions) -> tuple:
+    """Scales of one (sub)step of :func:`_solve`: ``(V, nq, ms, sref, Rg, abar, move, tolq, tole, fref)``.
+
+    The volume, the numbers of unknowns, the stress scale, the radii, the mean approach of
+    the closed contacts, the trust limit ``move`` of one update, the force and stress
+    tolerances and the mean contact force.
+    """
+    kin = point.kinematics
+    V = point.volume
+    nq, ms = kin.n_free, int(S.sum())
+    fm = np.linalg.norm(point.forces, axis=1)
+    fref = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
+    sref = max(float(np.abs(point.stress).max()), float(np.abs(target[S]).max()) if ms else 0.0)
+    if fref == 0.0 or sref == 0.0:  # unloaded packing: scale from the stiffness and the step
+        est = float(np.abs(prec.A0).max()) / V * max(float(np.abs(de_E).max()), 1e-12)
+        sref = sref or est
+        fref = fref or est * V / max(kin.n_contacts, 1) / float(np.mean(np.linalg.norm(kin.l, axis=1)))
+    Rg = point.radii
+    # trust limit of one update: a grain moves (or its surface turns) by at most half the
+    # mean approach of the closed contacts (not a fraction of the radius: Hertz overlaps
+    # are ~1e-4 R, and a move of 1e-2 R opens or crushes every contact of a grain)
+    # or by twice the affine displacement of the step's largest strain increment over a
+    # mean branch, whichever is larger (the fluctuations of a step are of that order)
+    closed0 = point.state.approach > 0
+    abar = float(np.mean(point.state.approach[closed0] / point.scale[closed0])) if closed0.any() else 0.0
+    move = 0.5 * abar if closed0.any() else 0.01 * float(Rg.mean())
+    lmean = float(np.mean(np.linalg.norm(kin.l, axis=1)))
+    de_max = max(float(np.abs(de_E).max()), float(np.abs(np.where(S, target - point.stress, 0.0)).max())
+                 * V / max(float(np.abs(prec.A0).max()), 1e-300))
+    move = max(move, 2.0 * de_max * lmean)
+    tolq = np.repeat(np.stack([np.full(Rg.size, 1.0), Rg], 1), 3, axis=1).reshape(-1)[kin.free] * opts.rtol * fref
+    tole = opts.rtol * sref * V
+    return V, nq, ms, sref, Rg, abar, move, tolq, tole, fref
+
+
+def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
+               ctx: _Context, V: float, nq: int, ms: int) -> tuple:
+    """Predictor of :func:`_solve`: ``(v, xq, xe, fac)``, the last (sub)step's solution scaled by ``fac``.
+
+    ``v`` is this step's loading (strain increment and scaled stress change), the
+    direction the next (sub)step's predictor is scaled along.
+    """
+    v = np.concatenate([de_E, np.where(S, target - point.stress, 0.0) * V / max(float(np.abs(prec.A0).max()), 1e-300)])
+    xq, xe = np.zeros(nq), np.zeros(ms)
+    fac = 0.0
+    if ctx.last is not None and not ctx.energy and np.array_equal(ctx.last[1], S):
+        vl = ctx.last[0]
+        vv = float(np.dot(vl, vl))
+        if vv > 0:
+            fac = float(np.dot(v, vl)) / vv
+            xq, xe = fac * ctx.last[2], fac * ctx.last[3]
+    return v, xq, xe, fac
+
+
+def _out_of_budget(kin: Any, rq: np.ndarray, Rg: np.ndarray, fref: float, resp: Any, ctx: _Context) -> None:
+    """Raise :class:`_OutOfBudget` with the out-of-balance measures of the iterate ``rq``."""
+    g = kin.full(rq)
+    worst = float(np.max(np.hypot(np.linalg.norm(g[:, :3], axis=1), np.linalg.norm(g[:, 3:], axis=1) / Rg)))
+    closed = ~np.asarray(resp.open, bool)
+    sliding = int(np.sum(np.asarray(resp.sliding, bool) & closed))
+    raise _OutOfBudget(
+        f"no equilibrium within max_step_work = {ctx.opts.max_step_work} residual evaluations and GMRES "
+        f"iterations (mean unbalanced force ratio {_unbalanced(kin, rq, Rg, fref):.2g}, largest grain "
+        f"{worst / max(fref, 1e-300):.2g} of the mean contact force; {sliding} of {int(closed.sum())} closed "
+        "contacts sliding): grains that a DEM would let roll and rearrange find no balance in this fixed "
+        "geometry")
+
+
+def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+           counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
+    """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
+
+    ``step_dsig``: the stress change of the whole step this (sub)step belongs to
+    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
+
+    With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
+    updates from the start, each one committed to the contact laws' history (see the
+    loop below).
+    """
+    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
+    V, nq, ms, sref, Rg, abar, move, tolq, tole, fref = _scales(point, S, de_E, target, prec, opts)
+    Dq, De = prec.dq, prec.de[S]
+
+    fast = _compiled_glue(point)
+
+    def residual(xq: np.ndarray, xe: np.ndarray):
+        de = de_E.copy()
+        de[S] = xe
+        if fast is None:
+            st, resp, f = _evaluate(point, xq, de)
+            rq = kin.balance(f)
+            vs = voigt_of(f, kin.l)
+        else:
+            st, resp, f, rq, vs = fast.evaluate(point, xq, de)
+        if point.load is not None:
+            rq = rq - _held_load(point, resp)
+        re = vs[S] - V * target[S]
+        ctx.evals += 1
+        if ctx.budget and ctx.work >= ctx.budget:
+            _out_of_budget(kin, rq, Rg, fref, resp, ctx)
+        return st, resp, f, rq, re, vs, de
+
+    w0 = _potential(point, point.state, point.response) if ctx.energy else None
+
+    def limit(dxq: np.ndarray, dxe: np.ndarray, st: ContactState) -> tuple[np.ndarray, np.ndarray]:
+        """The update within the trust limit ``move``, each grain by itself.
+
+        A grain on a mechanism (free, rolling or sliding away) must not cut the others'
+        update; every contact the update closes is stopped near touch (:func:`_closing_cap`);
+        no grain moves along its mechanisms in the iterate ``st`` (:func:`_hold_mechanisms`).
+        """
+        dxq = _hold_mechanisms(kin, dxq, Rg, st.approach > 0.0)
+        if fast is not None:
+            return fast.limit(dxq, dxe, S, Rg, move, st.approach / point.scale if abar > 0 else None,
+                              _CLOSE_CAP * abar)
+        dxq = _clip(kin, dxq, Rg, move)
+        dxe = dxe / _trust(kin, None, dxe, S, move)
+        if abar > 0:
+            dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
+        return dxq, dxe
+
+    def merit(cur: tuple) -> float:
+        if ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
+            return float(np.sum(_potential(point, cur[0], cur[1]) - w0)) - V * float(np.dot(target[S], cur[6][S]))
+        return rnorm(cur)
+
+    def rnorm(cur: tuple) -> float:
+        return float(np.sqrt(np.sum((Dq * cur[3]) ** 2) + np.sum((De * cur[4]) ** 2)))
+
+    def converged(rq: np.ndarray, re: np.ndarray) -> bool:
+        return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
+
+    amb_ok = max(opts.rtol_accept * sref, opts.rtol_step * step_dsig) * V
+
+    def accept(rq: np.ndarray, re: np.ndarray, factor: float = 1.0) -> bool:
+        # the out-of-balance forces and moments left make the Love-Weber stress uncertain
+        # by at most sum_p (|F_p| R_p + |M_p|) / V (the stress of a grain out of balance
+        # depends on the point its moments are taken about); accept when that is below
+        # rtol_accept times the stress scale or rtol_step times the step's stress change
+        # (the imbalance left is not lost: the next step starts from it and removes it)
+        # (the stress-controlled components within the same bound); ``factor`` scales the
+        # bound (PackingOptions.settle)
+        # (never with a grain out of balance by more than ACCEPT_MAX_FORCE of the mean
+        # contact force: the bar of "every accepted step in equilibrium" as reported,
+        # PackingResult.residual)
+        bound = factor * amb_ok
+        if (ms and not bool(np.all(np.abs(re) <= bound))) or _largest(kin, rq, Rg) > ACCEPT_MAX_FORCE * fref:
+            return False
+        if _stress_ambiguity(kin, rq, Rg) <= bound:
+            return True
+        return bool(factor == 1.0 and opts.accept_unbalanced > 0
+                    and _at_rest(kin, rq, Rg, fref, opts.accept_unbalanced))
+
+    def unsettled(rq: np.ndarray, re: np.ndarray) -> str:
+        """The stress uncertainty left, against what ``accept`` asks, for a failure message."""
+        out = f"stress uncertainty {_stress_ambiguity(kin, rq, Rg) / (sref * V):.3g} of the stress scale"
+        if ms:
+            out += f", stress-control residual {float(np.max(np.abs(re))) / (sref * V):.3g}"
+        return out + f", each accepted below {amb_ok / (sref * V):.3g}"
+
+    def done(cur: tuple, it: int, final: bool = True) -> PackingPoint:
+        """The point of ``cur`` (at the unknowns ``xq``, ``xe``), counted as a (sub)step if ``final``."""
+        ctx.newton_ok = newton_ok
+        st, resp, f, rq, re, vs, de = cur
+        new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(xq),
+                      strain=point.strain + de, stress=vs / V, _cache={})
+        counters[2] += float(np.sum(resp.dissipation / point.scale) / V)
+        counters[3] += float(np.dot(0.5 * (point.stress + new.stress), de))
+        if final:
+            counters[0] += 1
+            counters[1] += it - 1
+            ctx.last = None if relax else (v, S.copy(), xq.copy(), xe.copy())
+        return new
+
+    # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
+    # linear response; a reversal gives factor -1)
+    v, xq, xe, fac = _predictor(point, S, de_E, target, prec, ctx, V, nq, ms)
+    # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
+    stiff_first = not ctx.energy and not relax and (ctx.stiff_ok or fac < 0)
+    cur = residual(xq, xe)
+    m = merit(cur)
+    # committed relaxation: out-of-balance forces of the committed point the update starts from
+    base = None
+    if relax:
+        base = kin.balance(point.forces) - (0.0 if point.load is None else _held_load(point, point.response))
+    # pseudo-transient continuation (Kelley & Keyes 1998): each update solves
+    # (J + mu I) dx = -r in the Jacobi-scaled unknowns. mu = 0 is Newton; a large mu is an
+    # implicit step of overdamped grain dynamics (dx ~ -r / mu), which moves the grains
+    # along their out-of-balance forces as a quasi-static DEM relaxation does and stays
+    # bounded on a mechanism (a grain rolling or sliding on its neighbours, whose Newton
+    # step is singular). mu grows when an update fails to lower the residual (a branch of
+    # the contact law switching: a reversal, a contact reaching or leaving the Coulomb
+    # limit) and shrinks after each success, so Newton's convergence comes back.
+    # Committed relaxation (``relax``): the same updates with mu > 0 from the start, each
+    # committed to the contact laws' history as it is taken (the point moves on; the
+    # strain of the step goes in with the first update). This is implicit overdamped
+    # dynamics of the grains, the relaxation a quasi-static DEM performs: where the
+    # step's equilibrium is not reached from the step's start in one increment of the
+    # laws (a branch of many contacts switching, an instability that rearranges a few
+    # grains), the grains get there along a path whose slips are recorded.
+    newton_ok = ctx.newton_ok
+    if opts.anderson and not relax and not ctx.energy:
+        # Anderson-accelerated elastic iterations first; where they stall (a few grains on
+        # a mechanism, all their contacts sliding) Newton-Krylov goes on from their best point
+        def settled(rq: np.ndarray, re: np.ndarray, dstress: float) -> bool:
+            # the stress is settled: the stress-controlled components within rtol, and both
+            # the stress uncertainty of the out-of-balance forces and the estimated stress
+            # change still to come (``dstress``, from the contraction of the iterates'
+            # stress changes) below ``settle`` times the acceptance bound
+            return bool(opts.settle > 0 and dstress <= opts.settle * amb_ok and (ms == 0 or np.all(np.abs(re) <= tole))
+                        and accept(rq, re, opts.settle))
+
+        ok, xq, xe, cur, m, it = _anderson(prec, S, np.concatenate([Dq, De]), xq, xe, cur, m, residual, merit,
+                                           limit, converged, settled, accept, opts.anderson, 4 * opts.max_iter,
+                                           _debug())
+        ctx.anderson += it
+        if ok:
+            ctx.anderson_ok += 1
+            if ok == "settled":
+                ctx.settled += 1
+            elif not converged(cur[3], cur[4]):
+                ctx.accepted += 1
+            return done(cur, it)
+        stiff_first = False
+    mu = _MU_FIRST if relax else 0.0
+    ptc_from = (0, 0.0)  # iteration and merit where continuation started
+    # consistent-tangent updates still worth their Krylov solve (not after they failed in
+    # the last (sub)step: the same few mechanism grains make them fail again)
+    newton_ok = ctx.newton_ok
+    n_iter = opts.relax_iter if relax else opts.max_iter
+    dbg = _debug()
+    jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
+    for it in range(1, n_iter + 1):
+        st, resp, f, rq, re, vs, de = cur
+        if dbg:
+            dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
+                f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
+            dbg(_grain_report(kin, rq, tolq, resp) + f"; mean unbalanced {_unbalanced(kin, rq, Rg, fref):.2g}"
+                + f"; stress ambiguity {_stress_ambiguity(kin, rq, Rg) / (sref * V):.2g}"
+                + (f", stress residual {float(np.max(np.abs(re))) / (sref * V):.2g}" if ms else ""))
+        if converged(rq, re):
+            return done(cur, it)
+        if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
+            dxq, dxe = prec.apply(-rq, -re, S)
+            trial = residual(xq + dxq, xe + dxe)
+            mt = merit(trial)
+            if mt <= 0.1 * m or converged(trial[3], trial[4]):
+                xq, xe, cur, m = xq + dxq, xe + dxe, trial, mt
+                ctx.stiff_ok = True
+                continue
+            stiff_first = ctx.stiff_ok = False  # poor contraction: consistent-tangent Newton
+        # consistent tangent of the trial state
+        r_s = point.scale
+        closed = ~np.asarray(resp.open, bool)
+        if getattr(resp, "t_delta", None) is not None and not jenkins:
+            K = _step_tangent(kin.n, resp, r_s, closed)
+        else:
+            ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
+            if jenkins:
+                ksp = ksp * _slip_rotation(point, resp, kin, xq, de)
+            K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
+                                ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
+        Kb = block_diagonal(K)
+        if mu == 0.0:  # Newton with a backtracking line search
+            if newton_ok:
+                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
+            else:  # Newton failed in this (sub)step: elastic updates (below) until they stall
+                dxq, dxe, slope, pred, kr = np.zeros(nq), np.zeros(ms), 0.0, 0.0, 0
+            # trust limit (see `move` above) on each grain by itself: a grain on a
+            # mechanism (free, rolling or sliding away) must not cut the others' update
+            lam = 1.0
+            if not ctx.energy:
+                dxq, dxe = limit(dxq, dxe, st)
+            else:
+                lam = 1.0 / _trust(kin, dxq, dxe, S, move)
+            ok = False
+            # a Krylov solve that lowered the linear model's residual by less than 10 %
+            # gives no useful direction (the Jacobian is near singular on a few mechanism
+            # grains): no line search along it
+            for _nb in range(opts.max_backtracks + 1 if pred > 0.1 * m or ctx.energy else 0):
+                trial = residual(xq + lam * dxq, xe + lam * dxe)
+                mt = merit(trial)
+                if ctx.energy:
+                    ok = mt <= m + 1e-4 * lam * slope or (mt <= m and rnorm(trial) <= (1.0 - 1e-4 * lam) * rnorm(cur))
+                else:
+                    ok = m - mt >= 1e-4 * lam * pred > 0
+                ok = ok or converged(trial[3], trial[4])
+                if dbg:
+                    dbg(f"   newton lam {lam:.3g} decrease {1 - mt / m:.3e} predicted {pred / m:.3e} krylov {kr}")
+                if ok:
+                    break
+                lam *= 0.5
+            if not ok and not ctx.energy:
+                # the consistent tangent's update fails at a kink of the law (a mechanism
+                # grain moved along a sliding contact that then sticks): the elastic
+                # operator's update, stiffer than every branch of the laws, with its own
+                # backtracking (initial-stiffness iteration), for the rest of the substep
+                newton_ok = False
+                dxq, dxe = limit(*prec.apply(-rq, -re, S), st)
+                lam = 1.0
+                for _nb in range(_STIFF_BACKTRACKS):
+                    trial = residual(xq + lam * dxq, xe + lam * dxe)
+                    mt = merit(trial)
+                    if dbg:
+                        dbg(f"   elastic lam {lam:.3g} decrease {1 - mt / m:.3e}")
+                    if mt <= (1.0 - 1e-4 * lam) * m or converged(trial[3], trial[4]):
+                        ok = True
+                        break
+                    lam *= 0.5
+                if ok and mt > _PTC_STALL * m and accept(rq, re):  # crawling, stress settled
+                    ctx.accepted += 1
+                    return done(cur, it)
+                if ok and mt > _PTC_STALL * m:  # crawling: Newton again next time
+                    newton_ok = True
+            if not ok:
+                if accept(rq, re):  # stalled at a kink of the law, already below rtol_accept
+                    ctx.accepted += 1
+                    return done(cur, it)
+                if ctx.energy:
+                    sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
+                    raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
+                                       f"{rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
+                                       f"{int(closed.sum())} closed)")
+                if kr > opts.refactor_after and prec is not point._cache.get("prec"):
+                    # the elastic operator is stale: refactor at the (sub)step's converged
+                    # start, not at the trial (a trial far from equilibrium, with contacts
+                    # opened or crushed, gives a scaling that weights a few grains'
+                    # residual by orders of magnitude and a poor preconditioner)
+                    ctx.prec = prec = point.preconditioner()
+                    ctx.factorizations += 1
+                    Dq, De = prec.dq, prec.de[S]
+                    m = merit(cur)
+                mu = _MU_FIRST  # switch to pseudo-transient continuation
+                ctx.ptc += 1
+                if ptc_from[0] == 0:
+                    ptc_from = (it, m)
+        if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
+            for _grow in range(_MU_GROWTHS + 1):
+                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx,
+                                                       _RELAX_KRYLOV_RTOL if relax else None)
+                dxq, dxe = limit(dxq, dxe, st)
+                lam = 1.0
+                try:
+                    trial = residual(xq + dxq, xe + dxe)
+                except _StepFailure:  # the law refuses the update (e.g. its memory is full): shorter
+                    mu *= _MU_GROW
+                    continue
+                mt = merit(trial)
+                # committed relaxation: the update must also release energy, i.e. the
+                # out-of-balance forces do positive work on it (trapezoidal rule), as in
+                # overdamped dynamics; the residual norm alone is no Lyapunov function there
+                work = -0.5 * (float(np.dot(rq + trial[3], dxq)) + float(np.dot(re + trial[4], dxe)))
+                if dbg:
+                    dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr} work {work:.3g}")
+                if mt <= _PTC_GROWTH * m and (not relax or work >= 0.0):
+                    break
+                if accept(rq, re):
+                    ctx.accepted += 1
+                    return done(cur, it)
+                mu *= _MU_GROW
+            else:
+                raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
+                                   f"{rnorm(cur):.3g}, shift {mu:.3g}; "
+                                   f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
+                                   f"{int(closed.sum())} closed contacts sliding; {unsettled(rq, re)})")
+            if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
+                ctx.accepted += 1
+                return done(cur, it)
+            if not relax and it - ptc_from[0] >= _PTC_PATIENCE:
+                if mt > _PTC_PROGRESS * ptc_from[1]:
+                    # continuation makes no headway: stop here, so that the substep is
+                    # halved or relaxed without spending the rest of max_iter
+                    raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
+                                       f"residual {mt:.3g}, {mt / ptc_from[1]:.2f} x that of {_PTC_PATIENCE} "
+                                       f"iterations before; {unsettled(trial[3], trial[4])})")
+                ptc_from = (it, mt)
+            # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
+            # (in committed relaxation faster: every update taken released energy, and one
+            # that does not is refused and retried with a larger shift)
+            mu = mu * (min(mt / m, _RELAX_MU_CUT) if relax else mt / m)
+            mu = (_MU_NEWTON if relax else 0.0) if mu < _MU_NEWTON else min(mu, _MU_MAX)
+            ctx.mu_max = max(ctx.mu_max, mu)
+        xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
+        if relax and base is not None:  # commit the update: the next one starts from it
+            # energy the update removed: work of the out-of-balance forces along it
+            # (trapezoidal rule, from the committed point), what a DEM's damping dissipates
+            # (the stress-controlled strains' work is in the external work, at the actual stress)
+            counters[4] -= 0.5 * float(np.dot(base + cur[3], xq)) / V
+            point = done(cur, it, final=False)
+            ctx.relaxed += 1
+            de_E = np.zeros_like(de_E)
+            xq, xe = np.zeros(nq), np.zeros(ms)
+            # the state again from the committed point: the trial's branch flags (sliding,
+            # reversal) belong to the increment just taken; the next one may unload those
+            # contacts, and a Newton matrix with them sliding moves grains along contacts
+            # that stick
+            cur = residual(xq, xe)
+            m = merit(cur)
+            base = cur[3]
+    rq, re = cur[3], cur[4]
+    if accept(rq, re):
+        ctx.accepted += 1
+        return done(cur, n_iter + 1)
+    what = "committed relaxation did not converge" if relax else "Newton did not converge"
+    raise _StepFailure(f"{what} in {n_iter} iterations (largest force residual "
+                       f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force; {unsettled(rq, re)})")
+
+
+def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+                depth: int, ctx: _Context, counters: list, step_dsig: float | None = None) -> PackingPoint:
+    """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure.
+
+    ``step_dsig`` (set at ``depth = 0``, kept by the halves): the step's stress change,
+    the elastic (affine, an upper bound) response to its strain increment or the change
+    of its stress targets; the path's resolution is the user's step, not a substep's.
+    """
+    if step_dsig is None:
+        step_dsig = max(float(np.abs(ctx.prec.A0 @ de_E).max()) / point.volume,
+                        float(np.abs(np.where(S, t1 - point.stress, 0.0)).max()))
+    try:
+        return _solve(point, S, de_E, t1, ctx, counters, step_dsig)
+    except _StepFailure as exc:
+        err = exc
+    if depth == 0 and ctx.prec is not point._cache.get("prec"):  # maybe a stale preconditioner: refactor once
+        ctx.prec = point.preconditioner()
+        ctx.factorizations += 1
+        try:
+            return _solve(point, S, de_E, t1, ctx, counters, step_dsig)
+        except _StepFailure as exc:
+            err = exc
+    rd = ctx.opts.relax_depth
+    if rd is not None and depth >= min(rd, ctx.opts.max_depth) and not ctx.energy:  # committed relaxation
+        ctx.relaxations += 1
+        try:
+            return _solve(point, S, de_E, t1, ctx, counters, step_dsig, relax=True)
+        except _StepFailure as exc:
+            err = exc
+    if depth >= ctx.opts.max_depth:
+        raise _StepFailure(f"{err.cause} (after {ctx.opts.max_depth} halvings)")
+    tm = 0.5 * (t0 + t1)
+    mid = _subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters, step_dsig)
+    return _subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters, step_dsig)
