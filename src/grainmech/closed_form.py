@@ -23,8 +23,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
+from grainmech.contact.params import Hertz
 from grainmech.conventions import SEED_ORDER_2D, SEED_ORDER_3D, reorder
 from grainmech.errors import GrainmechError
+from grainmech.fabric.packing import contact_ends_per_volume, contacts_per_volume
 
 __all__ = [
     "packing_scale",
@@ -79,8 +82,6 @@ def packing_scale(void_ratio: float, coordination: float, radius: float, *, dim:
     (contacts_per_volume, length) : (float, float)
         Multiply ``contacts_per_volume * length**2`` for the closed forms' ``scale``.
     """
-    from grainmech.fabric.packing import contact_ends_per_volume, contacts_per_volume
-
     if dim not in (2, 3):
         raise GrainmechError(f"dim must be 2 or 3, got {dim!r}")
     rho = _positive("radius", radius)
@@ -268,11 +269,11 @@ def isotropic_hertz_mindlin(shear_modulus: float, poisson: float, pressure: floa
     rho = _positive("radius", radius)
     nv, length = packing_scale(void_ratio, coordination, rho, dim=3, convention=convention)
     force = 3.0 * P / (nv * length)
-    e_star = G / (1.0 - nu)
-    g_star = G / (2.0 * (2.0 - nu))
-    a = (3.0 * force * (rho / 2.0) / (4.0 * e_star)) ** (1.0 / 3.0)
-    kn = 2.0 * e_star * a
-    ks = 8.0 * g_star * a
+    hz = Hertz(G, nu, rho)  # two equal spheres: R* = rho/2, E* = G/(1-nu), G* = G/(2(2-nu))
+    e_star, g_star = hz.effective_modulus, hz.effective_shear_modulus
+    a = float(hertz_radius(force, e_star, hz.effective_radius))
+    kn = float(hertz_kn(a, e_star))
+    ks = float(mindlin_kt0(a, g_star))
     scale = nv * length**2
     lam = scale * (kn - ks) / 15.0
     mu = scale * (2 * kn + 3 * ks) / 30.0

@@ -19,6 +19,7 @@ import numpy as np
 
 from grainmech._deprecated import renamed_attribute, warn_renamed
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness
+from grainmech.contact.forms import normal_law
 from grainmech.errors import GrainmechError, ParameterError
 
 __all__ = [
@@ -211,10 +212,8 @@ def microstructure_stiffness(microstructure: Microstructure, contact: ContactSti
     -------
     StiffnessResult
     """
-    from grainmech.contact import LinearSpring
-
     d = microstructure.dim
-    const = isinstance(contact, LinearSpring)
+    const = normal_law(contact) == "linear"
     if stress is None:
         if not const:
             raise GrainmechError("a stress (or pressure) is needed for force-dependent contact stiffness")

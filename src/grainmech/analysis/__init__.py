@@ -1,7 +1,11 @@
 """Analysis of driver results: modulus reduction, damping, directional moduli, references.
 
-See ``docs/analysis.md``.
+See ``docs/analysis.md``. :func:`modulus_reduction` (the affine model's cyclic series) is
+defined with the affine driver (:mod:`grainmech.driver.affine.solver`) and found here on
+first use.
 """
+
+from typing import Any
 
 from grainmech.analysis.directional import apparent_moduli
 from grainmech.analysis.empirical import (
@@ -27,7 +31,6 @@ from grainmech.analysis.loops import (
     condensed_modulus,
     loop_properties,
     loop_quality,
-    modulus_reduction,
 )
 
 __all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinDrnevichReference",
@@ -36,3 +39,12 @@ __all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves"
            "hardin_richart", "mohr_coulomb_ratio", "LoopProperties", "ModulusReduction",
            "apparent_moduli", "condensed_modulus", "darendeli", "hardin_drnevich", "loop_properties",
            "masing_damping_hyperbolic", "modulus_reduction"]
+
+
+def __getattr__(name: str) -> Any:
+    """``modulus_reduction`` (the affine model's series, :mod:`grainmech.driver.affine.solver`), on first use."""
+    if name == "modulus_reduction":
+        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (the driver imports analysis)
+
+        return modulus_reduction
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

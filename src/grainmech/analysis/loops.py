@@ -17,17 +17,16 @@ its end and the asymmetry of its two peaks (tolerances :data:`LOOP_CLOSURE_TOLER
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from grainmech.errors import ParameterError
 
 __all__ = ["LoopProperties", "loop_properties", "LoopQuality", "loop_quality", "LOOP_CLOSURE_TOLERANCE",
-           "LOOP_ASYMMETRY_TOLERANCE", "ModulusReduction", "modulus_reduction", "condensed_modulus"]
+           "LOOP_ASYMMETRY_TOLERANCE", "ModulusReduction", "condensed_modulus"]
 
 #: largest closure (stress mismatch / tau_a or strain mismatch / gamma_a between the start
 #: and the end of the analysed cycle) of a loop taken as closed
@@ -277,42 +276,14 @@ class ModulusReduction:
         return self.G / self.G_max
 
 
-def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
-                      steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
-                      progress: Callable[[int, float, Any], None] | None = None,
-                      raise_on_failure: bool = True,
-                      on_amplitude: Callable[[ModulusReduction], None] | None = None,
-                      **run_options: Any) -> ModulusReduction:
-    """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
+def __getattr__(name: str) -> Any:
+    """``modulus_reduction``, the affine model's series, where it was defined before: found on first use.
 
-    Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
-    ``G_max`` is the tangent shear modulus of ``point`` condensed with the path's control
-    (``sigma_zz`` free at constant normal stress; plain ``C_55`` at constant volume).
-
-    Parameters
-    ----------
-    constant : {"stress", "volume"}
-        Constant normal stress ``sigma_zz`` (default) or constant volume (every other
-        strain component held; see :func:`grainmech.driver.cyclic_simple_shear`).
-    progress : callable ``(index, amplitude, path)``, optional
-        Called before each amplitude is run.
-    raise_on_failure : bool
-        If False, a failed amplitude is recorded and the others still run (each from
-        ``point``); the result has ``success`` False and a ``message`` naming every failed
-        amplitude (:func:`grainmech.driver.loop.cyclic_series`).
-    on_amplitude : callable ``(ModulusReduction)``, optional
-        Called after each completed amplitude with the series so far (what an
-        interrupted run can still report).
-
-    Raises
-    ------
-    GrainmechError
-        If a run fails and ``raise_on_failure`` (its message is passed on).
+    It lives with the affine driver now (:func:`grainmech.driver.modulus_reduction`); the
+    driver imports this module, so this module does not import the driver at its top.
     """
-    from grainmech.driver import run
-    from grainmech.driver.loop import cyclic_series
+    if name == "modulus_reduction":
+        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (see the docstring)
 
-    return cyclic_series(lambda path: run(point, path, **run_options), amplitudes,
-                         lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
-                         n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
-                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
+        return modulus_reduction
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,7 +11,7 @@ from the NumPy reference (:mod:`grainmech.contact.hysteresis`, :mod:`grainmech.c
 from __future__ import annotations
 
 import math
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -197,18 +197,21 @@ def constants(params: ContactParams) -> KernelConstants:
     kind = law_kind(params)
     forms = law_forms(params)
     linear = forms.linear
-    if isinstance(params, LinearSpring):
+    if linear:
+        spring = cast(LinearSpring, params)
         E = R = Gs = 1.0
-        kn_lin, ks_lin = float(params.kn), float(params.ks)
-    elif isinstance(params, Hertz):
-        E = float(params.effective_modulus)
-        R = float(params.effective_radius)
-        Gs = float(params.effective_shear_modulus)
+        kn_lin, ks_lin = float(spring.kn), float(spring.ks)
+    elif forms.spheres:
+        hz = cast(Hertz, params)
+        E = float(hz.effective_modulus)
+        R = float(hz.effective_radius)
+        Gs = float(hz.effective_shear_modulus)
         kn_lin = ks_lin = 0.0
     else:
         raise TypeError(f"no compiled kernel for {type(params).__name__} (rods use the NumPy law)")
     mu = float(params.friction)
-    p = float(params.stick_exponent) if isinstance(params, MindlinDeresiewicz) else 1.0 / 3.0
+    # the stick exponent of a Mindlin-Deresiewicz sphere law (the only spheres of kind "md")
+    p = float(cast(MindlinDeresiewicz, params).stick_exponent) if kind == "md" else 1.0 / 3.0
     m_exp = 1.0 / (1.0 - p)
     kc = KernelConstants(
         {"md": LAW_MD, "jenkins": LAW_JENKINS, "frictionless": LAW_FRICTIONLESS}[kind], linear,

@@ -9,6 +9,8 @@ keeps a bracket and converges superlinearly), vectorised over contacts.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -68,14 +70,7 @@ def solve_step(params: ContactParams, state: ContactState, *,
     if d_tangential is not None and tangential_force is not None:
         raise ValueError("give at most one of d_tangential and tangential_force")
 
-    if normal_force is not None:
-        Nt = np.broadcast_to(np.asarray(normal_force, dtype=float), (n,)).copy()
-        if not np.all(np.isfinite(Nt)) or np.any(Nt < 0):
-            raise GrainmechError("prescribed normal force must be finite and >= 0")
-        alpha_t = np.where(Nt > 0, law_forms(params).approach_from_force(Nt), np.minimum(state.approach, 0.0))
-        dn = alpha_t - state.approach
-    else:
-        dn = np.broadcast_to(np.asarray(d_normal, dtype=float), (n,)).copy()
+    dn = _normal_increment(params, state, d_normal, normal_force)
 
     if tangential_force is None:
         dt = np.zeros((n, dim)) if d_tangential is None else np.asarray(d_tangential, dtype=float)
@@ -83,15 +78,7 @@ def solve_step(params: ContactParams, state: ContactState, *,
         return new_state, resp, dn, np.broadcast_to(dt, (n, dim)).copy()
 
     target = np.broadcast_to(np.asarray(tangential_force, dtype=float), (n,)).copy()
-    if direction is None:
-        dvec = np.zeros((n, dim))
-        dvec[:, 0] = 1.0
-    else:
-        dvec = np.broadcast_to(np.asarray(direction, dtype=float), (n, dim)).copy()
-        ln = np.linalg.norm(dvec, axis=1)
-        if np.any(ln <= 0):
-            raise ValueError("direction must be non-zero")
-        dvec = dvec / ln[:, None]
+    dvec = _unit_direction(direction, n, dim)
 
     def F(x: np.ndarray) -> tuple[np.ndarray, ContactState, ContactResponse]:
         st, rp = update(params, state, dn, x[:, None] * dvec)
@@ -116,9 +103,49 @@ def solve_step(params: ContactParams, state: ContactState, *,
     # bracket: x = 0 gives f0; step out along -sign(f0) with the no-slip stiffness (an upper
     # bound of the tangent, so the first guess undershoots) and double until the sign changes
     k0 = np.maximum(law_forms(params).kt0(N1), 1e-300)
-    sgn = -np.sign(f0)
+    lo, flo, hi, fhi = _bracket(F, f0, k0, done, tol)
+    x = _illinois(F, lo, flo, hi, fhi, done, tol, max_iter)
+    x = np.where(done, 0.0, x)
+    st, rp = update(params, state, dn, x[:, None] * dvec)
+    return st, rp, dn, x[:, None] * dvec
+
+
+def _normal_increment(params: ContactParams, state: ContactState, d_normal: ArrayLike | None,
+                      normal_force: ArrayLike | None) -> np.ndarray:
+    """The approach increment (n,) [m]: given, or the one that reaches ``normal_force`` (inverse normal law)."""
+    n = state.n_contacts
+    if normal_force is not None:
+        Nt = np.broadcast_to(np.asarray(normal_force, dtype=float), (n,)).copy()
+        if not np.all(np.isfinite(Nt)) or np.any(Nt < 0):
+            raise GrainmechError("prescribed normal force must be finite and >= 0")
+        alpha_t = np.where(Nt > 0, law_forms(params).approach_from_force(Nt), np.minimum(state.approach, 0.0))
+        return alpha_t - state.approach
+    return np.broadcast_to(np.asarray(d_normal, dtype=float), (n,)).copy()
+
+
+def _unit_direction(direction: ArrayLike | None, n: int, dim: int) -> np.ndarray:
+    """Unit directions (n, dim) of a prescribed tangential force (default: the first axis, ``x``)."""
+    if direction is None:
+        dvec = np.zeros((n, dim))
+        dvec[:, 0] = 1.0
+        return dvec
+    dvec = np.broadcast_to(np.asarray(direction, dtype=float), (n, dim)).copy()
+    ln = np.linalg.norm(dvec, axis=1)
+    if np.any(ln <= 0):
+        raise ValueError("direction must be non-zero")
+    return dvec / ln[:, None]
+
+
+def _bracket(F: Callable, f0: np.ndarray, k0: np.ndarray, done: np.ndarray,
+             tol: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(lo, f(lo), hi, f(hi))`` with ``f`` changing sign (or vanishing) on ``[lo, hi]``.
+
+    From ``x = 0`` a step ``|f0| / k0`` along ``-sign(f0)``, doubled until the sign changes.
+    """
+    n = len(f0)
     lo = np.zeros(n)
     flo = f0.copy()
+    sgn = -np.sign(f0)
     h = np.abs(f0) / k0
     hi = sgn * h
     fhi, _, _ = F(hi)
@@ -133,8 +160,14 @@ def solve_step(params: ContactParams, state: ContactState, *,
         fhi = np.where(need, fhi_new, fhi)
     else:  # pragma: no cover
         raise GrainmechError("could not bracket the prescribed tangential force")
+    return lo, flo, hi, fhi
 
-    # Illinois regula falsi on [lo, hi] (f changes sign or vanishes at hi)
+
+def _illinois(F: Callable, lo: np.ndarray, flo: np.ndarray, hi: np.ndarray, fhi: np.ndarray,
+              done: np.ndarray, tol: np.ndarray, max_iter: int) -> np.ndarray:
+    """Illinois regula falsi on ``[lo, hi]`` (vectorised): the root of ``F`` in each bracket."""
+    n = len(lo)
+    # f changes sign or vanishes at hi
     x = hi.copy()
     fx = fhi.copy()
     side = np.zeros(n)
@@ -163,6 +196,4 @@ def solve_step(params: ContactParams, state: ContactState, *,
         fx = np.where(conv, fx, fs)
     else:  # pragma: no cover
         raise GrainmechError("prescribed tangential force: root search did not converge")
-    x = np.where(done, 0.0, x)
-    st, rp = update(params, state, dn, x[:, None] * dvec)
-    return st, rp, dn, x[:, None] * dvec
+    return x

@@ -7,7 +7,8 @@ constant ratio ``r = kn / kt0``, the elastic energy of the normal law, and wheth
 law is hysteretic (``kind``) and supported by the compiled kernel. The incremental laws
 (:mod:`grainmech.contact.law`), the compiled kernel's constants
 (:func:`grainmech.contact.kernel.constants`) and the law interface
-(:class:`grainmech.contact.interface.ContactLaw`) all ask this one place.
+(:class:`grainmech.contact.interface.ContactLaw`) all ask this one place; code elsewhere
+that branches on the kind of law asks :func:`normal_law` or the :class:`LawForms` flags.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 from grainmech.contact import geometry as geo
 from grainmech.contact.params import ContactParams, Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
 
-__all__ = ["LawForms", "law_forms", "LAW_KINDS"]
+__all__ = ["LawForms", "law_forms", "normal_law", "LAW_KINDS"]
 
 #: law kinds: hysteretic with reversal memory, elastic + Coulomb cap, frictionless
 LAW_KINDS = ("md", "jenkins", "frictionless")
@@ -173,3 +174,18 @@ def law_forms(params: ContactParams) -> LawForms:
     except TypeError:  # pragma: no cover - unhashable user subclass
         pass
     return forms
+
+
+def normal_law(params: Any) -> str | None:
+    """The normal law of a contact parameter object, for callers that branch on it.
+
+    ``"hertz"`` (two spheres, seed Eq. 3.6: :class:`Hertz` and its frictional
+    subclasses), ``"linear"`` (:class:`LinearSpring`), ``"cylinder"`` (rods, seed Eq. 3.8,
+    forces per unit length); ``None`` for an object that is not a
+    :mod:`grainmech.contact.params` object (e.g. a user's stiffness object).
+    """
+    try:
+        forms = law_forms(params)
+    except TypeError:
+        return None
+    return "cylinder" if isinstance(forms, _CylinderForms) else "linear" if forms.linear else "hertz"

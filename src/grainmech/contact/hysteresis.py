@@ -9,7 +9,7 @@ implements the same algorithm and is held to this one by tests.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -77,8 +77,8 @@ def _secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.nda
     ``kn = dN/dalpha``. Falls back to ``kt0(N1)`` when the approach does not change.
     """
     forms = law_forms(params)
-    if isinstance(params, LinearSpring):  # forms.linear
-        return np.where((N0 > 0) | (N1 > 0), params.ks, 0.0)
+    if forms.linear:
+        return np.where((N0 > 0) | (N1 > 0), cast(LinearSpring, params).ks, 0.0)
     r = forms.ratio
     da = a1 - a0
     dN = N1 - N0
@@ -276,26 +276,8 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
 
     # ---- step tangent of the trial force tau e + T_perp (kernel.rows has the derivation)
     kn1 = law_forms(params).kn(N1)
-    if mu > 0.0:
-        Qa = muN1 - s * tau
-        Pa = _top(stack.P, np.arange(n), k, 1)
-        ca = np.where(k > 0, 2.0, 1.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ya = np.clip(np.where(muN1 > 0, (Qa + Pa) / (ca * np.where(muN1 > 0, muN1, 1.0)), 0.0), 0.0, 1.0)
-        tha = np.where((k == 0) & (Qa <= _EPS * muN1), 0.0, ya ** p)
-        a_e = np.where(elastic, kbar, kt0_1 * tha)
-        # a branch started at N1 by a pushed reversal: Q + P_top = 2 mu N1 z^m with z = 1 at
-        # its start, so dQ/dN1 = 2 mu theta - dP/dN1 (not mu theta)
-        a_n = np.where(elastic, d_par * dkbar,
-                       s * mu * (1.0 - tha) * kn1 + np.where(k == kpush, s * (dPn - mu * tha) * kn1, 0.0))
-    else:
-        a_e = a_n = np.zeros(n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        b_p = np.where(fresh, tau / np.where(dtn > 0, dtn, 1.0), kbar)
-    t_alpha = (a_n[:, None] * e + dkbar[:, None] * d_perp
-               + drr[:, None] * (tperp - kbar[:, None] * d_perp))
-    t_delta = ((a_e - b_p)[:, None, None] * np.einsum("ci,cj->cij", e, e)
-               + b_p[:, None, None] * np.eye(dim))
+    t_delta, t_alpha = _trial_tangent(mu, p, stack, tau, s, k, muN1, kn1, kt0_1, kbar, dkbar, drr, elastic,
+                                      d_par, dPn, kpush, fresh, dtn, e, d_perp, tperp)
 
     # ---- recombine, Coulomb cap on the total force (only the perpendicular part can break it)
     T1 = tau[:, None] * e + tperp
@@ -316,6 +298,83 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
         k = np.where(over, 0, k).astype(np.int32)
         tperp = np.where(over[:, None], 0.0, tperp)
 
+    T1, e, s, k, tau, tperp = _tidy_axis(T1, e, s, k, tau, tperp, closed1, muN1)
+
+    # ---- tangents at the end of the step
+    slide, ks, ks_perp, ktn = _end_tangents(mu, p, stack, tau, s, k, muN1, kt0_1, closed1, elastic)
+    t_delta = np.where(closed1[:, None, None], t_delta, 0.0)
+    t_alpha = np.where(closed1[:, None], t_alpha, 0.0)
+    return T1, e, s, k, stack.P, slide, diss, ks, ks_perp, ktn, t_delta, t_alpha
+
+
+def axis_tangent(e: np.ndarray, ks: np.ndarray, ks_perp: np.ndarray, ktn: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Step tangent ``(dT/d d_t, dT/d alpha)`` in the continuum form of the elastic-Coulomb laws.
+
+    ``ks e e + ks_perp (I - e e)`` and ``ktn e``, shapes (n, dim, dim) and (n, dim).
+    """
+    dim = e.shape[1]
+    t_delta = ((ks - ks_perp)[:, None, None] * np.einsum("ci,cj->cij", e, e)
+               + ks_perp[:, None, None] * np.eye(dim))
+    return t_delta, ktn[:, None] * e
+
+
+def cap_tangent(T: np.ndarray, tn: np.ndarray, muN1: np.ndarray, mukn: np.ndarray, t_delta: np.ndarray,
+                t_alpha: np.ndarray, over: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Step tangent through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T``.
+
+    ``|t| = tn``, rows ``over``: ``dT = mu kn t/|t| d alpha + (mu N1/|t|) (I - t t/|t|^2) dt``.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(tn > 0, 1.0 / np.where(tn > 0, tn, 1.0), 0.0)
+    u = T * inv[:, None]
+    g = muN1 * inv
+    proj = np.eye(T.shape[1])[None] - np.einsum("ci,cj->cij", u, u)
+    ta = g[:, None] * np.einsum("cij,cj->ci", proj, t_alpha) + mukn[:, None] * u
+    td = g[:, None, None] * np.einsum("cij,cjk->cik", proj, t_delta)
+    return (np.where(over[:, None, None], td, t_delta), np.where(over[:, None], ta, t_alpha))
+
+
+def _trial_tangent(mu: float, p: float, stack: _Stack, tau: np.ndarray, s: np.ndarray, k: np.ndarray,
+                   muN1: np.ndarray, kn1: np.ndarray, kt0_1: np.ndarray, kbar: np.ndarray, dkbar: np.ndarray,
+                   drr: np.ndarray, elastic: np.ndarray, d_par: np.ndarray, dPn: np.ndarray, kpush: np.ndarray,
+                   fresh: np.ndarray, dtn: np.ndarray, e: np.ndarray, d_perp: np.ndarray,
+                   tperp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Step tangent ``(t_delta, t_alpha)`` of the trial force ``tau e + T_perp`` (seed Eq. 3.10-3.15).
+
+    ``t_delta = d T / d delta`` (n, dim, dim) and ``t_alpha = d T / d alpha`` (n, dim);
+    :func:`grainmech.contact.kernel.rows` has the derivation.
+    """
+    n, dim = e.shape
+    if mu > 0.0:
+        Qa = muN1 - s * tau
+        Pa = _top(stack.P, np.arange(n), k, 1)
+        ca = np.where(k > 0, 2.0, 1.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ya = np.clip(np.where(muN1 > 0, (Qa + Pa) / (ca * np.where(muN1 > 0, muN1, 1.0)), 0.0), 0.0, 1.0)
+        tha = np.where((k == 0) & (Qa <= _EPS * muN1), 0.0, ya ** p)
+        a_e = np.where(elastic, kbar, kt0_1 * tha)
+        # a branch started at N1 by a pushed reversal: Q + P_top = 2 mu N1 z^m with z = 1 at
+        # its start, so dQ/dN1 = 2 mu theta - dP/dN1 (not mu theta)
+        a_n = np.where(elastic, d_par * dkbar,
+                       s * mu * (1.0 - tha) * kn1 + np.where(k == kpush, s * (dPn - mu * tha) * kn1, 0.0))
+    else:
+        a_e = a_n = np.zeros(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        b_p = np.where(fresh, tau / np.where(dtn > 0, dtn, 1.0), kbar)
+    t_alpha = (a_n[:, None] * e + dkbar[:, None] * d_perp
+               + drr[:, None] * (tperp - kbar[:, None] * d_perp))
+    t_delta = ((a_e - b_p)[:, None, None] * np.einsum("ci,cj->cij", e, e)
+               + b_p[:, None, None] * np.eye(dim))
+    return t_delta, t_alpha
+
+
+def _tidy_axis(T1: np.ndarray, e: np.ndarray, s: np.ndarray, k: np.ndarray, tau: np.ndarray, tperp: np.ndarray,
+               closed1: np.ndarray, muN1: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The memory axis after the step: negligible forces reset, the axis following a memoryless force, opened contacts.
+
+    Returns ``T1, e, s, k, tau, tperp``.
+    """
     # ---- a force below the resolution of the law (1e-14 mu N, where Q = mu N - s tau
     # cannot resolve it) with no memory is a virgin contact: its axis is then reset, so
     # that a rounding residue never defines a memory axis
@@ -348,8 +407,14 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
     e = np.where(closed1[:, None], e, 0.0)
     s = np.where(closed1, s, 1).astype(np.int8)
     k = np.where(closed1, k, 0).astype(np.int32)
+    return T1, e, s, k, tau, tperp
 
-    # ---- tangents at the end of the step
+
+def _end_tangents(mu: float, p: float, stack: _Stack, tau: np.ndarray, s: np.ndarray, k: np.ndarray,
+                  muN1: np.ndarray, kt0_1: np.ndarray, closed1: np.ndarray,
+                  elastic: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Sliding flag and tangent stiffnesses ``ks``, ``ks_perp``, ``ktn`` at the end of the step (seed Eq. 3.10-3.15)."""
+    n = len(tau)
     Ptop = _top(stack.P, np.arange(n), k, 1)
     c = np.where(k > 0, 2.0, 1.0)
     Q = muN1 - s * tau
@@ -363,37 +428,7 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
     ks = np.where(closed1, kt0_1 * theta, 0.0)
     ks_perp = np.where(closed1, kt0_1, 0.0)
     ktn = np.where(closed1, s * mu * (1.0 - theta), 0.0)
-    t_delta = np.where(closed1[:, None, None], t_delta, 0.0)
-    t_alpha = np.where(closed1[:, None], t_alpha, 0.0)
-    return T1, e, s, k, stack.P, slide, diss, ks, ks_perp, ktn, t_delta, t_alpha
-
-
-def axis_tangent(e: np.ndarray, ks: np.ndarray, ks_perp: np.ndarray, ktn: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Step tangent ``(dT/d d_t, dT/d alpha)`` in the continuum form of the elastic-Coulomb laws.
-
-    ``ks e e + ks_perp (I - e e)`` and ``ktn e``, shapes (n, dim, dim) and (n, dim).
-    """
-    dim = e.shape[1]
-    t_delta = ((ks - ks_perp)[:, None, None] * np.einsum("ci,cj->cij", e, e)
-               + ks_perp[:, None, None] * np.eye(dim))
-    return t_delta, ktn[:, None] * e
-
-
-def cap_tangent(T: np.ndarray, tn: np.ndarray, muN1: np.ndarray, mukn: np.ndarray, t_delta: np.ndarray,
-                t_alpha: np.ndarray, over: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Step tangent through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T``.
-
-    ``|t| = tn``, rows ``over``: ``dT = mu kn t/|t| d alpha + (mu N1/|t|) (I - t t/|t|^2) dt``.
-    """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = np.where(tn > 0, 1.0 / np.where(tn > 0, tn, 1.0), 0.0)
-    u = T * inv[:, None]
-    g = muN1 * inv
-    proj = np.eye(T.shape[1])[None] - np.einsum("ci,cj->cij", u, u)
-    ta = g[:, None] * np.einsum("cij,cj->ci", proj, t_alpha) + mukn[:, None] * u
-    td = g[:, None, None] * np.einsum("cij,cjk->cik", proj, t_delta)
-    return (np.where(over[:, None, None], td, t_delta), np.where(over[:, None], ta, t_alpha))
+    return slide, ks, ks_perp, ktn
 
 
 def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float, maxrev: int, stack: _Stack,
@@ -494,6 +529,29 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
         u = np.where(flat, np.abs(d), u)
 
     # ---------- displacement u >= 0 along s at constant N1 (exact branch integration)
+    _integrate_branches(stack, Q, k, u, diss, muN1, N1, kt1, p, m_exp, maxrev)
+
+    tau_new = s * (muN1 - Q)
+    # contacts at constant N with no displacement keep their force exactly
+    still = ~rising & ~falling & (d == 0.0)
+    tau_new = np.where(still, tau, tau_new)
+    # the opened contacts
+    tau_new = np.where(N1 > 0.0, tau_new, 0.0)
+    # clamp rounding: |tau| <= mu N
+    tau_new = np.clip(tau_new, -muN1, muN1)
+    return tau_new, s, k, diss, elastic & (N1 > 0.0), dP, kpush
+
+
+def _integrate_branches(stack: _Stack, Q: np.ndarray, k: np.ndarray, u: np.ndarray, diss: np.ndarray,
+                        muN1: np.ndarray, N1: np.ndarray, kt1: np.ndarray, p: float, m_exp: float,
+                        maxrev: int) -> None:
+    """Tangential displacement ``u >= 0`` along ``s`` at constant ``N1``: exact integration of the branches.
+
+    Seed Eq. 3.11-3.15 in ``z = y**(1-p)`` (``y = (Q + P_top) / (c mu N)``); events:
+    sliding on the virgin branch and Masing's rule (a branch reaching the reversal point it
+    heads for pops one or two reversals). ``Q``, ``k``, ``u`` (left at 0) and ``diss`` are
+    updated in place.
+    """
     act = (u > 0.0) & (N1 > 0.0)
     it = 0
     while np.any(act):
@@ -535,16 +593,6 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
         Q[idx] = Qnew
         u[idx] = np.where(hit, rem, 0.0)
         act = (u > 0.0) & (N1 > 0.0)
-
-    tau_new = s * (muN1 - Q)
-    # contacts at constant N with no displacement keep their force exactly
-    still = ~rising & ~falling & (d == 0.0)
-    tau_new = np.where(still, tau, tau_new)
-    # the opened contacts
-    tau_new = np.where(N1 > 0.0, tau_new, 0.0)
-    # clamp rounding: |tau| <= mu N
-    tau_new = np.clip(tau_new, -muN1, muN1)
-    return tau_new, s, k, diss, elastic & (N1 > 0.0), dP, kpush
 
 
 def _falling_n(params: ContactParams, mu: float, p: float, m_exp: float, stack: _Stack, Q: np.ndarray,

@@ -82,6 +82,7 @@ from __future__ import annotations
 
 import math
 from types import ModuleType
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike
@@ -256,8 +257,8 @@ def update(params: ContactParams, state: ContactState, d_normal: ArrayLike, d_ta
     T0 = np.where(virgin_reset[:, None], 0.0, T0)
 
     if kind == "md":
-        assert isinstance(params, (MindlinDeresiewicz, Cylinder))  # the laws of kind "md"
-        out = _md_update(params, state, T0, e0, N0_eff, N1, a0_eff, alpha1, dt_eff, virgin_reset)
+        md = cast("MindlinDeresiewicz | Cylinder", params)  # the laws of kind "md" (law_forms)
+        out = _md_update(md, state, T0, e0, N0_eff, N1, a0_eff, alpha1, dt_eff, virgin_reset)
     elif kind == "jenkins":
         out = _jenkins_update(params, T0, N0_eff, N1, a0_eff, alpha1, dt_eff)
     else:
@@ -394,7 +395,7 @@ class CompiledUpdate:
         self.alpha0 = c(state.approach, dtype=float)
         # spheres (the compiled laws other than linear springs): the start radius (seed Eq.
         # 3.2) of every contact, from the start state's normal force
-        self.hertz = params if isinstance(params, Hertz) else None
+        self.hertz = cast(Hertz, params) if self.forms.spheres else None
         self.rad0 = (geo.hertz_contact_radius_from_force(np.where(self.alpha0 > 0.0, state.normal_force, 0.0),
                                                          self.hertz) if self.hertz is not None else None)
         K = kernel

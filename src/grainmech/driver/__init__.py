@@ -12,7 +12,7 @@ DEM model in :mod:`grainmech.driver.dem`.
 
 from grainmech.contact.interface import ContactLaw, make_law
 from grainmech.driver.affine.point import MaterialPoint, evaluate, geometric_stiffness, geometry, tangent
-from grainmech.driver.affine.solver import DriverResult, SolverOptions, run
+from grainmech.driver.affine.solver import DriverResult, SolverOptions, modulus_reduction, run
 from grainmech.driver.paths import (
     COMPONENTS,
     Control,
@@ -36,5 +36,5 @@ __all__ = [
     "SolverOptions", "concatenate", "constant_mean_stress", "cycles", "cyclic_simple_shear",
     "cyclic_triaxial", "evaluate", "fig610_path", "fig610_stress", "geometric_stiffness", "geometry",
     "isotropic_compression",
-    "make_law", "parse_mask", "run", "segment", "simple_shear", "tangent", "triaxial",
+    "make_law", "modulus_reduction", "parse_mask", "run", "segment", "simple_shear", "tangent", "triaxial",
 ]

@@ -5,9 +5,10 @@
   control kind and an increment; targets do not drift (increments are added to an exact
   running target, not to the value reached); a component switching control restarts from
   the current value. A :class:`~grainmech.driver.base.StepFailure` ends the path with
-  ``success`` False and every state before it kept. The affine and packing models keep
-  compiled whole-path loops with the same semantics (:func:`grainmech.driver.run`,
-  :func:`grainmech.driver.packing.run_packing`).
+  ``success`` False and every state before it kept. The affine model's step-by-step run
+  (:func:`grainmech.driver.run`) and the DEM model use it; the affine model's compiled
+  whole-path loops (its fast path) and the packing model's loop
+  (:func:`grainmech.driver.packing.run_packing`) keep the same semantics.
 * :func:`cyclic_series` runs strain-controlled cyclic simple shear (``gamma_xz``) at each
   amplitude with any model's runner and analyses the last cycle
   (:func:`grainmech.analysis.loop_properties`): the modulus-reduction and damping curve.
@@ -35,7 +36,9 @@ Recorder = Callable[[Any, int], None]
 
 
 def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
-                on_step: Callable[[int, int], None] | None = None) -> tuple[SteppingPoint, bool, Status, str]:
+                on_step: Callable[[int, int], None] | None = None,
+                word_failure: Callable[[int, StepFailure], str] | None = None,
+                ) -> tuple[SteppingPoint, bool, Status, str]:
     """Drive ``point`` along ``path``; ``record(point, k)`` after the start (k = 0) and each step.
 
     Parameters
@@ -47,12 +50,16 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         Called with the start state (``k = 0``) and after every step ``k`` that succeeded.
     on_step : callable ``(k, n)``, optional
         Progress: called after step ``k`` of ``n``.
+    word_failure : callable ``(k, failure) -> str``, optional
+        The message of a path that stopped at step ``k`` (1-based) with the
+        :class:`StepFailure` ``failure``; default ``"step k: <cause>; results kept up to
+        step k-1"``.
 
     Returns
     -------
     (point, success, status, message)
-        The last state reached, and how the path ended: ``"completed n steps"`` or
-        ``"step k: <cause>; results kept up to step k-1"``.
+        The last state reached, and how the path ended: ``"completed n steps"`` or the
+        failure's message (``word_failure``).
     """
     if not isinstance(path, LoadPath):
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
@@ -66,7 +73,9 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         try:
             point = point.step(d_strain, sc, np.where(sc, new_t_stress, 0.0))
         except StepFailure as exc:
-            return point, False, exc.status, f"step {k + 1}: {exc.cause}; results kept up to step {k}"
+            message = (word_failure(k + 1, exc) if word_failure is not None
+                       else f"step {k + 1}: {exc.cause}; results kept up to step {k}")
+            return point, False, exc.status, message
         targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
         record(point, k + 1)
         if on_step is not None:

@@ -232,6 +232,51 @@ def _reader_threads() -> int:
     return max(1, min(n, int(pa.cpu_count()), 8))
 
 
+class _ArrowUnsuitable(Exception):
+    """A piece the pyarrow path does not take (the line parser reads the block instead)."""
+
+
+def _arrow_layout(path: Path, skip_lines: int, n_names: int, delimiter: str | None,
+                  stop_prefix: str | None) -> tuple[int, str, list[str]] | None:
+    """Where the block starts (byte offset), its separator and the pyarrow column names.
+
+    ``None`` when the first line is not in the simple form the pyarrow path handles (no
+    line, the stop line, whitespace other than single spaces, a wrong number of fields).
+    """
+    with open(path, "rb") as fh:
+        for _ in range(skip_lines):
+            fh.readline()
+        start = fh.tell()
+        head = fh.readline().rstrip(b"\r\n")
+        if not head or (stop_prefix and head.startswith(stop_prefix.encode())):
+            return None
+    if delimiter is None:
+        if b"\t" in head or b"  " in head or head.startswith(b" "):
+            return None
+        sep = " "
+    else:
+        sep = delimiter
+    fields = head.split(sep.encode())
+    extra = len(fields) - n_names
+    if extra not in (0, 1) or (extra == 1 and fields[-1].strip()):
+        return None  # the line parser reports the column count
+    return start, sep, [f"c{k}" for k in range(len(fields))]
+
+
+def _arrow_options(pacsv: Any, pa: Any, colnames: list[str], n_names: int, sep: str) -> dict[str, Any]:
+    """The read, parse and convert options of pyarrow for a block (every named column read as float64)."""
+    return dict(
+        read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK, use_threads=False),
+        parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
+                                         ignore_empty_lines=False),
+        # every column is converted (a non-number anywhere is an error, as in the line
+        # parser); only the wanted ones are kept
+        convert_options=pacsv.ConvertOptions(
+            include_columns=colnames[:n_names],
+            column_types={c: pa.float64() for c in colnames[:n_names]},
+            strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
+
+
 def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: dict[str, int],
                       count: int | None, delimiter: str | None, stop_prefix: str | None,
                       int_cols: Iterable[str] = (),
@@ -256,42 +301,15 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
     import pyarrow as pa  # noqa: PLC0415
 
     first = skip_lines + 1
-
-    with open(path, "rb") as fh:
-        for _ in range(skip_lines):
-            fh.readline()
-        start = fh.tell()
-        head = fh.readline().rstrip(b"\r\n")
-        if not head or (stop_prefix and head.startswith(stop_prefix.encode())):
-            return None
-    if delimiter is None:
-        if b"\t" in head or b"  " in head or head.startswith(b" "):
-            return None
-        sep = " "
-    else:
-        sep = delimiter
-    fields = head.split(sep.encode())
-    extra = len(fields) - len(names)
-    if extra not in (0, 1) or (extra == 1 and fields[-1].strip()):
-        return None  # the line parser reports the column count
-    colnames = [f"c{k}" for k in range(len(fields))]
+    layout = _arrow_layout(path, skip_lines, len(names), delimiter, stop_prefix)
+    if layout is None:
+        return None
+    start, sep, colnames = layout
     keys = list(want)
     inc = [colnames[want[k]] for k in keys]
     ints = set(int_cols)
-    opts = dict(
-        read_options=pacsv.ReadOptions(column_names=colnames, block_size=ARROW_BLOCK, use_threads=False),
-        parse_options=pacsv.ParseOptions(delimiter=sep, quote_char=False, double_quote=False,
-                                         ignore_empty_lines=False),
-        # every column is converted (a non-number anywhere is an error, as in the line
-        # parser); only the wanted ones are kept
-        convert_options=pacsv.ConvertOptions(
-            include_columns=colnames[:len(names)],
-            column_types={c: pa.float64() for c in colnames[:len(names)]},
-            strings_can_be_null=False, quoted_strings_can_be_null=False, null_values=[]))
+    opts = _arrow_options(pacsv, pa, colnames, len(names), sep)
     out: dict[str, Any] = _allocate(keys, ints, count) if count is not None else {}
-
-    class _Unsuitable(Exception):
-        """A piece this path does not take (the line parser reads the block instead)."""
 
     def piece(buf: bytearray, before: Future | None, rows: Future) -> dict[str, list[np.ndarray]]:
         """Parse one piece, publish the row offset after it, copy it into the arrays."""
@@ -299,7 +317,7 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
             try:
                 tb = pacsv.read_csv(pa.py_buffer(buf), **opts)
             except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError):
-                raise _Unsuitable from None
+                raise _ArrowUnsuitable from None
             del buf
             o0 = before.result() if before is not None else 0
             m = tb.num_rows
@@ -308,7 +326,7 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
             rows.set_exception(exc)
             raise
         if count is not None and o0 + m > count:
-            raise _Unsuitable
+            raise _ArrowUnsuitable
         kept: dict[str, list[np.ndarray]] = {k: [] for k in keys}
         for k, c in zip(keys, inc):
             o = o0
@@ -350,7 +368,7 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
                 done_bytes += nb
                 if progress is not None:
                     progress(done_bytes, total)
-        except _Unsuitable:
+        except _ArrowUnsuitable:
             return None
         finally:
             pool.shutdown(wait=True, cancel_futures=True)

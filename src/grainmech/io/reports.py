@@ -15,8 +15,17 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis import (
+    SAND_PEAK_FRICTION_DEG,
+    darendeli,
+    hardin_drnevich,
+    hardin_drnevich_reference,
+    mohr_coulomb_ratio,
+)
 from grainmech.analysis.strength import path_strength
+from grainmech.io.html import PageSection, write_page
 from grainmech.io.results import (
+    atomic_write,
     driver_table,
     ensure_dir,
     soil_path_table,
@@ -59,8 +68,6 @@ def _reference_curves(out: Any) -> dict:
     them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
     the only one available and is used (``hd_gmax_source`` says which).
     """
-    from grainmech.analysis import darendeli, hardin_drnevich, hardin_drnevich_reference
-
     amps = np.asarray(out.amplitudes)
     ref = out.reference
     lo, hi = float(amps.min()), float(amps.max())
@@ -254,8 +261,6 @@ def _cyclic_checks(o: Any) -> dict:
     amplitudes left out of ``site_response_curves.csv``) and ``amplitude_warnings`` (the
     sentences, also in ``warnings``).
     """
-    from grainmech.analysis import SAND_PEAK_FRICTION_DEG, mohr_coulomb_ratio
-
     n = len(o.G)
     env = o.envelope[:n]
     beyond = [bool(e["beyond_any"]) for e in env]
@@ -336,17 +341,45 @@ def _loop_text(q: dict | None) -> str:
 
 
 def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
-    """``index.html``: key numbers, the plots and the exact inputs used."""
+    """``index.html``: key numbers, the plots and the exact inputs used.
+
+    Phases: the introduction (:func:`_run_intro`), per model its details
+    (:func:`_model_details`), its cyclic table and loops (:func:`_cyclic_part`) or its path
+    (:func:`_path_part`), then the curves (:func:`_curves_section`), warnings and inputs.
+    """
+    compare = "models" in summary
+    models = list(summary["models"].values()) if compare else [summary]
+    intro = _run_intro(summary, compare, models)
+    sections: list = []
+    for m in models:
+        pre = f"{m['method']}_" if compare else ""
+        head = f"<h3>{html.escape(m['method'])} model</h3>" if compare else ""
+        if compare and not m["success"]:
+            head += f"<p><b>Stopped:</b> {html.escape(str(m['message']))}</p>"
+        head += _model_details(m)
+        if "G_max_Pa" in m:
+            head += _cyclic_part(d, summary, m, compare, pre, sections)
+        head += _path_part(d, summary, m, compare, pre, sections)
+        intro += head
+    if "darendeli_gamma_r" in summary:
+        sections.insert(0, _curves_section(d, summary, compare))
+    for w in summary.get("warnings", []):
+        intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
+    sections.append(PageSection("inputs", "Inputs used", None, "The configuration exactly as read.",
+                            ("config_used.json", "summary.json"),
+                            raw_html=f"<pre>{html.escape(cfg_text)}</pre>"))
+    write_page(d / "index.html", "grainmech run", intro, sections)
+
+
+def _run_intro(summary: dict, compare: bool, models: list) -> str:
+    """The opening paragraphs of ``index.html``: version, source, test, status, the models compared."""
     from grainmech import __version__
-    from grainmech.io.html import PageSection, write_page
 
     status = "completed" if summary["success"] else f"STOPPED: {summary['message']}"
     intro = (f"<p>grainmech {html.escape(__version__)} &mdash; {html.escape(str(summary['source']))}; "
              f"test <b>{html.escape(summary['kind'])}</b>, initial isotropic stress "
              f"{summary['initial_pressure_Pa']:.6g} Pa; {html.escape(status)}"
              + (f" in {summary['seconds']:.1f} s" if summary.get("seconds") else "") + ".</p>")
-    compare = "models" in summary
-    models = list(summary["models"].values()) if compare else [summary]
     if compare:
         words = {"affine": "<b>affine</b>, the seed's kinematic hypothesis (every contact follows the mean "
                            "strain, on the analytical fabric), an upper bound that cannot fail",
@@ -358,135 +391,144 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
                         "(docs/dem-model.md)"}
         intro += (f"<p>{len(models)} kinematic models of the same sand: "
                   + "; ".join(words[m["method"]] for m in models) + ".</p>")
-    sections = []
-    for m in models:
-        pre = f"{m['method']}_" if compare else ""
-        head = f"<h3>{html.escape(m['method'])} model</h3>" if compare else ""
-        if compare and not m["success"]:
-            head += f"<p><b>Stopped:</b> {html.escape(str(m['message']))}</p>"
-        det = m.get("details")
-        if det and "grains" in det and m["method"] == "dem":
-            head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in LAMMPS, void ratio "
-                     f"{det['void_ratio']:.3f}; largest unbalanced force ratio of any recorded state "
-                     f"{det.get('max_unbalanced', float('nan')):.2g} (column unbalanced_force_ratio).</p>"
-                     + "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", [])))
-        elif det and "grains" in det:
-            head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in equilibrium "
-                     f"({det['rattlers']} rattlers left out), {det['contacts_closed']} contacts "
-                     f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
-                     f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "
-                     "(column equilibrium_residual).</p>")
-        if det and "amplitudes_note" in det:
-            head += f"<p>Amplitudes: {html.escape(str(det['amplitudes_note']))}.</p>"
-        sg = m.get("strength")
-        if sg:
-            head += (f"<p>Strength (Mohr-Coulomb, sin phi = (sigma1 - sigma3)/(sigma1 + sigma3)): peak "
-                     f"{sg['peak_friction_angle_deg']:.1f} deg (q/p {sg['peak_q_over_p']:.3f} at axial strain "
-                     f"{sg['peak_axial_strain']:.3g}); over the end of the path "
-                     f"{sg['critical_friction_angle_deg']:.1f} deg (q/p {sg['critical_q_over_p']:.3f}); "
-                     f"{html.escape(sg['note'])}.</p>")
-        if "G_max_Pa" in m:
-            n_a = len(m["amplitudes"])
-            beyond = m.get("beyond_envelope") or [False] * n_a
-            ratios = m.get("max_stress_ratio") or [None] * n_a
-            quality = m.get("loop_quality") or [None] * n_a
-            rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
-                           f"<td>{100 * c:+.1f}</td><td>{_ratio_text(sr)}</td>"
-                           f"<td>{'<b>beyond</b>' if b else 'within'}</td><td>{_loop_text(q)}</td></tr>"
-                           for a, g, r, dd, c, sr, b, q in zip(m["amplitudes"], m["G_Pa"], m["G_over_Gmax"],
-                                                               m["damping"], m["mean_stress_change"], ratios,
-                                                               beyond, quality))
-            table = ("<table><tr><th>shear strain amplitude [decimal]</th><th>secant G [Pa]</th><th>G/Gmax</th>"
-                     "<th>damping [%]</th><th>change of p [%]</th><th>largest sigma1/sigma3</th>"
-                     "<th>envelope of sands</th><th>last cycle: closure / asymmetry [%]</th></tr>"
-                     f"{rows}</table>")
-            env_c = m.get("envelope")
-            if env_c and "criterion" in env_c:
-                warn = "<b>Warning:</b> " if any(beyond) else ""
-                head += (f"<p>{warn}Envelope of sands: {html.escape(env_c['criterion'])}, phi = "
-                         f"{env_c['friction_angle_deg']:g} deg (sigma1/sigma3 &lt;= "
-                         f"{env_c['limit_sigma1_over_sigma3']:.2f}; in simple shear also tau_xz/sigma_zz &lt;= "
-                         f"{env_c['limit_tau_over_sigma_zz']:.2f}), {html.escape(env_c['reason'])}. "
-                         f"{html.escape(env_c['note'])} Beyond-envelope points are drawn hollow in "
-                         "modulus_reduction.png; column beyond_envelope of "
-                         f"{pre}modulus_reduction.csv, beyond_sand_envelope of each step table.</p>")
-            if quality and any(q is not None for q in quality):
-                bad = [f"{a:.1e}" for a, q in zip(m["amplitudes"], quality) if q is not None and not q["ok"]]
-                q0 = next(q for q in quality if q is not None)
-                head += ((f"<p><b>Warning:</b> the analysed cycle of amplitude(s) {', '.join(bad)} is not a closed, "
-                          "symmetric loop: its G/Gmax and damping are those of a loop still changing "
-                          "(more cycles, test.n_cycles, may settle it).</p>" if bad else "")
-                         + "<p>Loop quality of the analysed (last) cycle: closure = how far it ends from its start "
-                           "(|tau_end - tau_start| / tau_a and |gamma_end - gamma_start| / gamma_a, the larger), "
-                           "asymmetry = | |tau(+gamma_a) - tau_0| - |tau(-gamma_a) - tau_0| | / tau_a with tau_0 the "
-                           f"initial shear stress; tolerances {100 * q0['closure_tolerance']:g} % and "
-                           f"{100 * q0['asymmetry_tolerance']:g} % (docs/analysis.md).</p>")
-            head += (f"<p>Small-strain shear modulus Gmax = {m['G_max_Pa']:.5g} Pa "
-                     "(condensed tangent at the initial state); every G/Gmax of this model is normalised by "
-                     "this one Gmax. The last column is the change of the mean stress p over each "
-                     "amplitude's run (at constant sigma_zz the horizontal stresses are free to change).</p>")
-            emp = m.get("empirical_G_max")
-            if emp:
-                warn = "<b>Warning:</b> " if emp["flag"] else ""
-                head += (f"<p>{warn}Hardin &amp; Richart (1963) at the same void ratio and mean stress: "
-                         f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
-                         f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
-                         f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
-            pg = (det or {}).get("packing_gmax")
-            if pg:
-                head += ("<p>" + html.escape(packing_gmax_line(pg, m["G_max_Pa"]).strip()) + ". The packing's "
-                         "Gmax is the small-strain shear modulus with every grain in force and moment "
-                         "equilibrium (packing driver, docs/packing-driver.md); the affine model makes every "
-                         "contact follow the mean strain, an upper bound.</p>")
-            head += table
-            sections.append(PageSection(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),
-                                    d / f"{pre}loops.png",
-                                    "Every amplitude's loops on one scale: shear stress change divided by its "
-                                    "largest value tau_a against shear strain divided by its amplitude gamma_a "
-                                    "(legend: gamma_a as a decimal, tau_a in kPa). The step tables, one per "
-                                    "amplitude, with units in every column header:",
-                                    (f"{pre}loops.png", f"{pre}modulus_reduction.csv")
-                                    + ((f"{pre}site_response_curves.csv",)
-                                       if f"{pre}site_response_curves.csv" in summary["files"] else ())
-                                    + tuple(f for f in summary["files"] if f.startswith(f"{pre}cycles_gamma_"))))
-        env = m.get("envelope")
-        if env and "first_step_beyond" in env:  # a path's (a cyclic model's is in its table above)
-            warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
-            head += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of {pre}path.csv).</p>"
-        if f"{pre}path.png" in summary["files"]:
-            ax_ = m.get("axial_direction", "zz")
-            sections.append(PageSection(f"{pre}path", "Stress and strain along the path"
-                                    + (f" ({m['method']})" if compare else ""), d / f"{pre}path.png",
-                                    f"Soil-mechanics views (compression positive, strains decimal from the initial "
-                                    f"state, axial = {ax_}): deviator stress q = sqrt(3 J2) and volumetric strain "
-                                    "against axial strain, stress ratio q/p, and the p-q stress path. path.csv has "
-                                    "every tensor component, these quantities and the tangent constants, with "
-                                    "units in every column header.",
-                                    (f"{pre}path.png", f"{pre}path.csv")))
-        intro += head
-    if "darendeli_gamma_r" in summary:
-        sections.insert(0, PageSection("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
-                                   "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
-                                   "amplitude" + (" for each model" if compare else "")
-                                   + " (markers; strain as a decimal, 1e-3 = 0.1 %), with two empirical "
-                                   "reference curves for a sand at the same mean stress over the same strain range. "
-                                   "Both reference strains come from correlations, not from the model: Darendeli "
-                                   f"(2001) gamma_r = {summary['darendeli_gamma_r']:.3g} "
-                                   f"({100 * summary['darendeli_gamma_r']:.4f} %), and Hardin-Drnevich (1972) "
-                                   f"gamma_r = tau_max/Gmax = {summary['hardin_drnevich_gamma_r']:.3g} "
-                                   f"({100 * summary['hardin_drnevich_gamma_r']:.4f} %) with tau_max = p sin(phi') and "
-                                   f"Gmax = {summary['hardin_drnevich_G_max_Pa']:.4g} Pa from "
-                                   f"{summary['hardin_drnevich_G_max_source']}, "
-                                   f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %. The model's G/Gmax is "
-                                   "normalised by its own Gmax; a model that is too stiff shows against both "
-                                   "references alike.",
-                                   ("modulus_reduction.png",)))
-    for w in summary.get("warnings", []):
-        intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
-    sections.append(PageSection("inputs", "Inputs used", None, "The configuration exactly as read.",
-                            ("config_used.json", "summary.json"),
-                            raw_html=f"<pre>{html.escape(cfg_text)}</pre>"))
-    write_page(d / "index.html", "grainmech run", intro, sections)
+    return intro
+
+
+def _model_details(m: dict) -> str:
+    """A model's input (its grains, notes, amplitudes) and its strength, as paragraphs."""
+    head = ""
+    det = m.get("details")
+    if det and "grains" in det and m["method"] == "dem":
+        head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in LAMMPS, void ratio "
+                 f"{det['void_ratio']:.3f}; largest unbalanced force ratio of any recorded state "
+                 f"{det.get('max_unbalanced', float('nan')):.2g} (column unbalanced_force_ratio).</p>"
+                 + "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", [])))
+    elif det and "grains" in det:
+        head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in equilibrium "
+                 f"({det['rattlers']} rattlers left out), {det['contacts_closed']} contacts "
+                 f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
+                 f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "
+                 "(column equilibrium_residual).</p>")
+    if det and "amplitudes_note" in det:
+        head += f"<p>Amplitudes: {html.escape(str(det['amplitudes_note']))}.</p>"
+    sg = m.get("strength")
+    if sg:
+        head += (f"<p>Strength (Mohr-Coulomb, sin phi = (sigma1 - sigma3)/(sigma1 + sigma3)): peak "
+                 f"{sg['peak_friction_angle_deg']:.1f} deg (q/p {sg['peak_q_over_p']:.3f} at axial strain "
+                 f"{sg['peak_axial_strain']:.3g}); over the end of the path "
+                 f"{sg['critical_friction_angle_deg']:.1f} deg (q/p {sg['critical_q_over_p']:.3f}); "
+                 f"{html.escape(sg['note'])}.</p>")
+    return head
+
+
+def _cyclic_part(d: Path, summary: dict, m: dict, compare: bool, pre: str, sections: list) -> str:
+    """A cyclic model's paragraphs and table (returned) and its loops section (appended to ``sections``)."""
+    head = ""
+    det = m.get("details")
+    n_a = len(m["amplitudes"])
+    beyond = m.get("beyond_envelope") or [False] * n_a
+    ratios = m.get("max_stress_ratio") or [None] * n_a
+    quality = m.get("loop_quality") or [None] * n_a
+    rows = "".join(f"<tr><td>{a:.3g}</td><td>{g:.5g}</td><td>{r:.4f}</td><td>{100 * dd:.3f}</td>"
+                   f"<td>{100 * c:+.1f}</td><td>{_ratio_text(sr)}</td>"
+                   f"<td>{'<b>beyond</b>' if b else 'within'}</td><td>{_loop_text(q)}</td></tr>"
+                   for a, g, r, dd, c, sr, b, q in zip(m["amplitudes"], m["G_Pa"], m["G_over_Gmax"],
+                                                       m["damping"], m["mean_stress_change"], ratios,
+                                                       beyond, quality))
+    table = ("<table><tr><th>shear strain amplitude [decimal]</th><th>secant G [Pa]</th><th>G/Gmax</th>"
+             "<th>damping [%]</th><th>change of p [%]</th><th>largest sigma1/sigma3</th>"
+             "<th>envelope of sands</th><th>last cycle: closure / asymmetry [%]</th></tr>"
+             f"{rows}</table>")
+    env_c = m.get("envelope")
+    if env_c and "criterion" in env_c:
+        warn = "<b>Warning:</b> " if any(beyond) else ""
+        head += (f"<p>{warn}Envelope of sands: {html.escape(env_c['criterion'])}, phi = "
+                 f"{env_c['friction_angle_deg']:g} deg (sigma1/sigma3 &lt;= "
+                 f"{env_c['limit_sigma1_over_sigma3']:.2f}; in simple shear also tau_xz/sigma_zz &lt;= "
+                 f"{env_c['limit_tau_over_sigma_zz']:.2f}), {html.escape(env_c['reason'])}. "
+                 f"{html.escape(env_c['note'])} Beyond-envelope points are drawn hollow in "
+                 "modulus_reduction.png; column beyond_envelope of "
+                 f"{pre}modulus_reduction.csv, beyond_sand_envelope of each step table.</p>")
+    if quality and any(q is not None for q in quality):
+        bad = [f"{a:.1e}" for a, q in zip(m["amplitudes"], quality) if q is not None and not q["ok"]]
+        q0 = next(q for q in quality if q is not None)
+        head += ((f"<p><b>Warning:</b> the analysed cycle of amplitude(s) {', '.join(bad)} is not a closed, "
+                  "symmetric loop: its G/Gmax and damping are those of a loop still changing "
+                  "(more cycles, test.n_cycles, may settle it).</p>" if bad else "")
+                 + "<p>Loop quality of the analysed (last) cycle: closure = how far it ends from its start "
+                   "(|tau_end - tau_start| / tau_a and |gamma_end - gamma_start| / gamma_a, the larger), "
+                   "asymmetry = | |tau(+gamma_a) - tau_0| - |tau(-gamma_a) - tau_0| | / tau_a with tau_0 the "
+                   f"initial shear stress; tolerances {100 * q0['closure_tolerance']:g} % and "
+                   f"{100 * q0['asymmetry_tolerance']:g} % (docs/analysis.md).</p>")
+    head += (f"<p>Small-strain shear modulus Gmax = {m['G_max_Pa']:.5g} Pa "
+             "(condensed tangent at the initial state); every G/Gmax of this model is normalised by "
+             "this one Gmax. The last column is the change of the mean stress p over each "
+             "amplitude's run (at constant sigma_zz the horizontal stresses are free to change).</p>")
+    emp = m.get("empirical_G_max")
+    if emp:
+        warn = "<b>Warning:</b> " if emp["flag"] else ""
+        head += (f"<p>{warn}Hardin &amp; Richart (1963) at the same void ratio and mean stress: "
+                 f"Gmax = {emp['G_round_Pa']:.4g} Pa (round grains, ratio model/empirical "
+                 f"{emp['ratio_round']:.2f}), {emp['G_angular_Pa']:.4g} Pa (angular grains, ratio "
+                 f"{emp['ratio_angular']:.2f}). {html.escape(emp['note'])}.</p>")
+    pg = (det or {}).get("packing_gmax")
+    if pg:
+        head += ("<p>" + html.escape(packing_gmax_line(pg, m["G_max_Pa"]).strip()) + ". The packing's "
+                 "Gmax is the small-strain shear modulus with every grain in force and moment "
+                 "equilibrium (packing driver, docs/packing-driver.md); the affine model makes every "
+                 "contact follow the mean strain, an upper bound.</p>")
+    head += table
+    sections.append(PageSection(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),
+                            d / f"{pre}loops.png",
+                            "Every amplitude's loops on one scale: shear stress change divided by its "
+                            "largest value tau_a against shear strain divided by its amplitude gamma_a "
+                            "(legend: gamma_a as a decimal, tau_a in kPa). The step tables, one per "
+                            "amplitude, with units in every column header:",
+                            (f"{pre}loops.png", f"{pre}modulus_reduction.csv")
+                            + ((f"{pre}site_response_curves.csv",)
+                               if f"{pre}site_response_curves.csv" in summary["files"] else ())
+                            + tuple(f for f in summary["files"] if f.startswith(f"{pre}cycles_gamma_"))))
+    return head
+
+
+def _path_part(d: Path, summary: dict, m: dict, compare: bool, pre: str, sections: list) -> str:
+    """A path's envelope paragraph (returned) and its path section (appended to ``sections``)."""
+    head = ""
+    env = m.get("envelope")
+    if env and "first_step_beyond" in env:  # a path's (a cyclic model's is in its table above)
+        warn = "<b>Warning:</b> " if env["first_step_beyond"] is not None else ""
+        head += f"<p>{warn}{html.escape(env['note'])} (column beyond_sand_envelope of {pre}path.csv).</p>"
+    if f"{pre}path.png" in summary["files"]:
+        ax_ = m.get("axial_direction", "zz")
+        sections.append(PageSection(f"{pre}path", "Stress and strain along the path"
+                                + (f" ({m['method']})" if compare else ""), d / f"{pre}path.png",
+                                f"Soil-mechanics views (compression positive, strains decimal from the initial "
+                                f"state, axial = {ax_}): deviator stress q = sqrt(3 J2) and volumetric strain "
+                                "against axial strain, stress ratio q/p, and the p-q stress path. path.csv has "
+                                "every tensor component, these quantities and the tangent constants, with "
+                                "units in every column header.",
+                                (f"{pre}path.png", f"{pre}path.csv")))
+    return head
+
+
+def _curves_section(d: Path, summary: dict, compare: bool) -> Any:
+    """The section of the modulus-reduction and damping curves with the two empirical references."""
+    return PageSection("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
+                       "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
+                       "amplitude" + (" for each model" if compare else "")
+                       + " (markers; strain as a decimal, 1e-3 = 0.1 %), with two empirical "
+                       "reference curves for a sand at the same mean stress over the same strain range. "
+                       "Both reference strains come from correlations, not from the model: Darendeli "
+                       f"(2001) gamma_r = {summary['darendeli_gamma_r']:.3g} "
+                       f"({100 * summary['darendeli_gamma_r']:.4f} %), and Hardin-Drnevich (1972) "
+                       f"gamma_r = tau_max/Gmax = {summary['hardin_drnevich_gamma_r']:.3g} "
+                       f"({100 * summary['hardin_drnevich_gamma_r']:.4f} %) with tau_max = p sin(phi') and "
+                       f"Gmax = {summary['hardin_drnevich_G_max_Pa']:.4g} Pa from "
+                       f"{summary['hardin_drnevich_G_max_source']}, "
+                       f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %. The model's G/Gmax is "
+                       "normalised by its own Gmax; a model that is too stiff shows against both "
+                       "references alike.",
+                       ("modulus_reduction.png",))
 
 
 # ------------------------------------------------------------------------------- contact
@@ -502,8 +544,6 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
     ``contact.csv`` (one row per step, :data:`CONTACT_COLUMNS`) and ``contact.png`` of a
     :class:`grainmech.outcomes.ContactOutcome`. Returns the paths written.
     """
-    from grainmech.io.results import atomic_write
-
     d = ensure_dir(outdir)
     cols = out.columns
 
@@ -540,8 +580,6 @@ def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[P
     ``summary.json``, the stiffness matrices and engineering constants as CSV, and the
     rose / normal-density plots of a :class:`grainmech.outcomes.DemOutcome`.
     """
-    from grainmech.io.results import atomic_write
-
     d = ensure_dir(outdir)
     rep = out.report
     written = [write_json(d / "summary.json", rep)]

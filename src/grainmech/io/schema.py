@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.contact.forms import normal_law
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.config import Section
 
@@ -448,9 +449,7 @@ class ContactSegment:
 
 def contact_units(params: Any) -> tuple[str, str]:
     """(force unit, displacement unit) of a contact law: forces per unit length for rods."""
-    from grainmech.contact import Cylinder
-
-    return ("N/m" if isinstance(params, Cylinder) else "N"), "m"
+    return ("N/m" if normal_law(params) == "cylinder" else "N"), "m"
 
 
 def _channel(sec: Section, fkey: str, dkey: str, fu: str, du: str) -> tuple[str | None, float]:

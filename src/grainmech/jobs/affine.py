@@ -9,8 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import partial
 
-from grainmech.analysis import modulus_reduction
-from grainmech.driver import MaterialPoint, run
+from grainmech.driver import MaterialPoint, modulus_reduction, run
 from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.packing import packing_gmax
 from grainmech.jobs.spec import RunSpec
@@ -32,7 +31,9 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         if spec.gmax_grains is not None:
             details["packing_gmax"] = packing_gmax(spec, say)
 
-    model = ModelRun("affine", point, f"{len(point.contacts)} directions", series=partial(modulus_reduction, point),
+    # the series runs each amplitude with the run this module imported (grainmech.driver.run)
+    series = partial(modulus_reduction, point, runner=run)
+    model = ModelRun("affine", point, f"{len(point.contacts)} directions", series=series,
                      path=partial(run, point, engineering=True), void_ratio=spec.void_ratio, details=details,
                      finish=finish)
     return execute_model(model, spec, say)

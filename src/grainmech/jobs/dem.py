@@ -16,10 +16,9 @@ import numpy as np
 
 from grainmech.driver.dem import DEM_MAX_AMPLITUDE, DemSeries, DemSettings, dem_material, dem_modulus_reduction, run_dem
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
-from grainmech.jobs.checks import envelope_check
-from grainmech.jobs.model import _amplitudes_so_far, _cyclic_outcome
+from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec, _read_amplitudes
-from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome
+from grainmech.outcomes import CyclicOutcome, RunOutcome
 from grainmech.packing import engine
 
 __all__ = ["DEM_SETTING_KEYS", "DEM_PROGRESS_EVERY"]
@@ -134,7 +133,12 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
 
 
 def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
-    """The DEM model (:mod:`grainmech.driver.dem`): LAMMPS on the grains of ``spec.grains``."""
+    """The DEM model (:mod:`grainmech.driver.dem`): LAMMPS on the grains of ``spec.grains``.
+
+    Builds the model's :class:`~grainmech.jobs.model.ModelRun` (no point to keep: the
+    LAMMPS system lives in the runs) and runs it through
+    :func:`~grainmech.jobs.model.execute_model`, like the affine and packing models.
+    """
     src = spec.grains
     if src is None:
         raise ValueError("the DEM model needs a packing (RunSpec.grains is None)")
@@ -150,44 +154,43 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         "LAMMPS, quasi-static (ramped increments, every recorded state relaxed to equilibrium)")
     tag = {"amp": "", "t": time.perf_counter()}
     on_step, tick = _dem_reporter(say, tag)
-    t0 = time.perf_counter()
-    if spec.kind == CYCLIC_SIMPLE_SHEAR:
-        amps = spec.amplitudes_of("dem")
 
+    def series(amps: list[float], *, progress: Callable[[int, float, Any], None], **kw: Any) -> Any:
         def each(i: int, a: float, path: Any) -> None:
             tag["amp"] = f"{i + 1}/{len(amps)} amplitude {a:.3g}"
             tag["k"], tag["n"] = 0, len(path)
-            say(f"[dem {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} ({len(path)} steps, "
-                f"{net.n_particles} grains)")
+            progress(i, a, path)
 
-        done = _amplitudes_so_far(say, spec, "dem", None, src.void_ratio, t0, details)
         if spec.dem_series is not None:  # started before the other models (_start_dem_early)
-            mr = spec.dem_series.run(progress=each, on_step=on_step, tick=tick, raise_on_failure=False,
-                                     on_amplitude=done)
-        else:
-            mr = dem_modulus_reduction(net, law, amps, n_cycles=spec.n_cycles,
-                                       steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
-                                       constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
-                                       workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick,
-                                       raise_on_failure=False, on_amplitude=done)
-        if mr.results:
-            details["notes"] += [n for n in mr.results[0].notes if n not in details["notes"]]
-            details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in mr.results))
-        details["steps_per_cycle"] = spec.dem_steps_per_cycle
-        if spec.dem_handed:
-            details["notes"].append(f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over "
-                                    f"from the packing model, which stopped ({spec.dem_handed[1]})")
-        if spec.constant == "volume":
-            details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
-                                    "pore-pressure ratio r_u an undrained test would show")
-        return _cyclic_outcome(spec, "dem", mr, time.perf_counter() - t0, None, src.void_ratio, details)
-    say(f"[dem] path: {len(spec.path)} steps, {net.n_particles} grains")
-    r = run_dem(net, law, spec.path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick)
-    details["notes"] += [n for n in r.notes if n not in details["notes"]]
-    details["max_unbalanced"] = float(np.max(r.unbalanced))
-    return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
-                       message=r.message, seconds=time.perf_counter() - t0, point=None,
-                       envelope=envelope_check(r.stress), method="dem", details=details)
+            return spec.dem_series.run(progress=each, on_step=on_step, tick=tick,
+                                       raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"])
+        return dem_modulus_reduction(net, law, amps, settings=spec.dem_settings, pressure=spec.pressure,
+                                     workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick, **kw)
+
+    def path(load_path: Any) -> Any:
+        return run_dem(net, law, load_path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick)
+
+    def finish(results: list) -> None:
+        if results:
+            details["notes"] += [n for n in results[0].notes if n not in details["notes"]]
+            details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in results))
+        if spec.kind == CYCLIC_SIMPLE_SHEAR:
+            _cyclic_notes(spec, details)
+
+    model = ModelRun("dem", None, f"{net.n_particles} grains", series=series, path=path,
+                     void_ratio=src.void_ratio, details=details, finish=finish)
+    return execute_model(model, spec, say)
+
+
+def _cyclic_notes(spec: RunSpec, details: dict[str, Any]) -> None:
+    """What the DEM outcome of a cyclic test tells beside the curves: steps per cycle, hand-over, constant volume."""
+    details["steps_per_cycle"] = spec.dem_steps_per_cycle
+    if spec.dem_handed:
+        details["notes"].append(f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over "
+                                f"from the packing model, which stopped ({spec.dem_handed[1]})")
+    if spec.constant == "volume":
+        details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
+                                "pore-pressure ratio r_u an undrained test would show")
 
 
 #: seconds between two progress lines of a DEM run

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.contact import Hertz, LinearSpring
+from grainmech.contact.forms import normal_law
 from grainmech.driver import concatenate, cycles, parse_mask, segment
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.fabric import LEBEDEV_ORDERS
@@ -186,7 +186,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         law = build_law(root.section("contacts"), float(np.median(grains.network.require_radii("the packing model"))))
     packing_law = None
     if grains is not None or gmax_grains is not None:
-        if not isinstance(law, (Hertz, LinearSpring)):
+        if normal_law(law) not in ("hertz", "linear"):
             who = "method = 'packing'" if grains is not None else "model.gmax_packing"
             raise ConfigError("contacts.law", type(law).__name__, f"{who} needs a law for spheres "
                               "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")

@@ -93,9 +93,7 @@ class PackingSource:
 
         ``V_s`` is the volume of all spheres, rattlers included.
         """
-        net = self.network
-        solid = float(np.sum(4.0 / 3.0 * np.pi * np.asarray(net.radii, dtype=float) ** 3))
-        return float(net.box.volume / solid - 1.0)
+        return float(self.network.void_ratio)
 
 
 def _read_amplitudes(section: Any, key: str) -> list[float]:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from grainmech.contact.geometry import hertz_force
+from grainmech.contact.params import Hertz
 from grainmech.errors import GrainmechError
 from grainmech.network.data import Box, ContactNetwork
 
@@ -12,14 +14,13 @@ __all__ = ["lattice_network", "random_network", "tile_network"]
 
 def _hertz_forces(net_pos: np.ndarray, radii: np.ndarray, I: np.ndarray, J: np.ndarray, br: np.ndarray,
                   shear_modulus: float, poisson: float) -> tuple[np.ndarray, np.ndarray]:
-    from grainmech.contact import Hertz
-
+    """Hertz contact forces along the branch vectors ``br`` and the approaches (seed Eq. 3.3-3.6)."""
     Es = Hertz(shear_modulus, poisson, 1.0).effective_modulus
     Ra, Rb = radii[I], radii[J]
     Rs = Ra * Rb / (Ra + Rb)
     L = np.linalg.norm(br, axis=1)
     alpha = np.maximum(Ra + Rb - L, 0.0)
-    N = 4.0 / 3.0 * Es * np.sqrt(Rs) * alpha ** 1.5  # seed Eq. 3.6
+    N = hertz_force(alpha, Es, Rs)  # seed Eq. 3.6
     return N[:, None] * br / L[:, None], alpha
 
 

@@ -13,10 +13,20 @@ from numpy.typing import ArrayLike
 
 from grainmech.errors import GrainmechError
 
-__all__ = ["Box", "ContactNetwork"]
+__all__ = ["Box", "ContactNetwork", "solid_volume", "void_ratio"]
 
 #: rows per block of the input checks of ContactNetwork (bounded temporaries)
 _CHECK_BLOCK = 1 << 16
+
+
+def solid_volume(radii: ArrayLike) -> float:
+    """Volume of the spheres of radii ``radii``, ``V_s = sum 4/3 pi r^3`` [length^3]."""
+    return float(np.sum(4.0 / 3.0 * np.pi * np.asarray(radii, dtype=float) ** 3))
+
+
+def void_ratio(volume: float, solid: float) -> float:
+    """Void ratio ``e = V / V_s - 1`` of a cell of volume ``V`` holding solid volume ``V_s`` [-]."""
+    return float(volume / solid - 1.0)
 
 
 @dataclass(frozen=True)
@@ -208,6 +218,11 @@ class ContactNetwork:
         if "n" not in self._cache:
             self._cache["n"] = self.branch / self.branch_length[:, None]
         return self._cache["n"]
+
+    @property
+    def void_ratio(self) -> float:
+        """Void ratio ``e = V / V_s - 1`` of the cell, ``V_s`` the volume of every sphere (rattlers included)."""
+        return void_ratio(self.volume, solid_volume(self.require_radii("the void ratio")))
 
     def require_radii(self, what: str) -> np.ndarray:
         """Particle radii (P,) [length], or an error saying that ``what`` needs them.

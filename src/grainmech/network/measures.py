@@ -12,7 +12,10 @@ from typing import Any
 import numpy as np
 
 from grainmech.assembly import StressResult, love_weber_stress
+from grainmech.contact.geometry import hertz_kn, hertz_radius, hertz_radius_from_approach, mindlin_kt0
+from grainmech.contact.params import Hertz
 from grainmech.errors import GrainmechError
+from grainmech.fabric import anisotropy, fabric_tensor
 from grainmech.network.data import ContactNetwork
 
 __all__ = ["network_stress", "network_fabric", "FabricResult", "rattlers", "rattler_threshold",
@@ -69,8 +72,6 @@ def network_fabric(net: ContactNetwork, *, force_carrying: bool = False) -> Fabr
     force_carrying : bool
         Only contacts with ``N > 0``.
     """
-    from grainmech.fabric import anisotropy, fabric_tensor
-
     sel = net.normal_force > 0 if force_carrying else slice(None)
     n = net.normals[sel]
     if n.shape[0] == 0:
@@ -237,8 +238,6 @@ def contact_stiffnesses(net: ContactNetwork, *, shear_modulus: float | None = No
     if shear_modulus is None or poisson is None:
         raise GrainmechError(f"stiffness source {source!r} (Hertz-Mindlin) needs the grain shear_modulus "
                              "and poisson (give --material CONFIG.toml)")
-    from grainmech.contact import Hertz
-
     hz = Hertz(shear_modulus, poisson, 1.0)  # E*, G* do not depend on the radii
     Es, Gs = hz.effective_modulus, hz.effective_shear_modulus
     if net.radii is None:
@@ -247,10 +246,10 @@ def contact_stiffnesses(net: ContactNetwork, *, shear_modulus: float | None = No
     Rs = Ra * Rb / (Ra + Rb)
     if source == "overlap":
         alpha = net.overlap if net.overlap is not None else Ra + Rb - net.branch_length
-        a = np.sqrt(Rs * np.maximum(alpha, 0.0))
+        a = hertz_radius_from_approach(alpha, Rs)
     else:
-        a = np.cbrt(0.75 * np.maximum(net.normal_force, 0.0) * Rs / Es)
-    return 2.0 * Es * a, 8.0 * Gs * a, source
+        a = hertz_radius(net.normal_force, Es, Rs)
+    return hertz_kn(a, Es), mindlin_kt0(a, Gs), source
 
 
 def _effective_ks(net: ContactNetwork, ks: np.ndarray, geometric: bool) -> np.ndarray:

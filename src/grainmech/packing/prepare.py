@@ -44,6 +44,7 @@ import numpy as np
 from grainmech.contact.geometry import hertz_kn, hertz_radius
 from grainmech.errors import GrainmechError
 from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
+from grainmech.network.data import solid_volume, void_ratio
 
 __all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
            "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
@@ -226,7 +227,7 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
 
     r = np.asarray(radii, float)
     n = r.size
-    L = float((np.sum(4.0 / 3.0 * np.pi * r ** 3) / solid_fraction) ** (1.0 / 3.0))
+    L = float((solid_volume(r) / solid_fraction) ** (1.0 / 3.0))
     if L < 4.0 * r.max():
         raise GrainmechError(f"too few grains: the periodic cell ({L:.3g} m) would be less than two of the "
                              f"largest diameters ({2 * r.max():.3g} m) across; use more grains")
@@ -426,7 +427,7 @@ def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
 def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool = True) -> dict:
     """Void ratio, coordination (with and without rattlers), fabric, Love-Weber stress."""
     R = net.require_radii("the packing summary")
-    vs = float(np.sum(4.0 / 3.0 * np.pi * R ** 3))
+    vs = solid_volume(R)
     V = net.volume
     st = network_stress(net)
     s = np.asarray(st.stress)
@@ -435,7 +436,7 @@ def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool
     N = net.normal_force
     return {
         "n_grains": net.n_particles, "n_contacts": net.n_contacts,
-        "volume_m3": V, "void_ratio": V / vs - 1.0, "solid_fraction": vs / V,
+        "volume_m3": V, "void_ratio": void_ratio(V, vs), "solid_fraction": vs / V,
         "radius_min_m": float(R.min()), "radius_max_m": float(R.max()),
         "radius_mean_m": float(R.mean()),
         "stress_Pa": s.tolist(), "mean_stress_Pa": float(np.trace(s) / 3.0),
@@ -460,6 +461,64 @@ def _stress6(lmp: Any) -> np.ndarray:
 
 #: fix deform keywords in the order of :func:`_stress6`
 _DEFORM_KEYS = ("x", "y", "z", "xy", "xz", "yz")
+
+
+def _not_converged(lmp: Any, max_steps: int, stage: int, tmean: float, vs: float) -> PreparationError:
+    """The error of a preparation that reached ``max_steps``, naming the stage and the numbers reached."""
+    p = _stress6(lmp)
+    last_net = network_from_lammps(lmp)
+    return PreparationError(
+        f"preparation did not converge in max_steps = {max_steps} time steps "
+        f"(stage {'compression' if stage == 1 else 'relaxation'}: mean stress {p[:3].mean():.4g} Pa "
+        f"for target {tmean:.4g} Pa, void ratio "
+        f"{void_ratio(_cell(lmp)[0].diagonal().prod(), vs):.3f})", last_net)
+
+
+def _servo_increment(settings: PackSettings, stage: int, pm: float, tmean: float, err: np.ndarray, eps_t: float,
+                     rbar: float, density: float, chunk: int, dt: float) -> np.ndarray:
+    """Servo strain increment (6,) of the cell for one chunk of ``chunk`` time steps ``dt`` [s] (module notes).
+
+    Proportional to the stress error, capped by the inertial number
+    ``I = rate d sqrt(rho / p)`` (GDR MiDi 2004) at the current stress; a gas (no stress
+    yet) is compressed at ``I = 10 inertial_number`` at the target stress.
+    """
+    p_ref = max(pm, 0.01 * tmean)
+    i_max = settings.inertial_number * (1.0 if stage == 1 else 0.1)
+    cap = i_max / (2.0 * rbar * math.sqrt(density / p_ref)) * chunk * dt
+    if pm < 1e-3 * tmean:
+        de = np.zeros(6)
+        de[:3] = -(10 * settings.inertial_number / (2.0 * rbar * math.sqrt(density / tmean)) * chunk * dt)
+        return de
+    return np.clip(settings.gain * eps_t * err, -cap, cap)
+
+
+def _start_relaxation(lmp: Any, radii: np.ndarray, mat: GrainMaterial, settings: PackSettings, tmean: float,
+                      g_rel: float, rbar: float) -> float:
+    """Stage 2 of the preparation: grains at rest, a lighter drag ``g_rel`` and a smaller time step (returned).
+
+    Frictionless grains spin freely: they are stopped before friction acts; a lighter drag
+    lets grains that slide find their place instead of creeping. The smaller time step: a
+    grain held by several stiff contacts with its rotations vibrates faster than one
+    contact (integration noise would keep the unbalanced force near 1e-2).
+    """
+    dt = critical_time_step(radii, mat, tmean, settings.relax_safety)
+    lmp.commands(["velocity all set 0 0 0", "set group all omega 0 0 0", "unfix drag",
+                  f"timestep {dt:.10g}",
+                  f"fix drag all viscous {g_rel:.10g}",
+                  f"fix spin all viscous/sphere {g_rel * rbar ** 2:.10g}"])
+    return dt
+
+
+def _run_chunk(lmp: Any, de: np.ndarray, chunk: int, dt: float) -> None:
+    """Run ``chunk`` time steps of ``dt``, deforming the cell by ``de`` (6,) over them (none: held)."""
+    rate = de / (chunk * dt)
+    if np.any(de != 0):
+        lmp.command("fix servo all deform 1 " + " ".join(
+            f"{ax} erate {rt:.10g}" for ax, rt in zip(_DEFORM_KEYS, rate)) + " remap x")
+        lmp.command(f"run {chunk} post no")
+        lmp.command("unfix servo")
+    else:
+        lmp.command(f"run {chunk} post no")
 
 
 def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSettings,
@@ -492,7 +551,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
     pos, L = place_gas(radii, settings.initial_solid_fraction, rng)
     target = np.concatenate([settings.stress, np.zeros(3)])
     tmean = float(np.mean(settings.stress))
-    vs = float(np.sum(4.0 / 3.0 * np.pi * radii ** 3))
+    vs = solid_volume(radii)
     # strain scale of the contacts at the target: delta/(2R) ~ (p/E*)^(2/3) (Hertz, seed Eq. 3.6)
     eps_t = float((tmean / mat.e_star) ** (2.0 / 3.0))
     # contact frequency at the target for the mean grain (kn = 2 E* a, a = sqrt(R* delta))
@@ -517,29 +576,14 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
         mu_now = settings.prep_friction
         while True:
             if steps >= settings.max_steps:
-                p = _stress6(lmp)
-                last_net = network_from_lammps(lmp)
-                raise PreparationError(
-                    f"preparation did not converge in max_steps = {settings.max_steps} time steps "
-                    f"(stage {'compression' if stage == 1 else 'relaxation'}: mean stress {p[:3].mean():.4g} Pa "
-                    f"for target {tmean:.4g} Pa, void ratio {_cell(lmp)[0].diagonal().prod() / vs - 1:.3f})", last_net)
+                raise _not_converged(lmp, settings.max_steps, stage, tmean, vs)
             p = _stress6(lmp)
             # > 0: too much compression (or too much shear stress) -> expand (or shear back)
             err = (p - target) / tmean
             cell = _cell(lmp)[0]
-            e_now = float(np.prod(np.diag(cell)) / vs - 1.0)
+            e_now = void_ratio(float(np.prod(np.diag(cell))), vs)
             pm = float(p[:3].mean())
-            # servo strain increment per chunk (module notes): capped by the inertial number
-            # I = rate d sqrt(rho / p) (GDR MiDi 2004) at the current stress
-            p_ref = max(pm, 0.01 * tmean)
-            i_max = settings.inertial_number * (1.0 if stage == 1 else 0.1)
-            cap = i_max / (2.0 * rbar * math.sqrt(mat.density / p_ref)) * chunk * dt
-            if pm < 1e-3 * tmean:  # gas: compress at I = 10 inertial_number at the target stress
-                de = np.zeros(6)
-                de[:3] = -(10 * settings.inertial_number / (2.0 * rbar * math.sqrt(mat.density / tmean))
-                           * chunk * dt)
-            else:
-                de = np.clip(settings.gain * eps_t * err, -cap, cap)
+            de = _servo_increment(settings, stage, pm, tmean, err, eps_t, rbar, mat.density, chunk, dt)
             within = bool(np.all(np.abs(err) < settings.stress_tol))
             check_ub = stage == 2 and within
             ub = math.nan
@@ -553,28 +597,11 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                 if mat.friction != mu_now:
                     lmp.command(_pair_coeff(mat, mat.friction))
                     mu_now = mat.friction
-                # frictionless grains spin freely: stop them before friction acts; a lighter
-                # drag lets grains that slide find their place instead of creeping
-                g_rel = settings.viscous_relax * omega * m_bar
-                # a smaller time step for the relaxation: a grain held by several stiff contacts
-                # with its rotations vibrates faster than one contact (integration noise
-                # would keep the unbalanced force near 1e-2)
-                dt = critical_time_step(radii, mat, tmean, settings.relax_safety)
-                lmp.commands(["velocity all set 0 0 0", "set group all omega 0 0 0", "unfix drag",
-                              f"timestep {dt:.10g}",
-                              f"fix drag all viscous {g_rel:.10g}",
-                              f"fix spin all viscous/sphere {g_rel * rbar ** 2:.10g}"])
+                dt = _start_relaxation(lmp, radii, mat, settings, tmean, settings.viscous_relax * omega * m_bar, rbar)
                 say(f"  stage 2 (grain friction {mat.friction:g}) at step {steps}, void ratio {e_now:.4f}")
             if stage == 2 and within:
                 de = np.zeros(6)  # hold the cell: relax
-            rate = de / (chunk * dt)
-            if np.any(de != 0):
-                lmp.command("fix servo all deform 1 " + " ".join(
-                    f"{ax} erate {rt:.10g}" for ax, rt in zip(_DEFORM_KEYS, rate)) + " remap x")
-                lmp.command(f"run {chunk} post no")
-                lmp.command("unfix servo")
-            else:
-                lmp.command(f"run {chunk} post no")
+            _run_chunk(lmp, de, chunk, dt)
             steps += chunk
             now = time.perf_counter()
             hist.append((steps, now - t0, pm, e_now, ub, stage))

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.contact.forms import normal_law
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.site.profile import GRAIN_MODULUS_RANGE, Layer
 
@@ -117,14 +118,12 @@ def anchor_task(task: tuple[Layer, str | None]) -> dict:
     config's), ``scale`` (``(G_target / G_model)^(3/2)``, the factor on the grain
     modulus), ``grain_modulus_anchored_Pa``.
     """
-    from grainmech.contact import Hertz
-
     layer, base_dir = task
     if layer.vs is None:
         raise ValueError(f"{layer.label} has no vs")
     spec = prepare_layer(layer, base_dir)
     law = spec.packing_law if spec.packing_law is not None else spec.law
-    if not isinstance(law, Hertz):
+    if normal_law(law) != "hertz":
         raise ConfigError(f"layers[{layer.index}].vs (layer {layer.name!r})", layer.vs,
                           f"anchoring to a measured Vs rescales the grains' shear modulus by the Hertz 2/3-power "
                           f"rule; the contact law {type(law).__name__} has no grain modulus")

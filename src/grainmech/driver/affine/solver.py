@@ -13,24 +13,28 @@ until then.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from grainmech.driver.affine.point import (
-    MaterialPoint,
-    _fractions,
-    consistent_tangent,
-    evaluate,
-    geometric_stiffness,
-    tangent,
-)
-from grainmech.driver.base import DriverResult
-from grainmech.driver.paths import LoadPath, PathTargets
+from grainmech.analysis.loops import ModulusReduction, condensed_modulus
+from grainmech.contact._errors import ReversalMemoryError
+from grainmech.contact.interface import ContactLaw
+from grainmech.contact.law import max_reversals
+from grainmech.driver.affine.response import _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
+from grainmech.driver.base import DriverResult, StepFailure
+from grainmech.driver.loop import cyclic_series, follow_path
+from grainmech.driver.paths import LoadPath
+from grainmech.elasticity import engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
 
-__all__ = ["run", "DriverResult", "SolverOptions"]
+if TYPE_CHECKING:  # the point imports this module (MaterialPoint.at_stress runs a path)
+    from grainmech.driver.affine.point import MaterialPoint
+
+__all__ = ["run", "DriverResult", "SolverOptions", "modulus_reduction"]
 
 
 @dataclass(frozen=True)
@@ -97,12 +101,6 @@ class SolverOptions:
             raise ConfigError("max_depth", self.max_depth, "must lie in [0, 30]")
 
 
-class _StepFailure(Exception):
-    def __init__(self, cause: str) -> None:
-        super().__init__(cause)
-        self.cause = cause
-
-
 def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: np.ndarray,
            opts: SolverOptions, fused: bool = False) -> tuple[MaterialPoint, int, Any, bool]:
     """Newton iterations for one (sub)step; returns (point, iterations, response).
@@ -163,15 +161,15 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
         cond = np.linalg.cond(J)
         if not np.isfinite(cond) or cond > 1e13:
             sl, op = _fractions(point.contacts, ev.response)
-            raise _StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
+            raise StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
                                f"sliding, {100 * op:.0f}% open")
         de[sc] = de[sc] - np.linalg.solve(J, r)
         if not np.all(np.isfinite(de)):
-            raise _StepFailure("Newton update not finite")
+            raise StepFailure("Newton update not finite")
     if best is not None:
         return best[1], opts.max_iter, best[2], True
     sl, op = _fractions(point.contacts, ev.response)
-    raise _StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
+    raise StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
                        f"{np.abs(r).max():.3g} > {tol:.3g}), {100 * sl:.0f}% of contacts sliding, "
                        f"{100 * op:.0f}% open")
 
@@ -186,12 +184,12 @@ def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters, fused=False)
         counters[2] += float(np.dot(point.contacts.weights, resp.dissipation))
         counters[3] += float(np.dot(0.5 * (point.stress + new.stress), new.strain - point.strain))
         return new
-    except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
-        err = _StepFailure(f"contact law error: {exc}")
-    except _StepFailure as exc:
+    except StepFailure as exc:
         err = exc
+    except GrainmechError as exc:  # a law refused the increment (e.g. domain, memory)
+        err = StepFailure(f"contact law error: {exc}")
     if depth >= opts.max_depth:
-        raise _StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")
+        raise StepFailure(f"{err.cause} (after {opts.max_depth} halvings)")
     tm = 0.5 * (t0 + t1)
     mid = _subdivided(point, sc, 0.5 * d_strain, t0, tm, depth + 1, opts, counters, fused)
     return _subdivided(mid, sc, 0.5 * d_strain, tm, t1, depth + 1, opts, counters, fused)
@@ -232,59 +230,83 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
             return res
     if fused and path.stress_control.any():
         return _run_mixed(point, path, options)
+    return _run_steps(point, path, options, fused)
+
+
+@dataclass(frozen=True)
+class _Stepping:
+    """The affine point as a :class:`~grainmech.driver.base.SteppingPoint` of :func:`follow_path`.
+
+    ``step`` is one step of the Python loop (:func:`_subdivided`: Newton, halvings);
+    ``counters`` are the last step's substeps, iterations, dissipation, work and
+    (sub)steps accepted at the law's resolution.
+    """
+
+    point: MaterialPoint
+    options: SolverOptions
+    fused: bool
+    counters: tuple = (0, 0, 0.0, 0.0, 0)
+
+    @property
+    def stress(self) -> np.ndarray:
+        return self.point.stress
+
+    @property
+    def strain(self) -> np.ndarray:
+        return self.point.strain
+
+    def fractions(self) -> tuple[float, float]:
+        return self.point.fractions()
+
+    def stored_energy(self) -> float:
+        return self.point.stored_energy()
+
+    def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> _Stepping:
+        """One step from this state (targets ``target`` on the stress-controlled components)."""
+        counters: list[Any] = [0, 0, 0.0, 0.0, 0]
+        t0 = np.where(stress_control, self.point.stress, 0.0)
+        new = _subdivided(self.point, stress_control, d_strain, t0, target, 0, self.options, counters, self.fused)
+        return replace(self, point=new, counters=tuple(counters))
+
+
+def _run_steps(point: MaterialPoint, path: LoadPath, options: SolverOptions, fused: bool) -> DriverResult:
+    """:func:`run` step by step through the one path loop (:func:`grainmech.driver.loop.follow_path`)."""
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
                                              "sub", "it")}
+    acc = {"diss": 0.0, "work": 0.0, "loose": 0}
 
-    def record(pt: MaterialPoint, diss: float, work: float, sub: int, it: int) -> None:
+    def record(st: _Stepping, k: int) -> None:
+        pt = st.point
+        sub, it, diss, work, loose = st.counters
+        acc["diss"] += diss
+        acc["work"] += work
+        acc["loose"] += loose
         sl, op = pt.fractions()
         rows["strain"].append(pt.strain.copy())
         rows["stress"].append(pt.stress.copy())
         rows["tangent"].append(pt.tangent)
         rows["sl"].append(sl)
         rows["op"].append(op)
-        rows["diss"].append(diss)
-        rows["work"].append(work)
+        rows["diss"].append(acc["diss"])
+        rows["work"].append(acc["work"])
         rows["stored"].append(pt.stored_energy())
         rows["sub"].append(sub)
         rows["it"].append(it)
 
-    record(point, 0.0, 0.0, 0, 0)
-    diss = work = 0.0
-    targets = PathTargets(point.stress, point.strain)
-    n_loose = 0
-    success, status, message = True, 0, f"completed {m} steps"
-    for k in range(m):
-        sc = path.stress_control[k]
-        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
-        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
-        t0 = np.where(sc, point.stress, 0.0)
-        counters: list[Any] = [0, 0, 0.0, 0.0, 0]
-        try:
-            point = _subdivided(point, sc, d_strain, t0, np.where(sc, new_t_stress, 0.0), 0, options, counters,
-                                fused)
-        except _StepFailure as exc:
-            success, status = False, 1
-            message = f"step {k + 1}: stress target not reachable: {exc.cause}"
-            break
-        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
-        diss += counters[2]
-        work += counters[3]
-        n_loose += counters[4]
-        record(point, diss, work, counters[0], counters[1])
-    if n_loose:
-        message += (f" ({n_loose} (sub)step(s) accepted at the contact law's resolution: stress residual "
+    final, success, status, message = follow_path(
+        _Stepping(point, options, fused), path, record,
+        word_failure=lambda k, exc: f"step {k}: stress target not reachable: {exc.cause}")
+    if acc["loose"]:
+        message += (f" ({acc['loose']} (sub)step(s) accepted at the contact law's resolution: stress residual "
                     f"<= {options.rtol_accept:g} x stress scale)")
-
     arr = {k: np.array(v) for k, v in rows.items()}
-    return _result(success, status, message, arr, point, m, options)
+    return _result(success, int(status), message, arr, cast(_Stepping, final).point, len(path), options)
 
 
 def _result(success: bool, status: int, message: str, arr: dict, point: MaterialPoint, m: int,
             options: SolverOptions) -> DriverResult:
     eng: dict = {}
     if options.engineering:
-        from grainmech.elasticity import engineering_constants
-
         dicts: list[dict | None] = []
         for C in arr["tangent"]:
             try:
@@ -333,8 +355,6 @@ def _compiled_law(point: MaterialPoint) -> bool:
     A :class:`~grainmech.contact.interface.ContactLaw` with numba present, the law
     supported and the backend not ``numpy``.
     """
-    from grainmech.contact.interface import ContactLaw
-
     return isinstance(point.law, ContactLaw) and point.law.compiled
 
 
@@ -374,8 +394,6 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
 
 def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str:
     """The failure cause of a compiled segment, worded as :func:`_solve` words it."""
-    from grainmech.contact._errors import ReversalMemoryError
-    from grainmech.contact.law import max_reversals
     from grainmech.driver.affine import _mixed
 
     code = seg["cause"]
@@ -454,3 +472,46 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
     arr = {key: np.concatenate([np.asarray(v, dtype=float) if key not in ("sub", "it") else np.asarray(v)
                                 for v in vals]) for key, vals in rows.items()}
     return _result(success, status, message, arr, point, m, options)
+
+
+def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
+                      steps_per_cycle: int = 80, waveform: str = "triangle", constant: str = "stress",
+                      progress: Callable[[int, float, Any], None] | None = None,
+                      raise_on_failure: bool = True,
+                      on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                      runner: Callable[..., DriverResult] | None = None,
+                      **run_options: Any) -> ModulusReduction:
+    """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
+
+    Each amplitude starts from ``point``; the last of ``n_cycles`` cycles is analysed.
+    ``G_max`` is the tangent shear modulus of ``point`` condensed with the path's control
+    (``sigma_zz`` free at constant normal stress; plain ``C_55`` at constant volume).
+
+    Parameters
+    ----------
+    constant : {"stress", "volume"}
+        Constant normal stress ``sigma_zz`` (default) or constant volume (every other
+        strain component held; see :func:`grainmech.driver.cyclic_simple_shear`).
+    progress : callable ``(index, amplitude, path)``, optional
+        Called before each amplitude is run.
+    raise_on_failure : bool
+        If False, a failed amplitude is recorded and the others still run (each from
+        ``point``); the result has ``success`` False and a ``message`` naming every failed
+        amplitude (:func:`grainmech.driver.loop.cyclic_series`).
+    on_amplitude : callable ``(ModulusReduction)``, optional
+        Called after each completed amplitude with the series so far (what an
+        interrupted run can still report).
+    runner : callable ``(point, path, **run_options) -> DriverResult``, optional
+        What runs each amplitude's path; default :func:`run` (the caller's own reference
+        to it: ``grainmech.jobs`` passes the ``grainmech.driver.run`` it imported).
+
+    Raises
+    ------
+    GrainmechError
+        If a run fails and ``raise_on_failure`` (its message is passed on).
+    """
+    run_path = run if runner is None else runner
+    return cyclic_series(lambda path: run_path(point, path, **run_options), amplitudes,
+                         lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
+                         n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
+                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
