@@ -15,7 +15,7 @@ the last cycle over Gmax; ill-conditioned near the zero crossings of the strain)
 
 Run: ``nice -n 5 python benchmarks/packing_grid.py [--packings dense,medium,loose]
 [--amplitudes 1e-6,1e-5,1e-4,3e-4] [--controls stress,volume] [--laws md,hm] [--perturb]
-[--threads]``. ``--threads`` repeats each completed run with PARDISO on every core
+[--threads] [--accept-unbalanced X]``. ``--threads`` repeats each completed run with PARDISO on every core
 (``PackingOptions.reproducible = False``) and gives the largest difference in G/Gmax.
 """
 
@@ -55,13 +55,13 @@ def perturbed(net: ContactNetwork, eps: float, seed: int = 0) -> ContactNetwork:
                           source=f"{net.source}, perturbed {eps:g} R")
 
 
-def run_one(net: ContactNetwork, law, amp: float, constant: str, reproducible: bool = True):
+def run_one(net: ContactNetwork, law, amp: float, constant: str, reproducible: bool = True, **options):
     """``(result, G/Gmax curve of the last cycle, G/Gmax, damping, seconds)`` of one run.
 
     ``reproducible=False``: PARDISO factors and solves on every core (2 threads here)
     instead of one (:class:`PackingOptions`).
     """
-    opts = PackingOptions(law_backend="auto", tangent="none", reproducible=reproducible)
+    opts = PackingOptions(law_backend="auto", tangent="none", reproducible=reproducible, **options)
     t0 = time.perf_counter()
     pt = PackingPoint.from_network(net, law, options=opts)
     path = cyclic_simple_shear(amp, 2, 40, constant=constant)
@@ -87,7 +87,10 @@ def main() -> None:
     ap.add_argument("--laws", default="md,hm")
     ap.add_argument("--perturb", action="store_true")
     ap.add_argument("--threads", action="store_true", help="also run each completed cell on every core")
+    ap.add_argument("--accept-unbalanced", type=float, default=None,
+                    help="PackingOptions.accept_unbalanced (default: the option's default)")
     a = ap.parse_args()
+    extra = {} if a.accept_unbalanced is None else {"accept_unbalanced": a.accept_unbalanced}
     dg = dgemm_seconds()
     print(f"dgemm yardstick (n = 2048): {dg:.3f} s", flush=True)
     print("| packing | law | control | γ | result | max residual | G/Gmax | D % | s | dgemm "
@@ -99,15 +102,15 @@ def main() -> None:
             law = law_of(lw, float(net.radii.mean()))
             for ctl in a.controls.split(","):
                 for amp in (float(x) for x in a.amplitudes.split(",")):
-                    res, curve, gr, d, sec = run_one(net, law, amp, ctl)
+                    res, curve, gr, d, sec = run_one(net, law, amp, ctl, **extra)
                     what = "completed" if res.success else res.message
                     pert = thr = ""
                     if a.perturb and res.success:
-                        r2, c2, g2, *_ = run_one(perturbed(net, 1e-12), law, amp, ctl)
+                        r2, c2, g2, *_ = run_one(perturbed(net, 1e-12), law, amp, ctl, **extra)
                         pert = (f"{abs(g2 - gr):.1e} ({np.nanmax(np.abs(c2 - curve)):.1e})" if r2.success
                                 else f"stops: {r2.message}")
                     if a.threads and res.success:
-                        r3, c3, g3, *_ = run_one(net, law, amp, ctl, reproducible=False)
+                        r3, c3, g3, *_ = run_one(net, law, amp, ctl, reproducible=False, **extra)
                         thr = (f"{abs(g3 - gr):.1e} ({np.nanmax(np.abs(c3 - curve)):.1e})" if r3.success
                                else f"stops: {r3.message}")
                     print(f"| {pk} | {lw} | {ctl} | {amp:g} | {what} | {res.residual.max():.3g} | {gr:.4f} | "
