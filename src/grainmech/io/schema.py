@@ -539,7 +539,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
     """
     from dataclasses import replace
 
-    # imported on use: keeps `grainmech --help` start-up light
+    # imported on use: keeps grainmech.packing (about 0.1 s) out of `grainmech --help`
     from grainmech.packing import MATERIALS, D50Cu, PackSettings, SieveCurve, UniformRadius
 
     root = Section(cfg, "")

@@ -111,7 +111,7 @@ def write_layer_curves(folder: str | Path, rec: dict, source: str) -> list[str]:
 
 def write_profile_figure(path: str | Path, records: list[dict], water_table: float) -> Path:
     """``profile.png`` (:func:`grainmech.site.plotting.profile_figure`)."""
-    # imported here: a module-level import would be an import cycle
+    # imported here: site/ sits above io/ (site.runner imports this module)
     from grainmech.site.plotting import profile_figure
 
     return write_figure(path, profile_figure(records, water_table))
@@ -119,7 +119,7 @@ def write_profile_figure(path: str | Path, records: list[dict], water_table: flo
 
 def write_response(folder: str | Path, response: dict) -> list[str]:
     """``response.png``, ``response_spectra.csv`` and ``response_profiles.csv`` of the site-response runs."""
-    # imported here: a module-level import would be an import cycle
+    # imported here: site/ sits above io/ (site.runner imports this module)
     from grainmech.site.plotting import response_figure
 
     folder = Path(folder)
