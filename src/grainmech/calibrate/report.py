@@ -27,7 +27,8 @@ from grainmech import plots
 from grainmech.calibrate.data import column_unit
 from grainmech.calibrate.model import DATA_KINDS, set_path
 from grainmech.errors import GrainmechError
-from grainmech.io.results import ensure_dir, write_csv, write_figure, write_json, write_text
+from grainmech.io import results
+from grainmech.io.results import ensure_dir, write_csv, write_json, write_text
 from grainmech.io.units import to_float
 
 __all__ = ["summary", "write_report", "plot_fit", "calibrated_config"]
@@ -217,4 +218,4 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         ax.legend(fontsize=7)
     fig.suptitle(f"grainmech calibrate ({pr.kind}):\n" + pr.describe(result.x).replace(", ", "\n"), fontsize=7)
     fig.set_layout_engine("constrained")  # makes room for exactly the title lines
-    return write_figure(Path(path), fig, dpi=110)
+    return results.write_figure(Path(path), fig, dpi=110)

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Any
 
 from grainmech import plots
-from grainmech.io.results import write_figure
+from grainmech.io import results
 from grainmech.sweep.kinds import SWEEP_KINDS
 
 __all__ = ["summary_plot"]
@@ -67,5 +67,5 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
             ax.grid(alpha=0.3)
     fig.suptitle(f"grainmech sweep ({sweep.kind}, {sweep.design}, {len(ok)}/{len(rows)} points ok)", fontsize=9)
     fig.tight_layout()
-    write_figure(path, fig, dpi=110)
+    results.write_figure(path, fig, dpi=110)
     return True
