@@ -32,11 +32,12 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import jobs
 from grainmech.analysis import condensed_modulus, darendeli
 from grainmech.contact.forms import normal_law
 from grainmech.driver import MaterialPoint
 from grainmech.errors import ConfigError, GrainmechError
-from grainmech.jobs import CyclicOutcome, cyclic_control, execute_run, packing_gmax, prepare_run
+from grainmech.jobs import CyclicOutcome, cyclic_control, packing_gmax, prepare_run
 from grainmech.site.profile import GRAIN_MODULUS_RANGE, Layer
 
 __all__ = ["layer_config", "prepare_layer", "model_gmax", "anchor_task", "check_anchor", "run_task",
@@ -180,7 +181,7 @@ def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
     t0 = time.perf_counter()
     modulus = anchor["grain_modulus_anchored_Pa"] if anchor else None
     spec = prepare_layer(layer, base_dir, modulus)
-    out = execute_run(spec)
+    out = jobs.execute_run(spec)
     if not isinstance(out, CyclicOutcome):  # read_profile allows one method and cyclic simple shear
         raise GrainmechError(f"{layer.label}: expected one cyclic-simple-shear outcome, got {type(out).__name__}")
     law = spec.packing_law if spec.packing_law is not None else spec.law

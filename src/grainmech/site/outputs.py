@@ -15,8 +15,8 @@ from grainmech.io.site_profile import (
     write_response,
     write_site_page,
 )
+from grainmech.site import strata
 from grainmech.site.profile import SiteProfile
-from grainmech.site.strata import pystrata_missing, site_response
 
 __all__ = ["write_outputs", "response_note"]
 
@@ -58,10 +58,10 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
     reason: str | None = None
     warnings: list[str] = []
     if profile.motion is not None:
-        reason = pystrata_missing() if response else "switched off (--no-response)"
+        reason = strata.pystrata_missing() if response else "switched off (--no-response)"
         if reason is None and motion is not None and profile.bedrock is not None:
             say("grainmech site: pystrata equivalent-linear runs (grainmech's curves, Darendeli's)")
-            res = site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)
+            res = strata.site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)
             files += write_response(stage, res)
             warnings += res["warnings"]
         elif reason is not None:
