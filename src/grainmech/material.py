@@ -19,6 +19,7 @@ import numpy as np
 
 from grainmech._deprecated import renamed_attribute, warn_renamed
 from grainmech.assembly import ContactSet, love_weber_stress, stiffness
+from grainmech.closed_form import packing_scale
 from grainmech.contact.forms import normal_law
 from grainmech.errors import GrainmechError, ParameterError
 
@@ -85,8 +86,6 @@ class Microstructure:
     def from_grains(cls, density: Any, *, void_ratio: float, coordination: float, radius: float,
                     convention: str = "physical") -> Microstructure:
         """Equal grains of radius ``radius`` at void ratio e with coordination m (Eq. 4.1)."""
-        from grainmech.closed_form import packing_scale
-
         nv, length = packing_scale(void_ratio, coordination, radius, dim=density.dim,
                                    convention=convention)
         if not (np.isfinite(nv) and nv > 0 and np.isfinite(length) and length > 0):

@@ -21,7 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.conventions import ORDER_3D
 from grainmech.errors import GrainmechError
+from grainmech.io.results import soil_path_table
 
 __all__ = ["figure", "subplots", "loops", "modulus_reduction", "damping", "path_histories",
            "soil_path_views", "contact_loops"]
@@ -170,8 +172,6 @@ def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequenc
     Strain (engineering shear) and stress [Pa] components against step number of a
     driver run, in two Axes (given, or two new ones side by side). Returns the two Axes.
     """
-    from grainmech.conventions import ORDER_3D
-
     if axes is None:
         _matplotlib()
         import matplotlib.pyplot as plt
@@ -200,8 +200,6 @@ def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequen
     :func:`grainmech.io.results.soil_path_table`; strains decimal, compression positive,
     stresses in kPa). Returns the four Axes.
     """
-    from grainmech.io.results import soil_path_table
-
     if axes is None:
         _matplotlib()
         import matplotlib.pyplot as plt

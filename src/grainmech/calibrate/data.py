@@ -23,7 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.errors import GrainmechError
+from grainmech.errors import ConfigError, GrainmechError
+from grainmech.io.config import read_text_file
+from grainmech.io.schema import pressure_problem
+from grainmech.io.units import to_float
 
 __all__ = ["Dataset", "COLUMN_UNITS", "read_csv", "column_unit"]
 
@@ -122,8 +125,6 @@ def _factor(unit: str, target: str | None, name: str, path: str, line: int) -> f
     """Multiplier from ``unit`` to the SI ``target`` (1 if no unit)."""
     if not unit:
         return 1.0
-    from grainmech.errors import ConfigError
-    from grainmech.io.units import to_float
 
     try:
         return to_float(f"1 {unit}", target, name)
@@ -151,8 +152,6 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
         pressure outside 1 Pa .. 1 GPa (:data:`grainmech.io.schema.PRESSURE_MIN` ..
         ``PRESSURE_MAX``). The message names file, line, column, value.
     """
-    from grainmech.io.config import read_text_file
-
     name = str(path)
     text = read_text_file(path, "data")
     header: list[str] | None = None
@@ -196,8 +195,6 @@ def read_csv(path: str | Path, *, required: tuple[str, ...] = (), one_of: tuple[
                 raise GrainmechError(f"{name}, line {lineno}, column {h!r}: value {c.strip()!r}: a measured "
                                      "modulus must be > 0 (a negative one is a sign or column slip)")
             if h == "pressure":
-                from grainmech.io.schema import pressure_problem
-
                 problem = pressure_problem(v * f)
                 if problem is not None:
                     raise GrainmechError(f"{name}, line {lineno}, column 'pressure': value {c.strip()!r}: "

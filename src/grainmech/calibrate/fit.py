@@ -39,10 +39,12 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import parallel as par
 from grainmech.calibrate.data import Dataset, read_csv
 from grainmech.calibrate.model import DATA_KINDS, parse_settings, predict, set_path, targets_of, validate_data
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
-from grainmech.io.units import ANGLE_UNITS, config_value
+from grainmech.io.config import Section, load_toml
+from grainmech.io.units import ANGLE_UNITS, config_value, to_float, unit_registry
 
 __all__ = ["FitParameter", "Problem", "FitResult", "load_problem", "problem_from_config", "fit",
            "uncertainty", "latin_hypercube_starts"]
@@ -52,15 +54,12 @@ __all__ = ["FitParameter", "Problem", "FitResult", "load_problem", "problem_from
 
 def _quantity(value: Any, key: str) -> tuple[float, str, str]:
     """(SI value, SI base unit, unit as written) of a number or quantity string."""
-    from grainmech.io.units import to_float
-
     if isinstance(value, str):
         text = value.strip()
         try:
             return float(text), "", ""
         except ValueError:
             pass
-        from grainmech.io.units import unit_registry
 
         ureg = unit_registry()
         try:
@@ -153,8 +152,6 @@ def parse_parameter(sec: Any) -> FitParameter:
     unit = sec.raw("unit", vals["start"][2] or vals["lower"][2] or "")
     factor = 1.0
     if unit:
-        from grainmech.io.units import to_float
-
         factor = to_float(f"1 {unit}", si_unit or None, sec.key("unit"))
     sec.finish()
     return FitParameter(path, start, lower, upper, log, str(unit), factor, si_unit)
@@ -306,8 +303,6 @@ def plausibility_flags(problem: Problem, x: Sequence[float] | np.ndarray) -> lis
 def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = "<config>",
                         starts: int | None = None, seed: int | None = None) -> Problem:
     """Build a :class:`Problem` from a calibration config dict and a dataset or CSV path."""
-    from grainmech.io.config import Section
-
     root = Section(cfg, "")
     dsec = root.section("data")
     kind = dsec.choice("kind", tuple(DATA_KINDS))
@@ -344,8 +339,6 @@ def problem_from_config(cfg: dict, data: Dataset | str | Path, *, source: str = 
 
 def load_problem(config_path: str | Path, data_path: str | Path, **kw: Any) -> Problem:
     """Read a calibration TOML and its data CSV."""
-    from grainmech.io.config import load_toml
-
     return problem_from_config(load_toml(config_path), data_path, source=str(config_path), **kw)
 
 
@@ -568,8 +561,6 @@ def fit(problem: Problem, *, starts: int | None = None, seed: int | None = None,
     use_dask = len(items) > 1 and parallel is not False
     results: list[StartResult | None] = [None] * len(items)
     if use_dask:
-        from grainmech import parallel as par
-
         def collect(cl: Any) -> None:
             for i, res, ok in par.map_completed(_run_item, items, client=cl):
                 if ok:

@@ -67,8 +67,15 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis import apparent_moduli, modulus_reduction
 from grainmech.calibrate.data import Dataset
+from grainmech.driver import MaterialPoint, concatenate, parse_mask, run, segment
+from grainmech.elasticity import directional_poisson, directional_young, engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
+from grainmech.io.config import Section
+from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure, build_stress, check_pressure
+from grainmech.material import microstructure_stiffness
+from grainmech.rods import regular_array
 
 __all__ = ["DATA_KINDS", "DataKind", "set_path", "get_path", "predict", "parse_settings"]
 
@@ -134,8 +141,6 @@ def set_path(cfg: dict, path: str, value: Any, *, key_prefix: str = "model") -> 
 # ----------------------------------------------------------------------- helpers
 
 def _sections(cfg: dict, allowed: tuple[str, ...]):
-    from grainmech.io.config import Section
-
     root = Section(cfg, "model")
     for k in cfg:
         if k not in allowed:
@@ -144,8 +149,6 @@ def _sections(cfg: dict, allowed: tuple[str, ...]):
 
 
 def _packing(root: Any, density: Any, pressure: float) -> Any:
-    from grainmech.io.schema import build_packing
-
     sec = root.section("packing")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # correlation range warnings: the fit explores
@@ -162,10 +165,6 @@ def _eng_name(name: str, dim: int) -> str:
 
 def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Engineering constants at each row's pressure (seed Eq. 2.41, Hertz-Mindlin Eq. 4.43)."""
-    from grainmech.elasticity import engineering_constants
-    from grainmech.io.schema import build_fabric, build_law
-    from grainmech.material import microstructure_stiffness
-
     targets = [t for t in DATA_KINDS["modulus-pressure"].targets if data.has(t)]
     out = {t: np.empty(len(data)) for t in targets}
     density = None
@@ -199,9 +198,6 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
 
 
 def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) -> tuple[np.ndarray, int]:
-    from grainmech.io.schema import build_fabric, build_law, build_stress
-    from grainmech.material import microstructure_stiffness
-
     cfg = copy.deepcopy(model)
     root = _sections(cfg, allowed)
     density = build_fabric(root.section("fabric", {}))
@@ -217,9 +213,6 @@ def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) 
 
 def _predict_directional(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Apparent modulus (seed Eq. 6.1) and Poisson's ratio (Eq. 6.2 corrected) against alpha."""
-    from grainmech.analysis import apparent_moduli
-    from grainmech.elasticity import directional_poisson, directional_young
-
     C, dim = _stiffness_at_stress(model, DATA_KINDS["directional"].model_keys, validate)
     alpha = data["alpha"]
     plane = settings["plane"] or ("xz" if dim == 3 else "xy")
@@ -245,9 +238,6 @@ def _predict_directional(model: dict, data: Dataset, settings: dict, validate: b
 
 def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
     """Isotropic material point from a run-like model config."""
-    from grainmech.driver import MaterialPoint
-    from grainmech.io.schema import build_fabric, build_law, build_pressure
-
     cfg = copy.deepcopy(model)
     root = _sections(cfg, allowed)
     density = build_fabric(root.section("fabric", {}))
@@ -265,8 +255,6 @@ def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
 
 def _predict_stress_strain(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Driver path through the rows (seed Ch. 2 kinematics, driver docs/driver.md)."""
-    from grainmech.driver import concatenate, run, segment
-
     point = _point(model, DATA_KINDS["stress-strain"].model_keys, validate)
     mask = settings["control"]
     sub = settings["substeps"]
@@ -294,8 +282,6 @@ def _predict_stress_strain(model: dict, data: Dataset, settings: dict, validate:
 
 def _predict_modulus_reduction(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Secant G/Gmax and damping D = dW/(4 pi W) of the last cycle (analysis.modulus_reduction)."""
-    from grainmech.analysis import modulus_reduction
-
     point = _point(model, DATA_KINDS["modulus-reduction"].model_keys, validate)
     mr = modulus_reduction(point, data["strain"], n_cycles=settings["n_cycles"],
                            steps_per_cycle=settings["steps_per_cycle"], waveform=settings["waveform"])
@@ -314,8 +300,6 @@ ROD_PACKINGS = ("one-size", "two-size", "square", "hexagonal")
 
 def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
     """Strains of a rod packing under a stress increment along alpha (seed Sec. 5.3, 6.1.2)."""
-    from grainmech.io.config import Section
-
     root = Section(copy.deepcopy(model), "model")
     kind = root.choice("packing", ROD_PACKINGS)
     seed = root.integer("seed", 0, min=0)
@@ -330,8 +314,6 @@ def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: b
     except ModuleNotFoundError as exc:  # pragma: no cover - depends on the checkout
         raise GrainmechError("data kind 'rod-strains' needs grainmech.reproduce.random_rods") from exc
     if kind in ("square", "hexagonal"):
-        from grainmech.rods import regular_array
-
         cs = regular_array(kind, diameter=settings["diameter"])
     else:
         cs = random_rods.random_array(kind, seed=seed)
@@ -361,14 +343,10 @@ DATA_KINDS: dict[str, DataKind] = {
 
 def parse_settings(kind: str, sec: Any) -> dict:
     """Kind-specific keys of the ``[data]`` table (a :class:`grainmech.io.config.Section`)."""
-    from grainmech.io.schema import check_pressure
-
     s: dict[str, Any] = {}
     if kind == "directional":
         s["plane"] = sec.raw("plane", None)
     elif kind == "stress-strain":
-        from grainmech.driver import parse_mask
-
         text = sec.raw("control")
         try:
             parse_mask(str(text))

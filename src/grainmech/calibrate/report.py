@@ -23,6 +23,14 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import plots
+from grainmech.calibrate.data import column_unit
+from grainmech.calibrate.model import DATA_KINDS, set_path
+from grainmech.errors import GrainmechError
+from grainmech.io import results
+from grainmech.io.results import ensure_dir, write_csv, write_json, write_text
+from grainmech.io.units import to_float
+
 __all__ = ["summary", "write_report", "plot_fit", "calibrated_config"]
 
 #: the command a calibrated config of each data kind is made for
@@ -74,8 +82,6 @@ def summary(result: Any) -> dict:
 
 def write_report(result: Any, outdir: str | Path, *, plot: bool = True) -> list[str]:
     """Write the result files; returns their names."""
-    from grainmech.io.results import ensure_dir, write_csv, write_json
-
     d = ensure_dir(outdir)
     pr = result.problem
     s = summary(result)
@@ -116,8 +122,6 @@ def write_report(result: Any, outdir: str | Path, *, plot: bool = True) -> list[
         files.append("fit.png")
     text = calibrated_config(result)
     if text is not None:
-        from grainmech.io.results import write_text
-
         write_text(d / "calibrated.toml", text)
         files.append("calibrated.toml")
     return files
@@ -144,8 +148,6 @@ def calibrated_config(result: Any) -> str | None:
     import tomllib
     from importlib import resources
 
-    from grainmech.calibrate.model import set_path
-
     pr = result.problem
     command = CONFIG_COMMAND.get(pr.kind)
     if command is None:
@@ -153,7 +155,6 @@ def calibrated_config(result: Any) -> str | None:
     try:
         import tomli_w
     except ImportError:  # pragma: no cover - depends on environment
-        from grainmech.errors import GrainmechError
 
         raise GrainmechError("writing calibrated.toml needs tomli-w (pip install 'grainmech[cli]')") from None
     cfg = copy.deepcopy(pr.model)
@@ -180,10 +181,6 @@ def calibrated_config(result: Any) -> str | None:
 
 def plot_fit(result: Any, path: str | Path) -> Path:
     """Data (markers) and model (line) for each fitted column against the abscissa."""
-    from grainmech import plots
-    from grainmech.calibrate.model import DATA_KINDS
-    from grainmech.io.results import write_figure
-
     pr = result.problem
     xname = DATA_KINDS[pr.kind].x
     data = pr.data
@@ -192,8 +189,6 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         unit = data.units.get(xname, "")
         xlabel = f"{xname} [{unit}]" if unit else xname
         if unit:
-            from grainmech.io.units import to_float
-
             x = x / to_float(f"1 {unit}", "rad" if xname == "alpha" else ("Pa" if xname == "pressure" else None), xname)
     else:
         x = np.arange(len(data), dtype=float)
@@ -203,8 +198,6 @@ def plot_fit(result: Any, path: str | Path) -> Path:
     height = 3.8 + head
     fig, axes = plots.subplots(1, n, figsize=(4.8 * n, height), squeeze=False)
     group = data["void_ratio"] if data.has("void_ratio") else np.zeros(len(data))
-    from grainmech.calibrate.data import column_unit
-    from grainmech.io.units import to_float
 
     for ax, t in zip(axes[0], pr.targets):
         yu = data.units.get(t, "")
@@ -225,4 +218,4 @@ def plot_fit(result: Any, path: str | Path) -> Path:
         ax.legend(fontsize=7)
     fig.suptitle(f"grainmech calibrate ({pr.kind}):\n" + pr.describe(result.x).replace(", ", "\n"), fontsize=7)
     fig.set_layout_engine("constrained")  # makes room for exactly the title lines
-    return write_figure(Path(path), fig, dpi=110)
+    return results.write_figure(Path(path), fig, dpi=110)

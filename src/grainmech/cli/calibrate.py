@@ -11,11 +11,14 @@ import argparse
 import sys
 from typing import Any
 
+from grainmech.errors import ConfigError
+from grainmech.io.outdir import output_folder
+from grainmech.io.reports import default_outdir
+from grainmech.jobs import input_warnings
+
 
 def register(sub: Any) -> None:
     """Add the ``grainmech calibrate`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser("calibrate", help="fit model parameters to measured data (least squares)",
                        description=__doc__.splitlines()[0])
     p.add_argument("config", help="calibration TOML (see examples/calibrate_*.toml)")
@@ -42,11 +45,9 @@ def main(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.calibrate import fit, load_problem
     from grainmech.calibrate.report import write_report
-    from grainmech.errors import ConfigError
-    from grainmech.io.outdir import output_folder
-    from grainmech.jobs import input_warnings
 
     if args.starts is not None and args.starts < 1:
         raise ConfigError("--starts", args.starts, "must be >= 1")

@@ -50,13 +50,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from grainmech.io.config import load_toml
+from grainmech.io.outdir import output_folder
+from grainmech.io.reports import default_outdir, write_contact_outputs
+
 __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
     """Add the ``grainmech contact`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser(
         "contact", help="drive one contact through a path of normal/tangential loads",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -77,9 +79,7 @@ def run(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    from grainmech.io.config import load_toml
-    from grainmech.io.outdir import output_folder
-    from grainmech.io.reports import write_contact_outputs
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.jobs import compute_contact
 
     cfg = load_toml(args.config)

@@ -34,11 +34,14 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from grainmech.errors import ConfigError
+from grainmech.io.config import load_toml
+from grainmech.io.outdir import output_folder
+from grainmech.io.reports import default_outdir, write_dem_outputs
+
 
 def register(sub: Any) -> None:
     """Add the ``grainmech dem`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser(
         "dem", help="stress, fabric, coordination and affine/relaxed stiffness of a DEM contact network",
         description="Measures of a DEM contact network (LIGGGHTS/LAMMPS local dump or generic CSV/NPZ "
@@ -68,9 +71,6 @@ def _config(args: argparse.Namespace) -> dict:
     The dem job config: the ``--material`` tables plus a ``[network]`` table from the
     command-line arguments (the form a sweep's ``dem`` config has).
     """
-    from grainmech.errors import ConfigError
-    from grainmech.io.config import load_toml
-
     cfg = load_toml(args.material) if args.material else {}
     if "network" in cfg:
         raise ConfigError("network", cfg["network"], f"{args.material}: the network files are given on "
@@ -121,8 +121,7 @@ def run(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    from grainmech.io.outdir import output_folder
-    from grainmech.io.reports import write_dem_outputs
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.jobs import compute_dem
 
     cfg = _config(args)

@@ -17,11 +17,13 @@ import argparse
 import sys
 from typing import Any
 
+from grainmech.io.config import load_toml, read_text_file
+from grainmech.io.reports import default_outdir
+from grainmech.io.schema import build_pack_config
+
 
 def register(sub: Any) -> None:
     """Add the ``grainmech pack`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser("pack", help="prepare a periodic sphere packing at a target stress (LAMMPS)",
                        description=__doc__.splitlines()[0])
     p.add_argument("config", help="TOML config (see examples/pack_*.toml and docs/packing.md)")
@@ -40,9 +42,8 @@ def main(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    from grainmech.io.config import load_toml, read_text_file
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.io.packing import write_pack_outputs
-    from grainmech.io.schema import build_pack_config
     from grainmech.jobs import input_warnings, pack_job
     from grainmech.packing import PreparationError
 

@@ -11,14 +11,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from grainmech.io.reports import default_outdir
+from grainmech.reproduce import figure_ids, reproduce
+
 __all__ = ["register", "run"]
 
 
 def register(sub: Any) -> None:
     """Add the ``grainmech reproduce`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-    from grainmech.reproduce import figure_ids
-
     p = sub.add_parser(
         "reproduce", help="regenerate the seed report's figures (PNG + CSV + index.html)",
         description="Regenerate figures of the seed report (Chang 1988, Ch. 4 and 6) as PNG "
@@ -42,8 +42,6 @@ def run(args: argparse.Namespace) -> int:
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
     import sys
-
-    from grainmech.reproduce import reproduce
 
     def progress(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)

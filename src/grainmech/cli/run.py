@@ -17,11 +17,15 @@ import tomllib
 from importlib import resources
 from typing import Any
 
+from grainmech.errors import Terminated
+from grainmech.io.config import load_toml, resolve_file_keys
+from grainmech.io.outdir import output_folder
+from grainmech.io.reports import default_outdir, write_run_outputs
+from grainmech.jobs import RunComparison
+
 
 def register(sub: Any) -> None:
     """Add the ``grainmech run`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser("run", help="drive a material point along a loading path (default: cyclic simple shear)",
                        description=__doc__.splitlines()[0])
     p.add_argument("config", nargs="?", help="TOML config (see examples/run_*.toml)")
@@ -55,8 +59,6 @@ class _Progress:
 
     def partial(self) -> Any:
         """What the models finished before an interruption (None if nothing)."""
-        from grainmech.jobs import RunComparison
-
         outs = [o for o in self.finished.values() if len(o.G)]
         if not outs:
             return None
@@ -65,9 +67,6 @@ class _Progress:
 
 def _interrupted_message(exc: BaseException, partial: Any) -> str:
     """"terminated (SIGTERM) after ..." for the summary of an interrupted run."""
-    from grainmech.errors import Terminated
-    from grainmech.jobs import RunComparison
-
     why = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted (Ctrl-C)"
     outs = list(partial.outcomes) if isinstance(partial, RunComparison) else [partial]
     done = "; ".join(f"{o.method} model: {len(o.G)} amplitude(s) finished" for o in outs)
@@ -89,9 +88,7 @@ def main(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    from grainmech.io.config import load_toml
-    from grainmech.io.outdir import output_folder
-    from grainmech.io.reports import write_run_outputs
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.jobs import CyclicOutcome, RunComparison, compute_run, packing_gmax_line
 
     def show(msg: str) -> None:
@@ -102,8 +99,6 @@ def main(args: argparse.Namespace) -> int:
 
     if args.config:
         from pathlib import Path
-
-        from grainmech.io.config import resolve_file_keys
 
         cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)
         source = args.config

@@ -16,12 +16,12 @@ import argparse
 from typing import Any
 
 from grainmech.cli._options import add_cluster_options
+from grainmech.errors import GrainmechError
+from grainmech.io.reports import default_outdir
 
 
 def register(sub: Any) -> None:
     """Add the ``grainmech site`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser("site", help="G/Gmax and damping for every layer of a soil profile, site response",
                        description=__doc__.split("\n\n", 1)[1].replace("\n", " "))
     p.add_argument("profile", help="profile file (see examples/site_sand_column.toml)")
@@ -37,7 +37,7 @@ def main(args: argparse.Namespace) -> int:
     """Run ``grainmech site`` with the parsed ``args``; exit status 0, 1 (a layer stopped) or 2 (bad input)."""
     import sys
 
-    from grainmech.errors import GrainmechError
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.site import load_profile, run_site
 
     if args.workers is not None and args.workers < 1:

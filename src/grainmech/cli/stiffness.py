@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.conventions import order_for, reorder, voigt_to_mandel
+from grainmech.io.config import load_toml, resolve_file_keys
 from grainmech.jobs import compute_stiffness, input_warnings
 
 
@@ -47,8 +48,6 @@ def run(args: argparse.Namespace) -> int:
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
     from pathlib import Path
-
-    from grainmech.io.config import load_toml, resolve_file_keys
 
     if args.config:
         cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)

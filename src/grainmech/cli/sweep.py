@@ -14,12 +14,12 @@ import sys
 from typing import Any
 
 from grainmech.cli._options import add_cluster_options
+from grainmech.errors import GrainmechError
+from grainmech.io.reports import default_outdir
 
 
 def register(sub: Any) -> None:
     """Add the ``grainmech sweep`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
-    from grainmech.io.reports import default_outdir
-
     p = sub.add_parser("sweep", help="run a parameter sweep (grid, Latin hypercube, Monte Carlo) on dask",
                        description="Run every point of a parameter sweep (grid, Latin hypercube or Monte "
                                    "Carlo over keys of a stiffness, run or dem config) on dask.distributed, "
@@ -45,7 +45,7 @@ def main(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    from grainmech.errors import GrainmechError
+    # imported on use: keeps `grainmech --help` start-up light
     from grainmech.sweep import load_sweep, run_sweep
 
     if args.workers is not None and args.workers < 1:

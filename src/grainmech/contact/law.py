@@ -310,6 +310,7 @@ def _load_kernel() -> ModuleType | bool | None:
     global _KERNEL
     if _KERNEL is None:
         try:
+            # imported on use: the kernel needs numba (optional); without it the NumPy laws run
             from grainmech.contact import kernel
         except ImportError:
             _KERNEL = False

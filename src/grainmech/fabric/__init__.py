@@ -15,6 +15,7 @@ Main entry points
 
 from __future__ import annotations
 
+from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
 from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
@@ -88,7 +89,6 @@ def density_from_fabric_tensor(N: object, allow_negative: bool = False
     dim = A.shape[0] if A.ndim else 0
     cls = SphericalDensity if dim == 3 else FourierDensity if dim == 2 else None
     if cls is None:
-        from grainmech.errors import ParameterError
         raise ParameterError("N", f"array of shape {A.shape}", "must be (d, ..., d) with d = 2 or 3")
     return cls.from_fabric_tensor(A, allow_negative=allow_negative)
 

@@ -45,6 +45,7 @@ from math import factorial, prod
 
 import numpy as np
 
+from grainmech.conventions import seed_angles, seed_theta
 from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._basis import harmonic_basis
@@ -430,8 +431,6 @@ def anisotropy(N: object, tol: float = 1e-8) -> Anisotropy:
     -------
     Anisotropy
     """
-    from grainmech.conventions import seed_angles, seed_theta
-
     A = _check_tensor(N, "N")
     if A.ndim != 2:
         raise ParameterError("N", f"array of shape {A.shape}", "must be a second-order tensor (d, d)")

@@ -8,6 +8,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from grainmech.io.results import write_text
+
 __all__ = ["PageSection", "write_page"]
 
 _STYLE = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}
@@ -32,8 +34,6 @@ class PageSection:
 def write_page(path: str | Path, title: str, intro: str, sections: Sequence[PageSection], *,
                toc: bool = True) -> Path:
     """Write an HTML page; ``intro`` and ``raw_html`` are HTML, everything else is escaped."""
-    from grainmech.io.results import write_text
-
     parts = ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
              f"<title>{html.escape(title)}</title>", f"<style>{_STYLE}</style></head><body>",
              f"<h1>{html.escape(title)}</h1>", intro]

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from grainmech.errors import ConfigError
+from grainmech.io.config import read_text_file
 
 __all__ = ["Motion", "read_motion", "MOTION_UNITS"]
 
@@ -144,8 +145,6 @@ def read_motion(path: str | Path, format: str, units: str | None) -> Motion:
     units : str or None
         One of :data:`MOTION_UNITS` (required for ``"two-column"``).
     """
-    from grainmech.io.config import read_text_file
-
     p = Path(path)
     if units is not None and units not in MOTION_UNITS:
         raise ConfigError("motion.units", units, f"unknown acceleration units: must be one of {list(MOTION_UNITS)}")

@@ -41,6 +41,7 @@ from pathlib import Path
 from types import ModuleType
 
 from grainmech.errors import GrainmechError
+from grainmech.io.results import write_json
 
 __all__ = ["OutputFolder", "output_folder", "LOCK_NAME", "MANIFEST_NAME", "FolderInUseError"]
 
@@ -165,8 +166,6 @@ class OutputFolder:
         return sorted(str(p.relative_to(self.staging)) for p in self.staging.rglob("*") if p.is_file())
 
     def _write_failure_summary(self, exc: BaseException) -> None:
-        from grainmech.io.results import write_json
-
         if (self.staging / "summary.json").exists():
             return
         write_json(self.staging / "summary.json", {
@@ -181,8 +180,6 @@ class OutputFolder:
         Move the staged files into :attr:`path`, remove the previous run's files that
         this run did not write, write the manifest. Returns the files (relative paths).
         """
-        from grainmech.io.results import write_json
-
         files = self._staged()
         old = self._old_manifest()
         for rel in files:

@@ -12,6 +12,7 @@ from typing import Any
 
 from grainmech.io.dem import write_table
 from grainmech.io.results import ensure_dir, write_csv, write_figure, write_json, write_text
+from grainmech.packing.plotting import packing_figure
 
 __all__ = ["PACK_FILES", "write_pack_outputs"]
 
@@ -38,7 +39,5 @@ def write_pack_outputs(result: Any, outdir: str | Path, cfg_text: str | None = N
     if cfg_text is not None:
         out.append(write_text(d / "config.toml", cfg_text))
     if plot:
-        from grainmech.packing.plotting import packing_figure
-
         out.append(write_figure(d / "packing.png", packing_figure(result)))
     return out

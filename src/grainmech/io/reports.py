@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import __version__, plots
 from grainmech.analysis import (
     SAND_PEAK_FRICTION_DEG,
     darendeli,
@@ -34,6 +35,8 @@ from grainmech.io.results import (
     write_json,
     write_text,
 )
+from grainmech.io.site_response import write_curves
+from grainmech.network import plot_normal_density, plot_rose
 from grainmech.outcomes import CyclicOutcome, RunComparison, envelope_and_loop_warnings, packing_gmax_line
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
@@ -152,8 +155,6 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
 
 def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -> dict:
     """Per-step CSVs and per-model tables/plots of one model's outcome; returns its summary."""
-    from grainmech import plots
-
     cyclic = isinstance(o, CyclicOutcome)
     env = None if cyclic else o.envelope
     m: dict[str, Any] = {"method": o.method, "success": o.success, "message": o.message, "seconds": o.seconds}
@@ -222,7 +223,6 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         files.append(f"{prefix}modulus_reduction.csv")
         # the same curves for site-response tools (strain and damping as decimals); an
         # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope
-        from grainmech.io.site_response import write_curves
 
         keep = ~o.beyond_envelope | bool(o.keep_beyond_envelope)
         order = np.argsort(amps)
@@ -302,8 +302,6 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
     and Hardin-Drnevich (1972) at the run's mean stress (:func:`_reference_curves` of the
     first model: both references are empirical, neither depends on the model).
     """
-    from grainmech import plots
-
     first, _ = cyclic[0]
     refs = _reference_curves(first)
     dar, hd, gam = refs["darendeli"], refs["hardin_drnevich"], refs["gamma"]
@@ -373,8 +371,6 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
 
 def _run_intro(summary: dict, compare: bool, models: list) -> str:
     """The opening paragraphs of ``index.html``: version, source, test, status, the models compared."""
-    from grainmech import __version__
-
     status = "completed" if summary["success"] else f"STOPPED: {summary['message']}"
     intro = (f"<p>grainmech {html.escape(__version__)} &mdash; {html.escape(str(summary['source']))}; "
              f"test <b>{html.escape(summary['kind'])}</b>, initial isotropic stress "
@@ -563,8 +559,6 @@ def write_contact_outputs(out: Any, outdir: str | Path, plot: bool = True) -> li
 
     written = [atomic_write(d / "contact.csv", writer)]
     if plot:
-        from grainmech import plots
-
         fig, axes = plots.subplots(1, 2, figsize=(10, 4.2))
         plots.contact_loops(cols, axes=axes, force_unit=out.force_unit)
         fig.suptitle(f"{out.law} contact")
@@ -600,8 +594,6 @@ def write_dem_outputs(out: Any, outdir: str | Path, plot: bool = True) -> list[P
                 fh.write(f"{k},{v:.10e}," + ("" if r is None else f"{r:.10e}") + "\n")
         written.append(atomic_write(d / "engineering.csv", we))
     if plot:
-        from grainmech.network import plot_normal_density, plot_rose
-
         figs = [("rose.png", plot_rose(out.network))]
         if out.network.dim == 3:
             figs.append(("normal_density.png", plot_normal_density(out.network)))

@@ -20,6 +20,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from grainmech.io.html import PageSection, write_page
 from grainmech.io.results import write_csv, write_figure, write_json
 from grainmech.io.site_response import write_curves
 
@@ -110,6 +111,7 @@ def write_layer_curves(folder: str | Path, rec: dict, source: str) -> list[str]:
 
 def write_profile_figure(path: str | Path, records: list[dict], water_table: float) -> Path:
     """``profile.png`` (:func:`grainmech.site.plotting.profile_figure`)."""
+    # imported here: site/ sits above io/ (site.runner imports this module)
     from grainmech.site.plotting import profile_figure
 
     return write_figure(path, profile_figure(records, water_table))
@@ -117,6 +119,7 @@ def write_profile_figure(path: str | Path, records: list[dict], water_table: flo
 
 def write_response(folder: str | Path, response: dict) -> list[str]:
     """``response.png``, ``response_spectra.csv`` and ``response_profiles.csv`` of the site-response runs."""
+    # imported here: site/ sits above io/ (site.runner imports this module)
     from grainmech.site.plotting import response_figure
 
     folder = Path(folder)
@@ -162,8 +165,6 @@ def _layer_table_html(records: list[dict]) -> str:
 
 def write_site_page(folder: str | Path, summary: dict, records: list[dict], response_note: str) -> Path:
     """``index.html``: the layer table, ``profile.png``, the site response (or how to get it), warnings."""
-    from grainmech.io.html import PageSection, write_page
-
     folder = Path(folder)
     warn = [f"{r['name']}: {w}" for r in records for w in r.get("warnings", [])]
     warn += summary.get("warnings", [])

@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 
 from grainmech.errors import GrainmechError
+from grainmech.io.config import read_text_file
+from grainmech.io.results import atomic_write
 
 __all__ = ["SiteResponseCurves", "curves_from_result", "write_curves", "read_curves", "HEADER"]
 
@@ -115,8 +117,6 @@ def write_curves(path: str | Path, strain: Any = None, g_ratio: Any = None, damp
     source : str
         Free text naming where the curves come from (written in the header line).
     """
-    from grainmech.io.results import atomic_write
-
     if result is not None:
         if strain is not None or g_ratio is not None or damping is not None:
             raise GrainmechError("give either result or the strain, g_ratio and damping arrays, not both")
@@ -148,8 +148,6 @@ def write_curves(path: str | Path, strain: Any = None, g_ratio: Any = None, damp
 
 def read_curves(path: str | Path) -> SiteResponseCurves:
     """Read a file written by :func:`write_curves` (validated; errors name file and line)."""
-    from grainmech.io.config import read_text_file
-
     p = Path(path)
     text = read_text_file(p, "curve")
     comment = ""

@@ -8,6 +8,7 @@ import numpy as np
 
 from grainmech.errors import GrainmechError
 from grainmech.network.data import ContactNetwork
+from grainmech.plots import subplots
 
 __all__ = ["plot_rose", "plot_normal_density"]
 
@@ -20,8 +21,6 @@ def plot_rose(net: ContactNetwork, bins: int = 36, weights: str = "count") -> An
     (``weights="force"``). Returns a matplotlib ``Figure`` detached from pyplot
     (:func:`grainmech.plots.subplots`); the matplotlib backend is not changed.
     """
-    from grainmech.plots import subplots
-
     if weights not in ("count", "force"):
         raise GrainmechError(f"weights must be 'count' or 'force', got {weights!r}")
     n = net.normals
@@ -51,8 +50,6 @@ def plot_normal_density(net: ContactNetwork, bins: int | None = None) -> Any:
     the normalised density (1 for an isotropic fabric). 3D only. Returns a ``Figure``.
     """
     from matplotlib.patches import Circle
-
-    from grainmech.plots import subplots
 
     if net.dim != 3:
         raise GrainmechError("plot_normal_density is for 3D networks")

@@ -13,7 +13,11 @@ from typing import Any
 import numpy as np
 
 from grainmech.assembly import StressResult
+from grainmech.closed_form import spheres_second_order
+from grainmech.conventions import order_for
+from grainmech.elasticity import engineering_constants
 from grainmech.errors import GrainmechError
+from grainmech.fabric import fit_density
 from grainmech.network.data import Box, ContactNetwork
 from grainmech.network.measures import (
     CoordinationResult,
@@ -59,8 +63,6 @@ def closed_form_from_fit(fit: Any, net: ContactNetwork, kn: np.ndarray, ks: np.n
     prediction assumes z is a principal fabric axis), the mean ``kn``, ``ks`` over the
     contacts and ``scale = (C/V) <|l|^2>`` (physical counting convention).
     """
-    from grainmech.closed_form import spheres_second_order
-
     sp_ = fit.density.truncated(2).seed_parameters if hasattr(fit.density, "truncated") else fit.density.seed_parameters
     scale = net.n_contacts / net.volume * float(np.mean(net.branch_length ** 2))
     return spheres_second_order(sp_["a20"], sp_["a22"], sp_["b22"], float(np.mean(kn)), float(np.mean(ks)), scale)
@@ -208,10 +210,6 @@ def network_report(net: ContactNetwork, *, shear_modulus: float | None = None, p
     NetworkReport
         Arrays and result objects; :meth:`NetworkReport.to_json` gives the JSON form.
     """
-    from grainmech.conventions import order_for
-    from grainmech.elasticity import engineering_constants
-    from grainmech.fabric import fit_density
-
     d = net.dim
     notes: list[str] = []
     st = network_stress(net)

@@ -45,6 +45,7 @@ from grainmech.contact.geometry import hertz_kn, hertz_radius
 from grainmech.errors import GrainmechError
 from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
 from grainmech.network.data import solid_volume, void_ratio
+from grainmech.packing.engine import Lammps
 
 __all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
            "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
@@ -541,8 +542,6 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
         or the relaxation not converging within ``max_steps`` (naming the stage and the
         numbers reached), too few grains for the cell.
     """
-    from grainmech.packing.engine import Lammps
-
     radii = np.asarray(radii, float)
     n = radii.size
     if n < 50:

@@ -35,6 +35,7 @@ from grainmech.analysis.loops import loop_properties
 from grainmech.contact.geometry import hertz_kn, hertz_radius_from_approach
 from grainmech.errors import GrainmechError
 from grainmech.network import ContactNetwork, network_stress
+from grainmech.packing.engine import Lammps
 from grainmech.packing.prepare import (
     GrainMaterial,
     critical_time_step,
@@ -230,8 +231,6 @@ def strain_probes(net: ContactNetwork, mat: GrainMaterial, *, strain: float = 1e
         re-equilibrated reference network, the stress before the probes (6,) [Pa], the
         unbalanced force ratio at every equilibrium, the settings and the wall time.
     """
-    from grainmech.packing.engine import Lammps
-
     say = progress or (lambda m: None)
     t0 = time.perf_counter()
     C = np.zeros((6, 6))
@@ -298,8 +297,6 @@ def cyclic_simple_shear(net: ContactNetwork, mat: GrainMaterial, amplitudes: Seq
     seed/Kramer definitions) from the equilibrium shear stresses ``tau_xy`` (compression
     positive convention: ``tau = sigma_xy`` for ``gamma = gamma_xy``).
     """
-    from grainmech.packing.engine import Lammps
-
     say = progress or (lambda m: None)
     t0 = time.perf_counter()
     amps = np.asarray(amplitudes, float)

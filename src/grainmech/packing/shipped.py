@@ -18,6 +18,7 @@ import json
 from importlib import resources
 
 from grainmech.errors import GrainmechError
+from grainmech.io.dem import read_table
 from grainmech.network import ContactNetwork
 
 __all__ = ["PACKINGS", "load_packing", "packing_info"]
@@ -39,8 +40,6 @@ def load_packing(name: str) -> ContactNetwork:
     :class:`~grainmech.network.ContactNetwork` (SI units, forces by A on B, compression
     positive), e.g. for ``grainmech.driver.packing.PackingPoint.from_network``.
     """
-    from grainmech.io.dem import read_table
-
     _check(name)
     base = resources.files("grainmech.data").joinpath("packings")
     with resources.as_file(base.joinpath(f"{name}-contacts.npz")) as c, \

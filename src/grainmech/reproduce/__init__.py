@@ -19,6 +19,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from grainmech.errors import GrainmechError
+from grainmech.io.outdir import output_folder
+from grainmech.io.results import write_csv
 from grainmech.reproduce._base import FigureData, reporting
 
 __all__ = ["FIGURES", "FigureData", "figure_ids", "normalize_id", "build", "reproduce"]
@@ -95,8 +97,8 @@ def reproduce(ids: Sequence[str] | None, outdir: str | Path, *,
     -------
     list of FigureData, in report order.
     """
-    from grainmech.io.outdir import output_folder
-    from grainmech.io.results import write_csv
+    # imported on use, like the figure modules of FIGURES: `import grainmech.reproduce`
+    # (and so `grainmech --help`) does not import the figures' code
     from grainmech.reproduce.plotting import plot
     from grainmech.reproduce.report import write_index
 

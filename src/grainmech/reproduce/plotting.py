@@ -12,7 +12,10 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import plots
+from grainmech.io import results
 from grainmech.reproduce._base import FigureData
+from grainmech.reproduce.isotropic_moduli import MEASURED_EXPONENT
 
 __all__ = ["plot"]
 
@@ -22,14 +25,12 @@ _METHOD_STYLE = {"state estimate": "-", "path following": "--"}
 
 def _plt() -> Any:
     """``subplots`` / ``figure`` on figures detached from pyplot (no backend is chosen)."""
-    from grainmech import plots
     return plots
 
 
 def _save(fig: Any, path: Path) -> Path:
-    from grainmech.io.results import write_figure
     fig.tight_layout()
-    return write_figure(path, fig)
+    return results.write_figure(path, fig)
 
 
 def _fig4_2(d: FigureData, path: Path) -> Path:
@@ -59,8 +60,7 @@ def _fig4_2(d: FigureData, path: Path) -> Path:
                          else lab for lab in labels_], loc="lower center", ncol=3, fontsize=8)
     fig.suptitle("Seed Fig. 4.2: 4 pi xi(n) in three sections")
     fig.tight_layout(rect=(0, 0.1, 1, 0.93))
-    from grainmech.io.results import write_figure
-    return write_figure(path, fig)
+    return results.write_figure(path, fig)
 
 
 def _fig4_3(d: FigureData, path: Path) -> Path:
@@ -121,7 +121,6 @@ def _fig4_7(d: FigureData, path: Path) -> Path:
 
 
 def _fig6_7(d: FigureData, path: Path) -> Path:
-    from grainmech.reproduce.isotropic_moduli import MEASURED_EXPONENT
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     p = d.table["sigma_c"]

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from grainmech import __version__
+from grainmech.io.html import PageSection, write_page
 from grainmech.reproduce._base import FigureData
 
 __all__ = ["write_index"]
@@ -16,8 +17,6 @@ def write_index(figs: Sequence[FigureData], outdir: str | Path, *, elapsed: floa
 
     The PNGs and CSVs must already be in ``outdir`` (``figX_Y.png``, ``figX_Y.csv``).
     """
-    from grainmech.io.html import PageSection, write_page
-
     out = Path(outdir)
     intro = ("<p>Chang (1988), Ch. 4 and 6, recomputed with grainmech "
              f"{html.escape(__version__)}. Each figure: the PNG, the CSV of the plotted "

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from grainmech.io.config import load_toml
 from grainmech.site.profile import Bedrock, Layer, MotionSpec, SiteProfile, jaky_k0, layer_stresses, read_profile
 from grainmech.site.runner import run_site
 
@@ -21,7 +22,5 @@ __all__ = ["SiteProfile", "Layer", "Bedrock", "MotionSpec", "read_profile", "loa
 
 def load_profile(path: str | Path) -> SiteProfile:
     """Read ``PROFILE.toml`` (:func:`read_profile`; relative file paths from the file's folder)."""
-    from grainmech.io.config import load_toml
-
     p = Path(path)
     return read_profile(load_toml(p), p.parent, source=p.name)

@@ -32,8 +32,12 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import jobs
+from grainmech.analysis import condensed_modulus, darendeli
 from grainmech.contact.forms import normal_law
+from grainmech.driver import MaterialPoint
 from grainmech.errors import ConfigError, GrainmechError
+from grainmech.jobs import CyclicOutcome, cyclic_control, packing_gmax, prepare_run
 from grainmech.site.profile import GRAIN_MODULUS_RANGE, Layer
 
 __all__ = ["layer_config", "prepare_layer", "model_gmax", "anchor_task", "check_anchor", "run_task",
@@ -75,8 +79,6 @@ def _layer_error(layer: Layer, exc: ConfigError) -> ConfigError:
 
 def prepare_layer(layer: Layer, base_dir: str | Path | None, grain_modulus: float | None = None) -> Any:
     """The :class:`grainmech.jobs.RunSpec` of ``layer`` (config errors name the layer and key)."""
-    from grainmech.jobs import prepare_run
-
     try:
         return prepare_run(layer_config(layer, grain_modulus), base_dir)
     except ConfigError as exc:
@@ -95,13 +97,8 @@ def model_gmax(spec: Any) -> float:
     """
     import dataclasses
 
-    from grainmech.analysis import condensed_modulus
-    from grainmech.jobs import cyclic_control, packing_gmax
-
     method = spec.methods[0]
     if method == "affine":
-        from grainmech.driver import MaterialPoint
-
         point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
         return float(condensed_modulus(point.tangent, 4, [bool(b) for b in cyclic_control(spec.constant)]))
     pg = packing_gmax(dataclasses.replace(spec, gmax_grains=spec.grains), lambda msg: None)
@@ -149,8 +146,6 @@ def check_anchor(layer: Layer, anchor: dict) -> None:
 
 def _darendeli(spec: Any, layer: Layer, amplitudes: np.ndarray) -> dict:
     """Darendeli (2001) at the layer's mean effective stress, on its grid and at the model's amplitudes."""
-    from grainmech.analysis import darendeli
-
     ref = spec.reference or {}
     kw = dict(pi=ref.get("pi", 0.0), ocr=ref.get("ocr", 1.0), n_cycles=ref.get("n_cycles", 10.0),
               frequency=ref.get("frequency", 1.0))
@@ -182,13 +177,11 @@ def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
     those beyond the envelope of sands (unless ``[model] keep_beyond_envelope``), the rule
     of ``grainmech run``'s ``site_response_curves.csv``.
     """
-    from grainmech.jobs import CyclicOutcome, execute_run
-
     layer, base_dir, anchor = task
     t0 = time.perf_counter()
     modulus = anchor["grain_modulus_anchored_Pa"] if anchor else None
     spec = prepare_layer(layer, base_dir, modulus)
-    out = execute_run(spec)
+    out = jobs.execute_run(spec)
     if not isinstance(out, CyclicOutcome):  # read_profile allows one method and cyclic simple shear
         raise GrainmechError(f"{layer.label}: expected one cyclic-simple-shear outcome, got {type(out).__name__}")
     law = spec.packing_law if spec.packing_law is not None else spec.law

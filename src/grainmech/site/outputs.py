@@ -7,6 +7,15 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from grainmech.io.results import ensure_dir, write_json
+from grainmech.io.site_profile import (
+    write_layer_curves,
+    write_layers_table,
+    write_profile_figure,
+    write_response,
+    write_site_page,
+)
+from grainmech.site import strata
 from grainmech.site.profile import SiteProfile
 
 __all__ = ["write_outputs", "response_note"]
@@ -34,15 +43,6 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
 
     Returns the summary dict (also written as ``summary.json``).
     """
-    from grainmech.io.results import ensure_dir, write_json
-    from grainmech.io.site_profile import (
-        write_layer_curves,
-        write_layers_table,
-        write_profile_figure,
-        write_response,
-        write_site_page,
-    )
-
     cdir = ensure_dir(stage / "curves")
     curve_files: list[str] = []
     for rec in records:
@@ -58,12 +58,10 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
     reason: str | None = None
     warnings: list[str] = []
     if profile.motion is not None:
-        from grainmech.site.strata import pystrata_missing, site_response
-
-        reason = pystrata_missing() if response else "switched off (--no-response)"
+        reason = strata.pystrata_missing() if response else "switched off (--no-response)"
         if reason is None and motion is not None and profile.bedrock is not None:
             say("grainmech site: pystrata equivalent-linear runs (grainmech's curves, Darendeli's)")
-            res = site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)
+            res = strata.site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)
             files += write_response(stage, res)
             warnings += res["warnings"]
         elif reason is not None:

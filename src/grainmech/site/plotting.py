@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from grainmech import plots
+
 __all__ = ["profile_figure", "response_figure"]
 
 
@@ -36,8 +38,6 @@ def profile_figure(records: list[dict], water_table: float) -> Any:
     """
     import matplotlib.cm
     import matplotlib.colors
-
-    from grainmech import plots
 
     fig = plots.figure(figsize=(13.0, 9.0))
     top = fig.subplots(1, 3, sharey=True, gridspec_kw={"bottom": 0.55, "top": 0.93})
@@ -94,8 +94,6 @@ def response_figure(response: dict) -> Any:
     against depth, for grainmech's curves and Darendeli's (``response`` from
     :func:`grainmech.site.strata.site_response`).
     """
-    from grainmech import plots
-
     fig, ax = plots.subplots(1, 3, figsize=(14.0, 5.0))
     styles = {"grainmech": ("C0", "-"), "darendeli": ("C3", "--")}
     for name, run in response["runs"].items():

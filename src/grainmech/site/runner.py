@@ -24,7 +24,13 @@ from pathlib import Path
 from typing import Any
 
 from grainmech.errors import ConfigError
+from grainmech.io.motion import read_motion
+from grainmech.io.outdir import output_folder
+from grainmech.io.results import ensure_dir
+from grainmech.io.site_profile import read_layer_record, write_layer_record
+from grainmech.parallel import map_completed, open_client
 from grainmech.site.layer import anchor_task, check_anchor, failed_record, layer_key, prepare_layer, run_task
+from grainmech.site.outputs import write_outputs
 from grainmech.site.profile import SiteProfile
 
 __all__ = ["run_site"]
@@ -53,7 +59,6 @@ def _parallel(fn: Callable[[Any], Any], items: list, client: Any, scheduler: str
                 value, ok = exc, False
             yield i, value, ok
         return
-    from grainmech.parallel import map_completed, open_client
 
     if client is not None:
         yield from map_completed(fn, items, client=client)
@@ -94,8 +99,6 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
     ConfigError
         A bad layer or anchoring (nothing written).
     """
-    from grainmech.io.outdir import output_folder
-
     say = _say(quiet)
     t0 = time.perf_counter()
     base = str(profile.base_dir.resolve())
@@ -103,7 +106,6 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
         prepare_layer(layer, base)
     motion = None
     if profile.motion is not None:  # a bad motion file is a bad input too
-        from grainmech.io.motion import read_motion
 
         motion = read_motion(profile.motion.path, profile.motion.format, profile.motion.units)
     with output_folder(outdir, "site") as folder:
@@ -114,9 +116,6 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
 
 def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], None], cluster: tuple,
             response: bool, motion: Any, t0: float) -> dict:
-    from grainmech.io.results import ensure_dir
-    from grainmech.io.site_profile import read_layer_record, write_layer_record
-
     ldir = folder.path / "layers"
     records: dict[int, dict] = {}
     for layer in profile.layers:
@@ -165,7 +164,6 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
                 + ("" if rec["status"] == "ok" else f": {rec['message']}")
                 + (f" ({rec['seconds']:.1f} s)" if rec.get("seconds") is not None else ""))
     ordered = [records[la.index] for la in profile.layers]
-    from grainmech.site.outputs import write_outputs
 
     return write_outputs(folder.staging, profile, ordered, reused=reused, ran=ran, response=response,
                          say=say, seconds=time.perf_counter() - t0, motion=motion)

@@ -12,34 +12,28 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from grainmech import jobs
+
 __all__ = ["Kind", "SWEEP_KINDS", "run_point", "stiffness_point", "run_kind_point", "dem_point"]
 
 
 def stiffness_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
     """Scalar outputs of a ``stiffness`` config (:func:`grainmech.jobs.stiffness_scalars`)."""
-    from grainmech import jobs
-
     return jobs.stiffness_scalars(jobs.execute_stiffness(jobs.prepare_stiffness(cfg, base_dir)))
 
 
 def run_kind_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
     """Scalar outputs of a ``run`` (driver) config (:func:`grainmech.jobs.run_scalars`)."""
-    from grainmech import jobs
-
     return jobs.run_scalars(jobs.execute_run(jobs.prepare_run(cfg, base_dir)))
 
 
 def dem_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
     """Scalar outputs of a ``dem`` config (:func:`grainmech.jobs.dem_scalars`)."""
-    from grainmech import jobs
-
     return jobs.dem_scalars(jobs.execute_dem(jobs.prepare_dem(cfg, base_dir)))
 
 
 def _prepare(name: str) -> Callable[[dict, Any], Any]:
     def prepare(cfg: dict, base_dir: Any = None) -> Any:
-        from grainmech import jobs
-
         return getattr(jobs, f"prepare_{name}")(cfg, base_dir)
     return prepare
 

@@ -6,6 +6,10 @@ import math
 from pathlib import Path
 from typing import Any
 
+from grainmech import plots
+from grainmech.io import results
+from grainmech.sweep.kinds import SWEEP_KINDS
+
 __all__ = ["summary_plot"]
 
 
@@ -20,8 +24,6 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
     ``run``) against every numeric swept input, coloured by the next input. Only
     successful points are drawn. Returns False (no file) if there is nothing to draw.
     """
-    from grainmech.sweep.kinds import SWEEP_KINDS
-
     ok = [r for r in rows if r[header.index("status")] == "ok"]
     inputs = [p for p in sweep.parameters if p.numeric]
     outputs = [c for c in SWEEP_KINDS[sweep.kind].headline
@@ -30,9 +32,6 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
         return False
     import matplotlib.colors
     import matplotlib.ticker
-
-    from grainmech import plots
-    from grainmech.io.results import write_figure
 
     nr, nc = len(outputs), len(inputs)
     fig, axes = plots.subplots(nr, nc, figsize=(3.6 * nc + 0.8, 2.9 * nr + 0.4), squeeze=False)
@@ -68,5 +67,5 @@ def summary_plot(sweep: Any, header: list[str], rows: list[list[Any]], path: Pat
             ax.grid(alpha=0.3)
     fig.suptitle(f"grainmech sweep ({sweep.kind}, {sweep.design}, {len(ok)}/{len(rows)} points ok)", fontsize=9)
     fig.tight_layout()
-    write_figure(path, fig, dpi=110)
+    results.write_figure(path, fig, dpi=110)
     return True

@@ -27,6 +27,11 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from grainmech.io.outdir import output_folder
+from grainmech.io.results import _jsonable, atomic_write, ensure_dir, write_json
+from grainmech.parallel import map_completed, open_client
+from grainmech.sweep.kinds import SWEEP_KINDS, run_point
+from grainmech.sweep.report import summary_plot
 from grainmech.sweep.spec import Point, Sweep
 
 __all__ = ["run_sweep", "load_record", "table_rows", "write_table", "evaluate_task", "evaluate_batch"]
@@ -36,8 +41,6 @@ TABLE = "sweep.csv"
 
 def evaluate_task(task: tuple[str, dict, str | None]) -> dict[str, Any]:
     """Worker function: run one point and time it -> ``{"outputs": ..., "seconds": ...}``."""
-    from grainmech.sweep.kinds import run_point
-
     t0 = time.perf_counter()
     outputs = run_point(task)
     return {"outputs": outputs, "seconds": time.perf_counter() - t0}
@@ -63,16 +66,12 @@ def _batches(n: int, kind: str, workers: int) -> list[list[int]]:
     At most the kind's batch size, and at least four tasks per worker thread so that the
     workers stay busy to the end.
     """
-    from grainmech.sweep.kinds import SWEEP_KINDS
-
     size = max(1, min(SWEEP_KINDS[kind].batch, n // (4 * max(workers, 1))))
     return [list(range(k, min(n, k + size))) for k in range(0, n, size)]
 
 
 def _normalise(obj: Any) -> Any:
     """What a JSON round trip gives (NumPy -> Python, non-finite -> None)."""
-    from grainmech.io.results import _jsonable
-
     return json.loads(json.dumps(_jsonable(obj)))
 
 
@@ -137,8 +136,6 @@ def _cell(v: Any) -> str:
 def write_table(outdir: Path, header: list[str], rows: list[list[Any]]) -> list[str]:
     """``sweep.csv`` (full float precision) and, if pyarrow is importable, ``sweep.parquet``."""
     import csv
-
-    from grainmech.io.results import atomic_write
 
     def w(fh: Any) -> None:
         wr = csv.writer(fh, lineterminator="\n")
@@ -223,8 +220,6 @@ def run_sweep(sweep: Sweep, outdir: str | Path, *, client: Any = None, scheduler
         The summary (also written to ``summary.json``): ``n_points``, ``succeeded``,
         ``failed``, ``reused``, ``ran``, ``seconds``, ``files`` ...
     """
-    from grainmech.io.outdir import output_folder
-
     # checked and locked before the work; the table, plot and summary are staged and moved
     # in at the end, the finished points persist in OUTDIR/points as they arrive (resume)
     with output_folder(outdir, "sweep") as folder:
@@ -238,8 +233,6 @@ def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, wo
             retry_failed: bool, quiet: bool, plots: bool,
             on_record: Callable[[dict], None] | None) -> dict:
     """The body of :func:`run_sweep` in an opened :class:`grainmech.io.outdir.OutputFolder`."""
-    from grainmech.io.results import ensure_dir, write_json
-
     t0 = time.perf_counter()
     out, stage = folder.path, folder.staging
     pdir = ensure_dir(out / "points")
@@ -258,8 +251,6 @@ def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, wo
         sys.stderr.write(f"grainmech sweep: {sweep.source}: {len(sweep.points)} points ({sweep.kind}, "
                          f"{sweep.design}), {reused} reused, {len(todo)} to run\n")
     if todo:
-        from grainmech.parallel import map_completed, open_client
-
         base_dir = str(sweep.base_dir.resolve())
         tasks = [(sweep.kind, pt.config, base_dir) for pt in todo]
 
@@ -292,8 +283,6 @@ def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, wo
                "failed_points": [pt.index for pt in sweep.points if records[pt.id]["status"] != "ok"],
                "files": ["sweep.json", "points/"] + files}
     if plots and n_ok:
-        from grainmech.sweep.report import summary_plot
-
         if summary_plot(sweep, header, rows, stage / "summary.png"):
             summary["files"].append("summary.png")
     summary["files"].append("summary.json")

@@ -36,7 +36,16 @@ import numpy as np
 from numba import njit, prange
 
 from grainmech.assembly import add_moments3, moments_to_voigt
-from grainmech.contact.kernel import KernelConstants, KernelIncrement, KernelOutput, KernelScratch, KernelState, rows
+from grainmech.contact.kernel import (
+    KernelConstants,
+    KernelIncrement,
+    KernelOutput,
+    KernelScratch,
+    KernelState,
+    constants,
+    rows,
+)
+from grainmech.contact.law import ContactResponse, ContactState
 from grainmech.driver.affine._fold import fold as fold_rows
 from grainmech.driver.affine._fold import path_mirrors, unfold
 from grainmech.driver.affine._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
@@ -271,9 +280,6 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
         when a contact needs more reversal memory than it has (the caller then reruns the
         path step by step, which reports where).
     """
-    from grainmech.contact.kernel import constants
-    from grainmech.contact.law import ContactResponse, ContactState
-
     cs = point.contacts
     params = point.law.params
     consts = constants(params)

@@ -338,6 +338,7 @@ def _fused_evaluate(point: MaterialPoint, de: np.ndarray, sc: np.ndarray) -> _Fu
     Kinematics, law, stress, tangent and the consistent Jacobian rows of the
     stress-controlled components.
     """
+    # imported here: needs numba (optional)
     from grainmech.driver.affine._fused import strain_path
 
     out = strain_path(point, de[None, :], sc)
@@ -360,6 +361,7 @@ def _compiled_law(point: MaterialPoint) -> bool:
 
 def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:
     """:func:`run` for a fully strain-controlled path through :mod:`grainmech.driver.affine._fused`."""
+    # imported here: needs numba (optional)
     from grainmech.driver.affine._fused import strain_path
 
     m = len(path)
@@ -394,6 +396,7 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
 
 def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str:
     """The failure cause of a compiled segment, worded as :func:`_solve` words it."""
+    # imported here: needs numba (optional)
     from grainmech.driver.affine import _mixed
 
     code = seg["cause"]
@@ -420,6 +423,7 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
     :func:`grainmech.driver.affine._mixed.mixed_segment` runs the loop of :func:`run` /
     :func:`_subdivided` / :func:`_solve`, with the same rules and messages.
     """
+    # imported here: needs numba (optional)
     from grainmech.driver.affine._mixed import mixed_segment
 
     m = len(path)
