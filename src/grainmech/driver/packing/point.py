@@ -22,11 +22,12 @@ from scipy.spatial import cKDTree
 
 from grainmech.contact import (
     ContactState,
-    LinearSpring,
     state_from_approach,
     state_from_forces,
     update,
 )
+from grainmech.contact.forms import frictional as is_frictional
+from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.packing._iterations import _grain_residuals
 from grainmech.driver.packing._operators import (
@@ -44,7 +45,6 @@ from grainmech.driver.packing.options import (
     PackingOptions,
     _check_params,
     _Context,
-    _frictional,
     _law_kw,
     _law_scale,
     _OutOfBudget,
@@ -232,7 +232,7 @@ class PackingPoint:
             N = state_from_approach(params, np.maximum(alpha, 0.0) * _law_scale(params, Rs)).normal_force
             T = np.zeros_like(net.force)
         carrying = N > 0
-        frictional = _frictional(params)
+        frictional = is_frictional(params)
         if not frictional and np.any(T[carrying] != 0):
             Tm = np.linalg.norm(T, axis=1)
             if Tm.max() > 1e-9 * max(float(N.max()), 1e-300):
@@ -382,7 +382,7 @@ class PackingPoint:
     @property
     def frictional(self) -> bool:
         """Whether the contact law has a finite, non-zero friction coefficient."""
-        return _frictional(self.params)
+        return is_frictional(self.params)
 
     def contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """Consistent and elastic contact tangents (C, 3, 3) of the current state [force/length]."""
@@ -471,7 +471,7 @@ class PackingPoint:
         T2 = np.einsum("ij,ij->i", r.tangential_force, r.tangential_force)
         kt = r.ks_perp * self.scale
         et = np.where(closed & (kt > 0), T2 / (2 * np.where(kt > 0, kt, 1.0)), 0.0)
-        if isinstance(self.params, LinearSpring):
+        if normal_law(self.params) == "linear":
             en = r.normal_force ** 2 / (2 * self.params.kn)
         else:
             en = 0.4 * r.normal_force * np.maximum(st.approach, 0.0) / self.scale

@@ -23,9 +23,8 @@ import numpy as np
 
 from grainmech.contact import (
     ContactState,
-    HertzMindlin,
-    LinearSpring,
 )
+from grainmech.contact.forms import frictional, law_forms
 from grainmech.driver.packing._iterations import (  # noqa: F401 (re-exported: the names this module always had)
     _AA_PATIENCE,
     _AA_PROGRESS,
@@ -67,7 +66,6 @@ from grainmech.driver.packing.options import (  # noqa: F401
     ACCEPT_MAX_FORCE,
     PackingOptions,
     _Context,
-    _frictional,
     _law_kw,
     _OutOfBudget,
     _StepFailure,
@@ -332,7 +330,7 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     newton_ok = ctx.newton_ok
     n_iter = opts.relax_iter if relax else opts.max_iter
     dbg = _debug()
-    jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
+    jenkins = law_forms(point.params).kind == "jenkins" and frictional(point.params)
     for it in range(1, n_iter + 1):
         st, resp, f, rq, re, vs, de = cur
         if dbg:
