@@ -4,6 +4,8 @@ opening/closing; the force-controlled solver; memory bookkeeping."""
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -264,3 +266,12 @@ def test_frictional_and_normal_law_predicates_of_forms():
     assert not frictional(LinearSpring(1e6, 5e5, 0.0))
     assert not frictional(object())
     assert [normal_law(p) for p in (Hertz(G, nu, R), LinearSpring(1e6, 0.0), object())] == ["hertz", "linear", None]
+
+
+def test_law_dispatch_lives_in_contact_forms_only():
+    """Issue 30: no ``isinstance`` test on a law parameter class outside ``contact/forms.py``."""
+    src = Path(__file__).resolve().parents[1] / "src" / "grainmech"
+    law = re.compile(r"isinstance\([^)]*\b(Hertz|HertzMindlin|MindlinDeresiewicz|LinearSpring|Cylinder)\b")
+    hits = [f"{p.relative_to(src)}:{i}" for p in sorted(src.rglob("*.py")) if p.name != "forms.py"
+            for i, line in enumerate(p.read_text().splitlines(), 1) if law.search(line)]
+    assert hits == []
