@@ -4,6 +4,8 @@ opening/closing; the force-controlled solver; memory bookkeeping."""
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +27,7 @@ from grainmech.contact import (
     state_from_normal_force,
     update,
 )
+from grainmech.contact.forms import frictional, normal_law
 from grainmech.errors import GrainmechError
 
 
@@ -248,3 +251,27 @@ def test_state_from_forces_places_contacts_on_the_virgin_curve():
     assert dt[0, 1] == pytest.approx(expected, rel=1e-9)
     with pytest.raises(ValueError, match="tangential_force"):
         state_from_forces(p, [10.0], np.array([[0.0, 5.5, 0.0]]))
+
+
+def test_frictional_and_normal_law_predicates_of_forms():
+    """contact.forms.frictional / normal_law: the only dispatch the packing driver uses."""
+    G, nu, R = 29e9, 0.15, 1e-3
+    assert frictional(MindlinDeresiewicz(G, nu, R, friction=0.5))
+    assert not frictional(MindlinDeresiewicz(G, nu, R, friction=0.0))
+    assert frictional(HertzMindlin(G, nu, R))  # default friction inf: infinitely rough
+    assert not frictional(HertzMindlin(G, nu, R, friction=0.0))
+    assert not frictional(Hertz(G, nu, R))
+    assert frictional(LinearSpring(1e6, 5e5, 0.3))
+    assert not frictional(LinearSpring(1e6, 0.0, 0.3))  # no tangential spring
+    assert not frictional(LinearSpring(1e6, 5e5, 0.0))
+    assert not frictional(object())
+    assert [normal_law(p) for p in (Hertz(G, nu, R), LinearSpring(1e6, 0.0), object())] == ["hertz", "linear", None]
+
+
+def test_law_dispatch_lives_in_contact_forms_only():
+    """Issue 30: no ``isinstance`` test on a law parameter class outside ``contact/forms.py``."""
+    src = Path(__file__).resolve().parents[1] / "src" / "grainmech"
+    law = re.compile(r"isinstance\([^)]*\b(Hertz|HertzMindlin|MindlinDeresiewicz|LinearSpring|Cylinder)\b")
+    hits = [f"{p.relative_to(src)}:{i}" for p in sorted(src.rglob("*.py")) if p.name != "forms.py"
+            for i, line in enumerate(p.read_text().splitlines(), 1) if law.search(line)]
+    assert hits == []

@@ -22,7 +22,7 @@ import numpy as np
 from grainmech.contact import geometry as geo
 from grainmech.contact.params import ContactParams, Cylinder, Hertz, HertzMindlin, LinearSpring, MindlinDeresiewicz
 
-__all__ = ["LawForms", "law_forms", "normal_law", "LAW_KINDS"]
+__all__ = ["LawForms", "law_forms", "normal_law", "frictional", "LAW_KINDS"]
 
 #: law kinds: hysteretic with reversal memory, elastic + Coulomb cap, frictionless
 LAW_KINDS = ("md", "jenkins", "frictionless")
@@ -189,3 +189,24 @@ def normal_law(params: Any) -> str | None:
     except TypeError:
         return None
     return "cylinder" if isinstance(forms, _CylinderForms) else "linear" if forms.linear else "hertz"
+
+
+def frictional(params: Any) -> bool:
+    """Whether the contacts of a law carry a dissipative tangential (Coulomb) force.
+
+    True for a law of kind ``"md"`` or ``"jenkins"`` (:class:`LawForms`) with a friction
+    coefficient ``mu > 0`` (``inf`` included: infinitely rough), and for a
+    :class:`LinearSpring` only when its tangential spring ``ks > 0`` as well; False for a
+    frictionless law (bare :class:`Hertz`) and for an object that is not a
+    :mod:`grainmech.contact.params` object. A frictional law is what gives a load cycle
+    a loop with area (seed Eq. 3.9-3.17 for the hysteretic law).
+    """
+    try:
+        forms = law_forms(params)
+    except TypeError:
+        return False
+    if forms.kind == "frictionless":
+        return False
+    if forms.linear:
+        return bool(params.ks > 0 and params.friction > 0)
+    return bool(params.friction > 0)

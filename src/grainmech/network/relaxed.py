@@ -374,6 +374,38 @@ def _fluctuations(sys_: _System, rhs: np.ndarray, ndof: int, n: np.ndarray, knc:
     return q, iters, name, direct_left
 
 
+def _relative_residual(Hq: np.ndarray, rhs: np.ndarray, bref: np.ndarray) -> float:
+    """Largest relative residual ``|H q - rhs| / max(|rhs|, 1e-6 bref)`` over the columns."""
+    R = Hq - rhs
+    nb = np.maximum(np.linalg.norm(rhs, axis=0), 1e-6 * bref)
+    scale_r = np.where(nb > 0, nb, 1.0)
+    return float(np.max(np.linalg.norm(R, axis=0) / scale_r))
+
+
+def _check_solve(direct_left: tuple[str, int, float, float] | None, solver: str, name: str, iters: int, residual: float,
+                 tol: float) -> None:
+    """Raise :class:`GrainmechError` when the fluctuation solve of :func:`relaxed_stiffness` failed.
+
+    ``direct_left``: ``(solver, iterations, residual, target)`` of a factorisation (or
+    AMG-CG) that stopped above its target (an error unless ``solver="auto"``, which
+    fell back to CG); ``residual``: the relative residual ``|H q + B| / |B|`` of the
+    returned fluctuations, an error above ``max(100 tol, 1e-6)``.
+    """
+    if direct_left is not None and solver != "auto":
+        dname, dits, dres, dtarget = direct_left
+        how = (f"CG preconditioned by algebraic multigrid stopped after {dits} iterations" if dname == "amg"
+               else f"the factorisation, refined by {dits - 1} steps of CG preconditioned by it,")
+        raise GrainmechError(
+            f"relaxed stiffness: solver {dname!r}: {how} left a relative residual {dres:.3g} above "
+            f"{dtarget:.3g} (ill-conditioned network with near-floppy modes, where the residual weighs "
+            "most in the tensor); try solver='cg' or 'auto'")
+    if residual > max(tol * 100, 1e-6):
+        what = (f"CG did not converge in {iters} iterations" if name in ("cg", "amg") else
+                "the factorisation is not accurate (ill-conditioned network)")
+        raise GrainmechError(f"relaxed stiffness: solver {name!r}: {what} (relative residual "
+                             f"{residual:.3g}); raise maxiter or try another solver")
+
+
 def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
                       remove_rattlers: bool = True, min_contacts: int | None = None,
                       rotations: bool = True, geometric: bool = False, solver: str = "auto",
@@ -476,10 +508,7 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     q, iters, name, direct_left = _fluctuations(sys_, rhs, ndof, n, knc, ksc, rA, rB, RA, RB, d, m, solver, tol,
                                                 maxiter)
     Hq = _apply_hessian(sys_, q, n, knc, ksc, rA, rB)
-    R = Hq - rhs
-    nb = np.maximum(np.linalg.norm(rhs, axis=0), 1e-6 * sys_.bref)
-    scale_r = np.where(nb > 0, nb, 1.0)
-    residual = float(np.max(np.linalg.norm(R, axis=0) / scale_r))
+    residual = _relative_residual(Hq, rhs, sys_.bref)
     # the energy of the strain e with the grains at q e minimised over q: e^T (C_affine +
     # (B^T q + q^T B + q^T H q)/V) e. At the solution the bracket is -B^T H^+ B; an error
     # dq of the solve changes it by dq^T H dq only (the energy is stationary), where B^T q
@@ -494,18 +523,6 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     if return_displacements:
         disp = np.zeros((net.n_particles, b, m))
         disp[alive_idx] = np.asarray(q).reshape(P, b, m)
-    if direct_left is not None and solver != "auto":
-        dname, dits, dres, dtarget = direct_left
-        how = (f"CG preconditioned by algebraic multigrid stopped after {dits} iterations" if dname == "amg"
-               else f"the factorisation, refined by {dits - 1} steps of CG preconditioned by it,")
-        raise GrainmechError(
-            f"relaxed stiffness: solver {dname!r}: {how} left a relative residual {dres:.3g} above "
-            f"{dtarget:.3g} (ill-conditioned network with near-floppy modes, where the residual weighs "
-            "most in the tensor); try solver='cg' or 'auto'")
-    if residual > max(tol * 100, 1e-6):
-        what = (f"CG did not converge in {iters} iterations" if name in ("cg", "amg") else
-                "the factorisation is not accurate (ill-conditioned network)")
-        raise GrainmechError(f"relaxed stiffness: solver {name!r}: {what} (relative residual "
-                             f"{residual:.3g}); raise maxiter or try another solver")
+    _check_solve(direct_left, solver, name, iters, residual, tol)
     return RelaxedResult(Cr, Ca, correction, disp, int(P), int(csel.sum()), int(ratt.sum()), name,
                          int(iters), residual)

@@ -40,6 +40,7 @@ from grainmech.contact import (
     Hertz,
     LinearSpring,
 )
+from grainmech.contact.forms import normal_law
 from grainmech.driver import LoadPath, cyclic_simple_shear
 from grainmech.driver.loop import cyclic_series
 from grainmech.driver.packing.options import (  # noqa: F401 (re-exported: the names this module always had)
@@ -133,7 +134,7 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
         corrections); ``overlap`` is therefore not ``R_A + R_B - |l|``.
     """
     _check_params(params)
-    if isinstance(params, LinearSpring):
+    if normal_law(params) == "linear":
         prep: Any = LinearSpring(params.kn, 0.0, 0.0)
     else:
         prep = Hertz(params.shear_modulus, params.poisson, params.radius1, params.radius2,

@@ -16,9 +16,9 @@ import numpy as np
 
 from grainmech.contact import (
     ContactState,
-    LinearSpring,
     update,
 )
+from grainmech.contact.forms import normal_law
 from grainmech.contact.law import CompiledUpdate, compiled_kernel
 from grainmech.driver.packing._operators import (
     Kinematics,
@@ -138,6 +138,6 @@ def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
     Hertz ``(2/5) N alpha`` (seed Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``.
     """
     N = resp.normal_force
-    if isinstance(point.params, LinearSpring):
+    if normal_law(point.params) == "linear":
         return N * N / (2 * point.params.kn)
     return 0.4 * N * np.maximum(st.approach, 0.0) / point.scale

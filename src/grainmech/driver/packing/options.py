@@ -13,12 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grainmech.contact import (
-    Hertz,
-    HertzMindlin,
-    LinearSpring,
-    MindlinDeresiewicz,
-)
+from grainmech.contact.forms import normal_law
 from grainmech.driver.packing._operators import (
     Preconditioner,
 )
@@ -240,24 +235,16 @@ def _law_scale(params: object, Rs: np.ndarray) -> np.ndarray:
     law's and the dissipated energy ``1/s`` times. So one parameter object serves every
     contact of a polydisperse packing.
     """
-    if isinstance(params, LinearSpring):
+    if normal_law(params) == "linear":
         return np.ones_like(Rs)
     return np.cbrt(Rs / params.effective_radius)  # type: ignore[attr-defined]
 
 
 def _check_params(params: object) -> None:
-    if not isinstance(params, (Hertz, LinearSpring)):
+    if normal_law(params) not in ("hertz", "linear"):
         raise ParameterError("params", type(params).__name__,
                           "the packing driver needs a sphere law: Hertz, HertzMindlin, MindlinDeresiewicz "
                           "or LinearSpring")
-
-
-def _frictional(params: object) -> bool:
-    if isinstance(params, LinearSpring):
-        return params.ks > 0 and params.friction > 0
-    if isinstance(params, (HertzMindlin, MindlinDeresiewicz)):
-        return params.friction > 0
-    return False
 
 
 def _law_kw(backend: str | None) -> dict:

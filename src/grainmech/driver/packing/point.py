@@ -22,12 +22,12 @@ from scipy.spatial import cKDTree
 
 from grainmech.contact import (
     ContactState,
-    LinearSpring,
-    state_from_approach,
-    state_from_forces,
     update,
 )
+from grainmech.contact.forms import frictional as is_frictional
+from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
+from grainmech.driver.packing._input import _check_network, _initial_state, _input_forces
 from grainmech.driver.packing._iterations import _grain_residuals
 from grainmech.driver.packing._operators import (
     Kinematics,
@@ -44,7 +44,6 @@ from grainmech.driver.packing.options import (
     PackingOptions,
     _check_params,
     _Context,
-    _frictional,
     _law_kw,
     _law_scale,
     _OutOfBudget,
@@ -201,45 +200,12 @@ class PackingPoint:
         """
         _check_params(params)
         opts = options or PackingOptions()
-        if not isinstance(net, ContactNetwork):
-            raise ParameterError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
-        if net.dim != 3:
-            raise ParameterError("network.dim", net.dim, "the packing driver works in 3D")
-        if net.radii is None:
-            raise ParameterError("network.radii", None, "are required (spheres): give the particle radii")
-        if not net.box.periodic.all():
-            raise ParameterError("network.box.periodic", net.box.periodic.tolist(),
-                              "must be periodic in x, y and z (walls are not modelled)")
-        if imbalance not in ("hold", "relax", "none"):
-            raise ParameterError("imbalance", imbalance, "must be 'hold', 'relax' or 'none'")
-        if forces not in ("auto", "stored", "overlap"):
-            raise ParameterError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
-        if not (gap >= 0 and math.isfinite(gap)):
-            raise ParameterError("gap", gap, "must be finite and >= 0")
-        if net.n_contacts == 0:
-            raise ParameterError("network", net.source, "has no contacts")
-        n, L = net.normals, net.branch_length
-        RA, RB = net.radii[net.i], net.radii[net.j]
-        if forces == "auto":
-            forces = "stored" if np.any(net.force != 0) else "overlap"
+        _check_network(net, forces, gap, imbalance)
+        assert net.radii is not None  # checked by _check_network
         notes: list[str] = []
-        if forces == "stored":
-            N = np.einsum("ij,ij->i", net.force, n)
-            T = net.force - N[:, None] * n
-        else:
-            alpha = net.overlap if net.overlap is not None else RA + RB - L
-            Rs = RA * RB / (RA + RB)
-            N = state_from_approach(params, np.maximum(alpha, 0.0) * _law_scale(params, Rs)).normal_force
-            T = np.zeros_like(net.force)
+        frictional = is_frictional(params)
+        N, T = _input_forces(net, params, forces, frictional, notes)
         carrying = N > 0
-        frictional = _frictional(params)
-        if not frictional and np.any(T[carrying] != 0):
-            Tm = np.linalg.norm(T, axis=1)
-            if Tm.max() > 1e-9 * max(float(N.max()), 1e-300):
-                notes.append(f"frictionless law: tangential forces of the input dropped (largest "
-                             f"|T|/N = {float(np.max(Tm[carrying] / N[carrying])):.3g})")
-            T = np.zeros_like(T)
-        T = np.where(carrying[:, None], T, 0.0)
         min_c = 2 if frictional else 4
         ratt = rattlers(net, min_c, carrying)
         alive = ~ratt
@@ -265,21 +231,7 @@ class PackingPoint:
         s = _law_scale(params, Rs)
         Nk, Tk = N[keep_c], T[keep_c]
         # contact law state (law space): listed contacts at their forces, gap pairs open
-        if frictional:
-            mag = np.linalg.norm(Tk, axis=1)
-            muN = params.friction * Nk
-            over = mag > muN * (1 + 1e-6)
-            if np.any(over):
-                k = int(np.flatnonzero(over)[0])
-                raise GrainmechError(f"contact {int(rows[k])}: |T| = {mag[k]:.6g} exceeds mu N = {muN[k]:.6g} "
-                                     f"(friction {params.friction:g}); use forces='overlap' or the packing's "
-                                     "friction coefficient")
-            cap = np.where(mag > muN, muN / np.where(mag > 0, mag, 1.0), 1.0)
-            st_l = state_from_forces(params, Nk, Tk * cap[:, None])
-        else:
-            st_l = state_from_forces(params, Nk, np.zeros_like(Tk))
-        st_g = state_from_approach(params, -(Lc[Nk.size:] - Ra[Nk.size:] - Rb[Nk.size:]) * s[Nk.size:])
-        state = ContactState(*(np.concatenate([x, y]) for x, y in zip(st_l, st_g)))
+        state = _initial_state(params, Nk, Tk, rows, frictional, Lc, Ra, Rb, s)
         grains = np.flatnonzero(alive)
         newidx = -np.ones(net.n_particles, dtype=int)
         newidx[grains] = np.arange(grains.size)
@@ -300,22 +252,7 @@ class PackingPoint:
                 "grain over the mean contact force). Equilibrate it first (DEM, or "
                 "grainmech.driver.packing.equilibrate_network)")
         pt = replace(pt, notes=pt.notes + (f"input unbalanced force ratio {ufr:.3g}",))
-        if imbalance == "hold":
-            pt = replace(pt, load=kin.balance(f), notes=pt.notes + (
-                "the input's out-of-balance forces and moments are held as constant external grain loads "
-                "(the input is the equilibrium state)",))
-        elif imbalance == "relax":
-            res = run_packing(pt, LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6))),
-                              options=replace(opts, tangent="none"))
-            if not res.success:
-                raise GrainmechError(f"{net.source or 'network'}: equilibrating the input failed: {res.message}")
-            eq = cast(PackingPoint, res.final)
-            ds = float(np.abs(eq.stress - pt.stress).max() / max(np.abs(pt.stress).max(), 1e-300))
-            pt = replace(eq, strain=np.zeros(6), q=np.zeros_like(eq.q),
-                         notes=eq.notes + (f"equilibrated at fixed strain: stress changed by {ds:.3g} "
-                                           "(relative); residual fluctuations reset to zero",),
-                         _cache={"prec": pt.preconditioner()})  # same contacts, same elastic operator to ~ufr
-        return pt
+        return _treat_imbalance(pt, imbalance, opts)
 
     @classmethod
     def at_stress(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], *,
@@ -382,7 +319,7 @@ class PackingPoint:
     @property
     def frictional(self) -> bool:
         """Whether the contact law has a finite, non-zero friction coefficient."""
-        return _frictional(self.params)
+        return is_frictional(self.params)
 
     def contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """Consistent and elastic contact tangents (C, 3, 3) of the current state [force/length]."""
@@ -471,7 +408,7 @@ class PackingPoint:
         T2 = np.einsum("ij,ij->i", r.tangential_force, r.tangential_force)
         kt = r.ks_perp * self.scale
         et = np.where(closed & (kt > 0), T2 / (2 * np.where(kt > 0, kt, 1.0)), 0.0)
-        if isinstance(self.params, LinearSpring):
+        if normal_law(self.params) == "linear":
             en = r.normal_force ** 2 / (2 * self.params.kn)
         else:
             en = 0.4 * r.normal_force * np.maximum(st.approach, 0.0) / self.scale
@@ -597,6 +534,35 @@ class PackingResult(DriverResult):
     notes: tuple = ()
     relaxation_loss: np.ndarray = field(default_factory=lambda: np.zeros(0))
     cost: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+
+
+
+# --------------------------------------------------------------------------- from_network's imbalance rule
+
+def _treat_imbalance(pt: PackingPoint, imbalance: str, opts: PackingOptions) -> PackingPoint:
+    """Apply :meth:`PackingPoint.from_network`'s ``imbalance`` rule to a fresh point.
+
+    ``"hold"``: the out-of-balance grain forces and moments become constant external
+    loads; ``"relax"``: :func:`run_packing` at fixed strain to equilibrium (fluctuations
+    reset to zero); ``"none"``: unchanged.
+    """
+    kin, f, net = pt.kinematics, pt.forces, pt.network
+    if imbalance == "hold":
+        pt = replace(pt, load=kin.balance(f), notes=pt.notes + (
+            "the input's out-of-balance forces and moments are held as constant external grain loads "
+            "(the input is the equilibrium state)",))
+    elif imbalance == "relax":
+        res = run_packing(pt, LoadPath(np.zeros((1, 6), bool), np.zeros((1, 6))),
+                          options=replace(opts, tangent="none"))
+        if not res.success:
+            raise GrainmechError(f"{net.source or 'network'}: equilibrating the input failed: {res.message}")
+        eq = cast(PackingPoint, res.final)
+        ds = float(np.abs(eq.stress - pt.stress).max() / max(np.abs(pt.stress).max(), 1e-300))
+        pt = replace(eq, strain=np.zeros(6), q=np.zeros_like(eq.q),
+                     notes=eq.notes + (f"equilibrated at fixed strain: stress changed by {ds:.3g} "
+                                       "(relative); residual fluctuations reset to zero",),
+                     _cache={"prec": pt.preconditioner()})  # same contacts, same elastic operator to ~ufr
+    return pt
 
 
 def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None, *,

@@ -23,9 +23,8 @@ import numpy as np
 
 from grainmech.contact import (
     ContactState,
-    HertzMindlin,
-    LinearSpring,
 )
+from grainmech.contact.forms import frictional, law_forms
 from grainmech.driver.packing._iterations import (  # noqa: F401 (re-exported: the names this module always had)
     _AA_PATIENCE,
     _AA_PROGRESS,
@@ -67,7 +66,6 @@ from grainmech.driver.packing.options import (  # noqa: F401
     ACCEPT_MAX_FORCE,
     PackingOptions,
     _Context,
-    _frictional,
     _law_kw,
     _OutOfBudget,
     _StepFailure,
@@ -177,336 +175,453 @@ def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndar
     (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
 
     With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
-    updates from the start, each one committed to the contact laws' history (see the
-    loop below).
+    updates from the start, each one committed to the contact laws' history (see
+    :meth:`_StepSolve.iterate`). The phases: scales (:func:`_scales`), predictor
+    (:func:`_predictor`), Anderson-accelerated elastic iterations
+    (:meth:`_StepSolve.anderson`), Newton or continuation iterations
+    (:meth:`_StepSolve.iterate`), final acceptance (:meth:`_StepSolve.finish`).
     """
-    opts, prec, kin = ctx.opts, ctx.prec, point.kinematics
-    V, nq, ms, sref, Rg, abar, move, tolq, tole, fref = _scales(point, S, de_E, target, prec, opts)
-    Dq, De = prec.dq, prec.de[S]
+    return _StepSolve(point, S, de_E, target, ctx, counters, step_dsig, relax).run()
 
-    fast = _compiled_glue(point)
 
-    def residual(xq: np.ndarray, xe: np.ndarray):
-        de = de_E.copy()
+class _StepSolve:
+    """The state of one (sub)step solved by :func:`_solve` and its phases.
+
+    The attributes that the phases update in turn: ``point`` (moves on in committed
+    relaxation), ``de_E`` (the strain of the step, zero once committed), ``prec``, ``Dq``,
+    ``De`` (the elastic operator and its Jacobi scaling, refactored when stale), the
+    unknowns ``xq`` (grain fluctuations [m, rad]) and ``xe`` (stress-controlled strains),
+    the iterate ``cur`` = ``(state, response, forces, rq, re, voigt sum, strain increment)``
+    and its merit ``m``, the continuation shift ``mu`` and ``newton_ok``.
+    """
+
+    def __init__(self, point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+                 counters: list, step_dsig: float, relax: bool) -> None:
+        self.point, self.S, self.de_E, self.target, self.ctx = point, S, de_E, target, ctx
+        self.counters, self.relax = counters, relax
+        self.opts, self.prec, self.kin = ctx.opts, ctx.prec, point.kinematics
+        (self.V, self.nq, self.ms, self.sref, self.Rg, self.abar, self.move, self.tolq, self.tole,
+         self.fref) = _scales(point, S, de_E, target, self.prec, self.opts)
+        self.Dq, self.De = self.prec.dq, self.prec.de[S]
+        self.fast = _compiled_glue(point)
+        self.w0 = _potential(point, point.state, point.response) if ctx.energy else None
+        self.amb_ok = max(self.opts.rtol_accept * self.sref, self.opts.rtol_step * step_dsig) * self.V
+        self.newton_ok = ctx.newton_ok
+
+    # ------------------------------------------------------------------ residual and tests
+
+    def residual(self, xq: np.ndarray, xe: np.ndarray):
+        """The iterate at the unknowns ``(xq, xe)`` (laws evaluated from ``point``)."""
+        point, kin, ctx, S = self.point, self.kin, self.ctx, self.S
+        de = self.de_E.copy()
         de[S] = xe
-        if fast is None:
+        if self.fast is None:
             st, resp, f = _evaluate(point, xq, de)
             rq = kin.balance(f)
             vs = voigt_of(f, kin.l)
         else:
-            st, resp, f, rq, vs = fast.evaluate(point, xq, de)
+            st, resp, f, rq, vs = self.fast.evaluate(point, xq, de)
         if point.load is not None:
             rq = rq - _held_load(point, resp)
-        re = vs[S] - V * target[S]
+        re = vs[S] - self.V * self.target[S]
         ctx.evals += 1
         if ctx.budget and ctx.work >= ctx.budget:
-            _out_of_budget(kin, rq, Rg, fref, resp, ctx)
+            _out_of_budget(kin, rq, self.Rg, self.fref, resp, ctx)
         return st, resp, f, rq, re, vs, de
 
-    w0 = _potential(point, point.state, point.response) if ctx.energy else None
-
-    def limit(dxq: np.ndarray, dxe: np.ndarray, st: ContactState) -> tuple[np.ndarray, np.ndarray]:
+    def limit(self, dxq: np.ndarray, dxe: np.ndarray, st: ContactState) -> tuple[np.ndarray, np.ndarray]:
         """The update within the trust limit ``move``, each grain by itself.
 
         A grain on a mechanism (free, rolling or sliding away) must not cut the others'
         update; every contact the update closes is stopped near touch (:func:`_closing_cap`);
         no grain moves along its mechanisms in the iterate ``st`` (:func:`_hold_mechanisms`).
         """
+        kin, S, Rg, move, abar = self.kin, self.S, self.Rg, self.move, self.abar
         dxq = _hold_mechanisms(kin, dxq, Rg, st.approach > 0.0)
-        if fast is not None:
-            return fast.limit(dxq, dxe, S, Rg, move, st.approach / point.scale if abar > 0 else None,
-                              _CLOSE_CAP * abar)
+        if self.fast is not None:
+            return self.fast.limit(dxq, dxe, S, Rg, move, st.approach / self.point.scale if abar > 0 else None,
+                                   _CLOSE_CAP * abar)
         dxq = _clip(kin, dxq, Rg, move)
         dxe = dxe / _trust(kin, None, dxe, S, move)
         if abar > 0:
-            dxq = _closing_cap(kin, dxq, dxe, S, st.approach / point.scale, _CLOSE_CAP * abar)
+            dxq = _closing_cap(kin, dxq, dxe, S, st.approach / self.point.scale, _CLOSE_CAP * abar)
         return dxq, dxe
 
-    def merit(cur: tuple) -> float:
-        if ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
-            return float(np.sum(_potential(point, cur[0], cur[1]) - w0)) - V * float(np.dot(target[S], cur[6][S]))
-        return rnorm(cur)
+    def merit(self, cur: tuple) -> float:
+        """Scaled residual norm, or with ``ctx.energy`` the potential energy change."""
+        if self.ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
+            return (float(np.sum(_potential(self.point, cur[0], cur[1]) - self.w0))
+                    - self.V * float(np.dot(self.target[self.S], cur[6][self.S])))
+        return self.rnorm(cur)
 
-    def rnorm(cur: tuple) -> float:
-        return float(np.sqrt(np.sum((Dq * cur[3]) ** 2) + np.sum((De * cur[4]) ** 2)))
+    def rnorm(self, cur: tuple) -> float:
+        """Jacobi-scaled residual norm of the iterate ``cur``."""
+        return float(np.sqrt(np.sum((self.Dq * cur[3]) ** 2) + np.sum((self.De * cur[4]) ** 2)))
 
-    def converged(rq: np.ndarray, re: np.ndarray) -> bool:
-        return bool(np.all(np.abs(rq) <= tolq) and (ms == 0 or np.all(np.abs(re) <= tole)))
+    def converged(self, rq: np.ndarray, re: np.ndarray) -> bool:
+        """Every force and stress-control residual within ``rtol``."""
+        return bool(np.all(np.abs(rq) <= self.tolq) and (self.ms == 0 or np.all(np.abs(re) <= self.tole)))
 
-    amb_ok = max(opts.rtol_accept * sref, opts.rtol_step * step_dsig) * V
+    def accept(self, rq: np.ndarray, re: np.ndarray, factor: float = 1.0) -> bool:
+        """Whether an unconverged iterate is accepted (its stress settled).
 
-    def accept(rq: np.ndarray, re: np.ndarray, factor: float = 1.0) -> bool:
-        # the out-of-balance forces and moments left make the Love-Weber stress uncertain
-        # by at most sum_p (|F_p| R_p + |M_p|) / V (the stress of a grain out of balance
-        # depends on the point its moments are taken about); accept when that is below
-        # rtol_accept times the stress scale or rtol_step times the step's stress change
-        # (the imbalance left is not lost: the next step starts from it and removes it)
-        # (the stress-controlled components within the same bound); ``factor`` scales the
-        # bound (PackingOptions.settle)
-        # (never with a grain out of balance by more than ACCEPT_MAX_FORCE of the mean
-        # contact force: the bar of "every accepted step in equilibrium" as reported,
-        # PackingResult.residual)
-        bound = factor * amb_ok
-        if (ms and not bool(np.all(np.abs(re) <= bound))) or _largest(kin, rq, Rg) > ACCEPT_MAX_FORCE * fref:
+        The out-of-balance forces and moments left make the Love-Weber stress uncertain by
+        at most ``sum_p (|F_p| R_p + |M_p|) / V`` (the stress of a grain out of balance
+        depends on the point its moments are taken about); accept when that is below
+        ``rtol_accept`` times the stress scale or ``rtol_step`` times the step's stress
+        change (the imbalance left is not lost: the next step starts from it and removes
+        it) (the stress-controlled components within the same bound); ``factor`` scales the
+        bound (``PackingOptions.settle``). Never with a grain out of balance by more than
+        ``ACCEPT_MAX_FORCE`` of the mean contact force: the bar of "every accepted step in
+        equilibrium" as reported (``PackingResult.residual``).
+        """
+        kin, Rg = self.kin, self.Rg
+        bound = factor * self.amb_ok
+        if (self.ms and not bool(np.all(np.abs(re) <= bound))) or _largest(kin, rq, Rg) > ACCEPT_MAX_FORCE * self.fref:
             return False
         if _stress_ambiguity(kin, rq, Rg) <= bound:
             return True
-        return bool(factor == 1.0 and opts.accept_unbalanced > 0
-                    and _at_rest(kin, rq, Rg, fref, opts.accept_unbalanced))
+        return bool(factor == 1.0 and self.opts.accept_unbalanced > 0
+                    and _at_rest(kin, rq, Rg, self.fref, self.opts.accept_unbalanced))
 
-    def unsettled(rq: np.ndarray, re: np.ndarray) -> str:
+    def unsettled(self, rq: np.ndarray, re: np.ndarray) -> str:
         """The stress uncertainty left, against what ``accept`` asks, for a failure message."""
-        out = f"stress uncertainty {_stress_ambiguity(kin, rq, Rg) / (sref * V):.3g} of the stress scale"
-        if ms:
-            out += f", stress-control residual {float(np.max(np.abs(re))) / (sref * V):.3g}"
-        return out + f", each accepted below {amb_ok / (sref * V):.3g}"
+        sV = self.sref * self.V
+        out = f"stress uncertainty {_stress_ambiguity(self.kin, rq, self.Rg) / sV:.3g} of the stress scale"
+        if self.ms:
+            out += f", stress-control residual {float(np.max(np.abs(re))) / sV:.3g}"
+        return out + f", each accepted below {self.amb_ok / sV:.3g}"
 
-    def done(cur: tuple, it: int, final: bool = True) -> PackingPoint:
+    def settled(self, rq: np.ndarray, re: np.ndarray, dstress: float) -> bool:
+        """The stress is settled (ends the Anderson phase).
+
+        The stress-controlled components within rtol, and both the stress uncertainty of
+        the out-of-balance forces and the estimated stress change still to come
+        (``dstress``, from the contraction of the iterates' stress changes) below
+        ``settle`` times the acceptance bound.
+        """
+        opts = self.opts
+        return bool(opts.settle > 0 and dstress <= opts.settle * self.amb_ok
+                    and (self.ms == 0 or np.all(np.abs(re) <= self.tole)) and self.accept(rq, re, opts.settle))
+
+    def done(self, cur: tuple, it: int, final: bool = True) -> PackingPoint:
         """The point of ``cur`` (at the unknowns ``xq``, ``xe``), counted as a (sub)step if ``final``."""
-        ctx.newton_ok = newton_ok
-        st, resp, f, rq, re, vs, de = cur
-        new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(xq),
+        point, kin, ctx, counters, V = self.point, self.kin, self.ctx, self.counters, self.V
+        ctx.newton_ok = self.newton_ok
+        st, resp, f, _rq, _re, vs, de = cur
+        new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(self.xq),
                       strain=point.strain + de, stress=vs / V, _cache={})
         counters[2] += float(np.sum(resp.dissipation / point.scale) / V)
         counters[3] += float(np.dot(0.5 * (point.stress + new.stress), de))
         if final:
             counters[0] += 1
             counters[1] += it - 1
-            ctx.last = None if relax else (v, S.copy(), xq.copy(), xe.copy())
+            ctx.last = None if self.relax else (self.v, self.S.copy(), self.xq.copy(), self.xe.copy())
         return new
 
-    # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
-    # linear response; a reversal gives factor -1)
-    v, xq, xe, fac = _predictor(point, S, de_E, target, prec, ctx, V, nq, ms)
-    # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
-    stiff_first = not ctx.energy and not relax and (ctx.stiff_ok or fac < 0)
-    cur = residual(xq, xe)
-    m = merit(cur)
-    # committed relaxation: out-of-balance forces of the committed point the update starts from
-    base = None
-    if relax:
-        base = kin.balance(point.forces) - (0.0 if point.load is None else _held_load(point, point.response))
-    # pseudo-transient continuation (Kelley & Keyes 1998): each update solves
-    # (J + mu I) dx = -r in the Jacobi-scaled unknowns. mu = 0 is Newton; a large mu is an
-    # implicit step of overdamped grain dynamics (dx ~ -r / mu), which moves the grains
-    # along their out-of-balance forces as a quasi-static DEM relaxation does and stays
-    # bounded on a mechanism (a grain rolling or sliding on its neighbours, whose Newton
-    # step is singular). mu grows when an update fails to lower the residual (a branch of
-    # the contact law switching: a reversal, a contact reaching or leaving the Coulomb
-    # limit) and shrinks after each success, so Newton's convergence comes back.
-    # Committed relaxation (``relax``): the same updates with mu > 0 from the start, each
-    # committed to the contact laws' history as it is taken (the point moves on; the
-    # strain of the step goes in with the first update). This is implicit overdamped
-    # dynamics of the grains, the relaxation a quasi-static DEM performs: where the
-    # step's equilibrium is not reached from the step's start in one increment of the
-    # laws (a branch of many contacts switching, an instability that rearranges a few
-    # grains), the grains get there along a path whose slips are recorded.
-    newton_ok = ctx.newton_ok
-    if opts.anderson and not relax and not ctx.energy:
-        # Anderson-accelerated elastic iterations first; where they stall (a few grains on
-        # a mechanism, all their contacts sliding) Newton-Krylov goes on from their best point
-        def settled(rq: np.ndarray, re: np.ndarray, dstress: float) -> bool:
-            # the stress is settled: the stress-controlled components within rtol, and both
-            # the stress uncertainty of the out-of-balance forces and the estimated stress
-            # change still to come (``dstress``, from the contraction of the iterates'
-            # stress changes) below ``settle`` times the acceptance bound
-            return bool(opts.settle > 0 and dstress <= opts.settle * amb_ok and (ms == 0 or np.all(np.abs(re) <= tole))
-                        and accept(rq, re, opts.settle))
+    def accepted(self, it: int) -> PackingPoint:
+        """The current iterate accepted unconverged (counted in ``ctx.accepted``)."""
+        self.ctx.accepted += 1
+        return self.done(self.cur, it)
 
-        ok, xq, xe, cur, m, it = _anderson(prec, S, np.concatenate([Dq, De]), xq, xe, cur, m, residual, merit,
-                                           limit, converged, settled, accept, opts.anderson, 4 * opts.max_iter,
-                                           _debug())
+    # ------------------------------------------------------------------ phases
+
+    def run(self) -> PackingPoint:
+        """Predictor, Anderson phase, Newton or continuation iterations, final acceptance."""
+        ctx, relax = self.ctx, self.relax
+        # predictor: the last (sub)step's solution scaled to this step's loading (exact for a
+        # linear response; a reversal gives factor -1)
+        self.v, self.xq, self.xe, fac = _predictor(self.point, self.S, self.de_E, self.target, self.prec, ctx,
+                                                   self.V, self.nq, self.ms)
+        # initial-stiffness tries: while they contract well, and after a reversal (elastic unloading)
+        self.stiff_first = not ctx.energy and not relax and (ctx.stiff_ok or fac < 0)
+        self.cur = self.residual(self.xq, self.xe)
+        self.m = self.merit(self.cur)
+        # committed relaxation: out-of-balance forces of the committed point the update starts from
+        self.base = None
+        if relax:
+            point = self.point
+            self.base = self.kin.balance(point.forces) - (0.0 if point.load is None
+                                                          else _held_load(point, point.response))
+        self.newton_ok = ctx.newton_ok
+        if self.opts.anderson and not relax and not ctx.energy:
+            new = self.anderson()
+            if new is not None:
+                return new
+            self.stiff_first = False
+        return self.iterate()
+
+    def anderson(self) -> PackingPoint | None:
+        """Anderson-accelerated elastic iterations (:func:`_anderson`); None where they stall.
+
+        Where they stall (a few grains on a mechanism, all their contacts sliding)
+        Newton-Krylov goes on from their best point.
+        """
+        ctx, opts = self.ctx, self.opts
+        ok, self.xq, self.xe, self.cur, self.m, it = _anderson(
+            self.prec, self.S, np.concatenate([self.Dq, self.De]), self.xq, self.xe, self.cur, self.m,
+            self.residual, self.merit, self.limit, self.converged, self.settled, self.accept, opts.anderson,
+            4 * opts.max_iter, _debug())
         ctx.anderson += it
-        if ok:
-            ctx.anderson_ok += 1
-            if ok == "settled":
-                ctx.settled += 1
-            elif not converged(cur[3], cur[4]):
-                ctx.accepted += 1
-            return done(cur, it)
-        stiff_first = False
-    mu = _MU_FIRST if relax else 0.0
-    ptc_from = (0, 0.0)  # iteration and merit where continuation started
-    # consistent-tangent updates still worth their Krylov solve (not after they failed in
-    # the last (sub)step: the same few mechanism grains make them fail again)
-    newton_ok = ctx.newton_ok
-    n_iter = opts.relax_iter if relax else opts.max_iter
-    dbg = _debug()
-    jenkins = isinstance(point.params, (HertzMindlin, LinearSpring)) and _frictional(point.params)
-    for it in range(1, n_iter + 1):
-        st, resp, f, rq, re, vs, de = cur
-        if dbg:
-            dbg(f"it {it} merit {m:.3g} force {float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} mu {mu:.1e} "
-                f"sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
-            dbg(_grain_report(kin, rq, tolq, resp) + f"; mean unbalanced {_unbalanced(kin, rq, Rg, fref):.2g}"
-                + f"; stress ambiguity {_stress_ambiguity(kin, rq, Rg) / (sref * V):.2g}"
-                + (f", stress residual {float(np.max(np.abs(re))) / (sref * V):.2g}" if ms else ""))
-        if converged(rq, re):
-            return done(cur, it)
-        if stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
-            dxq, dxe = prec.apply(-rq, -re, S)
-            trial = residual(xq + dxq, xe + dxe)
-            mt = merit(trial)
-            if mt <= 0.1 * m or converged(trial[3], trial[4]):
-                xq, xe, cur, m = xq + dxq, xe + dxe, trial, mt
-                ctx.stiff_ok = True
-                continue
-            stiff_first = ctx.stiff_ok = False  # poor contraction: consistent-tangent Newton
-        # consistent tangent of the trial state
+        if not ok:
+            return None
+        ctx.anderson_ok += 1
+        if ok == "settled":
+            ctx.settled += 1
+        elif not self.converged(self.cur[3], self.cur[4]):
+            ctx.accepted += 1
+        return self.done(self.cur, it)
+
+    def iterate(self) -> PackingPoint:
+        """Newton or pseudo-transient continuation iterations until converged or accepted.
+
+        Pseudo-transient continuation (Kelley & Keyes 1998): each update solves
+        ``(J + mu I) dx = -r`` in the Jacobi-scaled unknowns. ``mu = 0`` is Newton; a large
+        ``mu`` is an implicit step of overdamped grain dynamics (``dx ~ -r / mu``), which
+        moves the grains along their out-of-balance forces as a quasi-static DEM relaxation
+        does and stays bounded on a mechanism (a grain rolling or sliding on its
+        neighbours, whose Newton step is singular). ``mu`` grows when an update fails to
+        lower the residual (a branch of the contact law switching: a reversal, a contact
+        reaching or leaving the Coulomb limit) and shrinks after each success, so Newton's
+        convergence comes back. Committed relaxation (``relax``): the same updates with
+        ``mu > 0`` from the start, each committed to the contact laws' history as it is
+        taken (the point moves on; the strain of the step goes in with the first update).
+        This is implicit overdamped dynamics of the grains, the relaxation a quasi-static
+        DEM performs: where the step's equilibrium is not reached from the step's start in
+        one increment of the laws (a branch of many contacts switching, an instability that
+        rearranges a few grains), the grains get there along a path whose slips are
+        recorded.
+        """
+        opts, ctx, relax, kin = self.opts, self.ctx, self.relax, self.kin
+        self.mu = _MU_FIRST if relax else 0.0
+        self.ptc_from = (0, 0.0)  # iteration and merit where continuation started
+        # consistent-tangent updates still worth their Krylov solve (not after they failed in
+        # the last (sub)step: the same few mechanism grains make them fail again)
+        self.newton_ok = ctx.newton_ok
+        self.n_iter = opts.relax_iter if relax else opts.max_iter
+        self.dbg = dbg = _debug()
+        self.jenkins = law_forms(self.point.params).kind == "jenkins" and frictional(self.point.params)
+        for it in range(1, self.n_iter + 1):
+            st, resp, _f, rq, re, _vs, de = self.cur
+            if dbg:
+                sV = self.sref * self.V
+                dbg(f"it {it} merit {self.m:.3g} force {float(np.max(np.abs(rq) / self.tolq)) * opts.rtol:.3g} "
+                    f"mu {self.mu:.1e} sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
+                dbg(_grain_report(kin, rq, self.tolq, resp)
+                    + f"; mean unbalanced {_unbalanced(kin, rq, self.Rg, self.fref):.2g}"
+                    + f"; stress ambiguity {_stress_ambiguity(kin, rq, self.Rg) / sV:.2g}"
+                    + (f", stress residual {float(np.max(np.abs(re))) / sV:.2g}" if self.ms else ""))
+            if self.converged(rq, re):
+                return self.done(self.cur, it)
+            if self.stiff_first:  # initial-stiffness (modified Newton) step: one solve, no Krylov iterations
+                dxq, dxe = self.prec.apply(-rq, -re, self.S)
+                trial = self.residual(self.xq + dxq, self.xe + dxe)
+                mt = self.merit(trial)
+                if mt <= 0.1 * self.m or self.converged(trial[3], trial[4]):
+                    self.xq, self.xe, self.cur, self.m = self.xq + dxq, self.xe + dxe, trial, mt
+                    ctx.stiff_ok = True
+                    continue
+                self.stiff_first = ctx.stiff_ok = False  # poor contraction: consistent-tangent Newton
+            closed = ~np.asarray(resp.open, bool)
+            Kb = self.tangent(resp, closed, de)
+            out: PackingPoint | tuple | None = None
+            if self.mu == 0.0:  # Newton with a backtracking line search
+                out = self.newton(it, Kb, st, resp, closed)
+                if out is not None and not isinstance(out, tuple):
+                    return out
+            if self.mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
+                out = self.continuation(it, Kb, st, resp, closed)
+                if not isinstance(out, tuple):
+                    return out
+            assert isinstance(out, tuple)  # Newton's update taken, or continuation's
+            dxq, dxe, lam, trial, mt = out
+            self.xq, self.xe, self.cur, self.m = self.xq + lam * dxq, self.xe + lam * dxe, trial, mt
+            if relax and self.base is not None:
+                self.commit(it)
+        return self.finish()
+
+    def tangent(self, resp: Any, closed: np.ndarray, de: np.ndarray) -> Any:
+        """Block-diagonal consistent tangent of the trial state ``resp`` (seed Eq. 3.9-3.17 laws)."""
+        point, kin = self.point, self.kin
         r_s = point.scale
-        closed = ~np.asarray(resp.open, bool)
-        if getattr(resp, "t_delta", None) is not None and not jenkins:
+        if getattr(resp, "t_delta", None) is not None and not self.jenkins:
             K = _step_tangent(kin.n, resp, r_s, closed)
         else:
             ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
-            if jenkins:
-                ksp = ksp * _slip_rotation(point, resp, kin, xq, de)
+            if self.jenkins:
+                ksp = ksp * _slip_rotation(point, resp, kin, self.xq, de)
             K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
                                 ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
-        Kb = block_diagonal(K)
-        if mu == 0.0:  # Newton with a backtracking line search
-            if newton_ok:
-                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
-            else:  # Newton failed in this (sub)step: elastic updates (below) until they stall
-                dxq, dxe, slope, pred, kr = np.zeros(nq), np.zeros(ms), 0.0, 0.0, 0
-            # trust limit (see `move` above) on each grain by itself: a grain on a
-            # mechanism (free, rolling or sliding away) must not cut the others' update
-            lam = 1.0
-            if not ctx.energy:
-                dxq, dxe = limit(dxq, dxe, st)
+        return block_diagonal(K)
+
+    def newton(self, it: int, Kb: Any, st: ContactState, resp: Any, closed: np.ndarray) -> PackingPoint | tuple | None:
+        """One Newton update with a backtracking line search (elastic updates where it fails).
+
+        Returns the point where the iterate is accepted, the update
+        ``(dxq, dxe, lam, trial, merit)`` to take, or None after switching to
+        continuation (``mu > 0``).
+        """
+        opts, ctx, kin, S, dbg = self.opts, self.ctx, self.kin, self.S, self.dbg
+        m, cur, xq, xe = self.m, self.cur, self.xq, self.xe
+        rq, re = cur[3], cur[4]
+        if self.newton_ok:
+            dxq, dxe, slope, pred, kr = _direction(kin, Kb, self.prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
+        else:  # Newton failed in this (sub)step: elastic updates (below) until they stall
+            dxq, dxe, slope, pred, kr = np.zeros(self.nq), np.zeros(self.ms), 0.0, 0.0, 0
+        # trust limit (see `move` in _scales) on each grain by itself: a grain on a
+        # mechanism (free, rolling or sliding away) must not cut the others' update
+        lam = 1.0
+        if not ctx.energy:
+            dxq, dxe = self.limit(dxq, dxe, st)
+        else:
+            lam = 1.0 / _trust(kin, dxq, dxe, S, self.move)
+        ok = False
+        # a Krylov solve that lowered the linear model's residual by less than 10 %
+        # gives no useful direction (the Jacobian is near singular on a few mechanism
+        # grains): no line search along it
+        for _nb in range(opts.max_backtracks + 1 if pred > 0.1 * m or ctx.energy else 0):
+            trial = self.residual(xq + lam * dxq, xe + lam * dxe)
+            mt = self.merit(trial)
+            if ctx.energy:
+                ok = mt <= m + 1e-4 * lam * slope or (mt <= m and self.rnorm(trial) <= (1.0 - 1e-4 * lam)
+                                                      * self.rnorm(cur))
             else:
-                lam = 1.0 / _trust(kin, dxq, dxe, S, move)
-            ok = False
-            # a Krylov solve that lowered the linear model's residual by less than 10 %
-            # gives no useful direction (the Jacobian is near singular on a few mechanism
-            # grains): no line search along it
-            for _nb in range(opts.max_backtracks + 1 if pred > 0.1 * m or ctx.energy else 0):
-                trial = residual(xq + lam * dxq, xe + lam * dxe)
-                mt = merit(trial)
-                if ctx.energy:
-                    ok = mt <= m + 1e-4 * lam * slope or (mt <= m and rnorm(trial) <= (1.0 - 1e-4 * lam) * rnorm(cur))
-                else:
-                    ok = m - mt >= 1e-4 * lam * pred > 0
-                ok = ok or converged(trial[3], trial[4])
+                ok = m - mt >= 1e-4 * lam * pred > 0
+            ok = ok or self.converged(trial[3], trial[4])
+            if dbg:
+                dbg(f"   newton lam {lam:.3g} decrease {1 - mt / m:.3e} predicted {pred / m:.3e} krylov {kr}")
+            if ok:
+                break
+            lam *= 0.5
+        if not ok and not ctx.energy:
+            # the consistent tangent's update fails at a kink of the law (a mechanism
+            # grain moved along a sliding contact that then sticks): the elastic
+            # operator's update, stiffer than every branch of the laws, with its own
+            # backtracking (initial-stiffness iteration), for the rest of the substep
+            self.newton_ok = False
+            dxq, dxe = self.limit(*self.prec.apply(-rq, -re, S), st)
+            lam = 1.0
+            for _nb in range(_STIFF_BACKTRACKS):
+                trial = self.residual(xq + lam * dxq, xe + lam * dxe)
+                mt = self.merit(trial)
                 if dbg:
-                    dbg(f"   newton lam {lam:.3g} decrease {1 - mt / m:.3e} predicted {pred / m:.3e} krylov {kr}")
-                if ok:
+                    dbg(f"   elastic lam {lam:.3g} decrease {1 - mt / m:.3e}")
+                if mt <= (1.0 - 1e-4 * lam) * m or self.converged(trial[3], trial[4]):
+                    ok = True
                     break
                 lam *= 0.5
-            if not ok and not ctx.energy:
-                # the consistent tangent's update fails at a kink of the law (a mechanism
-                # grain moved along a sliding contact that then sticks): the elastic
-                # operator's update, stiffer than every branch of the laws, with its own
-                # backtracking (initial-stiffness iteration), for the rest of the substep
-                newton_ok = False
-                dxq, dxe = limit(*prec.apply(-rq, -re, S), st)
-                lam = 1.0
-                for _nb in range(_STIFF_BACKTRACKS):
-                    trial = residual(xq + lam * dxq, xe + lam * dxe)
-                    mt = merit(trial)
-                    if dbg:
-                        dbg(f"   elastic lam {lam:.3g} decrease {1 - mt / m:.3e}")
-                    if mt <= (1.0 - 1e-4 * lam) * m or converged(trial[3], trial[4]):
-                        ok = True
-                        break
-                    lam *= 0.5
-                if ok and mt > _PTC_STALL * m and accept(rq, re):  # crawling, stress settled
-                    ctx.accepted += 1
-                    return done(cur, it)
-                if ok and mt > _PTC_STALL * m:  # crawling: Newton again next time
-                    newton_ok = True
-            if not ok:
-                if accept(rq, re):  # stalled at a kink of the law, already below rtol_accept
-                    ctx.accepted += 1
-                    return done(cur, it)
-                if ctx.energy:
-                    sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
-                    raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
-                                       f"{rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
-                                       f"{int(closed.sum())} closed)")
-                if kr > opts.refactor_after and prec is not point._cache.get("prec"):
-                    # the elastic operator is stale: refactor at the (sub)step's converged
-                    # start, not at the trial (a trial far from equilibrium, with contacts
-                    # opened or crushed, gives a scaling that weights a few grains'
-                    # residual by orders of magnitude and a poor preconditioner)
-                    ctx.prec = prec = point.preconditioner()
-                    ctx.factorizations += 1
-                    Dq, De = prec.dq, prec.de[S]
-                    m = merit(cur)
-                mu = _MU_FIRST  # switch to pseudo-transient continuation
-                ctx.ptc += 1
-                if ptc_from[0] == 0:
-                    ptc_from = (it, m)
-        if mu > 0.0:  # pseudo-transient continuation: every update taken, mu by the residual
-            for _grow in range(_MU_GROWTHS + 1):
-                dxq, dxe, slope, pred, kr = _direction(kin, Kb, prec, S, rq, re, mu, m, opts, ctx,
-                                                       _RELAX_KRYLOV_RTOL if relax else None)
-                dxq, dxe = limit(dxq, dxe, st)
-                lam = 1.0
-                try:
-                    trial = residual(xq + dxq, xe + dxe)
-                except _StepFailure:  # the law refuses the update (e.g. its memory is full): shorter
-                    mu *= _MU_GROW
-                    continue
-                mt = merit(trial)
-                # committed relaxation: the update must also release energy, i.e. the
-                # out-of-balance forces do positive work on it (trapezoidal rule), as in
-                # overdamped dynamics; the residual norm alone is no Lyapunov function there
-                work = -0.5 * (float(np.dot(rq + trial[3], dxq)) + float(np.dot(re + trial[4], dxe)))
-                if dbg:
-                    dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr} work {work:.3g}")
-                if mt <= _PTC_GROWTH * m and (not relax or work >= 0.0):
-                    break
-                if accept(rq, re):
-                    ctx.accepted += 1
-                    return done(cur, it)
+            if ok and mt > _PTC_STALL * m and self.accept(rq, re):  # crawling, stress settled
+                return self.accepted(it)
+            if ok and mt > _PTC_STALL * m:  # crawling: Newton again next time
+                self.newton_ok = True
+        if ok:
+            return dxq, dxe, lam, trial, mt
+        if self.accept(rq, re):  # stalled at a kink of the law, already below rtol_accept
+            return self.accepted(it)
+        if ctx.energy:
+            sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
+            raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
+                               f"{self.rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
+                               f"{int(closed.sum())} closed)")
+        if kr > opts.refactor_after and self.prec is not self.point._cache.get("prec"):
+            # the elastic operator is stale: refactor at the (sub)step's converged
+            # start, not at the trial (a trial far from equilibrium, with contacts
+            # opened or crushed, gives a scaling that weights a few grains'
+            # residual by orders of magnitude and a poor preconditioner)
+            ctx.prec = self.prec = self.point.preconditioner()
+            ctx.factorizations += 1
+            self.Dq, self.De = self.prec.dq, self.prec.de[S]
+            self.m = self.merit(cur)
+        self.mu = _MU_FIRST  # switch to pseudo-transient continuation
+        ctx.ptc += 1
+        if self.ptc_from[0] == 0:
+            self.ptc_from = (it, self.m)
+        return None
+
+    def continuation(self, it: int, Kb: Any, st: ContactState, resp: Any, closed: np.ndarray) -> PackingPoint | tuple:
+        """One pseudo-transient continuation update (every update taken, ``mu`` by the residual).
+
+        Returns the point where the iterate is accepted, else the update
+        ``(dxq, dxe, lam, trial, merit)``.
+        """
+        opts, ctx, kin, S, dbg, relax = self.opts, self.ctx, self.kin, self.S, self.dbg, self.relax
+        m, cur, xq, xe = self.m, self.cur, self.xq, self.xe
+        rq, re = cur[3], cur[4]
+        mu = self.mu
+        for _grow in range(_MU_GROWTHS + 1):
+            dxq, dxe, _slope, _pred, kr = _direction(kin, Kb, self.prec, S, rq, re, mu, m, opts, ctx,
+                                                     _RELAX_KRYLOV_RTOL if relax else None)
+            dxq, dxe = self.limit(dxq, dxe, st)
+            lam = 1.0
+            try:
+                trial = self.residual(xq + dxq, xe + dxe)
+            except _StepFailure:  # the law refuses the update (e.g. its memory is full): shorter
                 mu *= _MU_GROW
-            else:
-                raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
-                                   f"{rnorm(cur):.3g}, shift {mu:.3g}; "
-                                   f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
-                                   f"{int(closed.sum())} closed contacts sliding; {unsettled(rq, re)})")
-            if mt > _PTC_STALL * m and accept(rq, re):  # stalled on a few weak grains, stress settled
-                ctx.accepted += 1
-                return done(cur, it)
-            if not relax and it - ptc_from[0] >= _PTC_PATIENCE:
-                if mt > _PTC_PROGRESS * ptc_from[1]:
-                    # continuation makes no headway: stop here, so that the substep is
-                    # halved or relaxed without spending the rest of max_iter
-                    raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
-                                       f"residual {mt:.3g}, {mt / ptc_from[1]:.2f} x that of {_PTC_PATIENCE} "
-                                       f"iterations before; {unsettled(trial[3], trial[4])})")
-                ptc_from = (it, mt)
-            # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
-            # (in committed relaxation faster: every update taken released energy, and one
-            # that does not is refused and retried with a larger shift)
-            mu = mu * (min(mt / m, _RELAX_MU_CUT) if relax else mt / m)
-            mu = (_MU_NEWTON if relax else 0.0) if mu < _MU_NEWTON else min(mu, _MU_MAX)
-            ctx.mu_max = max(ctx.mu_max, mu)
-        xq, xe, cur, m = xq + lam * dxq, xe + lam * dxe, trial, mt
-        if relax and base is not None:  # commit the update: the next one starts from it
-            # energy the update removed: work of the out-of-balance forces along it
-            # (trapezoidal rule, from the committed point), what a DEM's damping dissipates
-            # (the stress-controlled strains' work is in the external work, at the actual stress)
-            counters[4] -= 0.5 * float(np.dot(base + cur[3], xq)) / V
-            point = done(cur, it, final=False)
-            ctx.relaxed += 1
-            de_E = np.zeros_like(de_E)
-            xq, xe = np.zeros(nq), np.zeros(ms)
-            # the state again from the committed point: the trial's branch flags (sliding,
-            # reversal) belong to the increment just taken; the next one may unload those
-            # contacts, and a Newton matrix with them sliding moves grains along contacts
-            # that stick
-            cur = residual(xq, xe)
-            m = merit(cur)
-            base = cur[3]
-    rq, re = cur[3], cur[4]
-    if accept(rq, re):
-        ctx.accepted += 1
-        return done(cur, n_iter + 1)
-    what = "committed relaxation did not converge" if relax else "Newton did not converge"
-    raise _StepFailure(f"{what} in {n_iter} iterations (largest force residual "
-                       f"{float(np.max(np.abs(rq) / tolq)) * opts.rtol:.3g} x mean contact force; {unsettled(rq, re)})")
+                continue
+            mt = self.merit(trial)
+            # committed relaxation: the update must also release energy, i.e. the
+            # out-of-balance forces do positive work on it (trapezoidal rule), as in
+            # overdamped dynamics; the residual norm alone is no Lyapunov function there
+            work = -0.5 * (float(np.dot(rq + trial[3], dxq)) + float(np.dot(re + trial[4], dxe)))
+            if dbg:
+                dbg(f"   ptc mu {mu:.1e} decrease {1 - mt / m:.3e} krylov {kr} work {work:.3g}")
+            if mt <= _PTC_GROWTH * m and (not relax or work >= 0.0):
+                break
+            if self.accept(rq, re):
+                self.mu = mu
+                return self.accepted(it)
+            mu *= _MU_GROW
+        else:
+            raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
+                               f"{self.rnorm(cur):.3g}, shift {mu:.3g}; "
+                               f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
+                               f"{int(closed.sum())} closed contacts sliding; {self.unsettled(rq, re)})")
+        self.mu = mu
+        if mt > _PTC_STALL * m and self.accept(rq, re):  # stalled on a few weak grains, stress settled
+            return self.accepted(it)
+        if not relax and it - self.ptc_from[0] >= _PTC_PATIENCE:
+            if mt > _PTC_PROGRESS * self.ptc_from[1]:
+                # continuation makes no headway: stop here, so that the substep is
+                # halved or relaxed without spending the rest of max_iter
+                raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
+                                   f"residual {mt:.3g}, {mt / self.ptc_from[1]:.2f} x that of {_PTC_PATIENCE} "
+                                   f"iterations before; {self.unsettled(trial[3], trial[4])})")
+            self.ptc_from = (it, mt)
+        # switched evolution relaxation (Mulder & van Leer 1985): the shift follows the residual
+        # (in committed relaxation faster: every update taken released energy, and one
+        # that does not is refused and retried with a larger shift)
+        mu = mu * (min(mt / m, _RELAX_MU_CUT) if relax else mt / m)
+        self.mu = (_MU_NEWTON if relax else 0.0) if mu < _MU_NEWTON else min(mu, _MU_MAX)
+        ctx.mu_max = max(ctx.mu_max, self.mu)
+        return dxq, dxe, lam, trial, mt
+
+    def commit(self, it: int) -> None:
+        """Committed relaxation: commit the update just taken; the next one starts from it."""
+        # energy the update removed: work of the out-of-balance forces along it
+        # (trapezoidal rule, from the committed point), what a DEM's damping dissipates
+        # (the stress-controlled strains' work is in the external work, at the actual stress)
+        self.counters[4] -= 0.5 * float(np.dot(self.base + self.cur[3], self.xq)) / self.V
+        self.point = self.done(self.cur, it, final=False)
+        self.ctx.relaxed += 1
+        self.de_E = np.zeros_like(self.de_E)
+        self.xq, self.xe = np.zeros(self.nq), np.zeros(self.ms)
+        # the state again from the committed point: the trial's branch flags (sliding,
+        # reversal) belong to the increment just taken; the next one may unload those
+        # contacts, and a Newton matrix with them sliding moves grains along contacts
+        # that stick
+        self.cur = self.residual(self.xq, self.xe)
+        self.m = self.merit(self.cur)
+        self.base = self.cur[3]
+
+    def finish(self) -> PackingPoint:
+        """Final acceptance after ``n_iter`` iterations, else :class:`_StepFailure`."""
+        rq, re = self.cur[3], self.cur[4]
+        if self.accept(rq, re):
+            return self.accepted(self.n_iter + 1)
+        what = "committed relaxation did not converge" if self.relax else "Newton did not converge"
+        raise _StepFailure(f"{what} in {self.n_iter} iterations (largest force residual "
+                           f"{float(np.max(np.abs(rq) / self.tolq)) * self.opts.rtol:.3g} x mean contact force; "
+                           f"{self.unsettled(rq, re)})")
 
 
 def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,

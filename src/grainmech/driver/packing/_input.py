@@ -1,0 +1,97 @@
+"""The input phases of :meth:`grainmech.driver.packing.PackingPoint.from_network`.
+
+Validation of the network, the input contact forces (stored or from the overlaps) and the
+contact law state the point starts from.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from grainmech.contact import ContactState, state_from_approach, state_from_forces
+from grainmech.driver.packing.options import _law_scale
+from grainmech.errors import GrainmechError, ParameterError
+from grainmech.network import ContactNetwork
+
+
+def _check_network(net: Any, forces: str, gap: float, imbalance: str) -> None:
+    """Validate the input of :meth:`PackingPoint.from_network` (one-line errors naming the field)."""
+    if not isinstance(net, ContactNetwork):
+        raise ParameterError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
+    if net.dim != 3:
+        raise ParameterError("network.dim", net.dim, "the packing driver works in 3D")
+    if net.radii is None:
+        raise ParameterError("network.radii", None, "are required (spheres): give the particle radii")
+    if not net.box.periodic.all():
+        raise ParameterError("network.box.periodic", net.box.periodic.tolist(),
+                             "must be periodic in x, y and z (walls are not modelled)")
+    if imbalance not in ("hold", "relax", "none"):
+        raise ParameterError("imbalance", imbalance, "must be 'hold', 'relax' or 'none'")
+    if forces not in ("auto", "stored", "overlap"):
+        raise ParameterError("forces", forces, "must be 'auto', 'stored' or 'overlap'")
+    if not (gap >= 0 and math.isfinite(gap)):
+        raise ParameterError("gap", gap, "must be finite and >= 0")
+    if net.n_contacts == 0:
+        raise ParameterError("network", net.source, "has no contacts")
+
+
+def _input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool,
+                  notes: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Normal (C,) [N] and tangential (C, 3) [N] forces of the input contacts.
+
+    ``forces="stored"``: the network's forces split along the normal; ``"overlap"``: the
+    Hertz (seed Eq. 3.6) or spring force of the overlap (``R_A + R_B - |l|`` when none is
+    stored), no tangential force; ``"auto"``: stored when any is non-zero. A frictionless
+    law drops tangential forces (a note in ``notes``); non-carrying contacts get ``T = 0``.
+    """
+    assert net.radii is not None  # checked by _check_network
+    n, L = net.normals, net.branch_length
+    RA, RB = net.radii[net.i], net.radii[net.j]
+    if forces == "auto":
+        forces = "stored" if np.any(net.force != 0) else "overlap"
+    if forces == "stored":
+        N = np.einsum("ij,ij->i", net.force, n)
+        T = net.force - N[:, None] * n
+    else:
+        alpha = net.overlap if net.overlap is not None else RA + RB - L
+        Rs = RA * RB / (RA + RB)
+        N = state_from_approach(params, np.maximum(alpha, 0.0) * _law_scale(params, Rs)).normal_force
+        T = np.zeros_like(net.force)
+    carrying = N > 0
+    if not frictional and np.any(T[carrying] != 0):
+        Tm = np.linalg.norm(T, axis=1)
+        if Tm.max() > 1e-9 * max(float(N.max()), 1e-300):
+            notes.append(f"frictionless law: tangential forces of the input dropped (largest "
+                         f"|T|/N = {float(np.max(Tm[carrying] / N[carrying])):.3g})")
+        T = np.zeros_like(T)
+    T = np.where(carrying[:, None], T, 0.0)
+    return N, T
+
+
+def _initial_state(params: Any, Nk: np.ndarray, Tk: np.ndarray, rows: np.ndarray, frictional: bool,
+                   Lc: np.ndarray, Ra: np.ndarray, Rb: np.ndarray, s: np.ndarray) -> ContactState:
+    """Contact law state (law space): the listed contacts at their forces, the gap pairs open.
+
+    ``Nk``, ``Tk``: forces [N] of the ``Nk.size`` listed contacts (first rows); ``Lc``
+    [m], ``Ra``, ``Rb`` [m], ``s`` (displacement scale, :func:`_law_scale`) of every
+    tracked pair. A tangential force above ``mu N`` (beyond 1e-6 relative) is an error
+    naming the contact; one within it is capped to ``mu N``.
+    """
+    if frictional:
+        mag = np.linalg.norm(Tk, axis=1)
+        muN = params.friction * Nk
+        over = mag > muN * (1 + 1e-6)
+        if np.any(over):
+            k = int(np.flatnonzero(over)[0])
+            raise GrainmechError(f"contact {int(rows[k])}: |T| = {mag[k]:.6g} exceeds mu N = {muN[k]:.6g} "
+                                 f"(friction {params.friction:g}); use forces='overlap' or the packing's "
+                                 "friction coefficient")
+        cap = np.where(mag > muN, muN / np.where(mag > 0, mag, 1.0), 1.0)
+        st_l = state_from_forces(params, Nk, Tk * cap[:, None])
+    else:
+        st_l = state_from_forces(params, Nk, np.zeros_like(Tk))
+    st_g = state_from_approach(params, -(Lc[Nk.size:] - Ra[Nk.size:] - Rb[Nk.size:]) * s[Nk.size:])
+    return ContactState(*(np.concatenate([x, y]) for x, y in zip(st_l, st_g)))
