@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from grainmech.errors import GrainmechError
+from grainmech.network.relaxed import _cross_matrix as _cross_rows  # [r]_x, one home with the relaxed tensor
 
 __all__: list[str] = []
 
@@ -43,18 +44,6 @@ def voigt_of(f: np.ndarray, l_: np.ndarray) -> np.ndarray:
     S = np.einsum("ci,cj->ij", f, l_)  # no BLAS call: small products pay thread start-up costs
     return np.array([S[0, 0], S[1, 1], S[2, 2], 0.5 * (S[1, 2] + S[2, 1]),
                      0.5 * (S[0, 2] + S[2, 0]), 0.5 * (S[0, 1] + S[1, 0])])
-
-
-def _cross_rows(r: np.ndarray) -> np.ndarray:
-    """[r]_x with [r]_x v = r x v, shape (C, 3, 3)."""
-    X = np.zeros(r.shape[:-1] + (3, 3))
-    X[..., 0, 1] = -r[..., 2]
-    X[..., 0, 2] = r[..., 1]
-    X[..., 1, 0] = r[..., 2]
-    X[..., 1, 2] = -r[..., 0]
-    X[..., 2, 0] = -r[..., 1]
-    X[..., 2, 1] = r[..., 0]
-    return X
 
 
 @dataclass(frozen=True, eq=False)
