@@ -133,7 +133,7 @@ def _start_quiet_resource_tracker() -> None:
     (:func:`_kill_workers`) before they unregister theirs, so the tracker's
     ``resource_tracker: ... leaked semaphore objects`` warnings (and a second warning for
     each one already unlinked) came out on the terminal *after* "grainmech: interrupted",
-    the one line the user should see (CI run of 2026-11-25). The tracker inherits its
+    the one line the user should see. The tracker inherits its
     warnings filters from ``sys.warnoptions`` when it starts, so it is started here with
     a filter for its own ``resource_tracker:`` warnings; the clean-up itself still runs.
     Nothing changes if the tracker is already running.

@@ -177,7 +177,7 @@ def openblas_one_thread() -> Any:
     squares on ~11k x 10, the grains' 6 x 6 blocks) and run beside the law's compiled
     threads; OpenBLAS' own threads, spinning between them, cost more than they gain: the
     built-in default run took 56.3 s with them, 52.1 s with ``OPENBLAS_NUM_THREADS=1``
-    set by hand and 48.0 s with this limit (2 cores, 2026-11-26); on a loaded machine
+    set by hand and 48.0 s with this limit (2 cores); on a loaded machine
     Gram-Schmidt took 24 ms per product instead of under 1 ms (``docs/packing-driver.md``).
     MKL (PARDISO) keeps its own setting.
     """
