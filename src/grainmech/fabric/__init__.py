@@ -15,6 +15,8 @@ Main entry points
 
 from __future__ import annotations
 
+import numpy as np
+
 from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
@@ -83,8 +85,6 @@ def isotropic(dim: int, order: int = 0) -> SphericalDensity | FourierDensity:
 def density_from_fabric_tensor(N: object, allow_negative: bool = False
                                ) -> SphericalDensity | FourierDensity:
     """Density of order ``rank(N)`` with fabric tensor ``N`` (2D or 3D from N's shape)."""
-    import numpy as np
-
     A = np.asarray(N, dtype=float)
     dim = A.shape[0] if A.ndim else 0
     cls = SphericalDensity if dim == 3 else FourierDensity if dim == 2 else None

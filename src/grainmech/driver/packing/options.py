@@ -66,6 +66,12 @@ class PackingOptions:
         with a few contacts sliding on each of many grains (a fixed geometry cannot
         rearrange them); with ``0`` the run was still halving a step after 34 min, with
         ``1e-4`` it completed (``docs/packing-driver.md``).
+    rest_step : float
+        Acceptance at rest (``accept_unbalanced``) also asks that the stress uncertainty
+        the out-of-balance forces leave is at most this fraction of the step's stress
+        change (the affine elastic response to its strain increment, or the change of its
+        stress targets): at rest by the DEM's measure is not at rest against a step of a
+        small-amplitude loop. ``inf``: no such bound.
     max_iter : int
         Newton iterations per (sub)step.
     max_depth : int
@@ -164,6 +170,7 @@ class PackingOptions:
     rtol_accept: float = 1e-5
     rtol_step: float = 1e-3
     accept_unbalanced: float = 1e-4
+    rest_step: float = 0.01
     max_iter: int = 25
     max_depth: int = 6
     max_backtracks: int = 8
@@ -190,6 +197,8 @@ class PackingOptions:
             raise ParameterError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
         if not (isinstance(self.accept_unbalanced, (int, float)) and 0 <= self.accept_unbalanced <= 1e-2):
             raise ParameterError("accept_unbalanced", self.accept_unbalanced, "must lie in [0, 0.01]")
+        if isinstance(self.rest_step, bool) or not (isinstance(self.rest_step, (int, float)) and self.rest_step > 0):
+            raise ParameterError("rest_step", self.rest_step, "must be a positive number (inf: no bound)")
         if not (isinstance(self.rtol_step, (int, float)) and 0 <= self.rtol_step < 0.1):
             raise ParameterError("rtol_step", self.rtol_step, "must lie in [0, 0.1)")
         for name in ("max_iter", "krylov_max", "refactor_after", "relax_iter"):
