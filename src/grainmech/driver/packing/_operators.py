@@ -25,8 +25,10 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from grainmech.errors import GrainmechError
+from grainmech.network._solvers import refine_pcg, shared_pardiso
 from grainmech.network.relaxed import _cross_matrix as _cross_rows  # [r]_x, one home with the relaxed tensor
 
 __all__: list[str] = []
@@ -224,15 +226,11 @@ class _Factor:
                                                    cholespy.MatrixType.COO)
                 self.name = "cholespy"
                 return
-        import scipy.sparse.linalg as spla
-
         self.name = "superlu"
         self._lu = spla.splu(A.tocsc())
 
     def _init_pardiso(self, A: sp.spmatrix, reproducible: bool) -> None:
         import pypardiso  # noqa: F401 (not installed: ImportError here, before the shared handle is asked for)
-
-        from grainmech.network._solvers import shared_pardiso
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
@@ -377,7 +375,6 @@ class Preconditioner:
         enter. Cached.
         """
         if self._exact is None:
-            from grainmech.network._solvers import refine_pcg
 
             Y, _it, res = refine_pcg(self.H0, self.B0, self.Y, self.factor.solve, tol, maxiter)
             self._exact = (Y, res)
