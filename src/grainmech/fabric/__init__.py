@@ -20,15 +20,7 @@ import numpy as np
 from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
-from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
-from grainmech.fabric.fourier import FourierDensity
-from grainmech.fabric.harmonics import (
-    SphericalDensity,
-    n_coefficients_3d,
-    sh_degrees_orders,
-    sh_index,
-)
-from grainmech.fabric.packing import (
+from grainmech.fabric.coordination import (
     CORRELATIONS,
     NOMINAL_VOID_RATIO_RANGE,
     CorrelationRangeWarning,
@@ -44,6 +36,14 @@ from grainmech.fabric.packing import (
     porosity,
     void_ratio_chang,
     void_ratio_from_porosity,
+)
+from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
+from grainmech.fabric.fourier import FourierDensity
+from grainmech.fabric.harmonics import (
+    SphericalDensity,
+    n_coefficients_3d,
+    sh_degrees_orders,
+    sh_index,
 )
 from grainmech.fabric.quadrature import (
     LEBEDEV_NEGATIVE_WEIGHT_ORDERS,
