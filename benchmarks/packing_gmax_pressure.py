@@ -66,8 +66,10 @@ def main() -> None:
         by_dem = any("by the DEM model" in n for n in pt.notes)
         note = next((n for n in pt.notes if n.startswith("brought from the input")), "")
         steps = note.split(" in ")[1].split(" stress")[0] if note else "servo" if by_dem else "0"
-        held = note.split("unbalanced force ratio ")[1].split(" is held")[0] if note else (
-            f"{unbalanced_force_ratio(pt):.3g} / {unbalanced_force_ratio(pt, kind='max'):.3g}")
+        dem_note = next((n for n in pt.notes if "by the DEM model (LAMMPS" in n), "")
+        held = (note.split("unbalanced force ratio ")[1].split(" is held")[0] if note
+                else dem_note.split("unbalanced force ratio ")[1].split(",")[0] + " (LAMMPS, mean)" if dem_note
+                else f"{unbalanced_force_ratio(pt):.3g} / {unbalanced_force_ratio(pt, kind='max'):.3g}")
         what = "DEM" if by_dem else "packing" if note else "(own)"
         print(f"| {name} | {pm / 1e3:.4g} | {g / 1e6:.2f} | {what} | {steps} | {held} | "
               f"{time.perf_counter() - t0:.0f} |", flush=True)
