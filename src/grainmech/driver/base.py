@@ -11,11 +11,11 @@ stress-controlled ones reach ``target``. A step that cannot be solved raises
 ``success`` False and every state before it kept.
 
 The affine model (:class:`grainmech.driver.MaterialPoint`) and the packing model
-(:class:`grainmech.driver.packing.PackingPoint`) are immutable values with compiled
-whole-path loops of their own (:func:`grainmech.driver.run`,
-:func:`grainmech.driver.packing.run_packing`); the DEM model
-(:class:`grainmech.driver.dem.DemPoint`) is a live LAMMPS simulation that moves
-forward only, and uses :func:`grainmech.driver.loop.follow_path`. All three return a
+(:class:`grainmech.driver.packing.PackingPoint`) are immutable values; the affine model
+has compiled whole-path loops (its fast path in :func:`grainmech.driver.run`), and its
+step-by-step run, the packing model's (:func:`grainmech.driver.packing.run_packing`)
+and the DEM model's (:class:`grainmech.driver.dem.DemPoint`, a live LAMMPS simulation
+that moves forward only) go through :func:`grainmech.driver.loop.follow_path`. All three return a
 :class:`DriverResult` (the packing and DEM models a subclass with their own per-step
 columns), and :func:`grainmech.driver.loop.cyclic_series` analyses any of them.
 """
