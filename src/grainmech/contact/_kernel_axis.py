@@ -170,6 +170,25 @@ def _top(P, row, k, back):
 
 
 @njit(**_JIT_NO_NRT)
+def _branch(P, row, k):
+    """The current branch of a memory of depth ``k``: ``(c, P_top, Q_target)``.
+
+    ``c = 2`` on a Masing branch, 1 on the virgin one; ``P_top`` the invariant of the last
+    reversal (0 without); ``Q_target`` the ``Q`` at which the branch closes its loop (the
+    reversal before the last, or ``P_top`` on the first loop; 0 on the virgin branch).
+    """
+    c = 2.0 if k > 0 else 1.0
+    Pt = _top(P, row, k, 1)
+    if k >= 2:
+        Qt = _top(P, row, k, 2)
+    elif k == 1:
+        Qt = Pt
+    else:
+        Qt = 0.0
+    return c, Pt, Qt
+
+
+@njit(**_JIT_NO_NRT)
 def _merge_closest_loop(P, row, k, Q, muN):
     """Full memory: forget the loop that came closest to closing (law._merge_closest_loop)."""
     best = -1
@@ -314,14 +333,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
         it += 1
         if it > 2 * max(maxrev, 1) + 6:
             return Q, s, k, diss, False
-        c = 2.0 if k > 0 else 1.0
-        Pt = _top(P, row, k, 1)
-        if k >= 2:
-            Qt = _top(P, row, k, 2)
-        elif k == 1:
-            Qt = Pt
-        else:
-            Qt = 0.0
+        c, Pt, Qt = _branch(P, row, k)
         na = Na
         nb = Nb
         muNa = mu * na
@@ -420,14 +432,7 @@ def _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc):
         it += 1
         if it > 2 * maxrev + 4:
             return Q, k, diss, False
-        c = 2.0 if k > 0 else 1.0
-        Pt = _top(P, row, k, 1)
-        if k >= 2:
-            Qt = _top(P, row, k, 2)
-        elif k == 1:
-            Qt = Pt
-        else:
-            Qt = 0.0
+        c, Pt, Qt = _branch(P, row, k)
         muN = muN1
         y = _clip01((Q + Pt) / (c * muN))
         yt = _clip01((Qt + Pt) / (c * muN))

@@ -7,7 +7,9 @@ the step tangents, around the law along the axis of :mod:`grainmech.contact._ker
 
 The module-level constants ``_LAW``, ``_LINEAR``, ``_DEFER`` and ``_DIM`` are the
 compile-time specialisation of :func:`rows`: :func:`grainmech.contact.kernel.law_function`
-compiles copies of it whose globals (this module's, updated) fix them.
+compiles copies of it whose globals (this module's, updated) fix them. Only :func:`rows`
+reads them; it passes the dimension and the normal law to its phases (one contact's
+start, the frictionless, spring and hysteretic laws), which LLVM inlines into it.
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ import numpy as np
 
 from grainmech.errors import GrainmechError
 
-__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "DriverResult"]
+__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "PointStepping", "DriverResult"]
 
 
 class Status(IntEnum):
@@ -87,6 +87,35 @@ class SteppingPoint(Point, Protocol):
 
     def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> SteppingPoint:
         """Advance one step; raise :class:`StepFailure` when it cannot."""
+
+
+class PointStepping:
+    """Mixin of a :class:`SteppingPoint` that wraps a model's point (attribute ``point``) with its run's state.
+
+    The read-only part of the contract (``stress``, ``strain``, ``fractions``,
+    ``stored_energy``) is the wrapped point's; the subclass adds ``step`` (the affine and
+    packing models' steppers of :func:`grainmech.driver.loop.follow_path`).
+    """
+
+    point: Any
+
+    @property
+    def stress(self) -> np.ndarray:
+        """The wrapped point's stress (6,) [Pa]."""
+        return self.point.stress
+
+    @property
+    def strain(self) -> np.ndarray:
+        """The wrapped point's strain (6,) [-]."""
+        return self.point.strain
+
+    def fractions(self) -> tuple[float, float]:
+        """The wrapped point's sliding and open fractions."""
+        return self.point.fractions()
+
+    def stored_energy(self) -> float:
+        """The wrapped point's stored elastic energy per unit volume [Pa]."""
+        return self.point.stored_energy()
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from grainmech.contact import (
 from grainmech.contact.forms import frictional as is_frictional
 from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
-from grainmech.driver.base import Status, StepFailure
+from grainmech.driver.base import PointStepping, Status, StepFailure
 from grainmech.driver.loop import follow_path
 from grainmech.driver.packing._input import _check_network, _initial_state, _input_forces
 from grainmech.driver.packing._iterations import _grain_residuals
@@ -598,7 +598,7 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
 
 
 @dataclass(frozen=True)
-class _Stepping:
+class _Stepping(PointStepping):
     """A packing point with its run's solver context: the stepping point :func:`_run` drives through ``follow_path``.
 
     ``step`` is one step of the step solver (:func:`grainmech.driver.packing.step._subdivided`:
@@ -613,20 +613,6 @@ class _Stepping:
     counters: tuple = (0, 0, 0.0, 0.0, 0.0)
     krylov: int = 0
     spent: int = 0
-
-    @property
-    def stress(self) -> np.ndarray:
-        return self.point.stress
-
-    @property
-    def strain(self) -> np.ndarray:
-        return self.point.strain
-
-    def fractions(self) -> tuple[float, float]:
-        return self.point.fractions()
-
-    def stored_energy(self) -> float:
-        return self.point.stored_energy()
 
     def check_targets(self, k: int, sc: np.ndarray, t_strain: np.ndarray) -> None:
         """Stop before step ``k`` when a strain target leaves the small-strain range (``max_strain``)."""
