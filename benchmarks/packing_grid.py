@@ -15,7 +15,7 @@ the last cycle over Gmax; ill-conditioned near the zero crossings of the strain)
 
 Run: ``nice -n 5 python benchmarks/packing_grid.py [--packings dense,medium,loose]
 [--amplitudes 1e-6,1e-5,1e-4,3e-4] [--controls stress,volume] [--laws md,hm] [--perturb]
-[--threads] [--accept-unbalanced X]``. ``--threads`` repeats each completed run with PARDISO on every core
+[--threads] [--accept-unbalanced X] [--rest-step X]``. ``--threads`` repeats each completed run with PARDISO on every core
 (``PackingOptions.reproducible = False``) and gives the largest difference in G/Gmax.
 """
 
@@ -89,8 +89,12 @@ def main() -> None:
     ap.add_argument("--threads", action="store_true", help="also run each completed cell on every core")
     ap.add_argument("--accept-unbalanced", type=float, default=None,
                     help="PackingOptions.accept_unbalanced (default: the option's default)")
+    ap.add_argument("--rest-step", type=float, default=None,
+                    help="PackingOptions.rest_step (default: the option's default)")
     a = ap.parse_args()
     extra = {} if a.accept_unbalanced is None else {"accept_unbalanced": a.accept_unbalanced}
+    if a.rest_step is not None:
+        extra["rest_step"] = a.rest_step
     dg = dgemm_seconds()
     print(f"dgemm yardstick (n = 2048): {dg:.3f} s", flush=True)
     print("| packing | law | control | γ | result | max residual | G/Gmax | D % | s | dgemm "

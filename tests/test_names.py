@@ -97,3 +97,17 @@ def test_the_library_uses_no_deprecated_name():
         assert isinstance(out.packing, Microstructure)
         assert array_stats(regular_array("square"))["coordination"] == pytest.approx(4.0)
         assert array_stats(random_array("one-size"))["particles"] == 271
+
+
+def test_fabric_coordination_and_its_old_module_name():
+    """fabric/packing.py (packing density and coordination correlations, seed Sec. 4.1.1) is
+    fabric/coordination.py: "packing" names a packing of grains only (issue 30 item 4)."""
+    from grainmech.fabric import coordination
+
+    with pytest.warns(DeprecationWarning, match="grainmech.fabric.packing is deprecated: it is grainmech.fabric"):
+        import grainmech.fabric.packing as old_module
+
+        importlib.reload(old_module)
+    assert old_module.coordination_number is coordination.coordination_number
+    assert old_module.contacts_per_volume is coordination.contacts_per_volume
+    assert set(old_module.__all__) == set(coordination.__all__)

@@ -127,6 +127,10 @@ def test_regularization_leaves_the_equilibrium_alone(packing):
     for bad in (-0.1, 1.5, True, "0.1", float("nan")):
         with pytest.raises(ParameterError, match="settle"):
             PackingOptions(settle=bad)
+    for bad in (0.0, -0.01, True, "0.01", float("nan")):
+        with pytest.raises(ParameterError, match="rest_step"):
+            PackingOptions(rest_step=bad)
+    assert PackingOptions(rest_step=float("inf")).rest_step == float("inf")
 
 
 def test_anderson_and_newton_krylov_reach_the_same_equilibria(point):
@@ -569,3 +573,35 @@ def test_step_budget_stops_the_run_and_keeps_results():
     for bad in (50, 1.5e4, True):
         with pytest.raises(ParameterError, match="max_step_work"):
             PackingOptions(max_step_work=bad)
+
+
+def test_rest_acceptance_is_bounded_by_the_step_stress_change(point):
+    """PackingOptions.rest_step: a stalled (sub)step at rest by the DEM's measure (mean
+    unbalanced force ratio <= accept_unbalanced) is accepted only when the stress uncertainty
+    its out-of-balance forces leave, sum_p |M_p| here, is at most rest_step times the step's
+    stress change (docs/packing-driver.md, "Convergence and acceptance"). Out-of-balance
+    moments of alternating sign on every grain (mean ratio 5e-5, at rest) against a step
+    whose stress change makes that uncertainty 0.5 % (accepted) or 5 % (refused, but
+    accepted with rest_step = inf) of it."""
+    from grainmech.driver.packing.options import _Context
+    from grainmech.driver.packing.step import _StepSolve
+
+    kin, R = point.kinematics, point.radii
+    S, de, target = np.zeros(6, bool), np.zeros(6), np.zeros(6)
+    opts = PackingOptions(rtol_accept=1e-8)  # the stress-scale test out of the way
+    prec = point.preconditioner()
+    probe = _StepSolve(point, S, de, target, _Context(prec=prec, opts=opts), [0.0] * 5, 1.0, False)
+    g = np.zeros((point.n_grains, 6))
+    g[:, 3] = 5e-5 * probe.fref * R * np.where(np.arange(point.n_grains) % 2 == 0, 1.0, -1.0)
+    rq = g.reshape(-1)[kin.free]
+    amb = float(np.sum(np.abs(g[:, 3])))  # sum_p |M_p|, [N m]
+    for share, inf_too, expected in ((0.005, False, True), (0.05, False, False), (0.05, True, True)):
+        o = PackingOptions(rtol_accept=1e-8, rest_step=float("inf")) if inf_too else opts
+        dsig = amb / point.volume / share  # the step's stress change [Pa]
+        s = _StepSolve(point, S, de, target, _Context(prec=prec, opts=o), [0.0] * 5, dsig, False)
+        assert amb > s.amb_ok  # not accepted by the stress-uncertainty tests alone
+        assert s.accept(rq, np.zeros(0)) is expected, (share, inf_too)
+    # not at rest (mean ratio 2e-4 > accept_unbalanced = 1e-4): refused whatever rest_step
+    s = _StepSolve(point, S, de, target, _Context(prec=prec, opts=PackingOptions(rtol_accept=1e-8,
+                   rest_step=float("inf"))), [0.0] * 5, amb / point.volume / 0.005, False)
+    assert not s.accept(4.0 * rq, np.zeros(0))

@@ -27,7 +27,7 @@ from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 from grainmech.contact.params import Hertz
 from grainmech.conventions import SEED_ORDER_2D, SEED_ORDER_3D, reorder
 from grainmech.errors import GrainmechError
-from grainmech.fabric.packing import contact_ends_per_volume, contacts_per_volume
+from grainmech.fabric.coordination import contact_ends_per_volume, contacts_per_volume
 
 __all__ = [
     "packing_scale",

@@ -17,7 +17,11 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
+import signal
+import sys
 from collections.abc import Callable, Iterable, Iterator
+from multiprocessing import resource_tracker
 from typing import Any
 
 from grainmech.errors import GrainmechError
@@ -133,14 +137,11 @@ def _start_quiet_resource_tracker() -> None:
     (:func:`_kill_workers`) before they unregister theirs, so the tracker's
     ``resource_tracker: ... leaked semaphore objects`` warnings (and a second warning for
     each one already unlinked) came out on the terminal *after* "grainmech: interrupted",
-    the one line the user should see (CI run of 2026-11-25). The tracker inherits its
+    the one line the user should see. The tracker inherits its
     warnings filters from ``sys.warnoptions`` when it starts, so it is started here with
     a filter for its own ``resource_tracker:`` warnings; the clean-up itself still runs.
     Nothing changes if the tracker is already running.
     """
-    import sys
-    from multiprocessing import resource_tracker
-
     saved = list(sys.warnoptions)
     sys.warnoptions.append(_TRACKER_FILTER)
     try:
@@ -184,9 +185,6 @@ def _quiet_logs() -> None:
 
 def _kill_workers(cluster: Any) -> None:
     """SIGKILL the worker processes of a local cluster (nothing for in-process workers)."""
-    import os
-    import signal
-
     for w in list(getattr(cluster, "workers", {}).values()):
         pid = getattr(w, "pid", None)
         if isinstance(pid, int) and pid > 0:

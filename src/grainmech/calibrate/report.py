@@ -17,7 +17,10 @@
 
 from __future__ import annotations
 
+import copy
 import math
+import tomllib
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -144,10 +147,6 @@ def calibrated_config(result: Any) -> str | None:
     ``{a, b, n, p_ref}`` stays a relation (both commands evaluate it at their mean stress).
     Requires ``tomli-w``.
     """
-    import copy
-    import tomllib
-    from importlib import resources
-
     pr = result.problem
     command = CONFIG_COMMAND.get(pr.kind)
     if command is None:

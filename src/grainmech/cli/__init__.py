@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import signal
 import sys
 from collections.abc import Sequence
@@ -59,8 +60,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _quiet_broken_pipe() -> int:
     """The reader of stdout went away: stop quietly (no traceback, no flush error at exit)."""
-    import os
-
     try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())

@@ -9,6 +9,7 @@ reports, the inputs we chose where the seed is silent, how ours compares). Figur
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from grainmech.io.reports import default_outdir
@@ -41,7 +42,6 @@ def run(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    import sys
 
     def progress(msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)

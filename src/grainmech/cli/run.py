@@ -15,6 +15,7 @@ import argparse
 import sys
 import tomllib
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 from grainmech.errors import Terminated
@@ -98,7 +99,6 @@ def main(args: argparse.Namespace) -> int:
         print(f"grainmech: warning: {msg}", file=sys.stderr, flush=True)
 
     if args.config:
-        from pathlib import Path
 
         cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)
         source = args.config

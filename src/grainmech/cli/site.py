@@ -13,6 +13,7 @@ layer's model stopped, 2 for a bad profile (nothing written).
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from grainmech.cli._options import add_cluster_options
@@ -35,8 +36,6 @@ def register(sub: Any) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``grainmech site`` with the parsed ``args``; exit status 0, 1 (a layer stopped) or 2 (bad input)."""
-    import sys
-
     # imported on use: keeps `grainmech --help` start-up light
     from grainmech.site import load_profile, run_site
 

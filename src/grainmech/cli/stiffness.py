@@ -6,6 +6,7 @@ import argparse
 import json
 import sys
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,8 +48,6 @@ def run(args: argparse.Namespace) -> int:
         Exit status: 0 on success; input errors raise :class:`~grainmech.errors.GrainmechError`,
         which :func:`grainmech.cli.main` turns into one line and status 2.
     """
-    from pathlib import Path
-
     if args.config:
         cfg = resolve_file_keys(load_toml(args.config), Path(args.config).parent)
         source = args.config

@@ -57,7 +57,7 @@ from grainmech.network.measures import contact_stiffnesses, coordination
 from grainmech.network.relaxed import relaxed_stiffness
 from grainmech.packing.engine import Lammps, mpi_world_size
 from grainmech.packing.prepare import GrainMaterial
-from grainmech.packing.reference import _ramp, _Session, _voigt, load_network, relax
+from grainmech.packing.reference import RelaxationTimeout, _ramp, _Session, _voigt, load_network, relax
 
 __all__ = ["DemSettings", "DemPoint", "DemResult", "DemSeries", "dem_material", "run_dem", "dem_modulus_reduction",
            "DEM_MAX_AMPLITUDE"]
@@ -474,13 +474,14 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
             if tick is not None:
                 tick(s.steps, ub)
             return net, ub
-        except GrainmechError as exc:
+        except RelaxationTimeout as exc:
             used += budget
             if tick is not None:
                 tick(s.steps, float("nan"))
             if used >= st.max_relax_steps:
-                raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time steps "
-                                  f"(tol = {st.tol:g}): {exc}") from None
+                raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time steps: the "
+                                  f"unbalanced force ratio was {exc.reached:.3g} at the end, tol = {st.tol:g}"
+                                  ) from None
 
 
 @dataclass(frozen=True)

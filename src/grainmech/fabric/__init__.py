@@ -15,18 +15,12 @@ Main entry points
 
 from __future__ import annotations
 
+import numpy as np
+
 from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
-from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
-from grainmech.fabric.fourier import FourierDensity
-from grainmech.fabric.harmonics import (
-    SphericalDensity,
-    n_coefficients_3d,
-    sh_degrees_orders,
-    sh_index,
-)
-from grainmech.fabric.packing import (
+from grainmech.fabric.coordination import (
     CORRELATIONS,
     NOMINAL_VOID_RATIO_RANGE,
     CorrelationRangeWarning,
@@ -42,6 +36,14 @@ from grainmech.fabric.packing import (
     porosity,
     void_ratio_chang,
     void_ratio_from_porosity,
+)
+from grainmech.fabric.fit import DensityFit, NegativeDensityWarning, fabric_tensor, fit_density
+from grainmech.fabric.fourier import FourierDensity
+from grainmech.fabric.harmonics import (
+    SphericalDensity,
+    n_coefficients_3d,
+    sh_degrees_orders,
+    sh_index,
 )
 from grainmech.fabric.quadrature import (
     LEBEDEV_NEGATIVE_WEIGHT_ORDERS,
@@ -83,8 +85,6 @@ def isotropic(dim: int, order: int = 0) -> SphericalDensity | FourierDensity:
 def density_from_fabric_tensor(N: object, allow_negative: bool = False
                                ) -> SphericalDensity | FourierDensity:
     """Density of order ``rank(N)`` with fabric tensor ``N`` (2D or 3D from N's shape)."""
-    import numpy as np
-
     A = np.asarray(N, dtype=float)
     dim = A.shape[0] if A.ndim else 0
     cls = SphericalDensity if dim == 3 else FourierDensity if dim == 2 else None

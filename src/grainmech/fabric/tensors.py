@@ -41,6 +41,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from itertools import permutations
 from math import factorial, prod
 
 import numpy as np
@@ -161,7 +162,6 @@ def symmetrize(T: object) -> np.ndarray:
     k = A.ndim
     if k < 2:
         return A.copy()
-    from itertools import permutations
     perms = set(permutations(range(k)))
     total = np.zeros_like(A)
     for p in perms:

@@ -8,6 +8,7 @@ key that was not used — unknown keys are errors, never silently ignored.
 
 from __future__ import annotations
 
+import copy
 import difflib
 import math
 import tomllib
@@ -207,8 +208,6 @@ def resolve_file_keys(cfg: dict, base_dir: str | Path) -> dict:
     A copy of ``cfg`` with the relative file paths of :data:`FILE_KEYS` made relative
     to ``base_dir`` (the folder of the config file) instead of the working directory.
     """
-    import copy
-
     out = copy.deepcopy(cfg)
     for table, key in FILE_KEYS:
         sec = out.get(table)

@@ -24,7 +24,7 @@ Angles must carry their unit (``"24 deg"``); a bare angle is an error.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -537,8 +537,6 @@ def build_pack_config(cfg: dict) -> PackConfig:
     positive, required), ``friction`` (preparation friction, default 0), ``unbalanced_tol``
     (1e-5), ``stress_tol`` (0.005), ``max_steps``, ``threads`` (0 = all cores).
     """
-    from dataclasses import replace
-
     # imported on use: keeps grainmech.packing (about 0.1 s) out of `grainmech --help`
     from grainmech.packing import MATERIALS, D50Cu, PackSettings, SieveCurve, UniformRadius
 

@@ -21,9 +21,11 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import os
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from importlib.metadata import PackageNotFoundError, files
 from typing import Any
 
 import numpy as np
@@ -95,13 +97,10 @@ def pardiso_solver(mtype: int = 2) -> Any:
     is set there first (a value the user set is kept; without such a file pypardiso
     searches as before).
     """
-    import os
-
     import pypardiso
 
     if "PYPARDISO_MKL_RT" not in os.environ:
         try:
-            from importlib.metadata import PackageNotFoundError, files
 
             found = [f for f in (files("mkl") or []) if "mkl_rt" in f.name]
         except (ImportError, PackageNotFoundError):

@@ -124,6 +124,14 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     return s
 
 
+class RelaxationTimeout(GrainmechError):
+    """:func:`relax` ran out of time steps; ``reached`` is the last unbalanced force ratio."""
+
+    def __init__(self, message: str, reached: float) -> None:
+        super().__init__(message)
+        self.reached = reached
+
+
 def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
           settle: tuple[np.ndarray, float] | None = None) -> tuple[ContactNetwork, float, int]:
     """Hold the cell and run LAMMPS until the packing is in equilibrium.
@@ -152,8 +160,8 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
         if ok:
             return net, ub, used
         if used >= max_steps:
-            raise GrainmechError(f"relaxation did not reach an unbalanced force ratio of {tol:g} in "
-                                 f"{max_steps} time steps (reached {ub:.3g})")
+            raise RelaxationTimeout(f"relaxation did not reach an unbalanced force ratio of {tol:g} in "
+                                    f"{max_steps} time steps (reached {ub:.3g})", ub)
 
 
 def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:

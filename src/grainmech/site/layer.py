@@ -24,6 +24,7 @@ target by a little; the record says by how much.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import hashlib
 import json
 import time
@@ -95,8 +96,6 @@ def model_gmax(spec: Any) -> float:
     :func:`grainmech.jobs.packing_gmax` (elastic tangent of the packing brought to the
     layer's stress).
     """
-    import dataclasses
-
     method = spec.methods[0]
     if method == "affine":
         point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)

@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+from importlib.metadata import version
 from typing import Any
 
 import numpy as np
@@ -137,8 +138,6 @@ def site_response(records: list[dict], bedrock: Any, water_table: float, motion:
     PGA), ``vs_m_s`` (per layer), ``runs`` (``"grainmech"`` when every layer has curves,
     and ``"darendeli"``: :func:`run_column`), ``warnings``.
     """
-    from importlib.metadata import version
-
     res: dict[str, Any] = {"pystrata_version": version("pystrata"),
                            "motion": {"file": motion.source, "description": motion.description,
                                       "time_step_s": motion.time_step, "points": int(len(motion.accel_g)),

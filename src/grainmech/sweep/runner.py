@@ -19,6 +19,7 @@ built from the point files and is identical to an uninterrupted run.
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import sys
@@ -135,7 +136,6 @@ def _cell(v: Any) -> str:
 
 def write_table(outdir: Path, header: list[str], rows: list[list[Any]]) -> list[str]:
     """``sweep.csv`` (full float precision) and, if pyarrow is importable, ``sweep.parquet``."""
-    import csv
 
     def w(fh: Any) -> None:
         wr = csv.writer(fh, lineterminator="\n")

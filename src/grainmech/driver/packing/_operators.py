@@ -25,8 +25,10 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from grainmech.errors import GrainmechError
+from grainmech.network._solvers import refine_pcg, shared_pardiso
 from grainmech.network.relaxed import _cross_matrix as _cross_rows  # [r]_x, one home with the relaxed tensor
 
 __all__: list[str] = []
@@ -177,7 +179,7 @@ def openblas_one_thread() -> Any:
     squares on ~11k x 10, the grains' 6 x 6 blocks) and run beside the law's compiled
     threads; OpenBLAS' own threads, spinning between them, cost more than they gain: the
     built-in default run took 56.3 s with them, 52.1 s with ``OPENBLAS_NUM_THREADS=1``
-    set by hand and 48.0 s with this limit (2 cores, 2026-11-26); on a loaded machine
+    set by hand and 48.0 s with this limit (2 cores); on a loaded machine
     Gram-Schmidt took 24 ms per product instead of under 1 ms (``docs/packing-driver.md``).
     MKL (PARDISO) keeps its own setting.
     """
@@ -224,15 +226,11 @@ class _Factor:
                                                    cholespy.MatrixType.COO)
                 self.name = "cholespy"
                 return
-        import scipy.sparse.linalg as spla
-
         self.name = "superlu"
         self._lu = spla.splu(A.tocsc())
 
     def _init_pardiso(self, A: sp.spmatrix, reproducible: bool) -> None:
         import pypardiso  # noqa: F401 (not installed: ImportError here, before the shared handle is asked for)
-
-        from grainmech.network._solvers import shared_pardiso
 
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
@@ -377,7 +375,6 @@ class Preconditioner:
         enter. Cached.
         """
         if self._exact is None:
-            from grainmech.network._solvers import refine_pcg
 
             Y, _it, res = refine_pcg(self.H0, self.B0, self.Y, self.factor.solve, tol, maxiter)
             self._exact = (Y, res)

@@ -48,9 +48,9 @@ class PackingOptions:
         response to its strain increment, or the change of its stress targets), and
         every stress-controlled component is within the same bound.
         The imbalance left is not lost: the next step starts from it. ``rtol_step = 0``:
-        the stress scale alone (the rule before 2026-11-26; on a 500-grain DEM packing
-        at γ = 3e-4 it stopped the run at a contact at touch whose uncertainty was
-        ~3 Pa against a 40 kPa shear amplitude, see ``docs/packing-driver.md``).
+        the stress scale alone (on a 500-grain DEM packing at γ = 3e-4 that stopped the
+        run at a contact at touch whose uncertainty was ~3 Pa against a 40 kPa shear
+        amplitude, see ``docs/packing-driver.md``).
     accept_unbalanced : float
         A (sub)step whose iterations stall is also accepted when the packing is at rest by
         a DEM's measure: the mean unbalanced force ratio (:func:`unbalanced_force_ratio`,
@@ -66,6 +66,12 @@ class PackingOptions:
         with a few contacts sliding on each of many grains (a fixed geometry cannot
         rearrange them); with ``0`` the run was still halving a step after 34 min, with
         ``1e-4`` it completed (``docs/packing-driver.md``).
+    rest_step : float
+        Acceptance at rest (``accept_unbalanced``) also asks that the stress uncertainty
+        the out-of-balance forces leave is at most this fraction of the step's stress
+        change (the affine elastic response to its strain increment, or the change of its
+        stress targets): at rest by the DEM's measure is not at rest against a step of a
+        small-amplitude loop. ``inf``: no such bound.
     max_iter : int
         Newton iterations per (sub)step.
     max_depth : int
@@ -132,7 +138,7 @@ class PackingOptions:
         solve with the factor per iteration, no tangent of the laws, so the branch
         switches of the laws do not mislead them); where they stall, Newton-Krylov (with
         continuation, step halving and committed relaxation) goes on from their best
-        point. ``0``: Newton-Krylov from the start, the solver before 2026-11-26. On the
+        point. ``0``: Newton-Krylov from the start. On the
         shipped 'dense' packing at γ = 1e-4 the first 20 steps took 10.3 s instead of
         47.0 s, with the same loop (``docs/packing-driver.md``).
     settle : float
@@ -142,16 +148,13 @@ class PackingOptions:
         come, estimated from the contraction of the iterates' stress changes, even
         before every grain is within ``rtol`` (the stress-controlled components still
         within ``rtol``): most iterations polished forces that no longer moved the
-        stress. ``0``: iterate to ``rtol`` (the solver before 2026-11-26, session 12).
+        stress. ``0``: iterate to ``rtol``.
         On the built-in default run ('dense', 2 x 40 steps at 1e-6, 1e-5, 1e-4) the
         default 0.1 took 19.8 s instead of 45.4 s, with G/Gmax within 2.6e-5 and damping
         within 0.0016 % (absolute) of iterating to ``rtol`` (``docs/packing-driver.md``).
-        On the looser shipped 'medium' packing at 1e-4, beyond the fixed-geometry model
-        at that amplitude, 0.1 stopped at step 59 ("no equilibrium") where 0 completed
-        the 80 steps (session 12); with code that only rounds differently (session 13)
-        0.1 completed them too (G 133.40 against 133.5 MPa, damping 3.156 against 3.158
-        %): round-off picks the path there. If a run on a loose packing stops, try
-        ``settle=0``.
+        On looser packings at 1e-4 (shipped 'medium'), where the fixed geometry is near
+        its limit, whether a run completes can depend on round-off with either setting;
+        if a run on a loose packing stops, try ``settle=0``.
     max_step_work : int
         Budget of one step of the path (all its substeps together), in residual
         evaluations plus GMRES iterations (about one contact-law update or one solve with
@@ -167,6 +170,7 @@ class PackingOptions:
     rtol_accept: float = 1e-5
     rtol_step: float = 1e-3
     accept_unbalanced: float = 1e-4
+    rest_step: float = 0.01
     max_iter: int = 25
     max_depth: int = 6
     max_backtracks: int = 8
@@ -193,6 +197,8 @@ class PackingOptions:
             raise ParameterError("rtol_accept", self.rtol_accept, "must lie in [rtol, 1e-2)")
         if not (isinstance(self.accept_unbalanced, (int, float)) and 0 <= self.accept_unbalanced <= 1e-2):
             raise ParameterError("accept_unbalanced", self.accept_unbalanced, "must lie in [0, 0.01]")
+        if isinstance(self.rest_step, bool) or not (isinstance(self.rest_step, (int, float)) and self.rest_step > 0):
+            raise ParameterError("rest_step", self.rest_step, "must be a positive number (inf: no bound)")
         if not (isinstance(self.rtol_step, (int, float)) and 0 <= self.rtol_step < 0.1):
             raise ParameterError("rtol_step", self.rtol_step, "must lie in [0, 0.1)")
         for name in ("max_iter", "krylov_max", "refactor_after", "relax_iter"):

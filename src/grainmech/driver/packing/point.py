@@ -39,6 +39,7 @@ from grainmech.driver.packing._operators import (
     openblas_one_thread,
     voigt_of,
 )
+from grainmech.driver.packing.consolidate import ENGINES, dem_consolidated, isotropic_pressure
 from grainmech.driver.packing.options import (
     PackingOptions,
     _check_params,
@@ -51,6 +52,7 @@ from grainmech.driver.packing.options import (
 from grainmech.driver.packing.step import _held_load, _subdivided
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
+from grainmech.packing.engine import lammps_available
 
 #: ``PackingOptions.accept_unbalanced`` of :meth:`PackingPoint.at_stress` (a DEM packing's "at rest")
 AT_STRESS_UNBALANCED = 1e-4
@@ -255,6 +257,7 @@ class PackingPoint:
     @classmethod
     def at_stress(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], *,
                   n_steps: int | None = None, options: PackingOptions | None = None,
+                  engine: str = "auto", dem_settings: Any | None = None,
                   **from_network: Any) -> PackingPoint:
         """Packing point brought to a confining stress by a stress-controlled straight path.
 
@@ -272,11 +275,51 @@ class PackingPoint:
         is (``imbalance="hold"``), so that paths from the returned point start in
         equilibrium.
 
+        ``engine``: ``"packing"`` (the path above), ``"dem"`` (the DEM model brings the
+        packing to the isotropic pressure with LAMMPS, and the point starts from the
+        resulting network: :func:`grainmech.driver.packing.consolidate.dem_consolidated`,
+        for pressures where the grains rearrange) or ``"auto"`` (the default: the path
+        above, and where it stops, the DEM model when LAMMPS is installed and ``sigma`` is
+        isotropic; the notes say which ran and why). ``dem_settings``: the DEM model's
+        :class:`~grainmech.driver.dem.DemSettings`.
+
         Raises
         ------
         GrainmechError
-            If the path fails or leaves the small-strain range (the message says where).
+            If the path fails or leaves the small-strain range (the message says where),
+            or the DEM model cannot run or reach the pressure.
         """
+        if engine not in ENGINES:
+            raise ParameterError("engine", engine, f"must be one of {', '.join(ENGINES)}")
+        if engine == "dem":
+            return cls._at_stress_dem(net, params, sigma, options, dem_settings, (), **from_network)
+        try:
+            return cls._at_stress_path(net, params, sigma, n_steps, options, **from_network)
+        except GrainmechError as exc:
+            if engine == "packing" or isinstance(exc, ParameterError) or isotropic_pressure(sigma) is None \
+                    or not lammps_available():
+                raise
+            why = (f"the packing model could not bring the packing to p = {isotropic_pressure(sigma):.5g} Pa "
+                   f"({exc}); the DEM model did",)
+            return cls._at_stress_dem(net, params, sigma, options, dem_settings, why, **from_network)
+
+    @classmethod
+    def _at_stress_dem(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float],
+                       options: PackingOptions | None, dem_settings: Any, why: tuple,
+                       **from_network: Any) -> PackingPoint:
+        """:meth:`at_stress` with ``engine="dem"``: the point on the DEM model's network at the pressure."""
+        p = isotropic_pressure(sigma)
+        if p is None:
+            raise ParameterError("sigma", np.asarray(sigma).tolist(),
+                                 "the DEM model brings a packing to an isotropic pressure only (a number or p I)")
+        new, notes = dem_consolidated(net, params, p, dem_settings)
+        pt = cls.from_network(new, params, options=options or PackingOptions(), **from_network)
+        return replace(pt, notes=pt.notes + why + tuple(notes))
+
+    @classmethod
+    def _at_stress_path(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float],
+                        n_steps: int | None, options: PackingOptions | None, **from_network: Any) -> PackingPoint:
+        """:meth:`at_stress` with ``engine="packing"``: the packing model's own stress path."""
         sig = np.asarray(sigma, dtype=float)
         if sig.ndim == 0:
             if not (math.isfinite(float(sig)) and float(sig) > 0):

