@@ -1,6 +1,8 @@
 """Every module under src/ stays at most MAX_LINES lines (ARCHITECTURE.md: one module, one
-responsibility). A module that grows past it is split along the phases or
-responsibilities its docstrings name, keeping the old import path working.
+responsibility), every function at most MAX_FUNCTION_LINES (issue 30: functions of ~120
+lines at most; the limit leaves a margin). A module or function that grows past it is
+split along the phases or responsibilities its docstrings name, keeping the old import
+path working.
 
 The allow-list names the modules exempt for now, each with the reason; it only shrinks
 (remove an entry with the split that brings its module under the limit).
@@ -8,10 +10,14 @@ The allow-list names the modules exempt for now, each with the reason; it only s
 
 from __future__ import annotations
 
+import ast
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 MAX_LINES = 800
+#: longest function (``def`` to its last line, docstring included; nested functions
+#: count on their own and within their enclosing function)
+MAX_FUNCTION_LINES = 150
 
 #: modules allowed over MAX_LINES for now (paths relative to the repository root)
 ALLOWED = {
@@ -37,3 +43,38 @@ def test_the_allow_list_names_existing_modules():
     counts = _line_counts()
     missing = sorted(path for path in ALLOWED if path not in counts)
     assert not missing, f"ALLOWED in tests/test_module_size.py names modules that do not exist: {missing}"
+
+
+def _function_lengths(text: str) -> list[tuple[str, int, int]]:
+    """``(qualified name, first line, lines)`` of every function and method in ``text``."""
+    found: list[tuple[str, int, int]] = []
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                name = prefix + child.name
+                end = child.end_lineno if child.end_lineno is not None else child.lineno
+                found.append((name, child.lineno, end - child.lineno + 1))
+                visit(child, name + ".")
+            elif isinstance(child, ast.ClassDef):
+                visit(child, prefix + child.name + ".")
+            else:
+                visit(child, prefix)
+
+    visit(ast.parse(text), "")
+    return found
+
+
+def test_no_function_passes_the_line_limit():
+    root = SRC.parent
+    over = [f"  {path.relative_to(root).as_posix()}:{line} {name}: {n} lines"
+            for path in sorted(SRC.rglob("*.py"))
+            for name, line, n in _function_lengths(path.read_text(encoding="utf-8")) if n > MAX_FUNCTION_LINES]
+    assert not over, (f"functions over {MAX_FUNCTION_LINES} lines (split them into the phases their docstrings "
+                      "name):\n" + "\n".join(over))
+
+
+def test_the_function_measure_counts_every_line():
+    text = "def f():\n" + "    x = 1\n" * 200 + "\n\nclass C:\n    def g(self):\n        def h():\n            pass\n"
+    got = {name: (line, n) for name, line, n in _function_lengths(text)}
+    assert got == {"f": (1, 201), "C.g": (205, 3), "C.g.h": (206, 2)}

@@ -31,6 +31,10 @@ from grainmech.contact.hysteresis import _MERGE_TOL, _REV_TOL, _TIE_TOL
 
 __all__ = ["fall_dissipation"]
 
+# the branch integration of :func:`_md_axis`, a phase of it: inlined into it by LLVM, so
+# that the law's code stays one function (as in the copies that inline _md_axis itself)
+_JIT_BRANCH: dict = {**_JIT_NO_NRT, "forceinline": True}
+
 
 # ---------------------------------------------------------------------------------------
 # Closed forms of the normal law and of the no-slip tangential stiffness
@@ -163,6 +167,25 @@ def _top(P, row, k, back):
     if col >= 0:
         return P[row, col]
     return 0.0
+
+
+@njit(**_JIT_NO_NRT)
+def _branch(P, row, k):
+    """The current branch of a memory of depth ``k``: ``(c, P_top, Q_target)``.
+
+    ``c = 2`` on a Masing branch, 1 on the virgin one; ``P_top`` the invariant of the last
+    reversal (0 without); ``Q_target`` the ``Q`` at which the branch closes its loop (the
+    reversal before the last, or ``P_top`` on the first loop; 0 on the virgin branch).
+    """
+    c = 2.0 if k > 0 else 1.0
+    Pt = _top(P, row, k, 1)
+    if k >= 2:
+        Qt = _top(P, row, k, 2)
+    elif k == 1:
+        Qt = Pt
+    else:
+        Qt = 0.0
+    return c, Pt, Qt
 
 
 @njit(**_JIT_NO_NRT)
@@ -310,14 +333,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
         it += 1
         if it > 2 * max(maxrev, 1) + 6:
             return Q, s, k, diss, False
-        c = 2.0 if k > 0 else 1.0
-        Pt = _top(P, row, k, 1)
-        if k >= 2:
-            Qt = _top(P, row, k, 2)
-        elif k == 1:
-            Qt = Pt
-        else:
-            Qt = 0.0
+        c, Pt, Qt = _branch(P, row, k)
         na = Na
         nb = Nb
         muNa = mu * na
@@ -398,6 +414,61 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
     return Q, s, k, diss, True
 
 
+@njit(**_JIT_BRANCH)
+def _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc):
+    """Displacement ``u >= 0`` along the branch at constant ``N1``, integrated exactly in ``z`` (:func:`_md_axis`).
+
+    Seed Eq. 3.11 at constant ``N``: ``z = y**(1-p)`` is linear in the displacement;
+    events within the step: Masing closure of the current loop (pop two reversals, one on
+    the first loop, seed Eq. 3.14-3.15) and gross sliding on the virgin branch (the rest
+    of ``u`` dissipated at ``mu N1``). ``diss`` is the dissipation so far, to which the
+    branch's is added. Returns ``(Q, k, diss, ok)``; ``ok`` False when the events do not
+    terminate.
+    """
+    p, m_exp, maxrev, hcoef, sph = kc.p, kc.m_exp, kc.maxrev, kc.hcoef, kc.sph
+    q = 1.0 - p
+    it = 0
+    while u > 0.0 and N1 > 0.0:
+        it += 1
+        if it > 2 * maxrev + 4:
+            return Q, k, diss, False
+        c, Pt, Qt = _branch(P, row, k)
+        muN = muN1
+        y = _clip01((Q + Pt) / (c * muN))
+        yt = _clip01((Qt + Pt) / (c * muN))
+        z = _pow_q(y, q, sph)
+        zt = _pow_q(yt, q, sph)
+        lam = q * kt1 / (c * muN)
+        zend = z - lam * u
+        hit = not (zend > zt)
+        Qend = 0.0
+        if not hit:
+            Qend = c * muN * _pow_m(zend, m_exp, sph) - Pt
+            # Masing's rule at a tie (hysteresis._TIE_TOL): a branch that ends within
+            # rounding of the reversal point it heads for has closed its loop
+            hit = k > 0 and Qend - Qt <= _TIE_TOL * 2.0 * muN
+        zstop = zt if hit else zend
+        pref = c * muN * muN / (q * kt1)
+        if hit:
+            used = (z - zt) / lam if math.isfinite(lam) else 0.0
+        else:
+            used = u
+        diss += pref * max(_H(zstop, m_exp, hcoef, sph) - _H(z, m_exp, hcoef, sph), 0.0)
+        rem = max(u - used, 0.0)
+        Qnew = Qt if hit else Qend  # Qend: the branch at zstop = zend
+        if hit and k == 0:
+            # gross sliding on the virgin branch
+            diss += muN * rem
+            rem = 0.0
+            Qnew = 0.0
+        if hit:
+            # Masing's memory rule: the loop closes, pop two reversals (one on the first loop)
+            k = k - 2 if k >= 2 else 0
+        Q = Qnew
+        u = rem if hit else 0.0
+    return Q, k, diss, True
+
+
 @njit(**_JIT_NO_NRT)
 def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falling, kc, defer, fall):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
@@ -411,7 +482,7 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
     reversal row) is updated in place; ``dP = d P_(kpush-1) / d N1`` for a reversal pushed
     at ``N1`` (``kpush = -1``: none), for the step tangent.
     """
-    mu, p, m_exp, r, maxrev, hcoef, sph = kc.mu, kc.p, kc.m_exp, kc.r, kc.maxrev, kc.hcoef, kc.sph
+    mu, p, r, maxrev, sph = kc.mu, kc.p, kc.r, kc.maxrev, kc.sph
     diss = 0.0
     dP = 0.0
     kpush = -1
@@ -470,53 +541,9 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
         u = abs(d)
 
     # displacement u >= 0 along s at constant N1: exact branch integration with events
-    q = 1.0 - p
-    it = 0
-    while u > 0.0 and N1 > 0.0:
-        it += 1
-        if it > 2 * maxrev + 4:
-            return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
-        c = 2.0 if k > 0 else 1.0
-        Pt = _top(P, row, k, 1)
-        if k >= 2:
-            Qt = _top(P, row, k, 2)
-        elif k == 1:
-            Qt = Pt
-        else:
-            Qt = 0.0
-        muN = muN1
-        y = _clip01((Q + Pt) / (c * muN))
-        yt = _clip01((Qt + Pt) / (c * muN))
-        z = _pow_q(y, q, sph)
-        zt = _pow_q(yt, q, sph)
-        lam = q * kt1 / (c * muN)
-        zend = z - lam * u
-        hit = not (zend > zt)
-        Qend = 0.0
-        if not hit:
-            Qend = c * muN * _pow_m(zend, m_exp, sph) - Pt
-            # Masing's rule at a tie (hysteresis._TIE_TOL): a branch that ends within
-            # rounding of the reversal point it heads for has closed its loop
-            hit = k > 0 and Qend - Qt <= _TIE_TOL * 2.0 * muN
-        zstop = zt if hit else zend
-        pref = c * muN * muN / (q * kt1)
-        if hit:
-            used = (z - zt) / lam if math.isfinite(lam) else 0.0
-        else:
-            used = u
-        diss += pref * max(_H(zstop, m_exp, hcoef, sph) - _H(z, m_exp, hcoef, sph), 0.0)
-        rem = max(u - used, 0.0)
-        Qnew = Qt if hit else Qend  # Qend: the branch at zstop = zend
-        if hit and k == 0:
-            # gross sliding on the virgin branch
-            diss += muN * rem
-            rem = 0.0
-            Qnew = 0.0
-        if hit:
-            # Masing's memory rule: the loop closes, pop two reversals (one on the first loop)
-            k = k - 2 if k >= 2 else 0
-        Q = Qnew
-        u = rem if hit else 0.0
+    Q, k, diss, ok = _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc)
+    if not ok:
+        return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
 
     tau_new = s * (muN1 - Q)
     if (not rising) and (not falling) and d == 0.0:

@@ -57,9 +57,12 @@ law copies and the kernel. ``rows`` advances a chunk of contacts; the kernel run
 functions allocate nothing and are compiled without numba's reference counting (no atomic
 increments of the arrays passed between them), and none is inlined at numba-IR level:
 that made the first run compile the law for ~16 s instead of ~5 s, and LLVM inlines the
-small helpers anyway. The mixed-control driver calls the law through
-:func:`law_function`: a copy of ``rows`` specialised to one law, compiled once and called
-through its address rather than linked (and re-optimised) into every caller. So does
+small helpers anyway. The phases of ``rows`` (one contact's step) and the branch
+integration of ``_md_axis`` are separate functions marked for LLVM inlining
+(``forceinline``), so that the code compiled is the one function they were written as.
+The mixed-control driver calls the law through :func:`law_function`: a copy of ``rows``
+specialised to one law, compiled once and called through its address rather than linked
+(and re-optimised) into every caller. So does
 :func:`update_kernel` for 3D Mindlin–Deresiewicz contacts (the copy without ``defer``,
 specialised to 3D with the axis law inlined: 8–19 % less time per contact than the
 generic ``rows``, identical results); other laws and dimensions run the generic ``rows``.

@@ -11,11 +11,11 @@ stress-controlled ones reach ``target``. A step that cannot be solved raises
 ``success`` False and every state before it kept.
 
 The affine model (:class:`grainmech.driver.MaterialPoint`) and the packing model
-(:class:`grainmech.driver.packing.PackingPoint`) are immutable values with compiled
-whole-path loops of their own (:func:`grainmech.driver.run`,
-:func:`grainmech.driver.packing.run_packing`); the DEM model
-(:class:`grainmech.driver.dem.DemPoint`) is a live LAMMPS simulation that moves
-forward only, and uses :func:`grainmech.driver.loop.follow_path`. All three return a
+(:class:`grainmech.driver.packing.PackingPoint`) are immutable values; the affine model
+has compiled whole-path loops (its fast path in :func:`grainmech.driver.run`), and its
+step-by-step run, the packing model's (:func:`grainmech.driver.packing.run_packing`)
+and the DEM model's (:class:`grainmech.driver.dem.DemPoint`, a live LAMMPS simulation
+that moves forward only) go through :func:`grainmech.driver.loop.follow_path`. All three return a
 :class:`DriverResult` (the packing and DEM models a subclass with their own per-step
 columns), and :func:`grainmech.driver.loop.cyclic_series` analyses any of them.
 """
@@ -30,7 +30,7 @@ import numpy as np
 
 from grainmech.errors import GrainmechError
 
-__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "DriverResult"]
+__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "PointStepping", "DriverResult"]
 
 
 class Status(IntEnum):
@@ -87,6 +87,35 @@ class SteppingPoint(Point, Protocol):
 
     def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> SteppingPoint:
         """Advance one step; raise :class:`StepFailure` when it cannot."""
+
+
+class PointStepping:
+    """Mixin of a :class:`SteppingPoint` that wraps a model's point (attribute ``point``) with its run's state.
+
+    The read-only part of the contract (``stress``, ``strain``, ``fractions``,
+    ``stored_energy``) is the wrapped point's; the subclass adds ``step`` (the affine and
+    packing models' steppers of :func:`grainmech.driver.loop.follow_path`).
+    """
+
+    point: Any
+
+    @property
+    def stress(self) -> np.ndarray:
+        """The wrapped point's stress (6,) [Pa]."""
+        return self.point.stress
+
+    @property
+    def strain(self) -> np.ndarray:
+        """The wrapped point's strain (6,) [-]."""
+        return self.point.strain
+
+    def fractions(self) -> tuple[float, float]:
+        """The wrapped point's sliding and open fractions."""
+        return self.point.fractions()
+
+    def stored_energy(self) -> float:
+        """The wrapped point's stored elastic energy per unit volume [Pa]."""
+        return self.point.stored_energy()
 
 
 @dataclass(frozen=True)

@@ -6,9 +6,9 @@
   running target, not to the value reached); a component switching control restarts from
   the current value. A :class:`~grainmech.driver.base.StepFailure` ends the path with
   ``success`` False and every state before it kept. The affine model's step-by-step run
-  (:func:`grainmech.driver.run`) and the DEM model use it; the affine model's compiled
-  whole-path loops (its fast path) and the packing model's loop
-  (:func:`grainmech.driver.packing.run_packing`) keep the same semantics.
+  (:func:`grainmech.driver.run`), the packing model
+  (:func:`grainmech.driver.packing.run_packing`) and the DEM model use it; the affine
+  model's compiled whole-path loops (its fast path) keep the same semantics.
 * :func:`cyclic_series` runs strain-controlled cyclic simple shear (``gamma_xz``) at each
   amplitude with any model's runner and analyses the last cycle
   (:func:`grainmech.analysis.loop_properties`): the modulus-reduction and damping curve.
@@ -38,6 +38,7 @@ Recorder = Callable[[Any, int], None]
 def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
                 on_step: Callable[[int, int], None] | None = None,
                 word_failure: Callable[[int, StepFailure], str] | None = None,
+                check_targets: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
                 ) -> tuple[SteppingPoint, bool, Status, str]:
     """Drive ``point`` along ``path``; ``record(point, k)`` after the start (k = 0) and each step.
 
@@ -54,6 +55,10 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         The message of a path that stopped at step ``k`` (1-based) with the
         :class:`StepFailure` ``failure``; default ``"step k: <cause>; results kept up to
         step k-1"``.
+    check_targets : callable ``(k, stress_control, strain_targets)``, optional
+        Called before step ``k`` (1-based) with its control mask and running strain
+        targets; a model's range check: a :class:`StepFailure` it raises ends the path
+        there, as a failed step does (the packing model's small-strain bound).
 
     Returns
     -------
@@ -71,6 +76,8 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
         try:
+            if check_targets is not None:
+                check_targets(k + 1, sc, new_t_strain)
             point = point.step(d_strain, sc, np.where(sc, new_t_stress, 0.0))
         except StepFailure as exc:
             message = (word_failure(k + 1, exc) if word_failure is not None

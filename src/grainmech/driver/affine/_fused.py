@@ -49,10 +49,182 @@ from grainmech.contact.law import ContactResponse, ContactState
 from grainmech.driver.affine._fold import fold as fold_rows
 from grainmech.driver.affine._fold import path_mirrors, unfold
 from grainmech.driver.affine._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
+from grainmech.driver.affine._mixed_rows import _INNER
 
 __all__ = ["strain_path"]
 
 _CH = 128  # contacts per chunk (work item of the prange)
+# the phases of the pass (one chunk's path, a step's sums, the accepted step): inlined by
+# LLVM into the pass (``forceinline``), so that its code is the one loop nest it was
+# written as (called instead, the constant-volume benchmark took 7-10 % longer)
+_PHASE = {**_INNER, "forceinline": True}
+
+
+@njit(**_PHASE)
+def _step_sums(ch, s, lo, c, normals, branch, weights, jrows, allc, any_rows, res, a, jac, r2, linear, ks_lin, R,
+               Gs, stress_c, mom_c, scal_c, jac_c):
+    """Chunk ``ch``'s sums of step ``s`` from the law's response ``res`` of its ``c`` contacts (from row ``lo``).
+
+    The Love-Weber stress (seed Eq. 2.6, symmetric part), the moments of the tangent
+    (seed Eq. 2.26 with the laws' ``kn``, ``ks``; :func:`grainmech.assembly.add_moments3`),
+    the weighted sliding and open contacts, the dissipation, the stored energy
+    (:meth:`~grainmech.contact.interface.ContactLaw.stored_energy`) and, for the rows
+    ``jrows``, the consistent step tangent of the law (Newton); into
+    ``stress_c[ch, s]``, ``mom_c[ch, s]``, ``scal_c[ch, s]``, ``jac_c[ch, s]``. ``a``
+    (27,) and ``jac`` (36,) are work space, ``allc`` (6,) all True.
+    """
+    a_out, N_out, T_out, sl_out, diss_out, ks_out, kn_out, op_out, td_out, ta_out = (
+        res.approach, res.normal_force, res.tangential_force, res.sliding, res.dissipation, res.ks, res.kn,
+        res.open, res.t_delta, res.t_alpha)
+    for q in range(27):
+        a[q] = 0.0
+    for q in range(36):
+        jac[q] = 0.0
+    sxx = 0.0
+    syy = 0.0
+    szz = 0.0
+    syz = 0.0
+    sxz = 0.0
+    sxy = 0.0
+    wsl = 0.0
+    wop = 0.0
+    wdi = 0.0
+    wst = 0.0
+    for j in range(c):
+        i = lo + j
+        w = weights[i]
+        nx = normals[i, 0]
+        ny = normals[i, 1]
+        nz = normals[i, 2]
+        lx = branch[i, 0]
+        ly = branch[i, 1]
+        lz = branch[i, 2]
+        Nj = N_out[j]
+        t0, t1, t2, t3, t4, t5 = love_weber_terms(Nj, T_out[j, 0], T_out[j, 1], T_out[j, 2], w,
+                                                  nx, ny, nz, lx, ly, lz)
+        sxx += t0
+        syy += t1
+        szz += t2
+        syz += t3
+        sxz += t4
+        sxy += t5
+        knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
+        ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
+        cs = w * ksj
+        add_moments3(a, nx, ny, nz, lx, ly, lz, w * knj - cs, cs, r2)
+        if sl_out[j]:
+            wsl += w
+        if op_out[j]:
+            wop += w
+        wdi += w * diss_out[j]
+        # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
+        wst += w * stored_energy_term(Nj, a_out[j], T_out[j, 0], T_out[j, 1], T_out[j, 2], linear,
+                                      ks_lin, R, Gs)
+        if any_rows:
+            # consistent (step) tangent of the law for Newton: jacobian rows
+            add_step_jacobian(jac, 0, jrows, allc, w, kn_out[j], ta_out, td_out, j,
+                              nx, ny, nz, lx, ly, lz)
+    stress_c[ch, s, 0] = sxx
+    stress_c[ch, s, 1] = syy
+    stress_c[ch, s, 2] = szz
+    stress_c[ch, s, 3] = syz
+    stress_c[ch, s, 4] = sxz
+    stress_c[ch, s, 5] = sxy
+    for q in range(27):
+        mom_c[ch, s, q] = a[q]
+    scal_c[ch, s, 0] = wsl
+    scal_c[ch, s, 1] = wop
+    scal_c[ch, s, 2] = wdi
+    scal_c[ch, s, 3] = wst
+    if any_rows:
+        for q in range(6):
+            for q2 in range(6):
+                jac_c[ch, s, q, q2] = jac[6 * q + q2]
+
+
+@njit(**_PHASE)
+def _accept_step(c, st_in, res):
+    """Accept the step of ``c`` contacts: the law's output ``res`` becomes the state ``st_in`` (dissipation added)."""
+    a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in = st_in
+    nrev = P_in.shape[1]
+    for j in range(c):
+        a_in[j] = res.approach[j]
+        N_in[j] = res.normal_force[j]
+        for q in range(3):
+            T_in[j, q] = res.tangential_force[j, q]
+            e_in[j, q] = res.axis[j, q]
+        d_in[j] = res.direction[j]
+        k_in[j] = res.depth[j]
+        for q in range(nrev):
+            P_in[j, q] = res.reversals[j, q]
+        en_in[j] = en_in[j] + res.dissipation[j]
+
+
+@njit(**_PHASE)
+def _chunk_path(ch, lo, hi, kcc, normals, branch, weights, dstrain, jrows, st, stress_c, mom_c, scal_c, jac_c,
+                f_resp, fail, r2):
+    """The whole path for chunk ``ch``, contacts ``lo <= i < hi``: per step the kinematics, the law, the sums.
+
+    Per step: the contact increments (seed Eq. 2.13) and the normal law at the step's end
+    (seed Eq. 3.6, 3.2; :func:`~grainmech.driver.affine._mixed_rows.contact_increment`),
+    the law (:func:`~grainmech.contact.kernel.rows`), the chunk's sums
+    (:func:`_step_sums`) and the accepted state (:func:`_accept_step`). ``st`` (the
+    state arrays of every contact, a :class:`KernelState`) is advanced in place;
+    ``f_resp`` (the response arrays ``f_slide ... f_ta`` of every contact) receives the
+    last step's response; ``fail[ch]`` the step at which the law could not advance a
+    contact (the chunk stops there).
+    """
+    c = hi - lo
+    m = dstrain.shape[0]
+    nrev = st.reversals.shape[1]
+    linear, E, R, Gs, kn_lin, ks_lin = kcc.linear, kcc.E, kcc.R, kcc.Gs, kcc.kn_lin, kcc.ks_lin
+    st_in = KernelState(
+        st.approach[lo:hi], st.normal_force[lo:hi], st.tangential_force[lo:hi], st.axis[lo:hi],
+        st.direction[lo:hi], st.depth[lo:hi], st.reversals[lo:hi], st.dissipated_energy[lo:hi])
+    f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta = f_resp
+    a_in, N_in = st_in.approach, st_in.normal_force
+    res = KernelOutput(np.empty(c), np.empty(c), np.empty((c, 3)), np.empty((c, 3)), np.empty(c, dtype=np.int8),
+                       np.empty(c, dtype=np.int32), np.empty((c, nrev)), f_slide[lo:hi], f_diss[lo:hi],
+                       f_ks[lo:hi], f_ksp[lo:hi], f_ktn[lo:hi], f_kn[lo:hi], f_open[lo:hi], f_td[lo:hi],
+                       f_ta[lo:hi])
+    dn = np.empty(c)
+    dt = np.empty((c, 3))
+    N1 = np.empty(c)
+    rad0 = np.empty(c)
+    rad1 = np.empty(c)
+    inc = KernelIncrement(dn, dt, N1, rad0, rad1)
+    scratch = KernelScratch(np.empty((c, 3)), np.empty((c, 3)), np.zeros(c, dtype=np.int8), np.empty((c, 0)))
+    flags = scratch.flags
+    a = np.zeros(27)
+    jac = np.zeros(36)
+    allc = np.ones(6, dtype=np.bool_)
+    any_rows = False
+    for q in range(6):
+        if jrows[q]:
+            any_rows = True
+    for s in range(m):
+        exx = dstrain[s, 0]
+        eyy = dstrain[s, 1]
+        ezz = dstrain[s, 2]
+        eyz = 0.5 * dstrain[s, 3]
+        exz = 0.5 * dstrain[s, 4]
+        exy = 0.5 * dstrain[s, 5]
+        for j in range(c):
+            i = lo + j
+            dn[j], dt[j, 0], dt[j, 1], dt[j, 2], N1[j], rad0[j], rad1[j] = contact_increment(
+                exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1], normals[i, 2],
+                branch[i, 0], branch[i, 1], branch[i, 2], a_in[j], N_in[j], linear, kn_lin, E, R)
+        rows(0, c, kcc, st_in, inc, res, scratch)
+        bad = False
+        for j in range(c):
+            if flags[j] != 0:
+                bad = True
+        if bad:
+            fail[ch] = s
+            break
+        _step_sums(ch, s, lo, c, normals, branch, weights, jrows, allc, any_rows, res, a, jac, r2, linear, ks_lin,
+                   R, Gs, stress_c, mom_c, scal_c, jac_c)
+        _accept_step(c, st_in, res)
 
 
 def _make(parallel: bool):
@@ -60,19 +232,17 @@ def _make(parallel: bool):
 
     A closure over ``rng`` (as in :mod:`grainmech.contact.kernel`): two dispatchers of one
     plain function would share numba's on-disk cache entry and the "parallel" one would
-    load the serial code.
+    load the serial code. Each chunk runs the whole path in :func:`_chunk_path`.
     """
     rng = prange if parallel else range
 
     def _strain_path_body(kc, normals, branch, weights, dstrain, jrows,
-                            alpha, N, T, e, direction, depth, P, energy,
-                            stress_c, mom_c, scal_c, jac_c,
-                            f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta, fail):
+                          alpha, N, T, e, direction, depth, P, energy,
+                          stress_c, mom_c, scal_c, jac_c,
+                          f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta, fail):
         # the state arrays (alpha ... energy) are advanced in place; f_* receive the
         # response of the last step
         n = alpha.shape[0]
-        m = dstrain.shape[0]
-        nrev = P.shape[1]
         nch = (n + _CH - 1) // _CH
         r2 = math.sqrt(2.0) / 2.0
         # plain values into the (parallel) loop; the named tuple is rebuilt inside
@@ -81,149 +251,11 @@ def _make(parallel: bool):
         for ch in rng(nch):
             lo = ch * _CH
             hi = min(n, lo + _CH)
-            c = hi - lo
-            a_in = alpha[lo:hi]
-            N_in = N[lo:hi]
-            T_in = T[lo:hi]
-            e_in = e[lo:hi]
-            d_in = direction[lo:hi]
-            k_in = depth[lo:hi]
-            P_in = P[lo:hi]
-            en_in = energy[lo:hi]
-            a_out = np.empty(c)
-            N_out = np.empty(c)
-            T_out = np.empty((c, 3))
-            e_out = np.empty((c, 3))
-            s_out = np.empty(c, dtype=np.int8)
-            k_out = np.empty(c, dtype=np.int32)
-            P_out = np.empty((c, nrev))
-            sl_out = f_slide[lo:hi]
-            diss_out = f_diss[lo:hi]
-            ks_out = f_ks[lo:hi]
-            ksp_out = f_ksp[lo:hi]
-            ktn_out = f_ktn[lo:hi]
-            kn_out = f_kn[lo:hi]
-            op_out = f_open[lo:hi]
-            dn = np.empty(c)
-            dt = np.empty((c, 3))
-            N1 = np.empty(c)
-            rad0 = np.empty(c)
-            rad1 = np.empty(c)
-            tp = np.empty((c, 3))
-            dp = np.empty((c, 3))
-            flags = np.zeros(c, dtype=np.int8)
-            a = np.zeros(27)
-            jac = np.zeros(36)
-            allc = np.ones(6, dtype=np.bool_)
-            td_out = f_td[lo:hi]
-            ta_out = f_ta[lo:hi]
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
-            st_in = KernelState(a_in, N_in, T_in, e_in, d_in, k_in, P_in, en_in)
-            inc = KernelIncrement(dn, dt, N1, rad0, rad1)
-            res = KernelOutput(a_out, N_out, T_out, e_out, s_out, k_out, P_out, sl_out, diss_out, ks_out,
-                               ksp_out, ktn_out, kn_out, op_out, td_out, ta_out)
-            scratch = KernelScratch(tp, dp, flags, np.empty((c, 0)))
-            any_rows = False
-            for q in range(6):
-                if jrows[q]:
-                    any_rows = True
-            for s in range(m):
-                exx = dstrain[s, 0]
-                eyy = dstrain[s, 1]
-                ezz = dstrain[s, 2]
-                eyz = 0.5 * dstrain[s, 3]
-                exz = 0.5 * dstrain[s, 4]
-                exy = 0.5 * dstrain[s, 5]
-                for j in range(c):
-                    i = lo + j
-                    dn[j], dt[j, 0], dt[j, 1], dt[j, 2], N1[j], rad0[j], rad1[j] = contact_increment(
-                        exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1], normals[i, 2],
-                        branch[i, 0], branch[i, 1], branch[i, 2], a_in[j], N_in[j], linear, kn_lin, E, R)
-                rows(0, c, kcc, st_in, inc, res, scratch)
-                bad = False
-                for j in range(c):
-                    if flags[j] != 0:
-                        bad = True
-                if bad:
-                    fail[ch] = s
-                    break
-                for q in range(27):
-                    a[q] = 0.0
-                for q in range(36):
-                    jac[q] = 0.0
-                sxx = 0.0
-                syy = 0.0
-                szz = 0.0
-                syz = 0.0
-                sxz = 0.0
-                sxy = 0.0
-                wsl = 0.0
-                wop = 0.0
-                wdi = 0.0
-                wst = 0.0
-                for j in range(c):
-                    i = lo + j
-                    w = weights[i]
-                    nx = normals[i, 0]
-                    ny = normals[i, 1]
-                    nz = normals[i, 2]
-                    lx = branch[i, 0]
-                    ly = branch[i, 1]
-                    lz = branch[i, 2]
-                    Nj = N_out[j]
-                    t0, t1, t2, t3, t4, t5 = love_weber_terms(Nj, T_out[j, 0], T_out[j, 1], T_out[j, 2], w,
-                                                              nx, ny, nz, lx, ly, lz)
-                    sxx += t0
-                    syy += t1
-                    szz += t2
-                    syz += t3
-                    sxz += t4
-                    sxy += t5
-                    knj = kn_out[j] if kn_out[j] > 0.0 else 0.0
-                    ksj = ks_out[j] if ks_out[j] > 0.0 else 0.0
-                    cs = w * ksj
-                    add_moments3(a, nx, ny, nz, lx, ly, lz, w * knj - cs, cs, r2)
-                    if sl_out[j]:
-                        wsl += w
-                    if op_out[j]:
-                        wop += w
-                    wdi += w * diss_out[j]
-                    # stored energy (ContactLaw.stored_energy): normal + |T|^2 / (2 kt0)
-                    wst += w * stored_energy_term(Nj, a_out[j], T_out[j, 0], T_out[j, 1], T_out[j, 2], linear,
-                                                  ks_lin, R, Gs)
-                    if any_rows:
-                        # consistent (step) tangent of the law for Newton: jacobian rows
-                        add_step_jacobian(jac, 0, jrows, allc, w, kn_out[j], ta_out, td_out, j,
-                                          nx, ny, nz, lx, ly, lz)
-                stress_c[ch, s, 0] = sxx
-                stress_c[ch, s, 1] = syy
-                stress_c[ch, s, 2] = szz
-                stress_c[ch, s, 3] = syz
-                stress_c[ch, s, 4] = sxz
-                stress_c[ch, s, 5] = sxy
-                for q in range(27):
-                    mom_c[ch, s, q] = a[q]
-                scal_c[ch, s, 0] = wsl
-                scal_c[ch, s, 1] = wop
-                scal_c[ch, s, 2] = wdi
-                scal_c[ch, s, 3] = wst
-                if any_rows:
-                    for q in range(6):
-                        for q2 in range(6):
-                            jac_c[ch, s, q, q2] = jac[6 * q + q2]
-                # accept the step: out -> in
-                for j in range(c):
-                    a_in[j] = a_out[j]
-                    N_in[j] = N_out[j]
-                    for q in range(3):
-                        T_in[j, q] = T_out[j, q]
-                        e_in[j, q] = e_out[j, q]
-                    d_in[j] = s_out[j]
-                    k_in[j] = k_out[j]
-                    for q in range(nrev):
-                        P_in[j, q] = P_out[j, q]
-                    en_in[j] = en_in[j] + diss_out[j]
+            _chunk_path(ch, lo, hi, kcc, normals, branch, weights, dstrain, jrows,
+                        KernelState(alpha, N, T, e, direction, depth, P, energy), stress_c, mom_c, scal_c, jac_c,
+                        (f_slide, f_diss, f_ks, f_ksp, f_ktn, f_kn, f_open, f_td, f_ta), fail, r2)
     return njit(parallel=parallel, cache=True, error_model="numpy")(_strain_path_body)
 
 

@@ -98,15 +98,9 @@ __all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_webe
            "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 
-def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
-             rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
-             rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo, sym):
-    # the step/Newton loop of a segment; eval_fn is the serial or the parallel evaluation
-    # pass and law_fn the law (first-class functions: pass_function, kernel.law_function)
-    # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
-    # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
-    # finfo = (condition or residual, tolerance, sliding, open); sym: Folding.sym (42,)
-    m = incs.shape[0]
+@njit(**_INNER)
+def _split_mask(sc):
+    """The stress-controlled components ``idx`` and the strain-controlled ones ``jdx`` of the mask ``sc`` (6,)."""
     ns = 0
     for q in range(6):
         if sc[q]:
@@ -122,6 +116,238 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
         else:
             jdx[b] = q
             b += 1
+    return idx, jdx
+
+
+@njit(**_INNER)
+def _start_step(k, sc, incs, t_stress, t_strain, stress, strain, sk_d, sk_t0, sk_t1, sk_dep):
+    """Step ``k``'s targets (``solver.run``: no drift) and the substep stack holding the whole step.
+
+    Returns ``(new_ts, new_te)``, the running stress and strain targets at the step's end;
+    writes the stack's first entry (strain increment, stress targets at start and end, depth 0).
+    """
+    new_ts = np.empty(6)
+    new_te = np.empty(6)
+    for q in range(6):
+        new_ts[q] = t_stress[q] + incs[k, q] if sc[q] else stress[q]
+        new_te[q] = strain[q] if sc[q] else t_strain[q] + incs[k, q]
+    for q in range(6):
+        sk_d[0, q] = 0.0 if sc[q] else new_te[q] - strain[q]
+        sk_t0[0, q] = stress[q] if sc[q] else 0.0
+        sk_t1[0, q] = new_ts[q] if sc[q] else 0.0
+    sk_dep[0] = 0
+    return new_ts, new_te
+
+
+@njit(**_INNER)
+def _predictor(de, d_strain, sc, stress, target, C, idx, jdx, rtol, rtol_accept):
+    """``solver._solve``'s tolerances and predictor of a (sub)step: ``de`` from the tangent ``C``.
+
+    The stress scale (largest stress or target; else ``|C| |de|``; else 1) gives the
+    tolerances ``(tol, loose) = (rtol, rtol_accept) * scale``, returned. ``de`` (6,) gets the
+    prescribed strains and, for the stress-controlled components, the solution of
+    ``C[idx, idx] de_idx = target - stress - C[idx, jdx] de_jdx`` (zero if singular or not finite).
+    """
+    ns = idx.shape[0]
+    for q in range(6):
+        de[q] = 0.0 if sc[q] else d_strain[q]
+    scale = 0.0
+    for q in range(6):
+        scale = max(scale, abs(stress[q]))
+    ts = 0.0
+    for a in range(ns):
+        ts = max(ts, abs(target[idx[a]]))
+    scale = max(scale, ts)
+    if scale == 0.0:
+        cm = 0.0
+        dm = 0.0
+        for q in range(36):
+            cm = max(cm, abs(C[q // 6, q % 6]))
+        for q in range(6):
+            dm = max(dm, abs(de[q]))
+        scale = cm * dm
+        if scale == 0.0:
+            scale = 1.0
+    tol = rtol * scale
+    loose = rtol_accept * scale
+    if ns > 0:
+        A = np.empty((ns, ns))
+        rhs = np.empty(ns)
+        for a in range(ns):
+            acc = target[idx[a]] - stress[idx[a]]
+            for b in range(6 - ns):
+                acc -= C[idx[a], jdx[b]] * de[jdx[b]]
+            rhs[a] = acc
+            for b in range(ns):
+                A[a, b] = C[idx[a], idx[b]]
+        x, ok = _solve_small(A, rhs)  # singular predictor: start from zero
+        for a in range(ns):
+            de[idx[a]] = x[a] if ok else 0.0
+        fin = True
+        for q in range(6):
+            if not math.isfinite(de[q]):
+                fin = False
+        if not fin:
+            for a in range(ns):
+                de[idx[a]] = 0.0
+    return tol, loose
+
+
+@njit(**_INNER)
+def _newton_update(jac, sig, target, idx, de, finfo):
+    """One Newton update of the stress-controlled strains: ``de_idx -= J^-1 (sig - target)_idx``.
+
+    Returns 0, or :data:`FAIL_SINGULAR` (condition number above 1e13 or not finite, in
+    ``finfo[0]``) or :data:`FAIL_NOT_FINITE` (the update).
+    """
+    ns = idx.shape[0]
+    J = np.empty((ns, ns))
+    r = np.empty(ns)
+    for a in range(ns):
+        r[a] = sig[idx[a]] - target[idx[a]]
+        for b in range(ns):
+            J[a, b] = jac[idx[a], idx[b]]
+    jfin = True
+    for a in range(ns):
+        for b in range(ns):
+            if not math.isfinite(J[a, b]):
+                jfin = False
+    cond = _cond2(J) if jfin else np.nan
+    if not math.isfinite(cond) or cond > 1e13:
+        finfo[0] = cond
+        return FAIL_SINGULAR
+    x, _ = _solve_small(J, r)  # not singular (condition checked)
+    fin = True
+    for a in range(ns):
+        de[idx[a]] = de[idx[a]] - x[a]
+    for q in range(6):
+        if not math.isfinite(de[q]):
+            fin = False
+    if not fin:
+        return FAIL_NOT_FINITE
+    return 0
+
+
+@njit(**_INNER)
+def _newton(eval_fn, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, sig, jac,
+            sym, idx, target, tol, loose, max_iter, hist, best_de, info, finfo):
+    """``solver._solve``'s Newton iterations of a (sub)step from the predictor ``de``, and their acceptance.
+
+    Per iteration one evaluation pass (``eval_fn``, the law ``law_fn``), the residual of
+    the stress-controlled components; converged within ``tol``; within ``loose`` the best
+    iterate is kept and a two-cycle at a tie accepts it; else :func:`_newton_update`.
+    After ``max_iter`` iterations the best iterate within ``loose`` is accepted (evaluated
+    again if it is not the last one), or the step fails. Returns ``(cause, iterations,
+    loose_accepted, sliding, open)``: ``cause`` 0 or a ``FAIL_*`` code (law failures:
+    contact and flag in ``info[3:5]``; residual and tolerance in ``finfo[:2]``), the
+    weighted sliding and open sums of the last evaluation; ``sig``, ``jac``, ``de`` hold
+    the accepted iterate's stress, Jacobian and strain increment.
+    """
+    ns = idx.shape[0]
+    cause = 0
+    s_sl = 0.0
+    s_op = 0.0
+    have_best = False
+    best_r = 0.0
+    nh = 0
+    it_done = 0
+    loose_acc = False
+    rmax = 0.0
+    for it in range(1, max_iter + 1):
+        bad = eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
+        if bad >= 0:
+            cause = FAIL_LAW
+            info[3] = bad
+            info[4] = scratch.flags[bad]
+            break
+        s_sl, s_op, _s_di = _reduce(part, sig, jac, sym)
+        rmax = 0.0
+        for a in range(ns):
+            rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
+        if rmax <= loose:
+            if rmax <= tol:
+                it_done = it
+                break
+            if (not have_best) or rmax < best_r:
+                have_best = True
+                best_r = rmax
+                for q in range(6):
+                    best_de[q] = de[q]
+            if nh >= 2 and abs(rmax - hist[nh - 2]) <= 1e-6 * rmax:  # two-cycle at a tie
+                it_done = it
+                loose_acc = True
+                break
+        hist[nh] = rmax
+        nh += 1
+        cause = _newton_update(jac, sig, target, idx, de, finfo)
+        if cause != 0:
+            break
+    if cause == 0 and it_done == 0:  # max_iter iterations
+        if have_best:
+            it_done = max_iter
+            loose_acc = True
+        else:
+            cause = FAIL_NO_CONVERGENCE
+            finfo[0] = rmax
+            finfo[1] = tol
+    if cause == 0 and loose_acc and best_r < rmax:
+        # the best iterate is not the last one: evaluate it again (same state)
+        for q in range(6):
+            de[q] = best_de[q]
+        eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
+        s_sl, s_op, _s_di = _reduce(part, sig, jac, sym)
+    return cause, it_done, loose_acc, s_sl, s_op
+
+
+@njit(**_INNER)
+def _subdivide(nsk, dep, d_strain, t0, target, sk_d, sk_t0, sk_t1, sk_dep):
+    """``solver._subdivided``: the failed (sub)step's two halves onto the stack, the first on top; the new size."""
+    for q in range(6):
+        tm = 0.5 * (t0[q] + target[q])
+        hd = 0.5 * d_strain[q]
+        sk_d[nsk, q] = hd
+        sk_t0[nsk, q] = tm
+        sk_t1[nsk, q] = target[q]
+        sk_d[nsk + 1, q] = hd
+        sk_t0[nsk + 1, q] = t0[q]
+        sk_t1[nsk + 1, q] = tm
+    sk_dep[nsk] = dep + 1
+    sk_dep[nsk + 1] = dep + 1
+    return nsk + 2
+
+
+@njit(**_INNER)
+def _record_step(k, sc, new_ts, new_te, t_stress, t_strain, strain, stress, C, rec_strain, rec_stress, rec_tan,
+                 rec_scal, rec_int, wsl, wop, diss, work, wst, n_sub, n_it):
+    """Record step ``k`` (strain, stress, tangent, fractions, energies, counters) and advance the running targets."""
+    for q in range(6):
+        t_stress[q] = new_ts[q] if sc[q] else stress[q]
+        t_strain[q] = strain[q] if sc[q] else new_te[q]
+        rec_strain[k, q] = strain[q]
+        rec_stress[k, q] = stress[q]
+    for q in range(36):
+        rec_tan[k, q // 6, q % 6] = C[q // 6, q % 6]
+    rec_scal[k, 0] = wsl
+    rec_scal[k, 1] = wop
+    rec_scal[k, 2] = diss
+    rec_scal[k, 3] = work
+    rec_scal[k, 4] = wst
+    rec_int[k, 0] = n_sub
+    rec_int[k, 1] = n_it
+
+
+def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, strain0, C0, t_stress0, t_strain0,
+             rtol, rtol_accept, max_iter, max_depth, st, out, scratch, inc, part, resp, bk_st, bk_resp,
+             rec_strain, rec_stress, rec_tan, rec_scal, rec_int, info, finfo, sym):
+    # the step/Newton loop of a segment; eval_fn is the serial or the parallel evaluation
+    # pass and law_fn the law (first-class functions: pass_function, kernel.law_function)
+    # rec_scal[k] = (sliding, open, dissipation, work, stored); rec_int[k] = (substeps,
+    # iterations); info = (steps done, cause, depth reached, contact, flag, loose count);
+    # finfo = (condition or residual, tolerance, sliding, open); sym: Folding.sym (42,).
+    # Phases per (sub)step: predictor (_predictor), Newton and acceptance (_newton),
+    # subdivision on failure (_subdivide) or commit; per step: _start_step, _record_step.
+    m = incs.shape[0]
+    idx, jdx = _split_mask(sc)
     stress = stress0.copy()
     strain = strain0.copy()
     C = C0.copy()
@@ -141,17 +367,8 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
     n_loose = 0
     _start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for k in range(m):
-        new_ts = np.empty(6)
-        new_te = np.empty(6)
-        for q in range(6):
-            new_ts[q] = t_stress[q] + incs[k, q] if sc[q] else stress[q]
-            new_te[q] = strain[q] if sc[q] else t_strain[q] + incs[k, q]
+        new_ts, new_te = _start_step(k, sc, incs, t_stress, t_strain, stress, strain, sk_d, sk_t0, sk_t1, sk_dep)
         nsk = 1
-        for q in range(6):
-            sk_d[0, q] = 0.0 if sc[q] else new_te[q] - strain[q]
-            sk_t0[0, q] = stress[q] if sc[q] else 0.0
-            sk_t1[0, q] = new_ts[q] if sc[q] else 0.0
-        sk_dep[0] = 0
         n_sub = 0
         n_it = 0
         diss = 0.0
@@ -167,120 +384,10 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             t0 = sk_t0[nsk].copy()
             target = sk_t1[nsk].copy()
             # ---- solver._solve: one (sub)step of Newton iterations
-            cause = 0
-            for q in range(6):
-                de[q] = 0.0 if sc[q] else d_strain[q]
-            scale = 0.0
-            for q in range(6):
-                scale = max(scale, abs(stress[q]))
-            ts = 0.0
-            for a in range(ns):
-                ts = max(ts, abs(target[idx[a]]))
-            scale = max(scale, ts)
-            if scale == 0.0:
-                cm = 0.0
-                dm = 0.0
-                for q in range(36):
-                    cm = max(cm, abs(C[q // 6, q % 6]))
-                for q in range(6):
-                    dm = max(dm, abs(de[q]))
-                scale = cm * dm
-                if scale == 0.0:
-                    scale = 1.0
-            tol = rtol * scale
-            loose = rtol_accept * scale
-            if ns > 0:
-                A = np.empty((ns, ns))
-                rhs = np.empty(ns)
-                for a in range(ns):
-                    acc = target[idx[a]] - stress[idx[a]]
-                    for b in range(6 - ns):
-                        acc -= C[idx[a], jdx[b]] * de[jdx[b]]
-                    rhs[a] = acc
-                    for b in range(ns):
-                        A[a, b] = C[idx[a], idx[b]]
-                x, ok = _solve_small(A, rhs)  # singular predictor: start from zero
-                for a in range(ns):
-                    de[idx[a]] = x[a] if ok else 0.0
-                fin = True
-                for q in range(6):
-                    if not math.isfinite(de[q]):
-                        fin = False
-                if not fin:
-                    for a in range(ns):
-                        de[idx[a]] = 0.0
-            have_best = False
-            best_r = 0.0
-            nh = 0
-            it_done = 0
-            loose_acc = False
-            rmax = 0.0
-            for it in range(1, max_iter + 1):
-                bad = eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
-                if bad >= 0:
-                    cause = FAIL_LAW
-                    info[3] = bad
-                    info[4] = scratch.flags[bad]
-                    break
-                s_sl, s_op, s_di = _reduce(part, sig, jac, sym)
-                rmax = 0.0
-                for a in range(ns):
-                    rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
-                if rmax <= loose:
-                    if rmax <= tol:
-                        it_done = it
-                        break
-                    if (not have_best) or rmax < best_r:
-                        have_best = True
-                        best_r = rmax
-                        for q in range(6):
-                            best_de[q] = de[q]
-                    if nh >= 2 and abs(rmax - hist[nh - 2]) <= 1e-6 * rmax:  # two-cycle at a tie
-                        it_done = it
-                        loose_acc = True
-                        break
-                hist[nh] = rmax
-                nh += 1
-                J = np.empty((ns, ns))
-                r = np.empty(ns)
-                for a in range(ns):
-                    r[a] = sig[idx[a]] - target[idx[a]]
-                    for b in range(ns):
-                        J[a, b] = jac[idx[a], idx[b]]
-                jfin = True
-                for a in range(ns):
-                    for b in range(ns):
-                        if not math.isfinite(J[a, b]):
-                            jfin = False
-                cond = _cond2(J) if jfin else np.nan
-                if not math.isfinite(cond) or cond > 1e13:
-                    cause = FAIL_SINGULAR
-                    finfo[0] = cond
-                    break
-                x, _ = _solve_small(J, r)  # not singular (condition checked)
-                fin = True
-                for a in range(ns):
-                    de[idx[a]] = de[idx[a]] - x[a]
-                for q in range(6):
-                    if not math.isfinite(de[q]):
-                        fin = False
-                if not fin:
-                    cause = FAIL_NOT_FINITE
-                    break
-            if cause == 0 and it_done == 0:  # max_iter iterations
-                if have_best:
-                    it_done = max_iter
-                    loose_acc = True
-                else:
-                    cause = FAIL_NO_CONVERGENCE
-                    finfo[0] = rmax
-                    finfo[1] = tol
-            if cause == 0 and loose_acc and best_r < rmax:
-                # the best iterate is not the last one: evaluate it again (same state)
-                for q in range(6):
-                    de[q] = best_de[q]
-                eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
-                s_sl, s_op, s_di = _reduce(part, sig, jac, sym)
+            tol, loose = _predictor(de, d_strain, sc, stress, target, C, idx, jdx, rtol, rtol_accept)
+            cause, it_done, loose_acc, s_sl, s_op = _newton(
+                eval_fn, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, sig, jac,
+                sym, idx, target, tol, loose, max_iter, hist, best_de, info, finfo)
             if cause != 0:
                 wtot = 0.0
                 for i in range(weights.shape[0]):
@@ -299,18 +406,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
                     _copy_state(st, resp, bk_st, bk_resp)
                     backed = True
                 # ---- solver._subdivided: two halves, the first on top of the stack
-                for q in range(6):
-                    tm = 0.5 * (t0[q] + target[q])
-                    hd = 0.5 * d_strain[q]
-                    sk_d[nsk, q] = hd
-                    sk_t0[nsk, q] = tm
-                    sk_t1[nsk, q] = target[q]
-                    sk_d[nsk + 1, q] = hd
-                    sk_t0[nsk + 1, q] = t0[q]
-                    sk_t1[nsk + 1, q] = tm
-                sk_dep[nsk] = dep + 1
-                sk_dep[nsk + 1] = dep + 1
-                nsk += 2
+                nsk = _subdivide(nsk, dep, d_strain, t0, target, sk_d, sk_t0, sk_t1, sk_dep)
                 continue
             # ---- accepted: commit the state, counters as solver._subdivided
             new_strain = np.empty(6)  # strain + de (an element loop: no array expression to compile)
@@ -336,20 +432,8 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             wsl = s_sl
             wop = s_op
         # ---- record the step
-        for q in range(6):
-            t_stress[q] = new_ts[q] if sc[q] else stress[q]
-            t_strain[q] = strain[q] if sc[q] else new_te[q]
-            rec_strain[k, q] = strain[q]
-            rec_stress[k, q] = stress[q]
-        for q in range(36):
-            rec_tan[k, q // 6, q % 6] = C[q // 6, q % 6]
-        rec_scal[k, 0] = wsl
-        rec_scal[k, 1] = wop
-        rec_scal[k, 2] = diss
-        rec_scal[k, 3] = work
-        rec_scal[k, 4] = wst
-        rec_int[k, 0] = n_sub
-        rec_int[k, 1] = n_it
+        _record_step(k, sc, new_ts, new_te, t_stress, t_strain, strain, stress, C, rec_strain, rec_stress, rec_tan,
+                     rec_scal, rec_int, wsl, wop, diss, work, wst, n_sub, n_it)
     info[0] = m
     info[1] = 0
     info[5] = n_loose

@@ -25,7 +25,7 @@ from grainmech.contact._errors import ReversalMemoryError
 from grainmech.contact.interface import ContactLaw
 from grainmech.contact.law import max_reversals
 from grainmech.driver.affine.response import _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
-from grainmech.driver.base import DriverResult, StepFailure
+from grainmech.driver.base import DriverResult, PointStepping, StepFailure
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath
 from grainmech.elasticity import engineering_constants
@@ -234,7 +234,7 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
 
 
 @dataclass(frozen=True)
-class _Stepping:
+class _Stepping(PointStepping):
     """The affine point as a :class:`~grainmech.driver.base.SteppingPoint` of :func:`follow_path`.
 
     ``step`` is one step of the Python loop (:func:`_subdivided`: Newton, halvings);
@@ -246,20 +246,6 @@ class _Stepping:
     options: SolverOptions
     fused: bool
     counters: tuple = (0, 0, 0.0, 0.0, 0)
-
-    @property
-    def stress(self) -> np.ndarray:
-        return self.point.stress
-
-    @property
-    def strain(self) -> np.ndarray:
-        return self.point.strain
-
-    def fractions(self) -> tuple[float, float]:
-        return self.point.fractions()
-
-    def stored_energy(self) -> float:
-        return self.point.stored_energy()
 
     def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> _Stepping:
         """One step from this state (targets ``target`` on the stress-controlled components)."""

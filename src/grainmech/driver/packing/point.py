@@ -27,6 +27,8 @@ from grainmech.contact import (
 from grainmech.contact.forms import frictional as is_frictional
 from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
+from grainmech.driver.base import PointStepping, Status, StepFailure
+from grainmech.driver.loop import follow_path
 from grainmech.driver.packing._input import _check_network, _initial_state, _input_forces
 from grainmech.driver.packing._iterations import _grain_residuals
 from grainmech.driver.packing._operators import (
@@ -39,9 +41,6 @@ from grainmech.driver.packing._operators import (
 )
 from grainmech.driver.packing.consolidate import ENGINES, dem_consolidated, isotropic_pressure
 from grainmech.driver.packing.options import (
-    STATUS_DONE,
-    STATUS_FAILED,
-    STATUS_SMALL_STRAIN,
     PackingOptions,
     _check_params,
     _Context,
@@ -51,7 +50,6 @@ from grainmech.driver.packing.options import (
     _StepFailure,
 )
 from grainmech.driver.packing.step import _held_load, _subdivided
-from grainmech.driver.paths import PathTargets
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
 from grainmech.packing.engine import lammps_available
@@ -642,9 +640,57 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
         return _run(point, path, opts, on_step=on_step)
 
 
-def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
-         on_step: Callable[[int, int], None] | None = None) -> PackingResult:
-    """:func:`run_packing` with its options resolved (``energy``: potential-energy line search)."""
+@dataclass(frozen=True)
+class _Stepping(PointStepping):
+    """A packing point with its run's solver context: the stepping point :func:`_run` drives through ``follow_path``.
+
+    ``step`` is one step of the step solver (:func:`grainmech.driver.packing.step._subdivided`:
+    Newton-Krylov or Anderson, halvings, committed relaxation), within the step's work
+    budget, between the range checks of the small-strain model; ``counters`` are the last
+    step's substeps, iterations, dissipation, work and relaxation loss, ``krylov`` and
+    ``spent`` its GMRES iterations and work (``PackingResult.krylov``, ``cost``).
+    """
+
+    point: PackingPoint
+    ctx: _Context
+    counters: tuple = (0, 0, 0.0, 0.0, 0.0)
+    krylov: int = 0
+    spent: int = 0
+
+    def check_targets(self, k: int, sc: np.ndarray, t_strain: np.ndarray) -> None:
+        """Stop before step ``k`` when a strain target leaves the small-strain range (``max_strain``)."""
+        opts = self.ctx.opts
+        if np.abs(t_strain[~sc]).max(initial=0.0) > opts.max_strain:
+            j = int(np.argmax(np.where(~sc, np.abs(t_strain), -1.0)))
+            raise StepFailure(f"strain component {j} would reach {t_strain[j]:.3g}, beyond max_strain = "
+                              f"{opts.max_strain:g} (small-strain, fixed-geometry model)", Status.OUT_OF_RANGE)
+
+    def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> _Stepping:
+        """One step from this state; :class:`StepFailure` when no equilibrium is found or the range is left."""
+        ctx, opts, point = self.ctx, self.ctx.opts, self.point
+        counters: list[Any] = [0, 0, 0.0, 0.0, 0.0]
+        kr0, w0 = ctx.krylov, ctx.work
+        ctx.budget = w0 + opts.max_step_work
+        try:
+            new = _subdivided(point, stress_control, d_strain, np.where(stress_control, point.stress, 0.0), target, 0,
+                              ctx, counters)
+        except (_StepFailure, _OutOfBudget) as exc:
+            raise StepFailure(f"no equilibrium found: {exc.cause}") from exc
+        finally:
+            ctx.budget = 0
+        fl = new.fluctuation()
+        big = float(np.abs(new.strain).max())
+        if fl > opts.max_fluctuation or big > opts.max_strain:
+            what = (f"a grain's displacement fluctuation reached {fl:.3g} of its radius (max_fluctuation = "
+                    f"{opts.max_fluctuation:g})" if fl > opts.max_fluctuation else
+                    f"a strain component reached {big:.3g} (max_strain = {opts.max_strain:g})")
+            raise StepFailure(f"left the small-strain range: {what}; the fixed-geometry model no longer applies",
+                              Status.OUT_OF_RANGE)
+        return replace(self, point=new, counters=tuple(counters), krylov=ctx.krylov - kr0, spent=ctx.work - w0)
+
+
+def _resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions) -> PackingPoint:
+    """:func:`_run`'s input checked, with the options' law backend, factorisation and factor settings."""
     if not isinstance(path, LoadPath):
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
     if not isinstance(point, PackingPoint):
@@ -653,113 +699,79 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         # the cached factor has another shift or threading
         point = replace(point, regularization=opts.regularization, reproducible=opts.reproducible,
                         _cache={k: v for k, v in point._cache.items() if k != "prec"})
-    point = replace(point, law_backend=opts.law_backend, factorization=opts.factorization, _cache=point._cache) \
+    return replace(point, law_backend=opts.law_backend, factorization=opts.factorization, _cache=point._cache) \
         if (opts.law_backend, opts.factorization) != (point.law_backend, point.factorization) else point
+
+
+def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
+         on_step: Callable[[int, int], None] | None = None) -> PackingResult:
+    """:func:`run_packing` with its options resolved (``energy``: potential-energy line search).
+
+    The path loop is :func:`grainmech.driver.loop.follow_path` (the semantics every model
+    shares) over :class:`_Stepping`; this records each state (start: the point's tangent
+    unless ``tangent="none"``; steps: the relaxed tangent as ``opts.tangent`` asks) and
+    words the result.
+    """
+    point = _resolved(point, path, opts)
     m = len(path)
     fresh = "prec" not in point._cache
     ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
     nan66 = np.full((6, 6), np.nan)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
                                              "stored", "sub", "it", "res", "fl", "cl", "kr", "spent")}
+    acc = {"diss": 0.0, "work": 0.0, "loss": 0.0}
 
-    def record(pt: PackingPoint, diss: float, work: float, loss: float, sub: int, it: int, kr: int,
-               tang: bool, spent: int) -> None:
+    def record(st: _Stepping, k: int) -> None:
+        pt = st.point
+        sub, it, diss, work, loss = st.counters
+        acc["diss"] += diss
+        acc["work"] += work
+        acc["loss"] += loss
+        if k == 0:
+            tangent = nan66 if opts.tangent == "none" else pt.tangent
+        elif opts.tangent == "every" or (opts.tangent == "ends" and k == m):
+            tangent = _relaxed_tangent(pt, ctx.prec, opts.krylov_max)
+        else:
+            tangent = nan66
         sl, op = pt.fractions()
-        rows["strain"].append(pt.strain.copy())
-        rows["stress"].append(pt.stress.copy())
-        rows["tangent"].append(_relaxed_tangent(pt, ctx.prec, opts.krylov_max) if tang else nan66)
-        rows["sl"].append(sl)
-        rows["op"].append(op)
-        rows["diss"].append(diss)
-        rows["work"].append(work)
-        rows["loss"].append(loss)
-        rows["stored"].append(pt.stored_energy())
-        rows["sub"].append(sub)
-        rows["it"].append(it)
-        rows["res"].append(unbalanced_force_ratio(pt, kind="max"))
-        rows["fl"].append(pt.fluctuation())
-        rows["cl"].append(int(np.sum(~np.asarray(pt.response.open, bool))))
-        rows["kr"].append(kr)
-        rows["spent"].append(spent)
+        for key, v in (("strain", pt.strain.copy()), ("stress", pt.stress.copy()), ("tangent", tangent),
+                       ("sl", sl), ("op", op), ("diss", acc["diss"]), ("work", acc["work"]), ("loss", acc["loss"]),
+                       ("stored", pt.stored_energy()), ("sub", sub), ("it", it),
+                       ("res", unbalanced_force_ratio(pt, kind="max")), ("fl", pt.fluctuation()),
+                       ("cl", int(np.sum(~np.asarray(pt.response.open, bool)))), ("kr", st.krylov),
+                       ("spent", st.spent)):
+            rows[key].append(v)
 
-    rows["strain"].append(point.strain.copy())
-    rows["stress"].append(point.stress.copy())
-    rows["tangent"].append(nan66 if opts.tangent == "none" else point.tangent)
-    sl0, op0 = point.fractions()
-    for key, v in (("sl", sl0), ("op", op0), ("diss", 0.0), ("work", 0.0), ("loss", 0.0),
-                   ("stored", point.stored_energy()),
-                 ("sub", 0), ("it", 0), ("res", unbalanced_force_ratio(point, kind="max")),
-                 ("fl", point.fluctuation()), ("cl", int(np.sum(~np.asarray(point.response.open, bool)))),
-                 ("kr", 0), ("spent", 0)):
-        rows[key].append(v)
-    diss = work = loss = 0.0
-    targets = PathTargets(point.stress, point.strain)
-    success, status, message = True, STATUS_DONE, f"completed {m} steps"
-    for k in range(m):
-        sc = path.stress_control[k]
-        new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
-        if np.abs(new_t_strain[~sc]).max(initial=0.0) > opts.max_strain:
-            j = int(np.argmax(np.where(~sc, np.abs(new_t_strain), -1.0)))
-            success, status = False, STATUS_SMALL_STRAIN
-            message = (f"step {k + 1}: strain component {j} would reach {new_t_strain[j]:.3g}, beyond "
-                       f"max_strain = {opts.max_strain:g} (small-strain, fixed-geometry model); results kept "
-                       f"up to step {k}")
-            break
-        d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
-        counters = [0, 0, 0.0, 0.0, 0.0]
-        kr0, w0 = ctx.krylov, ctx.work
-        ctx.budget = w0 + opts.max_step_work
-        try:
-            new = _subdivided(point, sc, d_strain, np.where(sc, point.stress, 0.0),
-                              np.where(sc, new_t_stress, 0.0), 0, ctx, counters)
-        except (_StepFailure, _OutOfBudget) as exc:
-            success, status = False, STATUS_FAILED
-            message = f"step {k + 1}: no equilibrium found: {exc.cause}; results kept up to step {k}"
-            break
-        finally:
-            ctx.budget = 0
-        fl = new.fluctuation()
-        big = float(np.abs(new.strain).max())
-        if fl > opts.max_fluctuation or big > opts.max_strain:
-            success, status = False, STATUS_SMALL_STRAIN
-            what = (f"a grain's displacement fluctuation reached {fl:.3g} of its radius (max_fluctuation = "
-                    f"{opts.max_fluctuation:g})" if fl > opts.max_fluctuation else
-                    f"a strain component reached {big:.3g} (max_strain = {opts.max_strain:g})")
-            message = (f"step {k + 1}: left the small-strain range: {what}; the fixed-geometry model no longer "
-                       f"applies; results kept up to step {k}")
-            break
-        point = new
-        targets.reached(sc, new_t_stress, new_t_strain, point.stress, point.strain)
-        diss += counters[2]
-        work += counters[3]
-        loss += counters[4]
-        last = k == m - 1
-        record(point, diss, work, loss, int(counters[0]), int(counters[1]), ctx.krylov - kr0,
-               opts.tangent == "every" or (opts.tangent == "ends" and last), ctx.work - w0)
-        if on_step is not None:
-            on_step(k + 1, m)
+    start = _Stepping(point, ctx)
+    final, success, status, message = follow_path(start, path, record, on_step=on_step,
+                                                  check_targets=start.check_targets)
+    point = cast(_Stepping, final).point
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
         arr["tangent"][-1] = _relaxed_tangent(point, ctx.prec, opts.krylov_max)
-    return PackingResult(success, status, message, arr["strain"], arr["stress"], arr["tangent"], arr["sl"],
+    return PackingResult(success, int(status), message, arr["strain"], arr["stress"], arr["tangent"], arr["sl"],
                          arr["op"], arr["diss"], arr["work"], arr["stored"], arr["sub"].astype(int),
                          arr["it"].astype(int), cast(Any, point), m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
-                         arr["kr"].astype(int), ctx.factorizations,
-                         point.notes + ((f"{ctx.accepted} (sub)steps accepted with their stress settled (uncertainty "
-                                         f"below rtol_accept = {opts.rtol_accept:g} of the stress scale or rtol_step "
-                                         f"= {opts.rtol_step:g} of the step's stress change) before every grain "
-                                         f"reached rtol = {opts.rtol:g} (the iterations stalled at a kink of the "
-                                         "contact laws)",) if ctx.accepted else ())
-                         + ((f"{ctx.settled} (sub)steps stopped once the stress uncertainty left and the "
-                             f"estimated stress change still to come were below settle = {opts.settle:g} times "
-                             f"the acceptance bound (rtol_accept = {opts.rtol_accept:g} of the stress scale or "
-                             f"rtol_step = {opts.rtol_step:g} of the step's stress change), before every grain "
-                             f"reached rtol = {opts.rtol:g}",)
-                            if ctx.settled else ())
-                         + ((f"{ctx.anderson_ok} (sub)steps solved by Anderson-accelerated elastic iterations "
-                             f"({ctx.anderson} iterations), the others by Newton-Krylov",)
-                            if ctx.anderson else ())
-                         + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
-                             "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
-                             "quasi-static DEM)",) if ctx.relaxations else ()),
+                         arr["kr"].astype(int), ctx.factorizations, point.notes + _run_notes(ctx, opts),
                          relaxation_loss=arr["loss"], cost=arr["spent"].astype(int))
+
+
+def _run_notes(ctx: _Context, opts: PackingOptions) -> tuple[str, ...]:
+    """The run's notes on how its steps were solved (the counters of ``ctx``)."""
+    return (((f"{ctx.accepted} (sub)steps accepted with their stress settled (uncertainty "
+              f"below rtol_accept = {opts.rtol_accept:g} of the stress scale or rtol_step "
+              f"= {opts.rtol_step:g} of the step's stress change) before every grain "
+              f"reached rtol = {opts.rtol:g} (the iterations stalled at a kink of the "
+              "contact laws)",) if ctx.accepted else ())
+            + ((f"{ctx.settled} (sub)steps stopped once the stress uncertainty left and the "
+                f"estimated stress change still to come were below settle = {opts.settle:g} times "
+                f"the acceptance bound (rtol_accept = {opts.rtol_accept:g} of the stress scale or "
+                f"rtol_step = {opts.rtol_step:g} of the step's stress change), before every grain "
+                f"reached rtol = {opts.rtol:g}",)
+               if ctx.settled else ())
+            + ((f"{ctx.anderson_ok} (sub)steps solved by Anderson-accelerated elastic iterations "
+                f"({ctx.anderson} iterations), the others by Newton-Krylov",)
+               if ctx.anderson else ())
+            + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
+                "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
+                "quasi-static DEM)",) if ctx.relaxations else ()))
