@@ -38,6 +38,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import qmc
 
 from grainmech import parallel as par
 from grainmech.calibrate.data import Dataset, read_csv
@@ -360,8 +362,6 @@ class StartResult:
 
 def _solve(problem: Problem, t0: np.ndarray, index: int = 0) -> StartResult:
     """One bounded least-squares run from internal start ``t0``."""
-    from scipy.optimize import least_squares
-
     x0 = problem.x_of(t0)
     try:
         r = least_squares(lambda t: problem.residuals(problem.x_of(t)), t0, bounds=(0.0, 1.0), method="trf",
@@ -379,8 +379,6 @@ def latin_hypercube_starts(problem: Problem, n: int, seed: int = 0) -> np.ndarra
     Latin hypercube in the internal coordinates (``[0, 1]`` per parameter, i.e. uniform in
     ``log x`` for log parameters), :class:`scipy.stats.qmc.LatinHypercube` (McKay et al. 1979).
     """
-    from scipy.stats import qmc
-
     t_start = problem.t_of(np.array([p.start for p in problem.parameters]))
     if n <= 1:
         return t_start[None, :]

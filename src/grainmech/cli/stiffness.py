@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import tomllib
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -53,7 +54,6 @@ def run(args: argparse.Namespace) -> int:
         source = args.config
     else:
         text = resources.files("grainmech.data").joinpath("default_stiffness.toml").read_text()
-        import tomllib
         cfg = tomllib.loads(text)
         source = "built-in default (isotropic quartz sand, Hertz-Mindlin, 100 kPa)"
     out = compute_stiffness(cfg)  # a bad config stops here, with one line

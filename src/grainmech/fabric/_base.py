@@ -20,6 +20,7 @@ from typing import Any, ClassVar, Self
 
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
+from scipy.spatial import SphericalVoronoi
 
 from grainmech.conventions import seed_angles, seed_theta
 from grainmech.errors import NegativeDensityError, ParameterError
@@ -86,7 +87,6 @@ def _covered_grid(dim: int, order: int) -> tuple[np.ndarray, float]:
     """
     L = max(order, 2)
     if dim == 3:
-        from scipy.spatial import SphericalVoronoi
 
         grid = _fibonacci_hemisphere(max(2000, 40 * (L + 1) ** 2))
         pts = np.vstack([grid, -grid])

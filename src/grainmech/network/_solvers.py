@@ -29,6 +29,8 @@ from importlib.metadata import PackageNotFoundError, files
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from grainmech.errors import GrainmechError
 
@@ -131,8 +133,6 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
 
     The factor is released on exit (PARDISO keeps it in MKL's memory until told).
     """
-    import scipy.sparse as sp
-
     if method == "pardiso":
         Au = sp.triu(A, format="csr")  # PARDISO reads the upper triangle of a symmetric matrix
         Au.sort_indices()
@@ -169,7 +169,6 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
             return x
         yield solve_c
         return
-    import scipy.sparse.linalg as spla
 
     try:
         lu = spla.splu(sp.csc_matrix(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
@@ -188,8 +187,6 @@ def _amg_cg(As: Any, rhs: np.ndarray, dof_type: np.ndarray, tol: float, maxiter:
     (for :func:`refine_pcg` on the unshifted matrix, :func:`solve_spd`).
     """
     import pyamg
-    import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
 
     n = As.shape[0]
     # near-null space: the same unit translation / rotation of every particle
@@ -347,8 +344,6 @@ def solve_spd(A: Any, rhs: np.ndarray, method: str, *, dof_type: np.ndarray, shi
         True relative residual ``|rhs_k - A X_k| / |rhs_k|`` of each column; the caller
         decides whether it is good enough (a direct method returns it even above ``tol``).
     """
-    import scipy.sparse as sp
-
     As = A if shift is None else (A + sp.diags(shift)).tocsr()
     if method in ("pardiso", "cholesky", "superlu"):
         with _factorised(As, method) as solve:

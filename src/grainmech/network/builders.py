@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from grainmech.contact.geometry import hertz_force
 from grainmech.contact.params import Hertz
@@ -51,7 +52,6 @@ def lattice_network(kind: str, n_cells: int, radius: float, overlap: float, *,
     pos = ((grid[:, None, :] + basis[None]) * a).reshape(-1, 3)
     L = n_cells * a
     box = Box.orthogonal([0, 0, 0], [L, L, L], True)
-    from scipy.spatial import cKDTree
 
     tree = cKDTree(np.mod(pos, L), boxsize=L)
     pairs = tree.query_pairs(dnn * (1 + 1e-6), output_type="ndarray")
@@ -96,7 +96,6 @@ def random_network(n_particles: int, *, coordination: float = 7.0, cell: np.ndar
     spacing = (box.volume / n) ** (1.0 / 3.0)
     cut = 2.2 * spacing * radius_range[1] / np.mean(radius_range)
     if diag:
-        from scipy.spatial import cKDTree
 
         Ls = np.diag(cellm)
         tree = cKDTree(np.mod(pos, Ls), boxsize=Ls)

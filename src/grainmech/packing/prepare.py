@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from grainmech.contact.geometry import hertz_kn, hertz_radius
 from grainmech.errors import GrainmechError
@@ -224,8 +225,6 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
     length : float
         Cube edge [m] with ``sum (4/3) pi R^3 / L^3 = solid_fraction``.
     """
-    from scipy.spatial import cKDTree
-
     r = np.asarray(radii, float)
     n = r.size
     L = float((solid_volume(r) / solid_fraction) ** (1.0 / 3.0))

@@ -41,6 +41,8 @@ import math
 from functools import lru_cache
 
 import numpy as np
+from scipy.optimize import minimize
+from scipy.spatial import cKDTree
 
 from grainmech.assembly import ContactSet
 from grainmech.errors import GrainmechError
@@ -78,9 +80,6 @@ def _kind(kind: str) -> str:
 
 def _quench(r: np.ndarray, box: float, x0: np.ndarray) -> tuple[np.ndarray, dict]:
     """Minimise the harmonic overlap energy of discs ``r`` in a periodic square ``box``."""
-    from scipy.optimize import minimize
-    from scipy.spatial import cKDTree
-
     n = len(r)
     skin = 0.3 * r.max()
     cutoff = 2 * r.max() + skin

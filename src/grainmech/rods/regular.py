@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from grainmech._deprecated import renamed_attribute, warn_renamed
 from grainmech.assembly import ContactSet
@@ -102,8 +103,6 @@ def _pairs_by_images(lattice: np.ndarray, pos: np.ndarray, cutoff: float
 def _pairs_by_tree(box: float, pos: np.ndarray, cutoff: float
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pairs in a square periodic box of side ``box`` (minimum image), each pair once."""
-    from scipy.spatial import cKDTree
-
     x = np.mod(pos, box)
     p = cKDTree(x, boxsize=box).query_pairs(cutoff, output_type="ndarray")
     i, j = p[:, 0], p[:, 1]
