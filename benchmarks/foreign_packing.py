@@ -47,11 +47,11 @@ DATA = Path(__file__).resolve().parent.parent / "tests" / "data" / "liggghts_loo
 TARGET = {("packing", 1e-5): 0.10, ("dem", 1e-5): 0.10, ("packing", 1e-4): 0.15, ("dem", 1e-4): 0.20}
 
 
-def liggghts_reference(path: Path = DATA / "liggghts_cyclic.csv") -> dict[float, tuple[float, float]]:
-    """LIGGGHTS' own result: amplitude -> (secant G [Pa], damping ratio [-])."""
+def liggghts_reference(path: Path = DATA / "liggghts_cyclic.csv") -> dict[float, dict[str, float]]:
+    """LIGGGHTS' own result per amplitude: the columns of liggghts_cyclic.csv (G, damping of both cycles, p)."""
     d = np.genfromtxt([ln for ln in path.read_text().splitlines() if not ln.startswith("#")], delimiter=",",
                       names=True)
-    return {float(a): (float(g), float(dm)) for a, g, dm in zip(d["amplitude"], d["G_secant_Pa"], d["damping"])}
+    return {float(row["amplitude"]): {k: float(row[k]) for k in d.dtype.names} for row in np.atleast_1d(d)}
 
 
 #: the cycled strain direction (xx, yy, zz, yz, xz, xy), compression positive: pure shear
@@ -73,13 +73,15 @@ def config(method: str, amplitude: float, pressure: float, steps: int, n_cycles:
                  "steps_per_cycle": steps, "waveform": "sine"}]}}
 
 
-def last_loop(strain: np.ndarray, stress: np.ndarray, steps: int) -> tuple[float, float]:
-    """Secant G [Pa] and damping [-] of the last cycle (the last ``steps`` + 1 states) of a pure-shear path."""
-    s = slice(strain.shape[0] - steps - 1, None)
-    gamma = strain[s, 2] - strain[s, 0]
-    tau = 0.5 * (stress[s, 2] - stress[s, 0])
-    lp = loop_properties(gamma, tau)
-    return lp.secant_modulus, lp.damping
+def loops(strain: np.ndarray, stress: np.ndarray, steps: int) -> tuple[tuple[float, float], tuple[float, float]]:
+    """(secant G [Pa], damping [-]) of the first and of the last cycle of a pure-shear path of ``steps`` per cycle."""
+    gamma = strain[:, 2] - strain[:, 0]
+    tau = 0.5 * (stress[:, 2] - stress[:, 0])
+    out = []
+    for s in (slice(0, steps + 1), slice(strain.shape[0] - steps - 1, None)):
+        lp = loop_properties(gamma[s], tau[s])
+        out.append((lp.secant_modulus, lp.damping))
+    return out[0], out[1]
 
 
 def pure_shear_modulus(C: np.ndarray) -> float:
@@ -102,6 +104,16 @@ def small_strain_context(net) -> tuple[float, float]:
             pure_shear_modulus(relaxed_stiffness(net, kn, ks).C_relaxed))
 
 
+def _g(x: float) -> str:
+    """A modulus [Pa] in MPa, with enough digits for a liquefied packing's."""
+    return f"{x / 1e6:.2f}" if abs(x) >= 1e5 else f"{x / 1e6:.2g}"
+
+
+def _d(x: float) -> str:
+    """A damping ratio in percent; a loop without strength (liquefied) has none."""
+    return f"{100 * x:.2f} %" if abs(x) < 1 else "— (no loop)"
+
+
 def main() -> int:
     """Run every (model, amplitude) and print the table; exit status 0."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -118,31 +130,36 @@ def main() -> int:
           "Hertz-Mindlin quartz 29 GPa / 0.15 / mu 0.5", flush=True)
     print(f"Small-strain moduli of the network for this pure shear: affine (seed Eq. 2.26) {g_aff / 1e6:.2f} MPa, "
           f"relaxed no-slip (every grain in equilibrium) {g_rel / 1e6:.2f} MPa", flush=True)
-    print("| amplitude | model | result | G [MPa] | G vs LIGGGHTS | target | damping | damping LIGGGHTS | "
-          "wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| amplitude | model | result | G last cycle [MPa] | vs LIGGGHTS | target | damping last cycle | "
+          "G / damping first cycle | p end / p0 | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for amp in a.amplitudes:
-        g_ref, d_ref = liggghts_reference().get(amp, (float("nan"), float("nan")))
-        print(f"| {amp:g} | LIGGGHTS (cyclic.in) | completed | {g_ref / 1e6:.2f} | — | — | {100 * d_ref:.2f} % | "
-              "— | — |", flush=True)
+        r = liggghts_reference().get(amp)
+        if r is not None:
+            print(f"| {amp:g} | LIGGGHTS (cyclic.in) | completed | {_g(r['G_secant_Pa'])} | — | — | "
+                  f"{_d(r['damping'])} | {_g(r['G_secant_cycle1_Pa'])} / {_d(r['damping_cycle1'])} | "
+                  f"{r['p_end_Pa'] / r['p_start_Pa']:.3g} | — |", flush=True)
         for m in a.methods:
             t0 = time.perf_counter()
             out = compute_run(config(m, amp, p0, a.steps))
             wall = time.perf_counter() - t0
-            g_ref, d_ref = liggghts_reference().get(amp, (float("nan"), float("nan")))
+            r = liggghts_reference().get(amp)
             tgt = TARGET.get((m, amp))
             tgt_s = f"{100 * tgt:.0f} %" if tgt else "—"
             res = out.results[0] if out.results else None
             if res is not None and res.success:
-                g, d = last_loop(np.asarray(res.strain), np.asarray(res.stress), a.steps)
-                dg = g / g_ref - 1
-                met = "" if tgt is None else (" (met)" if abs(dg) <= tgt else " (not met)")
-                print(f"| {amp:g} | {m} | completed | {g / 1e6:.2f} | {100 * dg:+.1f} %{met} | {tgt_s} | "
-                      f"{100 * d:.2f} % | {100 * d_ref:.2f} % | {wall:.0f} |", flush=True)
+                (g1, d1), (g, d) = loops(np.asarray(res.strain), np.asarray(res.stress), a.steps)
+                pr = float(np.mean(res.stress[-1, :3]) / np.mean(res.stress[0, :3]))
+                if r is not None:
+                    dg = g / r["G_secant_Pa"] - 1
+                    vs = f"{100 * dg:+.1f} %" + ("" if tgt is None else (" (met)" if abs(dg) <= tgt else " (not met)"))
+                else:
+                    vs = "—"
+                print(f"| {amp:g} | {m} | completed | {_g(g)} | {vs} | {tgt_s} | {_d(d)} | {_g(g1)} / {_d(d1)} | "
+                      f"{pr:.3g} | {wall:.0f} |", flush=True)
             else:
                 why = " ".join(str(out.message).split())
-                print(f"| {amp:g} | {m} | stopped: {why} | — | — | {tgt_s} | — | {100 * d_ref:.2f} % | "
-                      f"{wall:.0f} |", flush=True)
+                print(f"| {amp:g} | {m} | stopped: {why} | — | — | {tgt_s} | — | — | — | {wall:.0f} |", flush=True)
     return 0
 
 

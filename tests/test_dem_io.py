@@ -266,6 +266,13 @@ def test_gzipped_dumps_read_like_the_plain_files(tmp_path):
         np.testing.assert_array_equal(back.box.cell, plain.box.cell)
         np.testing.assert_array_equal(back.i, plain.i)
     assert demio.detect_format(cz) == "liggghts"
+    # the generic CSV table too
+    tc, tp = tmp_path / "contacts.csv", tmp_path / "particles.csv"
+    write_table(net, tc, tp)
+    tcz, tpz = tmp_path / "contacts.csv.gz", tmp_path / "particles.csv.gz"
+    tcz.write_bytes(gzip.compress(tc.read_bytes()))
+    tpz.write_bytes(gzip.compress(tp.read_bytes()))
+    np.testing.assert_array_equal(read_network(tcz, tpz).force, read_network(tc, tp).force)
     assert all(d <= t for d, t in seen) and seen[-1][0] == seen[-1][1]
     bad = tmp_path / "broken.dump.gz"
     bad.write_bytes(c.read_bytes())
