@@ -73,6 +73,16 @@ def config(method: str, amplitude: float, pressure: float, steps: int, n_cycles:
                  "steps_per_cycle": steps, "waveform": "sine"}]}}
 
 
+def virgin(strain: np.ndarray, stress: np.ndarray, steps: int) -> float:
+    """Secant modulus of the virgin quarter, gamma = 0 to the first peak (step ``steps/4``) [Pa]; NaN if not reached."""
+    k = steps // 4
+    if strain.shape[0] <= k:
+        return float("nan")
+    gamma = strain[:, 2] - strain[:, 0]
+    tau = 0.5 * (stress[:, 2] - stress[:, 0])
+    return float((tau[k] - tau[0]) / (gamma[k] - gamma[0]))
+
+
 def loops(strain: np.ndarray, stress: np.ndarray, steps: int) -> tuple[tuple[float, float], tuple[float, float]]:
     """(secant G [Pa], damping [-]) of the first and of the last cycle of a pure-shear path of ``steps`` per cycle."""
     gamma = strain[:, 2] - strain[:, 0]
@@ -131,14 +141,14 @@ def main() -> int:
     print(f"Small-strain moduli of the network for this pure shear: affine (seed Eq. 2.26) {g_aff / 1e6:.2f} MPa, "
           f"relaxed no-slip (every grain in equilibrium) {g_rel / 1e6:.2f} MPa", flush=True)
     print("| amplitude | model | result | G last cycle [MPa] | vs LIGGGHTS | target | damping last cycle | "
-          "G / damping first cycle | p end / p0 | wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "G / damping first cycle | G virgin quarter | p end / p0 | wall [s] |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for amp in a.amplitudes:
         r = liggghts_reference().get(amp)
         if r is not None:
             print(f"| {amp:g} | LIGGGHTS (cyclic.in) | completed | {_g(r['G_secant_Pa'])} | — | — | "
                   f"{_d(r['damping'])} | {_g(r['G_secant_cycle1_Pa'])} / {_d(r['damping_cycle1'])} | "
-                  f"{r['p_end_Pa'] / r['p_start_Pa']:.3g} | — |", flush=True)
+                  f"{_g(r['G_virgin_Pa'])} | {r['p_end_Pa'] / r['p_start_Pa']:.3g} | — |", flush=True)
         for m in a.methods:
             t0 = time.perf_counter()
             out = compute_run(config(m, amp, p0, a.steps))
@@ -147,6 +157,7 @@ def main() -> int:
             tgt = TARGET.get((m, amp))
             tgt_s = f"{100 * tgt:.0f} %" if tgt else "—"
             res = out.results[0] if out.results else None
+            gv = virgin(np.asarray(res.strain), np.asarray(res.stress), a.steps) if res is not None else float("nan")
             if res is not None and res.success:
                 (g1, d1), (g, d) = loops(np.asarray(res.strain), np.asarray(res.stress), a.steps)
                 pr = float(np.mean(res.stress[-1, :3]) / np.mean(res.stress[0, :3]))
@@ -156,10 +167,11 @@ def main() -> int:
                 else:
                     vs = "—"
                 print(f"| {amp:g} | {m} | completed | {_g(g)} | {vs} | {tgt_s} | {_d(d)} | {_g(g1)} / {_d(d1)} | "
-                      f"{pr:.3g} | {wall:.0f} |", flush=True)
+                      f"{_g(gv)} | {pr:.3g} | {wall:.0f} |", flush=True)
             else:
                 why = " ".join(str(out.message).split())
-                print(f"| {amp:g} | {m} | stopped: {why} | — | — | {tgt_s} | — | — | — | {wall:.0f} |", flush=True)
+                print(f"| {amp:g} | {m} | stopped: {why} | — | — | {tgt_s} | — | — | {_g(gv)} | — | {wall:.0f} |",
+                      flush=True)
     return 0
 
 

@@ -64,9 +64,12 @@ def main() -> int:
         amp = float(f.stem.split("_", 1)[1])
         g, tau, p, period = cycle(f, a.cycles, a.cycles)
         lp = loop_properties(g, tau)
-        first = loop_properties(*cycle(f, a.cycles, 1)[:2])
+        g1, tau1 = cycle(f, a.cycles, 1)[:2]
+        first = loop_properties(g1, tau1)
+        pk = int(np.argmax(g1[: g1.size // 2]))  # the first peak: end of the virgin quarter
+        virgin = (tau1[pk] - tau1[0]) / (g1[pk] - g1[0])
         rows.append((amp, lp.secant_modulus, lp.damping, lp.gamma_a, lp.tau_a, p[0], p[-1], float(p.min()),
-                     first.secant_modulus, first.damping, period, g.size))
+                     first.secant_modulus, first.damping, virgin, period, g.size))
     gmax = rows[0][1] if rows else float("nan")
     head = [
         "# LIGGGHTS' own constant-volume cyclic shear of the packing in particles.dump.gz / contacts.dump.gz",
@@ -84,11 +87,12 @@ def main() -> int:
         f"{st.stress[2, 2]:.1f} Pa, unbalanced force ratio {unbalanced_ratio(net):.2e}",
         f"# liggghts_pressure_Pa (xx yy zz xy xz yz, pair virial, compression positive) = {pl}",
         f"# G_secant, damping: the last of {a.cycles} cycles, G from the loop's strain extremes, damping = loop "
-        "area / (4 pi W); *_cycle1: the first cycle (from gamma = 0, virgin quarter included); p_min: lowest mean "
-        "stress of the run; Gmax = G_secant of the smallest amplitude",
+        "area / (4 pi W); *_cycle1: the first cycle (from gamma = 0, virgin quarter included); G_virgin: secant "
+        "from gamma = 0 to the first peak; p_min: lowest mean stress of the run; Gmax = G_secant of the smallest "
+        "amplitude",
         f"# Gmax_Pa = {gmax:.6g}",
         "amplitude,G_secant_Pa,damping,gamma_a,tau_a_Pa,p_start_Pa,p_end_Pa,p_min_Pa,G_secant_cycle1_Pa,"
-        "damping_cycle1,period_s,samples_last_cycle",
+        "damping_cycle1,G_virgin_Pa,period_s,samples_last_cycle",
     ]
     body = [f"{r[0]:.3g}," + ",".join(f"{x:.6g}" for x in r[1:-1]) + f",{r[-1]}" for r in rows]
     (a.outdir / "liggghts_cyclic.csv").write_text("\n".join(head + body) + "\n")
