@@ -61,23 +61,23 @@ def test_liggghts_packing_reads_with_its_own_stress(network):
 def test_packing_model_at_1e5_matches_liggghts(network):
     """The packing model (every grain in equilibrium, the packing's own tangential forces
     kept), Hertz-Mindlin quartz, constant volume, 1e-5: secant G within 10 % of LIGGGHTS'
-    own cycles (liggghts_cyclic.csv, amplitude 1e-5; issue 29's check).
+    own (liggghts_cyclic.csv, amplitude 1e-5; issue 29's check). One cycle of 8 steps against
+    LIGGGHTS' first cycle (both from gamma = 0, the virgin quarter included; the benchmark
+    compares the second cycles of 2 x 16 steps: 48.63 against 48.04 MPa, docs/dem.md).
 
     The test is LIGGGHTS' (examples/liggghts/cyclic.in): pure shear eps_xx = -eps_zz = gamma/2
     at constant volume, x extending first, sinusoidal, i.e. simple shear in the axes rotated
-    45 degrees about y (LIGGGHTS 3.8 cannot tilt a periodic granular cell); here 2 cycles x 8
-    steps (the benchmark runs 16)."""
+    45 degrees about y (LIGGGHTS 3.8 cannot tilt a periodic granular cell)."""
     _, ref = _reference()
-    g_ref = float(ref["G_secant_Pa"][np.isclose(ref["amplitude"], 1e-5)][0])
+    g_ref = float(ref["G_secant_cycle1_Pa"][np.isclose(ref["amplitude"], 1e-5)][0])
     law = HertzMindlin(29e9, 0.15, float(np.mean(network.radii)), friction=0.5)
     point = PackingPoint.from_network(network, law)
     # a few of LIGGGHTS' contacts about to open carry |T| > mu N (its cap uses the damped
     # normal force): capped on input, and said so
     assert any("capped to mu N" in n for n in point.notes)
-    res = run_packing(point, cycles("EEEEEE", [-0.5, 0, 0.5, 0, 0, 0], 1e-5, 2, 8, "sine"))
+    res = run_packing(point, cycles("EEEEEE", [-0.5, 0, 0.5, 0, 0, 0], 1e-5, 1, 8, "sine"))
     assert res.success, res.message
-    last = slice(len(res.strain) - 9, None)  # the last of 2 cycles of 8 steps
-    gamma = res.strain[last, 2] - res.strain[last, 0]  # compression positive: eps_zz - eps_xx
-    tau = 0.5 * (res.stress[last, 2] - res.stress[last, 0])
+    gamma = res.strain[:, 2] - res.strain[:, 0]  # compression positive: eps_zz - eps_xx
+    tau = 0.5 * (res.stress[:, 2] - res.stress[:, 0])
     lp = loop_properties(gamma, tau)
     assert abs(lp.secant_modulus / g_ref - 1) < 0.10, (lp.secant_modulus, g_ref)
