@@ -161,7 +161,9 @@ def main() -> int:
             if res is not None and res.success:
                 (g1, d1), (g, d) = loops(np.asarray(res.strain), np.asarray(res.stress), a.steps)
                 pr = float(np.mean(res.stress[-1, :3]) / np.mean(res.stress[0, :3]))
-                if r is not None:
+                if r is not None and r["p_end_Pa"] < 0.5 * r["p_start_Pa"]:
+                    vs = "— (LIGGGHTS liquefied)"
+                elif r is not None:
                     dg = g / r["G_secant_Pa"] - 1
                     vs = f"{100 * dg:+.1f} %" + ("" if tgt is None else (" (met)" if abs(dg) <= tgt else " (not met)"))
                 else:
