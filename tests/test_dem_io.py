@@ -246,6 +246,40 @@ def test_dump_errors(tmp_path):
         read_network(tmp_path / "nope.dump", p)
 
 
+def test_gzipped_dumps_read_like_the_plain_files(tmp_path):
+    """A ``.gz`` contact or particle dump is decompressed on the fly: the same network as
+    the plain files (bit for bit); a ``.gz`` name on data that is not gzip is a one-line error."""
+    import gzip
+
+    net = random_network(120, cell=TRICLINIC, seed=4)
+    c, p = tmp_path / "contacts.dump", tmp_path / "particles.dump"
+    write_liggghts(net, c, p)
+    cz, pz = tmp_path / "contacts.dump.gz", tmp_path / "particles.dump.gz"
+    cz.write_bytes(gzip.compress(c.read_bytes()))
+    pz.write_bytes(gzip.compress(p.read_bytes()))
+    plain = read_network(c, p)
+    seen: list[tuple[int, int]] = []
+    for cc, pp in ((cz, pz), (cz, p), (c, pz)):
+        back = read_network(cc, pp, progress=lambda d, t: seen.append((d, t)))
+        for name in ("force", "positions", "radii", "branch", "overlap", "contact_point"):
+            np.testing.assert_array_equal(getattr(back, name), getattr(plain, name))
+        np.testing.assert_array_equal(back.box.cell, plain.box.cell)
+        np.testing.assert_array_equal(back.i, plain.i)
+    assert demio.detect_format(cz) == "liggghts"
+    # the generic CSV table too
+    tc, tp = tmp_path / "contacts.csv", tmp_path / "particles.csv"
+    write_table(net, tc, tp)
+    tcz, tpz = tmp_path / "contacts.csv.gz", tmp_path / "particles.csv.gz"
+    tcz.write_bytes(gzip.compress(tc.read_bytes()))
+    tpz.write_bytes(gzip.compress(tp.read_bytes()))
+    np.testing.assert_array_equal(read_network(tcz, tpz).force, read_network(tc, tp).force)
+    assert all(d <= t for d, t in seen) and seen[-1][0] == seen[-1][1]
+    bad = tmp_path / "broken.dump.gz"
+    bad.write_bytes(c.read_bytes())
+    with pytest.raises(GrainmechError, match=r"broken\.dump\.gz: not a gzip file"):
+        read_network(bad, p)
+
+
 @pytest.mark.parametrize("pids", [(3, 7), (3, 7_000_000_000)], ids=["id-table", "binary-search"])
 @pytest.mark.parametrize("bad", [1, 5, 9, 8_000_000_000])
 def test_unknown_particle_id_with_both_lookups(tmp_path, pids, bad):

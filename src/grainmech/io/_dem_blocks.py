@@ -10,6 +10,7 @@ file, the line, the column and the value.
 
 from __future__ import annotations
 
+import gzip
 import io
 import itertools
 import os
@@ -47,17 +48,39 @@ _PARTICLE_ALIASES = {
 
 # --------------------------------------------------------------------------- chunked parser
 
+def is_gzip(path: str | os.PathLike) -> bool:
+    """True for a file whose name ends in ``.gz`` (read through :mod:`gzip`, transparently)."""
+    return str(path).lower().endswith(".gz")
+
+
+def open_text(path: str | os.PathLike, errors: str = "strict") -> io.TextIOWrapper:
+    """Open a text file for reading, decompressing it on the fly when its name ends in ``.gz``.
+
+    Errors name the file: a missing file, a directory, and (for ``.gz``) a file that is not
+    gzip data are :class:`GrainmechError`.
+    """
+    try:
+        if is_gzip(path):
+            fh = gzip.open(path, "rt", encoding="utf-8", errors=errors, newline=None)
+            try:
+                fh.buffer.peek(1)  # type: ignore[attr-defined]
+            except (OSError, EOFError) as exc:
+                fh.close()
+                raise GrainmechError(f"{path}: not a gzip file ({exc})") from None
+            return fh
+        return open(path, encoding="utf-8", errors=errors, newline=None)
+    except IsADirectoryError:
+        raise GrainmechError(f"{path}: is a directory, not a file") from None
+    except FileNotFoundError:
+        raise GrainmechError(f"{path}: file not found") from None
+
+
 class _LineReader:
-    """Text file with line numbers (1-based) for error messages."""
+    """Text file (plain, or gzip-compressed when its name ends in ``.gz``) with line numbers (1-based)."""
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        try:
-            self.fh: io.TextIOWrapper = open(path, encoding="utf-8", errors="strict", newline=None)
-        except IsADirectoryError:
-            raise GrainmechError(f"{path}: is a directory, not a file") from None
-        except FileNotFoundError:
-            raise GrainmechError(f"{path}: file not found") from None
+        self.fh: io.TextIOWrapper = open_text(path)
         self.line = 0
         self._pushed: list[str] = []
 
@@ -395,7 +418,7 @@ def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], cou
     """
     first = rd.line + 1
     total = max(os.path.getsize(rd.path), 1)
-    if not rd._pushed:
+    if not rd._pushed and not is_gzip(rd.path):  # the pyarrow path reads raw bytes: plain text only
         fast = _read_block_arrow(rd.path, rd.line, names, want, count, delimiter, stop_prefix, int_cols,
                                  progress)
         if fast is not None:

@@ -18,7 +18,8 @@ Data blocks are parsed by pyarrow's CSV reader when pyarrow is installed (in pie
 whole lines on every core, each copied straight into the kept arrays), else -- and for
 anything that reader does not take, and for every error message -- by a NumPy line
 parser in chunks of lines; both keep only
-the needed columns, so memory is bounded by the output arrays, not by the file. Malformed
+the needed columns, so memory is bounded by the output arrays, not by the file. A file whose
+name ends in ``.gz`` is decompressed on the fly (line parser only). Malformed
 lines, missing columns, NaN/inf values, duplicate or unknown particle ids raise
 :class:`~grainmech.errors.GrainmechError` naming the file, the line, the column and the
 value.
@@ -64,6 +65,7 @@ from grainmech.io._dem_blocks import (  # noqa: F401 (re-exported: the names thi
     _reader_threads,
     _vector,
     _windows,
+    open_text,
 )
 from grainmech.io._dem_dump import (  # noqa: F401
     _AUTO_KEYWORDS,
@@ -100,13 +102,8 @@ def detect_format(path: str | os.PathLike) -> str:
     p = Path(path)
     if p.suffix.lower() == ".npz":
         return "npz"
-    try:
-        with open(p, encoding="utf-8", errors="replace") as fh:
-            head = fh.readline().strip()
-    except FileNotFoundError:
-        raise GrainmechError(f"{p}: file not found") from None
-    except IsADirectoryError:
-        raise GrainmechError(f"{p}: is a directory, not a file") from None
+    with open_text(p, errors="replace") as fh:
+        head = fh.readline().strip()
     if head.startswith("ITEM:"):
         return "liggghts"
     return "csv"
