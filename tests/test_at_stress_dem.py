@@ -76,3 +76,29 @@ def test_dem_relaxation_budget_names_the_ratio_reached(dense):
     assert "no equilibrium within max_relax_steps = 1000 time steps" in msg and "tol = 1e-09" in msg
     reached = float(msg.split("unbalanced force ratio was ")[1].split(" ")[0])
     assert 1e-9 < reached < 1e-3
+
+
+def test_auto_engine_says_why_when_both_engines_stop(dense, monkeypatch):
+    """engine='auto': when the packing model's path stops and the DEM consolidation stops too
+    (as on 'loose' at 50 kPa, docs/packing-driver.md), the one error names both causes."""
+    import grainmech.driver.packing.point as point_mod
+    from grainmech.errors import GrainmechError as GE
+
+    def path_stops(*a, **k):
+        raise GE("bringing the packing to the stress [5e4] failed: step 1: no equilibrium found")
+
+    def dem_stops(*a, **k):
+        raise GE("bringing the DEM packing from p = 93915 Pa to 50000 Pa failed: no equilibrium")
+
+    monkeypatch.setattr(PackingPoint, "_at_stress_path", classmethod(lambda cls, *a, **k: path_stops()))
+    monkeypatch.setattr(point_mod, "dem_consolidated", dem_stops)
+    monkeypatch.setattr(point_mod, "lammps_available", lambda: True)
+    net, law = dense
+    with pytest.raises(GE) as err:
+        PackingPoint.at_stress(net, law, 50e3)
+    msg = str(err.value)
+    assert "step 1: no equilibrium found" in msg and "the DEM model (engine='auto') could not either" in msg
+    assert "93915 Pa to 50000 Pa" in msg
+    with pytest.raises(GE, match="step 1: no equilibrium found") as err:  # engine='packing': no DEM
+        PackingPoint.at_stress(net, law, 50e3, engine="packing")
+    assert "DEM" not in str(err.value)

@@ -301,7 +301,10 @@ class PackingPoint:
                 raise
             why = (f"the packing model could not bring the packing to p = {isotropic_pressure(sigma):.5g} Pa "
                    f"({exc}); the DEM model did",)
-            return cls._at_stress_dem(net, params, sigma, options, dem_settings, why, **from_network)
+            try:
+                return cls._at_stress_dem(net, params, sigma, options, dem_settings, why, **from_network)
+            except GrainmechError as dem_exc:
+                raise GrainmechError(f"{exc}; the DEM model (engine='auto') could not either: {dem_exc}") from None
 
     @classmethod
     def _at_stress_dem(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float],
