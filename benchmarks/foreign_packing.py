@@ -25,8 +25,8 @@ prints the network's small-strain moduli for the same shear: the affine one (the
 hypothesis, an upper bound; ``[model] method = "affine"`` runs the analytical fabric of
 ``[packing]``, not a network, so it is evaluated on the network directly) and the relaxed
 one. Prints a markdown table. Usage: ``python benchmarks/foreign_packing.py [--amplitudes 1e-5 1e-4]
-[--methods affine packing dem] [--steps 16]`` (the DEM model needs ``grainmech[dem]``;
-on 2 cores the whole table takes tens of minutes, most of it DEM at 1e-4).
+[--methods affine packing dem] [--steps 16] [--data tests/data/liggghts_medium]`` (the DEM model
+needs ``grainmech[dem]``; on 2 cores the whole table takes tens of minutes, most of it DEM at 1e-4).
 """
 
 from __future__ import annotations
@@ -59,10 +59,11 @@ def liggghts_reference(path: Path = DATA / "liggghts_cyclic.csv") -> dict[float,
 DIRECTION = [-0.5, 0.0, 0.5, 0.0, 0.0, 0.0]
 
 
-def config(method: str, amplitude: float, pressure: float, steps: int, n_cycles: int = 2) -> dict:
-    """The run config of one model at one amplitude on the shipped LIGGGHTS packing."""
-    model: dict = {"method": method, "network": str(DATA / "contacts.dump.gz"),
-                   "particles": str(DATA / "particles.dump.gz"), "format": "liggghts"}
+def config(method: str, amplitude: float, pressure: float, steps: int, n_cycles: int = 2,
+           data: Path = DATA) -> dict:
+    """The run config of one model at one amplitude on a shipped LIGGGHTS packing (folder ``data``)."""
+    model: dict = {"method": method, "network": str(data / "contacts.dump.gz"),
+                   "particles": str(data / "particles.dump.gz"), "format": "liggghts"}
     if method == "dem":
         model["dem"] = {"workers": 1}
     return {"contacts": {"law": "hertz-mindlin", "shear_modulus": "29 GPa", "poisson": 0.15, "friction": 0.5},
@@ -130,8 +131,12 @@ def main() -> int:
     ap.add_argument("--amplitudes", type=float, nargs="+", default=[1e-5, 1e-4])
     ap.add_argument("--methods", nargs="+", default=["packing", "dem"])
     ap.add_argument("--steps", type=int, default=16, help="steps per cycle (multiple of 4)")
+    ap.add_argument("--data", type=Path, default=DATA,
+                    help="folder of the packing's dumps and liggghts_cyclic.csv (default tests/data/liggghts_loose)")
     a = ap.parse_args()
-    net = read_network(DATA / "contacts.dump.gz", DATA / "particles.dump.gz")
+    csv = a.data / "liggghts_cyclic.csv"
+    ref = liggghts_reference(csv) if csv.exists() else {}  # the grainmech rows can run before LIGGGHTS' cycles
+    net = read_network(a.data / "contacts.dump.gz", a.data / "particles.dump.gz")
     p0 = network_stress(net).mean
     g_aff, g_rel = small_strain_context(net)
     print(f"{datetime.date.today()}: LIGGGHTS packing ({net.n_particles} grains, e = {net.void_ratio:.3f}, "
@@ -144,16 +149,15 @@ def main() -> int:
           "G / damping first cycle | G virgin quarter | p end / p0 | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for amp in a.amplitudes:
-        r = liggghts_reference().get(amp)
+        r = ref.get(amp)
         if r is not None:
             print(f"| {amp:g} | LIGGGHTS (cyclic.in) | completed | {_g(r['G_secant_Pa'])} | — | — | "
                   f"{_d(r['damping'])} | {_g(r['G_secant_cycle1_Pa'])} / {_d(r['damping_cycle1'])} | "
                   f"{_g(r['G_virgin_Pa'])} | {r['p_end_Pa'] / r['p_start_Pa']:.3g} | — |", flush=True)
         for m in a.methods:
             t0 = time.perf_counter()
-            out = compute_run(config(m, amp, p0, a.steps))
+            out = compute_run(config(m, amp, p0, a.steps, data=a.data))
             wall = time.perf_counter() - t0
-            r = liggghts_reference().get(amp)
             tgt = TARGET.get((m, amp))
             tgt_s = f"{100 * tgt:.0f} %" if tgt else "—"
             res = out.results[0] if out.results else None

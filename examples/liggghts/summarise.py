@@ -47,6 +47,8 @@ def main() -> int:
     ap.add_argument("outdir", type=Path)
     ap.add_argument("--cycles", type=int, default=2)
     ap.add_argument("--settings", default="", help="one line describing the cyclic settings (header)")
+    ap.add_argument("--friction", default="friction 0.5",
+                    help="the packing's friction as pack.in ran (header), e.g. 'friction 0.3, then 0.5'")
     a = ap.parse_args()
     a.outdir.mkdir(parents=True, exist_ok=True)
     for src, dst in (("pack_particles.dump", "particles.dump.gz"), ("pack_contacts.dump", "contacts.dump.gz")):
@@ -74,11 +76,12 @@ def main() -> int:
     head = [
         "# LIGGGHTS' own constant-volume cyclic shear of the packing in particles.dump.gz / contacts.dump.gz",
         "# made with LIGGGHTS-PUBLIC 3.8.0 (Debian package liggghts 3.8.0+repack1), grainmech examples/liggghts/:",
-        "#   pack.in (2000 quartz spheres G 29 GPa nu 0.15 rho 2650, Hertz + Mindlin history, friction 0.5,",
+        f"#   pack.in (2000 quartz spheres G 29 GPa nu 0.15 rho 2650, Hertz + Mindlin history, {a.friction},",
         "#   isotropic 100 kPa, periodic orthogonal box), cyclic.in (constant volume: pure shear eps_xx = -eps_zz =",
         "#   gamma/2 by fix deform x/z wiggle, remap v = simple shear gamma in axes at 45 deg about y;",
         "#   gamma = eps_xx - eps_zz, tau = (sigma_xx - sigma_zz)/2, tension positive; LIGGGHTS 3.8 cannot tilt",
-        "#   a periodic granular cell), sinusoidal, period 100 shear-wave transits (2.35 ms), dt 1.78e-8 s,",
+        f"#   a periodic granular cell), sinusoidal, period 100 shear-wave transits "
+        f"({1e3 * rows[0][11] if rows else float('nan'):.3g} ms), dt 1.78e-8 s,",
         f"#   {a.settings}",
         f"# pack_final.txt: {final}",
         f"# packing read by grainmech: n {net.n_particles}, contacts {net.n_contacts}, void ratio "
