@@ -291,27 +291,28 @@ class PackingPoint:
         """
         if engine not in ENGINES:
             raise ParameterError("engine", engine, f"must be one of {', '.join(ENGINES)}")
+        p = isotropic_pressure(sigma)
         if engine == "dem":
-            return cls._at_stress_dem(net, params, sigma, options, dem_settings, (), **from_network)
+            return cls._at_stress_dem(net, params, sigma, p, options, dem_settings, (), **from_network)
         try:
             return cls._at_stress_path(net, params, sigma, n_steps, options, **from_network)
         except GrainmechError as exc:
-            if engine == "packing" or isinstance(exc, ParameterError) or isotropic_pressure(sigma) is None \
-                    or not lammps_available():
+            if engine == "packing" or isinstance(exc, ParameterError) or p is None or not lammps_available():
                 raise
-            why = (f"the packing model could not bring the packing to p = {isotropic_pressure(sigma):.5g} Pa "
-                   f"({exc}); the DEM model did",)
+            why = (f"the packing model could not bring the packing to p = {p:.5g} Pa ({exc}); the DEM model did",)
             try:
-                return cls._at_stress_dem(net, params, sigma, options, dem_settings, why, **from_network)
+                return cls._at_stress_dem(net, params, sigma, p, options, dem_settings, why, **from_network)
             except GrainmechError as dem_exc:
                 raise GrainmechError(f"{exc}; the DEM model (engine='auto') could not either: {dem_exc}") from None
 
     @classmethod
-    def _at_stress_dem(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float],
+    def _at_stress_dem(cls, net: ContactNetwork, params: Any, sigma: float | Sequence[float], p: float | None,
                        options: PackingOptions | None, dem_settings: Any, why: tuple,
                        **from_network: Any) -> PackingPoint:
-        """:meth:`at_stress` with ``engine="dem"``: the point on the DEM model's network at the pressure."""
-        p = isotropic_pressure(sigma)
+        """:meth:`at_stress` with ``engine="dem"``: the point on the DEM model's network at pressure ``p``.
+
+        ``p`` is the pressure of ``sigma`` (``None``: ``sigma`` is not isotropic, an error).
+        """
         if p is None:
             raise ParameterError("sigma", np.asarray(sigma).tolist(),
                                  "the DEM model brings a packing to an isotropic pressure only (a number or p I)")
