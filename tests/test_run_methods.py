@@ -485,3 +485,40 @@ def test_built_in_default_runs_three_models():
     assert pk.details["max_residual"] < 0.05
     assert dm.details["max_unbalanced"] < dm.details["settings"]["tol"]
     assert any("Mindlin-Deresiewicz" in n for n in dm.details["notes"])
+
+
+def test_packing_options_bound_the_small_strain_range(network_files):
+    """``[model.packing_options]`` reaches the packing model: a bound below what a cycle of
+    1e-4 needs stops it with status OUT_OF_RANGE and a message naming the table; the
+    default bounds complete the same run (see ``test_both_models_in_one_run``)."""
+    d, net = network_files
+    cfg = _config(d, _packing_pressure(net), ["packing"])
+    cfg["model"]["packing_options"] = {"max_fluctuation": 1e-9}
+    spec = prepare_run(cfg)
+    assert spec.packing_options == {"max_fluctuation": 1e-9}
+    out = compute_run(cfg)
+    assert isinstance(out, CyclicOutcome) and not out.success
+    assert "max_fluctuation = 1e-09" in out.message and "[model.packing_options]" in out.message
+
+
+@pytest.mark.parametrize("table, key", [
+    ({"max_fluctuation": 2.0}, "model.packing_options.max_fluctuation"),
+    ({"max_strain": 0.5}, "model.packing_options.max_strain"),
+    ({"max_fluctuation": -0.1}, "model.packing_options.max_fluctuation"),
+    ({"max_fluct": 0.1}, "model.packing_options.max_fluct"),
+])
+def test_packing_options_errors_name_the_key(network_files, table, key):
+    d, net = network_files
+    cfg = _config(d, _packing_pressure(net), ["packing"])
+    cfg["model"]["packing_options"] = table
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")):
+        prepare_run(cfg)
+
+
+def test_packing_options_without_the_packing_model(network_files):
+    d, net = network_files
+    cfg = _config(d, _packing_pressure(net), ["affine"])
+    del cfg["model"]["network"], cfg["model"]["particles"]
+    cfg["model"]["packing_options"] = {"max_fluctuation": 0.2}
+    with pytest.raises(ConfigError, match=r"model\.packing_options"):
+        prepare_run(cfg)

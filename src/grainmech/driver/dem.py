@@ -118,6 +118,12 @@ class DemSettings:
         (LAMMPS ``fix damping/cundall``) in place of the viscous drags; 0 keeps the drags.
         Loose packings creep slowly under viscous drags (their soft modes are overdamped):
         'loose' at 1e-4 relaxes about three times faster with 0.7 (``docs/dem-model.md``).
+    kinetic : bool
+        Kinetic damping during relaxation (no drags: the grains move undamped and all
+        velocities and spins are set to zero whenever the power of the forces turns
+        negative, :meth:`grainmech.packing.reference._Session.advance`) in place of the
+        viscous drags; excludes ``cundall``. It reaches equilibrium where the drags leave the
+        stress creeping: amplitudes of 1e-2 and loose packings (``docs/dem-model.md``).
     ranks : int
         MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
         with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
@@ -138,6 +144,7 @@ class DemSettings:
     max_substeps: int = 50
     threads: int = 1
     cundall: float = 0.0
+    kinetic: bool = False
     ranks: int = 1
 
     def __post_init__(self) -> None:
@@ -151,6 +158,10 @@ class DemSettings:
                 raise ParameterError(k, v, "must be a finite number > 0")
         if not (isinstance(self.cundall, (int, float)) and 0 <= self.cundall < 1):
             raise ParameterError("cundall", self.cundall, "must be a number in [0, 1) (0: viscous drags)")
+        if not isinstance(self.kinetic, (bool, np.bool_)):
+            raise ParameterError("kinetic", self.kinetic, "must be true or false")
+        if self.kinetic and self.cundall > 0:
+            raise ParameterError("kinetic", self.kinetic, "excludes cundall > 0 (one damping of the relaxation)")
         if self.safety > 0.5:
             raise ParameterError("safety", self.safety, "must be <= 0.5 (fraction of the critical time step)")
 
@@ -261,7 +272,8 @@ class DemPoint:
             raise ParameterError("pressure", pressure, "must be a finite stress > 0")
         lmp = Lammps(st.threads)
         try:
-            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety, cundall=st.cundall)
+            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety, cundall=st.cundall,
+                             kinetic=st.kinetic)
             ref, ub = _relax(s, st, None, tick)
             pt = cls(lmp, s, ref, ub, st, mat, tick)
             pt.notes.append(f"LAMMPS keeps no tangential spring history from a network file: the packing "

@@ -46,7 +46,7 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
     Settings default to :class:`grainmech.driver.dem.DemSettings`; ``workers`` (processes
     that run DEM amplitudes side by side) to the cores this process may use divided by
     ``ranks`` (the MPI ranks of each amplitude), at least 1. ``cundall`` (Cundall's local
-    damping, 0 = viscous drags) may be 0.
+    damping, 0 = viscous drags) may be 0; ``kinetic`` (kinetic damping) is true or false.
     """
     sec = model.section("dem", {})
     kw: dict[str, Any] = {}
@@ -57,6 +57,8 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
     if sec.has("cundall"):
         kw["cundall"] = sec.number("cundall", None, min=0)
+    if sec.has("kinetic"):
+        kw["kinetic"] = sec.boolean("kinetic", False)
     sec.finish()
     try:
         return DemSettings(**kw), workers

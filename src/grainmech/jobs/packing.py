@@ -41,7 +41,7 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
     if src is None:
         raise ValueError("the packing model needs a packing (RunSpec.grains is None)")
     net = src.network
-    opts = PackingOptions(law_backend="auto")
+    opts = PackingOptions(law_backend="auto", **spec.packing_options)
     t0 = time.perf_counter()
     say(f"[packing] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, "
         f"void ratio {src.void_ratio:.3f}; equilibrium check and elastic factorisation")

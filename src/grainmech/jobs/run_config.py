@@ -35,6 +35,35 @@ from grainmech.packing import load_packing
 __all__ = ["prepare_run"]
 
 
+#: keys of ``[model.packing_options]``: the packing model's small-strain bounds
+#: (:class:`grainmech.driver.packing.PackingOptions`)
+PACKING_OPTION_KEYS = ("max_fluctuation", "max_strain")
+
+
+def _read_packing_options(model: Any, methods: tuple) -> dict:
+    """``[model.packing_options]``: ``max_fluctuation`` and ``max_strain`` of the packing model.
+
+    Both are the bounds of its fixed reference geometry (a grain's displacement
+    fluctuation as a fraction of its radius; a strain component); a step past either stops
+    the amplitude (``docs/packing-driver.md``, "Small-strain range").
+    """
+    if not model.has("packing_options"):
+        return {}
+    if "packing" not in methods:
+        raise ConfigError(model.key("packing_options"), model.raw("packing_options"),
+                          f"is for method = 'packing', which this config does not use (method = {list(methods)})")
+    sec = model.section("packing_options", {})
+    out = {k: sec.number(k, None, min=0, min_inclusive=False) for k in PACKING_OPTION_KEYS if sec.has(k)}
+    if "max_fluctuation" in out and out["max_fluctuation"] > 1.0:
+        raise ConfigError(sec.key("max_fluctuation"), out["max_fluctuation"], "must be <= 1 (a fraction of the "
+                          "grain radius; beyond it the fixed reference geometry means nothing)")
+    if "max_strain" in out and out["max_strain"] > 0.1:
+        raise ConfigError(sec.key("max_strain"), out["max_strain"], "must be <= 0.1 (the packing model is a "
+                          "small-strain model)")
+    sec.finish()
+    return out
+
+
 def _read_methods(model: Any) -> tuple:
     """``[model] method``: one of :data:`RUN_METHODS` or a list of them (default ``"affine"``)."""
     raw = model.raw("method", "affine")
@@ -212,8 +241,10 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
                           f"is reported beside the G/Gmax curves of a cyclic test, not with test.kind = {kind!r}")
     ref = root.section("reference", {})
+    packing_options = _read_packing_options(model, methods)
     spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
-                   methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains)
+                   methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains,
+                   packing_options=packing_options)
     pk = cfg.get("packing", {})
     if isinstance(pk, dict) and "void_ratio" in pk:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing

@@ -56,6 +56,7 @@ class RunSpec:
     packing_law: Any = None
     gmax_grains: PackingSource | None = None
     packing_amplitudes: list[float] | None = None
+    packing_options: dict = field(default_factory=dict)
     dem_amplitudes: list[float] | None = None
     dem_steps_per_cycle: int = 16
     dem_settings: Any = None

@@ -59,6 +59,10 @@ def _voigt(s: np.ndarray) -> np.ndarray:
     return np.array([s[i, j] for i, j in _VOIGT])
 
 
+#: time steps between two checks of the power under kinetic damping (:meth:`_Session.advance`)
+KINETIC_INTERVAL = 10
+
+
 @dataclass
 class _Session:
     lmp: Any
@@ -71,6 +75,7 @@ class _Session:
     gamma: float
     steps: int = 0
     cundall: float = 0.0
+    kinetic: bool = False
 
     def drags(self) -> None:
         """Switch the relaxation's damping on (fixes ``drag`` and ``spin``).
@@ -79,7 +84,10 @@ class _Session:
         ``cundall`` > 0, Cundall's local non-viscous damping (LAMMPS ``fix damping/cundall``:
         each force and torque component reduced by ``cundall`` times its magnitude against
         the motion; Cundall & Strack 1979), which does not slow the packing's soft modes.
+        With ``kinetic`` there are no damping fixes: :meth:`advance` quenches the motion.
         """
+        if self.kinetic:
+            return
         if self.cundall > 0:
             self.lmp.commands([f"fix drag all damping/cundall {self.cundall:.10g} {self.cundall:.10g}",
                                "fix spin all viscous/sphere 0"])
@@ -87,16 +95,47 @@ class _Session:
             self.lmp.commands([f"fix drag all viscous {self.gamma:.10g}",
                                f"fix spin all viscous/sphere {self.gamma * self.rbar ** 2:.10g}"])
 
+    def undrag(self) -> None:
+        """Switch the relaxation's damping off (for a ramp)."""
+        if not self.kinetic:
+            self.lmp.commands(["unfix drag", "unfix spin"])
+
+    def advance(self, steps: int) -> None:
+        """Run ``steps`` time steps with the relaxation's damping (the cell held).
+
+        With ``kinetic`` (kinetic damping, the quench of dynamic relaxation: Cundall 1987;
+        the velocity rule of FIRE, Bitzek et al. 2006, without its mixing and adaptive time
+        step) the grains move undamped and every :data:`KINETIC_INTERVAL` time steps the
+        power of the forces and torques, ``sum f.v + tau.omega`` over all grains (a LAMMPS
+        reduction, so every MPI rank sees the same number), is checked: when it is negative
+        the packing has passed a minimum of its potential energy along its motion, and every
+        velocity and spin is set to zero. Soft modes are not slowed as by a viscous drag.
+        The first run of each call sets LAMMPS up (``pre yes``): fixes may have changed.
+        """
+        if not self.kinetic:
+            self.lmp.command(f"run {steps} post no")
+            self.steps += steps
+            return
+        done = 0
+        while done < steps:
+            n = min(KINETIC_INTERVAL, steps - done)
+            self.lmp.command(f"run {n} {'pre no ' if done else ''}post no")
+            done += n
+            if self.lmp.scalar("kpow") < 0.0:
+                self.lmp.commands(["velocity all set 0.0 0.0 0.0", "set group all omega 0.0 0.0 0.0"])
+        self.steps += steps
+
 
 def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: float = 0.01,
-                 safety: float = 0.07, cundall: float = 0.0) -> _Session:
+                 safety: float = 0.07, cundall: float = 0.0, kinetic: bool = False) -> _Session:
     """Put a periodic network into LAMMPS with grainmech's granular model.
 
     Put a periodic network into LAMMPS with the granular model of
     :mod:`grainmech.packing.prepare` and the grain friction; set the time step
     (:func:`critical_time_step` times ``safety``) and the drags (``viscous`` times the contact
     frequency at the packing's stress; with ``cundall`` > 0 Cundall's local damping
-    instead, :meth:`_Session.drags`).
+    instead, :meth:`_Session.drags`; with ``kinetic``, kinetic damping,
+    :meth:`_Session.advance`).
     """
     if net.radii is None or not bool(np.all(net.box.periodic)):
         raise GrainmechError("a DEM reference run needs a periodic 3D packing with radii")
@@ -119,7 +158,14 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     omega = math.sqrt(kn / m_bar)
     g = viscous * omega * m_bar
     lmp.commands([f"timestep {dt:.10g}", "thermo 100"])
-    s = _Session(lmp, mat, dt, p, rbar, m_bar, omega, g, cundall=float(cundall))
+    if kinetic and cundall > 0:
+        raise GrainmechError("kinetic damping and Cundall's local damping exclude each other")
+    if kinetic:
+        lmp.commands(["compute kspin all property/atom omegax omegay omegaz tqx tqy tqz",
+                      "variable kpow atom fx*vx+fy*vy+fz*vz+c_kspin[1]*c_kspin[4]+c_kspin[2]*c_kspin[5]"
+                      "+c_kspin[3]*c_kspin[6]",
+                      "compute kpow all reduce sum v_kpow"])
+    s = _Session(lmp, mat, dt, p, rbar, m_bar, omega, g, cundall=float(cundall), kinetic=bool(kinetic))
     s.drags()
     return s
 
@@ -146,9 +192,8 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
     used = 0
     prev = None
     while True:
-        s.lmp.command(f"run {chunk} post no")
+        s.advance(chunk)
         used += chunk
-        s.steps += chunk
         net = network_from_lammps(s.lmp)
         ub = unbalanced_ratio(net)
         ok = ub < tol
@@ -194,7 +239,7 @@ def _ramp(s: _Session, de: np.ndarray, steps: int) -> None:
     parts = [f"{key} erate {r:.12g}" for (key, _), r in zip(VOIGT_DEFORM, rate) if r != 0]
     if not parts:
         return
-    s.lmp.commands(["unfix drag", "unfix spin"])
+    s.undrag()
     _add_affine_velocity(s, rate, 1.0)
     s.lmp.command("fix probe all deform 1 " + " ".join(parts) + " remap v")
     s.lmp.command(f"run {steps} post no")

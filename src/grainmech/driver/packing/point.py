@@ -688,8 +688,8 @@ class _Stepping(PointStepping):
             what = (f"a grain's displacement fluctuation reached {fl:.3g} of its radius (max_fluctuation = "
                     f"{opts.max_fluctuation:g})" if fl > opts.max_fluctuation else
                     f"a strain component reached {big:.3g} (max_strain = {opts.max_strain:g})")
-            raise StepFailure(f"left the small-strain range: {what}; the fixed-geometry model no longer applies",
-                              Status.OUT_OF_RANGE)
+            raise StepFailure(f"left the small-strain range: {what}; the fixed-geometry model no longer applies "
+                              "(a run's [model.packing_options] sets both bounds)", Status.OUT_OF_RANGE)
         return replace(self, point=new, counters=tuple(counters), krylov=ctx.krylov - kr0, spent=ctx.work - w0)
 
 
