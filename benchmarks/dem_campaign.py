@@ -10,7 +10,7 @@ over the path (at constant volume the pore-pressure ratio), the largest unbalanc
 ratio of the recorded states, the LAMMPS time steps and the wall time.
 
 Usage: ``python benchmarks/dem_campaign.py [--packings dense,medium,loose]
-[--controls stress,volume] [--amplitudes 1e-6,1e-5,1e-4,1e-3,1e-2] [--workers 1]``
+[--controls stress,volume] [--amplitudes 1e-6,1e-5,1e-4,1e-3,1e-2] [--workers 1] [--set KEY=VALUE]``
 (needs ``grainmech[dem]``; about an hour on one core for the whole grid).
 """
 
@@ -23,8 +23,10 @@ import time
 
 import numpy as np
 
+from _dem_settings_arg import settings_from
+
 from grainmech.contact import HertzMindlin
-from grainmech.driver.dem import DemSettings, dem_modulus_reduction
+from grainmech.driver.dem import dem_modulus_reduction
 from grainmech.packing import load_packing, packing_info
 
 
@@ -35,9 +37,12 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--controls", default="stress,volume")
     ap.add_argument("--amplitudes", default="1e-6,1e-5,1e-4,1e-3,1e-2")
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="a DemSettings field other than its default (repeatable), e.g. kinetic=true")
     a = ap.parse_args(argv)
     amps = [float(x) for x in a.amplitudes.split(",")]
-    print(f"{datetime.date.today()}: DEM campaign, 2 cycles x 16 steps, settings {DemSettings().as_dict()}")
+    settings = settings_from(a.set)
+    print(f"{datetime.date.today()}: DEM campaign, 2 cycles x 16 steps, settings {settings.as_dict()}")
     print("| packing | control | amplitude | result | G [MPa] | G/Gmax | damping | Δp/p0 | max unbalanced "
           "| time steps | wall [s] |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
@@ -61,7 +66,7 @@ def main(argv: list[str]) -> int:
                       flush=True)
                 last[0] = now
 
-            mr = dem_modulus_reduction(net, law, amps, constant=control, settings=DemSettings(),
+            mr = dem_modulus_reduction(net, law, amps, constant=control, settings=settings,
                                        workers=a.workers, raise_on_failure=False, on_amplitude=row)
             if not mr.success:
                 stopped += 1

@@ -2,12 +2,13 @@
 
 Runs cyclic simple shear with the DEM model on a shipped packing (Hertz-Mindlin, the
 packing's own quartz grains, ``n_cycles = 2``, 16 steps per cycle) at each amplitude with
-the default settings and with the ramp length (``ramp_steps`` and
+the default settings (or those of ``--set``) and with the ramp length (``ramp_steps`` and
 ``max_ramp_strain`` together), the drag and the relaxation tolerance
-halved and doubled, and prints G and damping of each against the default's as a
+halved and doubled (under ``--set kinetic=true``: the tolerance halved and doubled, and
+the drags in place of the kinetic damping), and prints G and damping of each against the default's as a
 markdown table (the change of G in %, of damping in absolute terms).
 
-Usage: ``python benchmarks/dem_settings_table.py [PACKING] [AMPLITUDE ...] [--constant stress|volume]``
+Usage: ``python benchmarks/dem_settings_table.py [PACKING] [AMPLITUDE ...] [--constant stress|volume] [--set KEY=VALUE]``
 (needs ``grainmech[dem]``; each row is one LAMMPS run per amplitude, minutes).
 """
 
@@ -18,8 +19,10 @@ import dataclasses
 import sys
 import time
 
+from _dem_settings_arg import settings_from
+
 from grainmech.contact import HertzMindlin
-from grainmech.driver.dem import DemSettings, dem_modulus_reduction
+from grainmech.driver.dem import dem_modulus_reduction
 from grainmech.packing import load_packing, packing_info
 
 
@@ -30,18 +33,26 @@ def main(argv: list[str]) -> int:
     ap.add_argument("amplitudes", nargs="*", type=float, default=[1e-4, 1e-3, 1e-2])
     ap.add_argument("--constant", default="volume", choices=("stress", "volume"))
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="a DemSettings field other than its default (repeatable), e.g. kinetic=true")
     a = ap.parse_args(argv)
     net = load_packing(a.packing)
     m = packing_info(a.packing)["material"]
     law = HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"])
-    base = DemSettings()
-    variants = [("default", base)]
+    base = settings_from(a.set)
+    variants = [("default" if not a.set else "base (" + ", ".join(a.set) + ")", base)]
     for f, word in ((0.5, "halved"), (2.0, "doubled")):
         # the ramp: its least length and its largest strain per time step together
         variants.append((f"ramp {word} ({int(base.ramp_steps * f)} steps, {base.max_ramp_strain / f:g} per step)",
                          dataclasses.replace(base, ramp_steps=int(base.ramp_steps * f),
                                              max_ramp_strain=base.max_ramp_strain / f)))
-    for k in ("viscous", "tol"):
+    # the damping of the relaxation: the drags halved and doubled, or, under kinetic damping,
+    # the drags in its place
+    keys = ("viscous", "tol") if not base.kinetic else ("tol",)
+    if base.kinetic:
+        variants.append((f"viscous drags ({base.viscous:g}) instead of kinetic damping",
+                         dataclasses.replace(base, kinetic=False)))
+    for k in keys:
         v = getattr(base, k)
         for f, word in ((0.5, "halved"), (2.0, "doubled")):
             variants.append((f"{k} {word} ({v * f:g})", dataclasses.replace(base, **{k: v * f})))

@@ -25,7 +25,7 @@ prints the network's small-strain moduli for the same shear: the affine one (the
 hypothesis, an upper bound; ``[model] method = "affine"`` runs the analytical fabric of
 ``[packing]``, not a network, so it is evaluated on the network directly) and the relaxed
 one. Prints a markdown table. Usage: ``python benchmarks/foreign_packing.py [--amplitudes 1e-5 1e-4]
-[--methods affine packing dem] [--steps 16] [--data tests/data/liggghts_medium]`` (the DEM model
+[--methods affine packing dem] [--steps 16] [--data tests/data/liggghts_medium] [--max-fluctuation 0.2]`` (the DEM model
 needs ``grainmech[dem]``; on 2 cores the whole table takes tens of minutes, most of it DEM at 1e-4).
 """
 
@@ -60,12 +60,17 @@ DIRECTION = [-0.5, 0.0, 0.5, 0.0, 0.0, 0.0]
 
 
 def config(method: str, amplitude: float, pressure: float, steps: int, n_cycles: int = 2,
-           data: Path = DATA) -> dict:
-    """The run config of one model at one amplitude on a shipped LIGGGHTS packing (folder ``data``)."""
+           data: Path = DATA, packing_options: dict | None = None) -> dict:
+    """The run config of one model at one amplitude on a shipped LIGGGHTS packing (folder ``data``).
+
+    ``packing_options`` is the packing model's ``[model.packing_options]`` (its small-strain bounds).
+    """
     model: dict = {"method": method, "network": str(data / "contacts.dump.gz"),
                    "particles": str(data / "particles.dump.gz"), "format": "liggghts"}
     if method == "dem":
         model["dem"] = {"workers": 1}
+    if method == "packing" and packing_options:
+        model["packing_options"] = dict(packing_options)
     return {"contacts": {"law": "hertz-mindlin", "shear_modulus": "29 GPa", "poisson": 0.15, "friction": 0.5},
             "initial": {"pressure": f"{pressure:.6g} Pa"},
             "model": model,
@@ -133,7 +138,10 @@ def main() -> int:
     ap.add_argument("--steps", type=int, default=16, help="steps per cycle (multiple of 4)")
     ap.add_argument("--data", type=Path, default=DATA,
                     help="folder of the packing's dumps and liggghts_cyclic.csv (default tests/data/liggghts_loose)")
+    ap.add_argument("--max-fluctuation", type=float, default=None,
+                    help="the packing model's [model.packing_options] max_fluctuation (default: its own, 0.05)")
     a = ap.parse_args()
+    popts = {} if a.max_fluctuation is None else {"max_fluctuation": a.max_fluctuation}
     csv = a.data / "liggghts_cyclic.csv"
     ref = liggghts_reference(csv) if csv.exists() else {}  # the grainmech rows can run before LIGGGHTS' cycles
     net = read_network(a.data / "contacts.dump.gz", a.data / "particles.dump.gz")
@@ -156,7 +164,7 @@ def main() -> int:
                   f"{_g(r['G_virgin_Pa'])} | {r['p_end_Pa'] / r['p_start_Pa']:.3g} | — |", flush=True)
         for m in a.methods:
             t0 = time.perf_counter()
-            out = compute_run(config(m, amp, p0, a.steps, data=a.data))
+            out = compute_run(config(m, amp, p0, a.steps, data=a.data, packing_options=popts))
             wall = time.perf_counter() - t0
             tgt = TARGET.get((m, amp))
             tgt_s = f"{100 * tgt:.0f} %" if tgt else "—"
