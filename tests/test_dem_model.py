@@ -16,9 +16,11 @@ from pathlib import Path
 import pytest
 
 from grainmech.cli import main as cli_main
+from grainmech.driver.base import Status, StepFailure
 from grainmech.driver.dem import DemSettings, dem_material
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.packing.engine import lammps_available
+from grainmech.packing.reference import RelaxationTimeout
 
 BASE = """
 [contacts]
@@ -63,6 +65,9 @@ def run_cli(args: list, capsys: pytest.CaptureFixture) -> tuple[int, str, str]:
     ({"model": "[model.dem]\nviscous = -1.0"}, "model.dem.viscous"),
     ({"model": "[model.dem]\nsafety = 0.9"}, "model.dem.safety"),
     ({"model": "[model.dem]\nramp_step = 100"}, "model.dem.ramp_step"),
+    ({"model": "[model.dem]\nkinetic = 1"}, "model.dem.kinetic"),
+    ({"model": "[model.dem]\nkinetic = true\ncundall = 0.5"}, "model.dem.kinetic"),
+    ({"model": "[model.dem]\nliquefaction = 1.5"}, "model.dem.liquefaction"),
 ])
 def test_bad_dem_input_is_one_line_exit_2(tmp_path, capsys, kw, key) -> None:
     rc, out, err = run_cli(["run", config(tmp_path, **kw), "-o", tmp_path / "o"], capsys)
@@ -106,6 +111,37 @@ def test_settings_are_validated_naming_the_field() -> None:
     with pytest.raises(ParameterError, match="tol"):
         DemSettings(tol=float("nan"))
     assert DemSettings().as_dict()["safety"] == 0.1
+    with pytest.raises(ParameterError, match="kinetic"):
+        DemSettings(kinetic=True, cundall=0.7)
+    with pytest.raises(ParameterError, match="liquefaction"):
+        DemSettings(liquefaction=0.0)
+
+
+@pytest.mark.parametrize(("p_last", "status"), [(4.0e3, Status.LIQUEFIED), (6.0e3, Status.FAILED)])
+def test_a_relaxation_without_equilibrium_at_low_stress_is_liquefaction(monkeypatch, p_last, status) -> None:
+    """The liquefaction rule of the DEM model (``DemSettings.liquefaction`` = 0.95): a
+    relaxation that finds no equilibrium while the mean stress is at most 5 % of p0 ends
+    the path as LIQUEFIED after its first ``20 chunk`` time steps; above that it is a
+    numerical failure, after the whole budget. The relaxation itself is replaced by one that
+    never converges (``RelaxationTimeout`` with the mean stress of its last check)."""
+    import grainmech.driver.dem as dem
+
+    calls = []
+
+    def never(s, tol, budget, chunk, settle=None):  # noqa: ANN001, ANN202
+        calls.append(budget)
+        raise RelaxationTimeout("no", 0.4, p_last)
+
+    monkeypatch.setattr(dem, "relax", never)
+    st = DemSettings(max_relax_steps=50_000, chunk=250)
+    with pytest.raises(StepFailure) as exc:
+        dem._relax(object(), st, None, None, 100e3)
+    assert exc.value.status == status
+    if status == Status.LIQUEFIED:
+        assert calls == [5000]  # stopped after the first check, not the whole budget
+        assert "r_u = 0.960" in exc.value.cause and "liquefied" in exc.value.cause
+    else:
+        assert sum(calls) == 50_000 and "max_relax_steps = 50000" in exc.value.cause
 
 
 needs_lammps = pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) is not installed")

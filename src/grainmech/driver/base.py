@@ -43,6 +43,9 @@ class Status(IntEnum):
     OUT_OF_RANGE = 2
     #: the user or the system stopped the run (Ctrl-C, SIGTERM)
     INTERRUPTED = 3
+    #: the packing lost its mean stress (DEM model, constant volume): the grains hold no
+    #: load-bearing network at that volume, the test's answer rather than a numerical failure
+    LIQUEFIED = 4
 
 
 class StepFailure(GrainmechError):
@@ -53,7 +56,7 @@ class StepFailure(GrainmechError):
     cause : str
         What went wrong, in words a user reads (the path loop prefixes the step).
     status : Status
-        :attr:`Status.FAILED` (default) or :attr:`Status.OUT_OF_RANGE`.
+        :attr:`Status.FAILED` (default), :attr:`Status.OUT_OF_RANGE` or :attr:`Status.LIQUEFIED`.
     """
 
     def __init__(self, cause: str, status: Status = Status.FAILED) -> None:

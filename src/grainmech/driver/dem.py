@@ -47,7 +47,7 @@ import numpy as np
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact.forms import law_forms
-from grainmech.driver.base import DriverResult, StepFailure
+from grainmech.driver.base import DriverResult, Status, StepFailure
 from grainmech.driver.dem_mpi import Tick, run_dem_ranks
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath, cyclic_simple_shear
@@ -124,6 +124,13 @@ class DemSettings:
         negative, :meth:`grainmech.packing.reference._Session.advance`) in place of the
         viscous drags; excludes ``cundall``. It reaches equilibrium where the drags leave the
         stress creeping: amplitudes of 1e-2 and loose packings (``docs/dem-model.md``).
+    liquefaction : float
+        Pore-pressure ratio ``r_u = 1 - p / p0`` at which the path ends as liquefied
+        (:attr:`~grainmech.driver.base.Status.LIQUEFIED`): a recorded state whose mean stress
+        is at most ``(1 - liquefaction) p0``, or a relaxation that runs out of its budget with
+        the mean stress that low (the grains hold no load-bearing network at that volume, so
+        there is no equilibrium with contacts to reach). 0.95, the usual criterion of initial
+        liquefaction in cyclic undrained tests (e.g. Ishihara 1993).
     ranks : int
         MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
         with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
@@ -145,6 +152,7 @@ class DemSettings:
     threads: int = 1
     cundall: float = 0.0
     kinetic: bool = False
+    liquefaction: float = 0.95
     ranks: int = 1
 
     def __post_init__(self) -> None:
@@ -158,6 +166,8 @@ class DemSettings:
                 raise ParameterError(k, v, "must be a finite number > 0")
         if not (isinstance(self.cundall, (int, float)) and 0 <= self.cundall < 1):
             raise ParameterError("cundall", self.cundall, "must be a number in [0, 1) (0: viscous drags)")
+        if not (isinstance(self.liquefaction, (int, float)) and 0 < self.liquefaction <= 1):
+            raise ParameterError("liquefaction", self.liquefaction, "must be a pore-pressure ratio in (0, 1]")
         if not isinstance(self.kinetic, (bool, np.bool_)):
             raise ParameterError("kinetic", self.kinetic, "must be true or false")
         if self.kinetic and self.cundall > 0:
@@ -369,8 +379,11 @@ class DemPoint:
         n = max(self.settings.ramp_steps, int(math.ceil(float(np.abs(de).max()) / self.settings.max_ramp_strain)))
         _ramp(self._s, de, n)
         self.strain = self.strain + de
-        net, ub = _relax(self._s, self.settings, base, self._tick)
+        net, ub = _relax(self._s, self.settings, base, self._tick, self.p0)
         self._set(net, ub)
+        p = float(np.mean(self.stress[:3]))
+        if p <= (1.0 - self.settings.liquefaction) * self.p0:
+            raise StepFailure(_liquefied(p, self.p0, "in equilibrium"), Status.LIQUEFIED)
 
     @property
     def relax_steps(self) -> int:
@@ -474,8 +487,24 @@ class DemPoint:
             self._K = new
 
 
-def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None) -> tuple[ContactNetwork, float]:
-    """:func:`grainmech.packing.reference.relax` with the settings, progress ticks and one error type."""
+def _liquefied(p: float, p0: float, how: str) -> str:
+    """The message of a liquefied path: the mean stress reached and the pore-pressure ratio."""
+    return (f"liquefied: the mean stress fell to {p:.4g} Pa ({100 * p / p0:.2g} % of p0 = {p0:.5g} Pa, pore-pressure "
+            f"ratio r_u = {1 - p / p0:.3f}; {how}): at this volume the grains hold no load-bearing network, "
+            "the test's answer rather than a numerical failure")
+
+
+def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None,
+           p0: float | None = None) -> tuple[ContactNetwork, float]:
+    """:func:`grainmech.packing.reference.relax` with the settings, progress ticks and one error type.
+
+    The relaxation is checked every ``20 chunk`` time steps: one that has not reached
+    equilibrium by then with its mean stress at most ``(1 - liquefaction) p0`` ends the path
+    as liquefied (:attr:`~grainmech.driver.base.Status.LIQUEFIED`,
+    ``DemSettings.liquefaction``) instead of spending the rest of ``max_relax_steps``
+    looking for an equilibrium with contacts that the volume does not allow.
+    """
+    floor = -math.inf if p0 is None else (1.0 - st.liquefaction) * p0
     used = 0
     while True:
         budget = min(st.max_relax_steps - used, 20 * st.chunk)
@@ -490,6 +519,10 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
             used += budget
             if tick is not None:
                 tick(s.steps, float("nan"))
+            if p0 is not None and exc.mean_stress <= floor:
+                raise StepFailure(_liquefied(exc.mean_stress, p0, f"no equilibrium with contacts after {used} time "
+                                             f"steps of relaxation, unbalanced force ratio {exc.reached:.3g}"),
+                                  Status.LIQUEFIED) from None
             if used >= st.max_relax_steps:
                 raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time steps: the "
                                   f"unbalanced force ratio was {exc.reached:.3g} at the end, tol = {st.tol:g}"

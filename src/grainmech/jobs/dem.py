@@ -37,7 +37,7 @@ def _check_dem(law: Any) -> None:
 DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
                     "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
                     "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int,
-                    "ranks": int}
+                    "ranks": int, "liquefaction": float}
 
 
 def _dem_settings(model: Any) -> tuple[Any, int]:

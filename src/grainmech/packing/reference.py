@@ -171,11 +171,16 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
 
 
 class RelaxationTimeout(GrainmechError):
-    """:func:`relax` ran out of time steps; ``reached`` is the last unbalanced force ratio."""
+    """:func:`relax` ran out of time steps.
 
-    def __init__(self, message: str, reached: float) -> None:
+    ``reached`` is the last unbalanced force ratio, ``mean_stress`` the Love-Weber mean
+    stress of the last check [Pa] (compression positive; not an equilibrium).
+    """
+
+    def __init__(self, message: str, reached: float, mean_stress: float = float("nan")) -> None:
         super().__init__(message)
         self.reached = reached
+        self.mean_stress = mean_stress
 
 
 def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
@@ -205,8 +210,9 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
         if ok:
             return net, ub, used
         if used >= max_steps:
+            p_now = float(np.trace(np.asarray(network_stress(net).stress)) / 3.0)
             raise RelaxationTimeout(f"relaxation did not reach an unbalanced force ratio of {tol:g} in "
-                                    f"{max_steps} time steps (reached {ub:.3g})", ub)
+                                    f"{max_steps} time steps (reached {ub:.3g})", ub, p_now)
 
 
 def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
