@@ -140,6 +140,14 @@ def test_a_relaxation_without_equilibrium_at_low_stress_is_liquefaction(monkeypa
     if status == Status.LIQUEFIED:
         assert calls == [5000]  # stopped after the first check, not the whole budget
         assert "r_u = 0.960" in exc.value.cause and "liquefied" in exc.value.cause
+        # with a servo on a normal stress, the collapsed state goes back to the servo instead
+        sentinel = object()
+
+        def collapsed(s, tol, budget, chunk, settle=None):  # noqa: ANN001, ANN202
+            raise RelaxationTimeout("no", 0.4, p_last, sentinel)
+
+        monkeypatch.setattr(dem, "relax", collapsed)
+        assert dem._relax(object(), st, None, None, 100e3, servo=True) == (sentinel, 0.4)
     else:
         assert sum(calls) == 50_000 and "max_relax_steps = 50000" in exc.value.cause
 

@@ -252,6 +252,7 @@ class DemPoint:
         self.notes: list[str] = []
         self._vol_start = 0.0
         self.corrections = 0
+        self._servo = False
         self._set(net, unbalanced)
         self.p0 = float(np.mean(self.stress[:3]))
         if not self.p0 > 0:
@@ -374,15 +375,18 @@ class DemPoint:
 
         The ramp takes ``ramp_steps`` time steps, or more so that no time step takes more
         than ``max_ramp_strain``; the relaxation's stress criterion is relative to the
-        change since ``base`` (the stress where the step began).
+        change since ``base`` (the stress where the step began). In a step whose normal
+        stresses are all strain-controlled a mean stress at ``r_u >= liquefaction`` ends the
+        path (liquefaction); when the servo holds a normal stress, a collapsed state (the
+        servo expanded too far) is handed back to the servo, which compresses it again.
         """
         n = max(self.settings.ramp_steps, int(math.ceil(float(np.abs(de).max()) / self.settings.max_ramp_strain)))
         _ramp(self._s, de, n)
         self.strain = self.strain + de
-        net, ub = _relax(self._s, self.settings, base, self._tick, self.p0)
+        net, ub = _relax(self._s, self.settings, base, self._tick, self.p0, self._servo)
         self._set(net, ub)
         p = float(np.mean(self.stress[:3]))
-        if p <= (1.0 - self.settings.liquefaction) * self.p0:
+        if not self._servo and p <= (1.0 - self.settings.liquefaction) * self.p0:
             raise StepFailure(_liquefied(p, self.p0, "in equilibrium"), Status.LIQUEFIED)
 
     @property
@@ -400,6 +404,7 @@ class DemPoint:
             stress-controlled components to ``target`` within ``max_corrections``.
         """
         sc = np.asarray(stress_control, bool)
+        self._servo = bool(sc[:3].any())
         d_e = np.where(sc, 0.0, np.asarray(d_strain, float))
         target = np.asarray(target, float)
         start = self.stress.copy()
@@ -417,7 +422,7 @@ class DemPoint:
                 change = float(np.abs(self.stress[~sc] - start[~sc]).max(initial=0.0))
                 p = float(np.mean(self.stress[:3]))
                 scale = max(change, 1e-3 * abs(p))
-                if float(np.abs(err).max()) <= st.stress_tol * scale:
+                if float(np.abs(err).max()) <= st.stress_tol * scale and self.unbalanced < st.tol:
                     return self
                 dx = np.zeros(6)
                 dx[sc] = np.linalg.solve(self._K[np.ix_(sc, sc)], err)
@@ -495,14 +500,17 @@ def _liquefied(p: float, p0: float, how: str) -> str:
 
 
 def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None,
-           p0: float | None = None) -> tuple[ContactNetwork, float]:
+           p0: float | None = None, servo: bool = False) -> tuple[ContactNetwork, float]:
     """:func:`grainmech.packing.reference.relax` with the settings, progress ticks and one error type.
 
     The relaxation is checked every ``20 chunk`` time steps: one that has not reached
     equilibrium by then with its mean stress at most ``(1 - liquefaction) p0`` ends the path
     as liquefied (:attr:`~grainmech.driver.base.Status.LIQUEFIED`,
     ``DemSettings.liquefaction``) instead of spending the rest of ``max_relax_steps``
-    looking for an equilibrium with contacts that the volume does not allow.
+    looking for an equilibrium with contacts that the volume does not allow. With ``servo``
+    (a normal stress is servo-controlled) that state is returned instead, out of balance,
+    for the servo to correct (it never becomes a recorded state: the servo accepts only
+    equilibria).
     """
     floor = -math.inf if p0 is None else (1.0 - st.liquefaction) * p0
     used = 0
@@ -519,6 +527,8 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
             used += budget
             if tick is not None:
                 tick(s.steps, float("nan"))
+            if p0 is not None and exc.mean_stress <= floor and servo and exc.network is not None:
+                return exc.network, exc.reached
             if p0 is not None and exc.mean_stress <= floor:
                 raise StepFailure(_liquefied(exc.mean_stress, p0, f"no equilibrium with contacts after {used} time "
                                              f"steps of relaxation, unbalanced force ratio {exc.reached:.3g}"),

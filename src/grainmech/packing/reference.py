@@ -174,13 +174,16 @@ class RelaxationTimeout(GrainmechError):
     """:func:`relax` ran out of time steps.
 
     ``reached`` is the last unbalanced force ratio, ``mean_stress`` the Love-Weber mean
-    stress of the last check [Pa] (compression positive; not an equilibrium).
+    stress of the last check [Pa] (compression positive) and ``network`` its network (not
+    an equilibrium).
     """
 
-    def __init__(self, message: str, reached: float, mean_stress: float = float("nan")) -> None:
+    def __init__(self, message: str, reached: float, mean_stress: float = float("nan"),
+                 network: ContactNetwork | None = None) -> None:
         super().__init__(message)
         self.reached = reached
         self.mean_stress = mean_stress
+        self.network = network
 
 
 def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
@@ -212,7 +215,7 @@ def relax(s: _Session, tol: float, max_steps: int, chunk: int = 500, *,
         if used >= max_steps:
             p_now = float(np.trace(np.asarray(network_stress(net).stress)) / 3.0)
             raise RelaxationTimeout(f"relaxation did not reach an unbalanced force ratio of {tol:g} in "
-                                    f"{max_steps} time steps (reached {ub:.3g})", ub, p_now)
+                                    f"{max_steps} time steps (reached {ub:.3g})", ub, p_now, net)
 
 
 def _add_affine_velocity(s: _Session, rate: np.ndarray, sign: float) -> None:
