@@ -16,7 +16,9 @@ def settings_from(pairs: list[str] | None) -> DemSettings:
         if key not in base.__dataclass_fields__ or not text:
             raise SystemExit(f"--set {pair!r}: expected KEY=VALUE with KEY one of {sorted(base.__dataclass_fields__)}")
         default = getattr(base, key)
-        if isinstance(default, bool):
+        if isinstance(default, str):
+            kw[key] = text
+        elif isinstance(default, bool):
             kw[key] = text.lower() == "true"
         else:
             kw[key] = type(default)(float(text)) if isinstance(default, int) else float(text)

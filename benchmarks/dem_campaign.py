@@ -38,7 +38,7 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--amplitudes", default="1e-6,1e-5,1e-4,1e-3,1e-2")
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--set", action="append", metavar="KEY=VALUE",
-                    help="a DemSettings field other than its default (repeatable), e.g. kinetic=true")
+                    help="a DemSettings field other than its default (repeatable), e.g. damping=kinetic")
     a = ap.parse_args(argv)
     amps = [float(x) for x in a.amplitudes.split(",")]
     settings = settings_from(a.set)

@@ -41,7 +41,7 @@ def main(argv: list[str]) -> int:
     net = load_packing(a.packing)
     m = packing_info(a.packing)["material"]
     law = HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"])
-    st = DemSettings(cundall=0.7 if a.damping == "cundall" else 0.0, kinetic=a.damping == "kinetic")
+    st = DemSettings(damping={"drags": "viscous"}.get(a.damping, a.damping))
     t0 = time.perf_counter()
     with DemPoint.start(net, law, st) as pt:
         s = pt._s

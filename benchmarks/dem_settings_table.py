@@ -4,7 +4,7 @@ Runs cyclic simple shear with the DEM model on a shipped packing (Hertz-Mindlin,
 packing's own quartz grains, ``n_cycles = 2``, 16 steps per cycle) at each amplitude with
 the default settings (or those of ``--set``) and with the ramp length (``ramp_steps`` and
 ``max_ramp_strain`` together), the drag and the relaxation tolerance
-halved and doubled (under ``--set kinetic=true``: the tolerance halved and doubled, and
+halved and doubled (under ``--set damping=kinetic``: the tolerance halved and doubled, and
 the drags in place of the kinetic damping), and prints G and damping of each against the default's as a
 markdown table (the change of G in %, of damping in absolute terms).
 
@@ -34,7 +34,7 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--constant", default="volume", choices=("stress", "volume"))
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--set", action="append", metavar="KEY=VALUE",
-                    help="a DemSettings field other than its default (repeatable), e.g. kinetic=true")
+                    help="a DemSettings field other than its default (repeatable), e.g. damping=kinetic")
     a = ap.parse_args(argv)
     net = load_packing(a.packing)
     m = packing_info(a.packing)["material"]
@@ -48,10 +48,10 @@ def main(argv: list[str]) -> int:
                                              max_ramp_strain=base.max_ramp_strain / f)))
     # the damping of the relaxation: the drags halved and doubled, or, under kinetic damping,
     # the drags in its place
-    keys = ("viscous", "tol") if not base.kinetic else ("tol",)
-    if base.kinetic:
-        variants.append((f"viscous drags ({base.viscous:g}) instead of kinetic damping",
-                         dataclasses.replace(base, kinetic=False)))
+    keys = ("viscous", "tol") if base.damping == "viscous" else ("tol",)
+    if base.damping != "viscous":
+        variants.append((f"viscous drags ({base.viscous:g}) instead of {base.damping} damping",
+                         dataclasses.replace(base, damping="viscous")))
     for k in keys:
         v = getattr(base, k)
         for f, word in ((0.5, "halved"), (2.0, "doubled")):

@@ -65,8 +65,8 @@ def run_cli(args: list, capsys: pytest.CaptureFixture) -> tuple[int, str, str]:
     ({"model": "[model.dem]\nviscous = -1.0"}, "model.dem.viscous"),
     ({"model": "[model.dem]\nsafety = 0.9"}, "model.dem.safety"),
     ({"model": "[model.dem]\nramp_step = 100"}, "model.dem.ramp_step"),
-    ({"model": "[model.dem]\nkinetic = 1"}, "model.dem.kinetic"),
-    ({"model": "[model.dem]\nkinetic = true\ncundall = 0.5"}, "model.dem.kinetic"),
+    ({"model": "[model.dem]\ndamping = \"fire\""}, "model.dem.damping"),
+    ({"model": "[model.dem]\ncundall = 1.5"}, "model.dem.cundall"),
     ({"model": "[model.dem]\nliquefaction = 1.5"}, "model.dem.liquefaction"),
 ])
 def test_bad_dem_input_is_one_line_exit_2(tmp_path, capsys, kw, key) -> None:
@@ -111,8 +111,8 @@ def test_settings_are_validated_naming_the_field() -> None:
     with pytest.raises(ParameterError, match="tol"):
         DemSettings(tol=float("nan"))
     assert DemSettings().as_dict()["safety"] == 0.1
-    with pytest.raises(ParameterError, match="kinetic"):
-        DemSettings(kinetic=True, cundall=0.7)
+    with pytest.raises(ParameterError, match="damping"):
+        DemSettings(damping="drags")
     with pytest.raises(ParameterError, match="liquefaction"):
         DemSettings(liquefaction=0.0)
 
@@ -186,7 +186,7 @@ def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
 def test_kinetic_damping_and_drags_record_the_same_states_on_dense() -> None:
     """On 'dense' the recorded equilibria do not depend on the relaxation's damping: cyclic
     simple shear at 1e-4, constant volume, 2 cycles x 8 steps, with kinetic damping
-    (``DemSettings.kinetic``) and with the default viscous drags give G within 0.5 % and
+    (``DemSettings.damping = "kinetic"``) and with viscous drags give G within 0.5 % and
     damping within 0.002 (measured with 16 steps per cycle: 183.048 vs 183.05 MPa, 1.800 vs
     1.80 %, ``docs/dem-model.md`` "Relaxation")."""
     from grainmech.contact import HertzMindlin
@@ -197,9 +197,9 @@ def test_kinetic_damping_and_drags_record_the_same_states_on_dense() -> None:
     m = packing_info("dense")["material"]
     law = HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"])
     runs = [dem_modulus_reduction(net, law, [1e-4], n_cycles=2, steps_per_cycle=8, constant="volume",
-                                  settings=DemSettings(kinetic=k)) for k in (False, True)]
+                                  settings=DemSettings(damping=d)) for d in ("viscous", "kinetic")]
     drags, kinetic = runs
-    assert kinetic.results[0].settings["kinetic"] and not drags.results[0].settings["kinetic"]
+    assert (drags.results[0].settings["damping"], kinetic.results[0].settings["damping"]) == ("viscous", "kinetic")
     assert kinetic.G[0] == pytest.approx(drags.G[0], rel=5e-3)
     assert abs(kinetic.damping[0] - drags.damping[0]) <= 2e-3
     assert 0.85 < kinetic.G[0] / kinetic.G_max < 0.97  # G/Gmax of 'dense' at 1e-4 (0.930 at 16 steps)

@@ -74,6 +74,10 @@ DEFAULT_DENSITY = 2650.0
 
 
 
+#: the relaxation's dampings (:attr:`DemSettings.damping`)
+DAMPINGS = ("viscous", "kinetic", "cundall")
+
+
 @dataclass(frozen=True)
 class DemSettings:
     """Numerical settings of the DEM model (what makes it quasi-static).
@@ -113,17 +117,16 @@ class DemSettings:
     threads : int
         OpenMP threads of LAMMPS (``pair_style granular`` has no threaded variant; 1 leaves
         the other cores to the rest of the run).
-    cundall : float
-        Cundall's local non-viscous damping coefficient in [0, 1) during relaxation
-        (LAMMPS ``fix damping/cundall``) in place of the viscous drags; 0 keeps the drags.
-        Loose packings creep slowly under viscous drags (their soft modes are overdamped):
-        'loose' at 1e-4 relaxes about three times faster with 0.7 (``docs/dem-model.md``).
-    kinetic : bool
-        Kinetic damping during relaxation (no drags: the grains move undamped and all
+    damping : {"viscous", "kinetic", "cundall"}
+        How the grains relax between recorded states: ``"viscous"`` drags (``viscous``,
+        ``fix viscous`` / ``viscous/sphere``), ``"kinetic"`` damping (no damping force; all
         velocities and spins are set to zero whenever the power of the forces turns
-        negative, :meth:`grainmech.packing.reference._Session.advance`) in place of the
-        viscous drags; excludes ``cundall``. It reaches equilibrium where the drags leave the
-        stress creeping: amplitudes of 1e-2 and loose packings (``docs/dem-model.md``).
+        negative, :meth:`grainmech.packing.reference._Session.advance`) or Cundall's local
+        damping (``cundall``, LAMMPS ``fix damping/cundall``). The drags overdamp a loose
+        packing's soft modes, whose stress then creeps past the criteria
+        (``docs/dem-model.md``, "Relaxation").
+    cundall : float
+        Cundall's local damping coefficient in (0, 1), used with ``damping = "cundall"``.
     liquefaction : float
         Pore-pressure ratio ``r_u = 1 - p / p0`` at which the path ends as liquefied
         (:attr:`~grainmech.driver.base.Status.LIQUEFIED`): a recorded state whose mean stress
@@ -150,8 +153,8 @@ class DemSettings:
     max_stress_step: float = 0.25
     max_substeps: int = 50
     threads: int = 1
-    cundall: float = 0.0
-    kinetic: bool = False
+    damping: str = "viscous"
+    cundall: float = 0.7
     liquefaction: float = 0.95
     ranks: int = 1
 
@@ -164,14 +167,12 @@ class DemSettings:
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(k, v, "must be a finite number > 0")
-        if not (isinstance(self.cundall, (int, float)) and 0 <= self.cundall < 1):
-            raise ParameterError("cundall", self.cundall, "must be a number in [0, 1) (0: viscous drags)")
+        if self.damping not in DAMPINGS:
+            raise ParameterError("damping", self.damping, f"must be one of {', '.join(DAMPINGS)}")
+        if not (isinstance(self.cundall, (int, float)) and 0 < self.cundall < 1):
+            raise ParameterError("cundall", self.cundall, "must be a number in (0, 1)")
         if not (isinstance(self.liquefaction, (int, float)) and 0 < self.liquefaction <= 1):
             raise ParameterError("liquefaction", self.liquefaction, "must be a pore-pressure ratio in (0, 1]")
-        if not isinstance(self.kinetic, (bool, np.bool_)):
-            raise ParameterError("kinetic", self.kinetic, "must be true or false")
-        if self.kinetic and self.cundall > 0:
-            raise ParameterError("kinetic", self.kinetic, "excludes cundall > 0 (one damping of the relaxation)")
         if self.safety > 0.5:
             raise ParameterError("safety", self.safety, "must be <= 0.5 (fraction of the critical time step)")
 
@@ -283,8 +284,9 @@ class DemPoint:
             raise ParameterError("pressure", pressure, "must be a finite stress > 0")
         lmp = Lammps(st.threads)
         try:
-            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety, cundall=st.cundall,
-                             kinetic=st.kinetic)
+            s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety,
+                             cundall=st.cundall if st.damping == "cundall" else 0.0,
+                             kinetic=st.damping == "kinetic")
             ref, ub = _relax(s, st, None, tick)
             pt = cls(lmp, s, ref, ub, st, mat, tick)
             pt.notes.append(f"LAMMPS keeps no tangential spring history from a network file: the packing "
@@ -429,7 +431,8 @@ class DemPoint:
                 before = self.stress.copy()
                 self.corrections += 1
                 self._apply(dx, start)
-                self._broyden(sc, dx, self.stress - before)
+                if self.unbalanced < st.tol:  # learn only from equilibria (not from a collapsed state)
+                    self._broyden(sc, dx, self.stress - before)
             raise StepFailure(f"the stress-controlled components were not held within {st.stress_tol:g} "
                               f"of the step's stress change after {st.max_corrections} servo corrections "
                               f"(error {float(np.abs(target[sc] - self.stress[sc]).max()):.3g} Pa)")
@@ -470,7 +473,7 @@ class DemPoint:
         before = self.stress.copy()
         de = self._prediction(d_e, sc, target, before)
         self._apply(de, start)
-        if sc.any():
+        if sc.any() and self.unbalanced < self.settings.tol:
             self._broyden(sc, de, self.stress - before)
 
     def _broyden(self, sc: np.ndarray, s_vec: np.ndarray, y_vec: np.ndarray) -> None:

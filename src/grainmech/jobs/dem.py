@@ -14,7 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.driver.dem import DEM_MAX_AMPLITUDE, DemSeries, DemSettings, dem_material, dem_modulus_reduction, run_dem
+from grainmech.driver.dem import (
+    DAMPINGS,
+    DEM_MAX_AMPLITUDE,
+    DemSeries,
+    DemSettings,
+    dem_material,
+    dem_modulus_reduction,
+    run_dem,
+)
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec, _read_amplitudes
@@ -37,7 +45,7 @@ def _check_dem(law: Any) -> None:
 DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
                     "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
                     "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int,
-                    "ranks": int, "liquefaction": float}
+                    "ranks": int, "liquefaction": float, "cundall": float}
 
 
 def _dem_settings(model: Any) -> tuple[Any, int]:
@@ -45,8 +53,8 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
 
     Settings default to :class:`grainmech.driver.dem.DemSettings`; ``workers`` (processes
     that run DEM amplitudes side by side) to the cores this process may use divided by
-    ``ranks`` (the MPI ranks of each amplitude), at least 1. ``cundall`` (Cundall's local
-    damping, 0 = viscous drags) may be 0; ``kinetic`` (kinetic damping) is true or false.
+    ``ranks`` (the MPI ranks of each amplitude), at least 1. ``damping`` is one of
+    :data:`grainmech.driver.dem.DAMPINGS`.
     """
     sec = model.section("dem", {})
     kw: dict[str, Any] = {}
@@ -55,10 +63,8 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
     for k, typ in DEM_SETTING_KEYS.items():
         if sec.has(k):
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
-    if sec.has("cundall"):
-        kw["cundall"] = sec.number("cundall", None, min=0)
-    if sec.has("kinetic"):
-        kw["kinetic"] = sec.boolean("kinetic", False)
+    if sec.has("damping"):
+        kw["damping"] = sec.choice("damping", DAMPINGS)
     sec.finish()
     try:
         return DemSettings(**kw), workers
