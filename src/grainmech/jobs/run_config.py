@@ -13,6 +13,7 @@ import numpy as np
 
 from grainmech.contact.forms import normal_law
 from grainmech.driver import concatenate, cycles, parse_mask, segment
+from grainmech.driver.packing.point import PRESSURE_RANGE
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.fabric import LEBEDEV_ORDERS
 from grainmech.io.config import Section
@@ -200,6 +201,10 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
     ini = root.section("initial")
     pressure = build_pressure(ini)
+    lo, hi = PRESSURE_RANGE
+    if grains is not None and not lo <= pressure <= hi:
+        raise ConfigError("initial.pressure", ini.raw("pressure"), f"is {pressure:.4g} Pa, outside the range a packing "
+                          f"of grains is brought to ({lo:g} Pa to {hi:g} Pa) by method 'packing' or 'dem'")
     if "affine" in methods:
         packing = build_packing(root.section("packing"), density, pressure)
         law = build_law(root.section("contacts"), packing.radius)
