@@ -102,3 +102,43 @@ def test_auto_engine_says_why_when_both_engines_stop(dense, monkeypatch):
     with pytest.raises(GE, match="step 1: no equilibrium found") as err:  # engine='packing': no DEM
         PackingPoint.at_stress(net, law, 50e3, engine="packing")
     assert "DEM" not in str(err.value)
+
+
+def test_dem_consolidation_falls_back_to_kinetic_damping(dense, monkeypatch):
+    """``dem_consolidated`` with the default settings: when the viscous drags do not settle
+    the packing (a loose packing unloaded, docs/packing-driver.md), it runs again with
+    kinetic damping and its notes say so; explicit settings are never replaced. LAMMPS is
+    replaced by a stand-in that fails under the drags (the logic, not the physics)."""
+    import grainmech.driver.packing.consolidate as cons
+
+    net, law = dense
+    seen = []
+
+    class Point:
+        stress = np.array([5e4, 5e4, 5e4, 0.0, 0.0, 0.0])
+        network, notes, unbalanced, coordination = net, ["re-settled"], 5e-5, 4.0
+
+        @classmethod
+        def start(cls, net, law, settings, pressure=None):  # noqa: ANN001, ANN206
+            seen.append(None if settings is None else settings.damping)
+            if settings is None or settings.damping == "viscous":
+                raise GrainmechError("no equilibrium within max_relax_steps = 200000 time steps")
+            return cls()
+
+        def __enter__(self):  # noqa: ANN204
+            return self
+
+        def __exit__(self, *exc):  # noqa: ANN002, ANN204
+            return None
+
+    monkeypatch.setattr(cons, "DemPoint", Point)
+    monkeypatch.setattr(cons, "require_lammps", lambda: None)
+    out, notes = cons.dem_consolidated(net, law, 5e4)
+    assert seen == [None, "kinetic"] and out is net
+    assert any("kinetic damping" in n and "did not settle" in n for n in notes)
+    from grainmech.driver.dem import DemSettings
+
+    seen.clear()
+    with pytest.raises(GrainmechError, match="max_relax_steps"):
+        cons.dem_consolidated(net, law, 5e4, DemSettings())
+    assert seen == ["viscous"]
