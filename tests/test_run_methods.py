@@ -527,15 +527,9 @@ def test_packing_options_without_the_packing_model(network_files):
 @pytest.mark.parametrize("pressure", ["0.5 kPa", "200 MPa"])
 def test_a_pressure_outside_a_packings_range_is_refused(network_files, pressure):
     """Issue 29, bad input: a run pressure below 1 kPa or above 100 MPa for a packing of
-    grains is one ConfigError naming ``initial.pressure``; ``at_stress`` refuses it too."""
+    grains is one ConfigError naming ``initial.pressure``."""
     d, net = network_files
     cfg = _config(d, 1.0, ["packing"])
     cfg["initial"]["pressure"] = pressure
     with pytest.raises(ConfigError, match=r"initial\.pressure.*outside the range"):
         prepare_run(cfg)
-    from grainmech.driver.packing import PackingPoint
-    from grainmech.errors import ParameterError
-
-    law = MindlinDeresiewicz(G_GRAIN, NU, 2.5e-4, friction=0.5)
-    with pytest.raises(ParameterError, match="sigma"):
-        PackingPoint.at_stress(net, law, 500.0 if pressure == "0.5 kPa" else 2e8)
