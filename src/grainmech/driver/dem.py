@@ -128,8 +128,8 @@ class DemSettings:
         damping (``cundall``, LAMMPS ``fix damping/cundall``). On 'dense' the drags and
         kinetic damping record the same cycles to 0.2 % at 1e-4 and 1e-3; kinetic damping
         comes to rest where the drags leave a loose packing's stress creeping and takes
-        fewer time steps at large strain, but at 1e-2 its answer moves by 2 % with the ramp
-        rate where the drags' moves by 0.5 % (``docs/dem-model.md``, "Relaxation").
+        fewer time steps at large strain; at 1e-2 both scatter by about 2 % in G with their
+        settings (``docs/dem-model.md``, "Relaxation").
     cundall : float
         Cundall's local damping coefficient in (0, 1), used with ``damping = "cundall"``.
     liquefaction : float
