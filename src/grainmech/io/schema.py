@@ -261,6 +261,11 @@ def build_packing(sec: Section, density: Any, pressure: float | None = None) -> 
 #: about) and is refused before any work, naming the key and the value.
 PRESSURE_MIN, PRESSURE_MAX = 1.0, 1e9
 PRESSURE_RANGE_TEXT = "1 Pa to 1 GPa, the stresses granular materials carry (quartz grains crush near 1 GPa)"
+#: The narrower range a run may ask of a packing of grains (``method = "packing"`` or
+#: ``"dem"``) [Pa]: below 1 kPa a sand's grains barely touch, above 100 MPa quartz grains
+#: crush. Checked where the run's methods are known (:mod:`grainmech.jobs.run_config`), not
+#: by the library, which also serves other materials and test packings.
+GRAINS_PRESSURE_RANGE = (1e3, 1e8)
 
 
 def pressure_problem(value: float) -> str | None:

@@ -13,12 +13,11 @@ import numpy as np
 
 from grainmech.contact.forms import normal_law
 from grainmech.driver import concatenate, cycles, parse_mask, segment
-from grainmech.driver.packing.point import PRESSURE_RANGE
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.fabric import LEBEDEV_ORDERS
 from grainmech.io.config import Section
 from grainmech.io.dem import read_network
-from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure
+from grainmech.io.schema import GRAINS_PRESSURE_RANGE, build_fabric, build_law, build_packing, build_pressure
 from grainmech.io.units import to_float
 from grainmech.jobs.checks import input_warnings
 from grainmech.jobs.dem import _check_dem, _dem_settings, _read_dem_keys
@@ -201,7 +200,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         raise ConfigError("fabric.dim", density.dim, "the driver works in 3D")
     ini = root.section("initial")
     pressure = build_pressure(ini)
-    lo, hi = PRESSURE_RANGE
+    lo, hi = GRAINS_PRESSURE_RANGE
     if grains is not None and not lo <= pressure <= hi:
         raise ConfigError("initial.pressure", ini.raw("pressure"), f"is {pressure:.4g} Pa, outside the range a packing "
                           f"of grains is brought to ({lo:g} Pa to {hi:g} Pa) by method 'packing' or 'dem'")

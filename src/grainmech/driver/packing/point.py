@@ -91,12 +91,6 @@ def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.n
     return I[new], J[new], br[new]
 
 
-#: mean stresses a run (``[initial] pressure``) may ask of a packing of grains [Pa]: below
-#: 1 kPa the grains of a sand barely touch, above 100 MPa quartz grains crush (checked at the
-#: config, not here: the library also serves other materials and test packings)
-PRESSURE_RANGE = (1e3, 1e8)
-
-
 @dataclass(frozen=True, eq=False)
 class PackingPoint:
     """Converged state of a packing (see module notes and ``docs/packing-driver.md``).

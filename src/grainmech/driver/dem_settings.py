@@ -1,0 +1,170 @@
+"""Settings of the DEM model and the LAMMPS grain material of a contact law.
+
+:class:`DemSettings` (what makes the DEM model quasi-static: ramp, relaxation damping and
+criteria, servo, liquefaction, MPI ranks) and :func:`dem_material` (the grains LAMMPS'
+granular model runs for a grainmech contact law). Both are re-exported by
+:mod:`grainmech.driver.dem`, where they are documented with the model.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from grainmech.contact.forms import law_forms
+from grainmech.errors import GrainmechError, ParameterError
+from grainmech.packing.prepare import GrainMaterial
+
+__all__ = ["DAMPINGS", "DEFAULT_DENSITY", "DemSettings", "dem_material"]
+
+#: grain density used when the contact law gives none [kg/m^3] (quartz); a quasi-static
+#: run's equilibria do not depend on it (it sets the time step and the drags only)
+DEFAULT_DENSITY = 2650.0
+#: the relaxation's dampings (:attr:`DemSettings.damping`)
+DAMPINGS = ("viscous", "kinetic", "cundall")
+
+
+@dataclass(frozen=True)
+class DemSettings:
+    """Numerical settings of the DEM model (what makes it quasi-static).
+
+    Parameters
+    ----------
+    ramp_steps : int
+        Time steps over which each strain increment is applied (affine velocity field).
+    viscous : float
+        Drag on grain velocities and spins, as a fraction of the contact frequency at the
+        packing's stress (``fix viscous`` / ``viscous/sphere``), during relaxation with
+        ``damping = "viscous"`` only.
+    tol : float
+        Unbalanced force ratio (mean out-of-balance force and moment over the mean contact
+        force) every recorded state must reach.
+    settle : float
+        Stress criterion of a relaxation: the Love-Weber stress changes over one chunk by
+        less than ``settle`` times its change since the step began.
+    chunk : int
+        Time steps between two checks of the criteria.
+    max_relax_steps : int
+        Budget of one relaxation; a step that does not reach equilibrium within it fails.
+    safety : float
+        Time step as a fraction of the critical one (:func:`grainmech.packing.prepare.critical_time_step`).
+    stress_tol : float
+        Servo tolerance of the stress-controlled components, relative to the step's
+        stress change (at least ``1e-3`` of the mean stress).
+    max_corrections : int
+        Servo corrections per step before it fails.
+    max_stress_step : float
+        Largest stress change a substep is predicted to make, as a fraction of the mean
+        stress; a step predicted to change more is split (large-strain paths).
+    max_substeps : int
+        Most substeps of one step.
+    max_ramp_strain : float
+        Largest strain per time step during a ramp: a larger increment is ramped over
+        more than ``ramp_steps`` steps (large-strain paths, amplitudes of 1e-2).
+    threads : int
+        OpenMP threads of LAMMPS (``pair_style granular`` has no threaded variant; 1 leaves
+        the other cores to the rest of the run).
+    damping : {"viscous", "kinetic", "cundall"}
+        How the grains relax between recorded states: ``"viscous"`` drags (``viscous``,
+        ``fix viscous`` / ``viscous/sphere``), ``"kinetic"`` damping (no damping force; all
+        velocities and spins are set to zero whenever the power of the forces turns
+        negative, :meth:`grainmech.packing.reference._Session.advance`) or Cundall's local
+        damping (``cundall``, LAMMPS ``fix damping/cundall``). On 'dense' the drags and
+        kinetic damping record the same cycles to 0.2 % at 1e-4 and 1e-3; kinetic damping
+        comes to rest where the drags leave a loose packing's stress creeping and takes
+        fewer time steps at large strain; at 1e-2 both scatter by about 2 % in G with their
+        settings (``docs/dem-model.md``, "Relaxation").
+    cundall : float
+        Cundall's local damping coefficient in (0, 1), used with ``damping = "cundall"``.
+    liquefaction : float
+        Pore-pressure ratio ``r_u = 1 - p / p0`` at which the path ends as liquefied
+        (:attr:`~grainmech.driver.base.Status.LIQUEFIED`): a recorded state whose mean stress
+        is at most ``(1 - liquefaction) p0``, or a relaxation that runs out of its budget with
+        the mean stress that low (the grains hold no load-bearing network at that volume, so
+        there is no equilibrium with contacts to reach). 0.95, the usual criterion of initial
+        liquefaction in cyclic undrained tests (e.g. Ishihara 1993).
+    ranks : int
+        MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
+        with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
+        too large for one core.
+    """
+
+    ramp_steps: int = 400
+    viscous: float = 0.3
+    tol: float = 1e-4
+    settle: float = 1e-3
+    chunk: int = 250
+    max_relax_steps: int = 200_000
+    safety: float = 0.1
+    stress_tol: float = 0.05
+    max_corrections: int = 20
+    max_ramp_strain: float = 1e-6
+    max_stress_step: float = 0.25
+    max_substeps: int = 50
+    threads: int = 1
+    damping: str = "viscous"
+    cundall: float = 0.7
+    liquefaction: float = 0.95
+    ranks: int = 1
+
+    def __post_init__(self) -> None:
+        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads", "max_substeps", "ranks"):
+            v = getattr(self, k)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ParameterError(k, v, "must be an integer >= 1")
+        for k in ("viscous", "tol", "settle", "safety", "stress_tol", "max_ramp_strain", "max_stress_step"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ParameterError(k, v, "must be a finite number > 0")
+        if self.damping not in DAMPINGS:
+            raise ParameterError("damping", self.damping, f"must be one of {', '.join(DAMPINGS)}")
+        if not (isinstance(self.cundall, (int, float)) and 0 < self.cundall < 1):
+            raise ParameterError("cundall", self.cundall, "must be a number in (0, 1)")
+        if not (isinstance(self.liquefaction, (int, float)) and 0 < self.liquefaction <= 1):
+            raise ParameterError("liquefaction", self.liquefaction, "must be a pore-pressure ratio in (0, 1]")
+        if self.safety > 0.5:
+            raise ParameterError("safety", self.safety, "must be <= 0.5 (fraction of the critical time step)")
+
+    def as_dict(self) -> dict:
+        """The settings as a JSON-ready dict."""
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+def dem_material(law: Any) -> tuple[GrainMaterial, list[str]]:
+    """The LAMMPS grain material of a grainmech contact law, and notes on what runs.
+
+    Hertz-Mindlin and Mindlin-Deresiewicz laws give the grain shear modulus, Poisson's
+    ratio and friction; LAMMPS runs Hertz normal + Mindlin no-slip tangential spring with a
+    Coulomb cap for both (it has no Mindlin-Deresiewicz micro-slip law: said in the notes).
+
+    Raises
+    ------
+    GrainmechError
+        For a law LAMMPS' granular model cannot stand for (linear springs, cylinders) or
+        a frictionless one.
+    """
+    try:
+        forms = law_forms(law)
+    except TypeError:
+        forms = None
+    name = type(law).__name__
+    if forms is None or not forms.spheres:
+        raise GrainmechError(f"contacts.law = {name}: the DEM model runs LAMMPS' granular model (Hertz spheres); "
+                             "use 'hertz-mindlin' or 'mindlin-deresiewicz'")
+    mu = float(getattr(law, "friction", 0.0) or 0.0)
+    if not (forms.kind in ("md", "jenkins") and 0 < mu < math.inf):
+        raise GrainmechError(f"contacts.law = {name} (friction {mu:g}): the DEM model needs a frictional "
+                             "Hertz-Mindlin law (contacts.law = 'hertz-mindlin' or 'mindlin-deresiewicz' with "
+                             "contacts.friction > 0)")
+    mat = GrainMaterial("grains", float(law.shear_modulus), float(law.poisson), DEFAULT_DENSITY, mu)
+    notes = ["LAMMPS pair_style granular: Hertz normal force, Mindlin no-slip tangential spring k_t = 8 G* a "
+             f"with a Coulomb cap (friction {mu:g}), grain shear modulus {mat.shear_modulus:.4g} Pa, Poisson "
+             f"{mat.poisson:g}"]
+    if forms.kind == "md":
+        notes.append("the config asks for Mindlin-Deresiewicz contacts; LAMMPS has no counterpart (no micro-slip "
+                     "below the Coulomb limit), so the DEM model ran the Hertz-Mindlin law above: its damping at "
+                     "small strains comes from full sliding only")
+    return mat, notes
