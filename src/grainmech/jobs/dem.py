@@ -65,6 +65,8 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
     if sec.has("damping"):
         kw["damping"] = sec.choice("damping", DAMPINGS)
+    if sec.has("fallback"):
+        kw["fallback"] = sec.boolean("fallback")
     sec.finish()
     try:
         return DemSettings(**kw), workers

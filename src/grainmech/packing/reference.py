@@ -76,6 +76,9 @@ class _Session:
     steps: int = 0
     cundall: float = 0.0
     kinetic: bool = False
+    #: relaxations finished under kinetic damping after the drags ran out of budget (:meth:`set_kinetic`)
+    fallbacks: int = 0
+    _power: bool = False
 
     def drags(self) -> None:
         """Switch the relaxation's damping on (fixes ``drag`` and ``spin``).
@@ -99,6 +102,28 @@ class _Session:
         """Switch the relaxation's damping off (for a ramp)."""
         if not self.kinetic:
             self.lmp.commands(["unfix drag", "unfix spin"])
+
+    def define_power(self) -> None:
+        """Define LAMMPS' ``kpow``: the power of the forces and torques, ``sum f.v + tau.omega`` (once)."""
+        if self._power:
+            return
+        self.lmp.commands(["compute kspin all property/atom omegax omegay omegaz tqx tqy tqz",
+                           "variable kpow atom fx*vx+fy*vy+fz*vz+c_kspin[1]*c_kspin[4]+c_kspin[2]*c_kspin[5]"
+                           "+c_kspin[3]*c_kspin[6]",
+                           "compute kpow all reduce sum v_kpow"])
+        self._power = True
+
+    def set_kinetic(self, on: bool) -> None:
+        """Switch from the drags (or Cundall's damping) to kinetic damping, or back, during a relaxation."""
+        if on == self.kinetic:
+            return
+        if on:
+            self.undrag()
+            self.define_power()
+            self.kinetic = True
+        else:
+            self.kinetic = False
+            self.drags()
 
     def advance(self, steps: int) -> None:
         """Run ``steps`` time steps with the relaxation's damping (the cell held).
@@ -160,12 +185,9 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     lmp.commands([f"timestep {dt:.10g}", "thermo 100"])
     if kinetic and cundall > 0:
         raise GrainmechError("kinetic damping and Cundall's local damping exclude each other")
-    if kinetic:
-        lmp.commands(["compute kspin all property/atom omegax omegay omegaz tqx tqy tqz",
-                      "variable kpow atom fx*vx+fy*vy+fz*vz+c_kspin[1]*c_kspin[4]+c_kspin[2]*c_kspin[5]"
-                      "+c_kspin[3]*c_kspin[6]",
-                      "compute kpow all reduce sum v_kpow"])
     s = _Session(lmp, mat, dt, p, rbar, m_bar, omega, g, cundall=float(cundall), kinetic=bool(kinetic))
+    if kinetic:
+        s.define_power()
     s.drags()
     return s
 

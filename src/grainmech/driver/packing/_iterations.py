@@ -437,8 +437,8 @@ def _grain_residuals(kin: Kinematics, rq: np.ndarray) -> np.ndarray:
     The translation of grain 0 is pinned (not an unknown, :class:`Kinematics`); its
     out-of-balance force follows from the others', as the contact forces sum to zero:
     ``F_0 = -sum_(p>0) F_p``. Small residuals of many grains in one direction add up
-    there (on 'dense' at 3e-4 a step left 0.17 of the mean contact force on grain 0 while
-    no free unknown was above 0.01).
+    there, which is why grain 0 is the best-held grain of the packing
+    (:func:`grainmech.driver.packing.point._pin_first`).
     """
     g = kin.full(rq)
     g[0, :3] = -g[1:, :3].sum(axis=0)
