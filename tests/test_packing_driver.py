@@ -605,3 +605,37 @@ def test_rest_acceptance_is_bounded_by_the_step_stress_change(point):
     s = _StepSolve(point, S, de, target, _Context(prec=prec, opts=PackingOptions(rtol_accept=1e-8,
                    rest_step=float("inf"))), [0.0] * 5, amb / point.volume / 0.005, False)
     assert not s.accept(4.0 * rq, np.zeros(0))
+
+
+def test_the_pinned_translation_is_the_best_held_grains() -> None:
+    """The global translation is removed by pinning one grain's translation; its
+    out-of-balance force is minus the sum of all the others' (``_grain_residuals``), so it
+    must be a grain that its contacts hold well. The first row of the shipped 'loose'
+    packing is held by two weak contacts; the pinned grain is the one with the most
+    force-carrying contacts instead, and that grain's residual equals minus the sum of the
+    free grains' (contact forces are internal: they sum to zero)."""
+    from grainmech.driver.packing._iterations import _grain_residuals
+    from grainmech.packing import QUARTZ, load_packing
+
+    net = load_packing("loose")
+    law = MindlinDeresiewicz(QUARTZ.shear_modulus, QUARTZ.poisson, float(np.mean(net.radii)),
+                             friction=QUARTZ.friction)
+    pt = PackingPoint.from_network(net, law)
+    kin = pt.kinematics
+    closed = pt.response.normal_force > 0
+    count = np.bincount(kin.a[closed], minlength=pt.n_grains) + np.bincount(kin.b[closed], minlength=pt.n_grains)
+    assert count[0] == count.max() >= 8
+    first_row = int(np.flatnonzero(pt.grains == 0)[0]) if np.any(pt.grains == 0) else None
+    assert first_row is None or count[first_row] <= 3  # the first row of 'loose' is weakly held
+    assert not kin.free[:3].any() and kin.free[3:].all()
+    # the pinned grain's residual (G^T f: +f on A, -f on B, f by A on B) from its own contacts
+    f = pt.forces * 1.0
+    c0 = int(np.flatnonzero(kin.a == 0)[0])
+    f[c0] += 1e-3 * np.abs(f).max()  # unbalance the pinned grain and a neighbour
+    g = _grain_residuals(kin, kin.balance(f))
+    mine = np.zeros(3)
+    for c in np.flatnonzero((kin.a == 0) | (kin.b == 0)):
+        mine += f[c] if kin.a[c] == 0 else -f[c]
+    assert np.linalg.norm(mine) > 0.5e-3 * np.abs(f).max()
+    assert np.allclose(g[0, :3], -g[1:, :3].sum(axis=0))
+    assert np.allclose(g[0, :3], mine, atol=1e-9 * np.abs(f).max())
