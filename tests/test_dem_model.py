@@ -68,6 +68,7 @@ def run_cli(args: list, capsys: pytest.CaptureFixture) -> tuple[int, str, str]:
     ({"model": "[model.dem]\ndamping = \"fire\""}, "model.dem.damping"),
     ({"model": "[model.dem]\ncundall = 1.5"}, "model.dem.cundall"),
     ({"model": "[model.dem]\nliquefaction = 1.5"}, "model.dem.liquefaction"),
+    ({"model": "[model.dem]\nfallback = \"kinetic\""}, "model.dem.fallback"),
 ])
 def test_bad_dem_input_is_one_line_exit_2(tmp_path, capsys, kw, key) -> None:
     rc, out, err = run_cli(["run", config(tmp_path, **kw), "-o", tmp_path / "o"], capsys)
