@@ -74,6 +74,7 @@ def test_dem_relaxation_budget_names_the_ratio_reached(dense):
         DemPoint.start(net, law, DemSettings(tol=1e-9, max_relax_steps=1000, chunk=250))
     msg = str(err.value)
     assert "no equilibrium within max_relax_steps = 1000 time steps" in msg and "tol = 1e-09" in msg
+    assert "and as many more under kinetic damping (fallback)" in msg  # DemSettings.fallback
     reached = float(msg.split("unbalanced force ratio was ")[1].split(" ")[0])
     assert 1e-9 < reached < 1e-3
 

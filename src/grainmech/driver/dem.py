@@ -395,11 +395,11 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
                     s.fallbacks += 1
                     limit += st.max_relax_steps
                 elif used >= limit:
-                    after = (f" ({st.max_relax_steps} of them under kinetic damping after the "
-                             f"{st.damping} damping's)" if limit > st.max_relax_steps else "")
-                    raise StepFailure(f"no equilibrium within {limit} time steps of relaxation{after}: the "
-                                      f"unbalanced force ratio was {exc.reached:.3g} at the end, tol = {st.tol:g} "
-                                      f"(max_relax_steps = {st.max_relax_steps})") from None
+                    more = (f" under the {st.damping} damping and as many more under kinetic damping (fallback)"
+                            if limit > st.max_relax_steps else "")
+                    raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time "
+                                      f"steps{more}: the unbalanced force ratio was {exc.reached:.3g} at the end, "
+                                      f"tol = {st.tol:g}") from None
     finally:
         if st.damping != "kinetic":
             s.set_kinetic(False)
