@@ -438,7 +438,7 @@ def _grain_residuals(kin: Kinematics, rq: np.ndarray) -> np.ndarray:
     out-of-balance force follows from the others', as the contact forces sum to zero:
     ``F_0 = -sum_(p>0) F_p``. Small residuals of many grains in one direction add up
     there, which is why grain 0 is the best-held grain of the packing
-    (:func:`grainmech.driver.packing.point._pin_first`).
+    (:func:`grainmech.driver.packing._input._pin_first`).
     """
     g = kin.full(rq)
     g[0, :3] = -g[1:, :3].sum(axis=0)

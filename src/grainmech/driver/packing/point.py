@@ -29,7 +29,7 @@ from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
 from grainmech.driver.loop import follow_path
-from grainmech.driver.packing._input import _check_network, _initial_state, _input_forces
+from grainmech.driver.packing._input import _check_network, _initial_state, _input_forces, _pin_first
 from grainmech.driver.packing._iterations import _grain_residuals
 from grainmech.driver.packing._operators import (
     Kinematics,
@@ -89,29 +89,6 @@ def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.n
     key = np.minimum(I, J) * P + np.maximum(I, J)
     new = np.array([k not in listed for k in key.tolist()], dtype=bool)
     return I[new], J[new], br[new]
-
-
-def _pin_first(grains: np.ndarray, net: ContactNetwork, carrying: np.ndarray, N: np.ndarray) -> np.ndarray:
-    """``grains`` (kept rows of ``net``) with the best-held grain first: its translation is pinned.
-
-    The global translation of a periodic packing is a zero mode, removed by pinning the
-    translation of the first kept grain (:class:`Kinematics`). That grain's out-of-balance
-    force is then minus the sum of all the others' (:func:`_grain_residuals`), and moving
-    it means moving every other grain against it. Pinned on a grain held by two weak
-    contacts (the first row of the shipped 'loose' packing has 2, carrying 0.09 and 0.06 of
-    the mean contact force), the coherent part of the other grains' small residuals piles up
-    on it step after step (0.014 → 0.050 of the mean contact force over γ = 5e-5 … 9e-5 at
-    1e-4 on 'loose', every free grain below 0.002). The grain with the most force-carrying
-    contacts (then the largest sum of their normal forces, then the lowest row) is pinned
-    instead (``N``: the input normal forces of ``net``'s contacts, ``carrying`` the kept
-    force-carrying ones).
-    """
-    count = np.bincount(net.i[carrying], minlength=net.n_particles) + \
-        np.bincount(net.j[carrying], minlength=net.n_particles)
-    load = np.bincount(net.i[carrying], N[carrying], net.n_particles) + \
-        np.bincount(net.j[carrying], N[carrying], net.n_particles)
-    best = grains[np.lexsort((grains, -load[grains], -count[grains]))[0]]
-    return np.concatenate([[best], grains[grains != best]])
 
 
 @dataclass(frozen=True, eq=False)
