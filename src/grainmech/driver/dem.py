@@ -367,8 +367,7 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
     for the servo to correct (it never becomes a recorded state: the servo accepts only
     equilibria).
     """
-    used = 0
-    limit = st.max_relax_steps
+    used, limit, fell_back = 0, st.max_relax_steps, False
     try:
         while True:
             budget = min(limit - used, 20 * st.chunk)
@@ -389,19 +388,21 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
                     raise StepFailure(_liquefied(exc.mean_stress, p0, f"no equilibrium with contacts after {used} "
                                                  f"time steps of relaxation, unbalanced force ratio "
                                                  f"{exc.reached:.3g}"), Status.LIQUEFIED) from None
-                if used >= limit and st.fallback and not s.kinetic and limit == st.max_relax_steps:
+                if used < limit:
+                    continue
+                if st.fallback and not s.kinetic:
                     # the drags' budget is spent: kinetic damping goes on for as many time steps
                     s.set_kinetic(True)
                     s.fallbacks += 1
-                    limit += st.max_relax_steps
-                elif used >= limit:
-                    more = (f" under the {st.damping} damping and as many more under kinetic damping (fallback)"
-                            if limit > st.max_relax_steps else "")
-                    raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time "
-                                      f"steps{more}: the unbalanced force ratio was {exc.reached:.3g} at the end, "
-                                      f"tol = {st.tol:g}") from None
+                    fell_back, limit = True, limit + st.max_relax_steps
+                    continue
+                more = (f" under the {st.damping} damping and as many more under kinetic damping (fallback)"
+                        if fell_back else "")
+                raise StepFailure(f"no equilibrium within max_relax_steps = {st.max_relax_steps} time "
+                                  f"steps{more}: the unbalanced force ratio was {exc.reached:.3g} at the end, "
+                                  f"tol = {st.tol:g}") from None
     finally:
-        if st.damping != "kinetic":
+        if fell_back:  # the next ramp and relaxation have the drags again
             s.set_kinetic(False)
 
 

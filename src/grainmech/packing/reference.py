@@ -76,7 +76,8 @@ class _Session:
     steps: int = 0
     cundall: float = 0.0
     kinetic: bool = False
-    #: relaxations finished under kinetic damping after the drags ran out of budget (:meth:`set_kinetic`)
+    #: relaxations the DEM model finished under kinetic damping after the drags ran out of
+    #: budget (counted by :func:`grainmech.driver.dem._relax`, switched by :meth:`set_kinetic`)
     fallbacks: int = 0
     _power: bool = False
 

@@ -170,9 +170,8 @@ def _pin_first(grains: np.ndarray, net: ContactNetwork, carrying: np.ndarray, N:
     instead (``N``: the input normal forces of ``net``'s contacts, ``carrying`` the kept
     force-carrying ones).
     """
-    count = np.bincount(net.i[carrying], minlength=net.n_particles) + \
-        np.bincount(net.j[carrying], minlength=net.n_particles)
-    load = np.bincount(net.i[carrying], N[carrying], net.n_particles) + \
-        np.bincount(net.j[carrying], N[carrying], net.n_particles)
+    ends = np.concatenate([net.i[carrying], net.j[carrying]])  # each contact counts for both grains
+    count = np.bincount(ends, minlength=net.n_particles)
+    load = np.bincount(ends, np.tile(N[carrying], 2), net.n_particles)
     best = grains[np.lexsort((grains, -load[grains], -count[grains]))[0]]
     return np.concatenate([[best], grains[grains != best]])
