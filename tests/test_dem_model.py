@@ -370,3 +370,46 @@ def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
     # nothing to hand over: a packing model that completed, or no DEM model after it
     spec2 = prepare_run(cfg)
     assert _hand_to_dem(spec2, stopped, ()) == [] and spec2.amplitudes_of("dem") == [1e-3]
+
+
+def _linear_run(G: float, liquefy_above: float):  # noqa: ANN202
+    """A stand-in for one amplitude's run: tau_xz = G gamma_xz exactly (no hysteresis) up
+    to ``liquefy_above``; a larger amplitude ends LIQUEFIED at step 3 with its steps kept."""
+    import numpy as np
+
+    from grainmech.driver.base import DriverResult
+
+    def run(path):  # noqa: ANN001, ANN202
+        strain = np.vstack([np.zeros(6), np.cumsum(path.increment, axis=0)])
+        stress = np.zeros_like(strain)
+        stress[:, 4] = G * strain[:, 4]
+        n = len(strain)
+        liq = float(np.abs(strain[:, 4]).max()) > liquefy_above
+        if liq:
+            strain, stress, n = strain[:3], stress[:3], 3
+        z = np.zeros(n)
+        return DriverResult(not liq, int(Status.LIQUEFIED if liq else Status.DONE),
+                            "step 3: liquefied: r_u = 0.990" if liq else "completed",
+                            strain, stress, np.zeros((n, 6, 6)), z, z, z, z, z, z.astype(int), z.astype(int), None,
+                            len(path))
+    return run
+
+
+@pytest.mark.parametrize("raise_on_failure", [True, False])
+def test_a_liquefied_amplitude_is_the_tests_answer_not_a_failure(raise_on_failure) -> None:
+    """``cyclic_series``: an amplitude whose run ends LIQUEFIED (constant volume, mean
+    stress lost) does not fail the series, even with ``raise_on_failure``; it has no G or
+    damping, is named in ``liquefied`` and in the message, and its steps stay in
+    ``results``. The completed amplitudes are analysed as usual: a linear tau = G gamma
+    path gives the secant G exactly and zero damping (Kramer 1996 Sec. 6.4.2)."""
+    from grainmech.driver.loop import cyclic_series
+
+    mr = cyclic_series(_linear_run(50e6, 2e-3), [1e-4, 1e-3, 1e-2], lambda p: 50e6, n_cycles=2,
+                       steps_per_cycle=16, constant="volume", raise_on_failure=raise_on_failure)
+    assert mr.success
+    assert list(mr.amplitude) == [1e-4, 1e-3]
+    assert mr.G == pytest.approx([50e6, 50e6], rel=1e-12)
+    assert mr.damping == pytest.approx([0.0, 0.0], abs=1e-12)
+    assert len(mr.results) == 3 and len(mr.results[2].stress) == 3
+    assert mr.liquefied == ("amplitude 0.01: step 3: liquefied: r_u = 0.990",)
+    assert mr.message.startswith("done; liquefied") and "amplitude 0.01" in mr.message

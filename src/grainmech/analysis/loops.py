@@ -254,6 +254,13 @@ class ModulusReduction:
     G_max : float
         Small-strain modulus from the initial tangent (:func:`condensed_modulus`).
     results : list of DriverResult
+    success, message
+        Whether every amplitude completed or liquefied, and what stopped the others.
+    run_amplitudes : (len(results),) or None
+        The amplitude of every run in ``results``.
+    liquefied : tuple of str
+        ``"amplitude a: <message>"`` of every amplitude whose run liquefied (the DEM model
+        at constant volume: the test's answer, not a failure; no G or damping).
     """
 
     amplitude: np.ndarray
@@ -264,6 +271,7 @@ class ModulusReduction:
     success: bool = True
     message: str = "done"
     run_amplitudes: np.ndarray | None = None
+    liquefied: tuple = ()
 
     @property
     def completed(self) -> list:

@@ -118,6 +118,10 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         starts from the model's initial state): the result has ``success`` False, a
         ``message`` naming every failed amplitude, ``G``/``damping``/``amplitude`` of the
         completed ones and ``results`` of every run in order (``run_amplitudes``).
+        A run that ends :attr:`~grainmech.driver.base.Status.LIQUEFIED` (the DEM model at
+        constant volume: the mean stress lost) is not a failure, whatever
+        ``raise_on_failure``: it is the test's answer at that amplitude. It has no loop to
+        analyse (no G, no damping); its message is in ``liquefied``, its steps in ``results``.
     on_amplitude : callable ``(ModulusReduction)``, optional
         Called after each completed amplitude with the series so far (a run stopped
         later can still write the finished amplitudes).
@@ -132,6 +136,7 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
     G, D, res, done = [], [], [], []
     failures: list[str] = []
+    liquefied: list[str] = []
     path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
     for i, a in enumerate(amps):
         path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
@@ -139,6 +144,9 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
             progress(i, float(a), path)
         r = run_one(path)
         res.append(r)
+        if not r.success and int(r.status) == Status.LIQUEFIED:
+            liquefied.append(f"amplitude {a:g}: {r.message}")
+            continue
         if not r.success:
             if raise_on_failure:
                 raise GrainmechError(f"amplitude {a:g}: {r.message}")
@@ -151,8 +159,10 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         done.append(float(a))
         if on_amplitude is not None:
             on_amplitude(ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), list(res),
-                                          run_amplitudes=amps[:len(res)].copy()))
+                                          run_amplitudes=amps[:len(res)].copy(), liquefied=tuple(liquefied)))
     message = "; ".join(failures) + (f" ({len(failures)} of {amps.size} amplitudes stopped, the others completed)"
                                       if failures and len(failures) < amps.size else "") if failures else "done"
+    if liquefied:
+        message += "; liquefied (the test's answer, no loop): " + ", ".join(m.split(":")[0] for m in liquefied)
     return ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), res, not failures, message,
-                            run_amplitudes=amps[:len(res)].copy())
+                            run_amplitudes=amps[:len(res)].copy(), liquefied=tuple(liquefied))

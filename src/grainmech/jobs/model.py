@@ -122,7 +122,9 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         message=mr.message, seconds=seconds, point=point, method=method, details=dict(details or {}),
         warnings=(list(spec.warnings) if method == "affine" else [])
         + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law)
-        + envelope_and_loop_warnings(method, amps, envelope, quality),
+        + envelope_and_loop_warnings(method, amps, envelope, quality)
+        + [f"[{method}] {m}; no loop to analyse at this amplitude (its steps are written)"
+           for m in getattr(mr, "liquefied", ())],
         amplitudes=amps, G=np.asarray(mr.G, dtype=float),
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
