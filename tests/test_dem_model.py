@@ -413,3 +413,33 @@ def test_a_liquefied_amplitude_is_the_tests_answer_not_a_failure(raise_on_failur
     assert len(mr.results) == 3 and len(mr.results[2].stress) == 3
     assert mr.liquefied == ("amplitude 0.01: step 3: liquefied: r_u = 0.990",)
     assert mr.message.startswith("done; liquefied") and "amplitude 0.01" in mr.message
+
+
+def test_the_largest_amplitude_is_submitted_first_at_normal_priority(monkeypatch) -> None:
+    """``DemSeries`` with workers: the amplitudes go to the pool largest first (a worker
+    that frees up takes the next one), and every one but the largest is flagged to run at
+    a lower priority (``_Pool``: the longest run keeps its core while the main process
+    computes another model). Amplitudes added later (handed over by the packing model)
+    come after them; one alone keeps the normal priority."""
+    import grainmech.driver.dem as dem
+    from grainmech.contact import HertzMindlin
+    from grainmech.packing import load_packing
+
+    calls = []
+
+    class Pool:
+        def __init__(self, workers):  # noqa: ANN001
+            pass
+
+        def submit(self, net, law, path, settings, pressure, background=False):  # noqa: ANN001
+            calls.append((round(float(abs(path.increment[:, 4]).sum()) / 8, 12), background))
+
+        def close(self) -> None:
+            pass
+
+    monkeypatch.setattr(dem, "_Pool", Pool)
+    series = dem.DemSeries(load_packing("dense"), HertzMindlin(29e9, 0.15, 1.5e-4, friction=0.5),
+                           [3e-4, 1e-3, 1e-4], n_cycles=2, steps_per_cycle=16, workers=2)
+    series.add([1e-5])
+    assert calls == [(1e-3, False), (3e-4, True), (1e-4, True), (1e-5, False)]
+    assert [series.index[a] for a in (1e-3, 3e-4, 1e-4, 1e-5)] == [0, 1, 2, 3]

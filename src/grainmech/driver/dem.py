@@ -524,9 +524,22 @@ def _worker_init() -> None:
         os._exit(143)
 
 
+#: niceness of a worker that runs an amplitude other than the largest of its batch (``_Pool``)
+_BACKGROUND_NICE = 10
+
+
 def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
-                pressure: float | None, index: int, q: Any) -> DemResult:
-    """One amplitude in a worker process; progress goes to the parent through ``q``."""
+                pressure: float | None, background: bool, index: int, q: Any) -> DemResult:
+    """One amplitude in a worker process; progress goes to the parent through ``q``.
+
+    ``background``: the worker lowers its own priority to niceness ``_BACKGROUND_NICE``
+    first (``os.nice``; a process cannot raise it again, so it keeps it for later tasks).
+    """
+    if background and hasattr(os, "nice"):
+        try:
+            os.nice(max(0, _BACKGROUND_NICE - os.nice(0)))
+        except OSError:  # pragma: no cover - a system that refuses it: run at the same priority
+            pass
 
     def on_step(k: int, n: int) -> None:
         q.put((index, "step", k, n))
@@ -538,7 +551,15 @@ def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSett
 
 
 class _Pool:
-    """Amplitudes run side by side in worker processes (each a LAMMPS on one core)."""
+    """Amplitudes run side by side in worker processes (each a LAMMPS on one core).
+
+    The largest amplitude of each batch submitted together (:meth:`DemSeries.add`) is the
+    longest run (more time steps per step, more servo corrections): its worker keeps the
+    normal priority and the others run at niceness ``_BACKGROUND_NICE``, so that when the
+    caller also computes (another model in the main process) the run that decides the
+    wall time keeps its core and the shorter ones take what is left. The results do not
+    depend on it (each LAMMPS is deterministic on one thread).
+    """
 
     def __init__(self, workers: int) -> None:
         ctx = mp.get_context("spawn")
@@ -547,8 +568,8 @@ class _Pool:
         self.ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
         self.futures: list[Future] = []
 
-    def submit(self, *args: Any) -> None:
-        call = (*args, len(self.futures), self.queue)
+    def submit(self, *args: Any, background: bool = False) -> None:
+        call = (*args, background, len(self.futures), self.queue)
         self.futures.append(self.ex.submit(_worker_run, *call))
 
     def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> DemResult:
@@ -614,14 +635,16 @@ class DemSeries:
         return cyclic_simple_shear(a, self.n_cycles, self.steps_per_cycle, self.waveform, constant=self.constant)
 
     def add(self, amplitudes: Sequence[float] | np.ndarray) -> None:
-        """Add amplitudes to the series (submitted at once when it has workers)."""
-        for a in np.asarray(amplitudes, dtype=float):
-            if float(a) in self.index:
-                continue
-            self.index[float(a)] = len(self.index)
-            self.amplitudes.append(float(a))
+        """Add amplitudes to the series (submitted at once when it has workers, the largest
+        first; ``_Pool`` runs all but the largest at a lower priority)."""
+        new = sorted({float(a) for a in np.asarray(amplitudes, dtype=float).ravel()} - set(self.index),
+                     reverse=True)
+        for a in new:
+            self.index[a] = len(self.index)
+            self.amplitudes.append(a)
             if self.pool is not None:
-                self.pool.submit(self.net, self.law, self._path(float(a)), self.settings, self.pressure)
+                self.pool.submit(self.net, self.law, self._path(a), self.settings, self.pressure,
+                                 background=len(new) > 1 and a != max(new))
 
     def run(self, *, progress: Callable[[int, float, Any], None] | None = None,
             on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
