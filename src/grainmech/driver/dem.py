@@ -635,8 +635,11 @@ class DemSeries:
         return cyclic_simple_shear(a, self.n_cycles, self.steps_per_cycle, self.waveform, constant=self.constant)
 
     def add(self, amplitudes: Sequence[float] | np.ndarray) -> None:
-        """Add amplitudes to the series (submitted at once when it has workers, the largest
-        first; ``_Pool`` runs all but the largest at a lower priority)."""
+        """Add amplitudes to the series.
+
+        With workers they are submitted at once, the largest first; ``_Pool`` runs all but
+        the largest at a lower priority.
+        """
         new = sorted({float(a) for a in np.asarray(amplitudes, dtype=float).ravel()} - set(self.index),
                      reverse=True)
         for a in new:
