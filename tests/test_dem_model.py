@@ -373,25 +373,27 @@ def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
 
 
 def _linear_run(G: float, liquefy_above: float):  # noqa: ANN202
-    """A stand-in for one amplitude's run: tau_xz = G gamma_xz exactly (no hysteresis) up
-    to ``liquefy_above``; a larger amplitude ends LIQUEFIED at step 3 with its steps kept."""
+    """A stand-in for one amplitude's DEM run: tau_xz = G gamma_xz exactly (no hysteresis)
+    at p = 100 kPa up to ``liquefy_above``; a larger amplitude ends LIQUEFIED at step 3 with
+    its steps kept."""
     import numpy as np
 
-    from grainmech.driver.base import DriverResult
+    from grainmech.driver.dem import DemResult
 
     def run(path):  # noqa: ANN001, ANN202
         strain = np.vstack([np.zeros(6), np.cumsum(path.increment, axis=0)])
         stress = np.zeros_like(strain)
+        stress[:, :3] = 1e5
         stress[:, 4] = G * strain[:, 4]
         n = len(strain)
         liq = float(np.abs(strain[:, 4]).max()) > liquefy_above
         if liq:
             strain, stress, n = strain[:3], stress[:3], 3
         z = np.zeros(n)
-        return DriverResult(not liq, int(Status.LIQUEFIED if liq else Status.DONE),
-                            "step 3: liquefied: r_u = 0.990" if liq else "completed",
-                            strain, stress, np.zeros((n, 6, 6)), z, z, z, z, z, z.astype(int), z.astype(int), None,
-                            len(path))
+        return DemResult(not liq, int(Status.LIQUEFIED if liq else Status.DONE),
+                         "step 3: liquefied: r_u = 0.990" if liq else "completed",
+                         strain, stress, np.zeros((n, 6, 6)), z, z, z, z, z, z.astype(int), z.astype(int), None,
+                         len(path), {}, z + 1e-5, z + 5.0, (z + 5000).astype(int), (), {}, np.eye(6) * G)
     return run
 
 
@@ -443,3 +445,25 @@ def test_the_largest_amplitude_is_submitted_first_at_normal_priority(monkeypatch
     series.add([1e-5])
     assert calls == [(1e-3, False), (3e-4, True), (1e-4, True), (1e-5, False)]
     assert [series.index[a] for a in (1e-3, 3e-4, 1e-4, 1e-5)] == [0, 1, 2, 3]
+
+
+def test_a_run_whose_amplitude_liquefies_exits_0_and_says_so(tmp_path, capsys, monkeypatch) -> None:
+    """``grainmech run`` with the DEM model (LAMMPS replaced by the linear stand-in above):
+    an amplitude that liquefies is reported on stderr and in summary.json's warnings, its
+    steps are written, the completed amplitude's curve is there (G/Gmax = 1 for the linear
+    run), and the exit status is 0 (issue 28: liquefaction is the test's answer)."""
+    import grainmech.driver.dem as dem
+    import grainmech.packing.engine as engine
+
+    monkeypatch.setattr(engine, "require_lammps", lambda: None)
+    one = _linear_run(50e6, 2e-3)
+    monkeypatch.setattr(dem, "run_dem", lambda net, law, path, *a, **kw: one(path))
+    cfg = config(tmp_path, amps="[1e-5, 1e-2]", constant="volume", model="[model.dem]\nworkers = 1")
+    rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "out"], capsys)
+    assert rc == 0, err
+    assert "amplitude 0.01: step 3: liquefied" in err
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["success"] and any("liquefied" in w for w in summary["warnings"])
+    assert summary["amplitudes"] == [1e-5] and summary["G_over_Gmax"] == pytest.approx([1.0], rel=1e-9)
+    assert "cycles_gamma_1.0e-02.csv" in summary["files"]  # the liquefied amplitude's steps
+    assert "liquefied" in summary["message"]
