@@ -5,9 +5,10 @@ own quartz grains), each control (constant stress: ``sigma_zz`` held by the serv
 constant volume) and each amplitude (default 1e-6, 1e-5, 1e-4, 1e-3, 1e-2), runs cyclic
 simple shear with the DEM model (``n_cycles = 2``, 16 steps per cycle, default
 :class:`grainmech.driver.dem.DemSettings`) and prints one markdown row per amplitude as
-it finishes: completed or where it stopped, G, G/Gmax, damping, the change of mean stress
-over the path (at constant volume the pore-pressure ratio), the largest unbalanced force
-ratio of the recorded states, the LAMMPS time steps and the wall time.
+it finishes: completed, liquefied (constant volume) or where it stopped, G, G/Gmax,
+damping, the change of mean stress over the path (at constant volume the pore-pressure
+ratio), the largest unbalanced force ratio of the recorded states, the LAMMPS time steps
+and the wall time.
 
 Usage: ``python benchmarks/dem_campaign.py [--packings dense,medium,loose]
 [--controls stress,volume] [--amplitudes 1e-6,1e-5,1e-4,1e-3,1e-2] [--workers 1] [--set KEY=VALUE]``
@@ -26,6 +27,7 @@ import numpy as np
 from _dem_settings_arg import settings_from
 
 from grainmech.contact import HertzMindlin
+from grainmech.driver.base import Status
 from grainmech.driver.dem import dem_modulus_reduction
 from grainmech.packing import load_packing, packing_info
 
@@ -68,6 +70,13 @@ def main(argv: list[str]) -> int:
 
             mr = dem_modulus_reduction(net, law, amps, constant=control, settings=settings,
                                        workers=a.workers, raise_on_failure=False, on_amplitude=row)
+            for amp, r in zip(mr.run_amplitudes, mr.results):
+                if int(r.status) == Status.LIQUEFIED:  # the test's answer (docs/dem-model.md)
+                    p = np.mean(r.stress[:, :3], axis=1)
+                    print(f"| {name} | {control} | {amp:g} | LIQUEFIED: {r.message} | | | | "
+                          f"{p[-1] / p[0] - 1:+.3f} at step {len(p) - 1} | {float(np.max(r.unbalanced)):.2g} | "
+                          f"{int(r.iterations.sum())} to step {len(p) - 1} | {time.perf_counter() - last[0]:.0f} |",
+                          flush=True)
             if not mr.success:
                 stopped += 1
                 print(f"| {name} | {control} | | STOPPED: {mr.message} | | | | | | | |", flush=True)
