@@ -99,3 +99,41 @@ def test_pack_command_bad_config_writes_nothing(tmp_path, cli):
     assert res.rc == 2
     assert "grains.sizes" in res.err
     assert not out.exists()
+
+
+def test_large_packings_are_sorted_in_lammps_and_read_back_by_id():
+    """Above ``SORT_MIN_GRAINS`` LAMMPS sorts its atoms spatially (a 3x speed-up at 1e5
+    grains, ``docs/performance.md``); every read-back goes by grain ID, so a sorted run
+    returns the same network. 'dense' tiled 2 x 2 x 1 (8000 grains), sorted at every
+    reneighbouring: after 20 time steps of a packing in equilibrium the grains come back
+    in ID order at their input positions (up to LAMMPS' cell origin and the drift of 20
+    steps) with the same contacts (and a few pairs at touch closed)."""
+    from grainmech.network.builders import tile_network
+    from grainmech.packing import load_packing
+    from grainmech.packing.prepare import SORT_MIN_GRAINS, atom_modify
+    from grainmech.packing.reference import load_network
+
+    assert atom_modify(2000).endswith("sort 0 0") and atom_modify(100_000).endswith("sort 1000 0.0")
+    net = tile_network(load_packing("dense"), [2, 2, 1])
+    assert net.n_particles > SORT_MIN_GRAINS
+    with engine.Lammps(threads=1) as lmp:
+        load_network(lmp, net, QUARTZ, viscous=0.3, safety=0.1)
+        lmp.command("atom_modify sort 1 0.0")  # sort at every reneighbouring (the default is every 1000 steps)
+        before = lmp.atom("id").copy()
+        lmp.command("run 20")
+        after = lmp.atom("id")
+        back = network_from_lammps(lmp)
+    assert not np.array_equal(before, after)  # LAMMPS did reorder its atoms
+    assert np.array_equal(back.ids, np.sort(net.ids))
+    order = np.argsort(net.ids)
+    d = back.positions - net.positions[order]
+    d -= np.round(d / np.diag(net.box.cell)) * np.diag(net.box.cell)  # periodic images (orthogonal cell)
+    d -= np.median(d, axis=0)  # LAMMPS' cell starts at 0
+    assert np.abs(d).max() < 1e-3 * float(net.radii.min())
+
+    def pairs(n):  # noqa: ANN001, ANN202
+        a, b = n.ids[n.i], n.ids[n.j]
+        return set(zip(np.minimum(a, b).tolist(), np.maximum(a, b).tolist()))
+
+    assert pairs(net) <= pairs(back)  # every contact is found again, by ID
+    assert back.n_contacts - net.n_contacts <= 1e-3 * net.n_contacts  # a few pairs at touch close
