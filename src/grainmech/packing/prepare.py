@@ -298,10 +298,11 @@ def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, saf
 #: more grains than this: LAMMPS sorts its atoms spatially (``atom_modify sort``, every 1000
 #: time steps into bins of half the neighbour cutoff, LAMMPS' own default), so that
 #: neighbours sit close in memory. Measured on 'dense' tiled and its grains shuffled (the
-#: order of a packing made from a random gas), time steps per CPU second, sorted against
-#: unsorted: 2000 grains 1.0x, 8000 1.4x, 36 000 1.9x, 100 000 3.1x
-#: (``docs/performance.md``). Up to this size the arrays sit in cache and a run stays
-#: bit-identical to an unsorted one.
+#: order of a packing made from a random gas; ``benchmarks/bench_lammps_sort.py``), time
+#: steps per CPU second sorted against unsorted: 1.9x at 36 000 grains, 3.1x at 100 000; at
+#: 2000 and 8000 grains 1.0-1.4x, within the scatter of those runs on shared cores
+#: (``docs/performance.md``). Up to this size a run stays bit-identical to an unsorted one
+#: (the shipped packings, the tests and the tables of the docs were made unsorted).
 SORT_MIN_GRAINS = 5000
 
 
