@@ -642,12 +642,11 @@ class DemSeries:
         """
         new = sorted({float(a) for a in np.asarray(amplitudes, dtype=float).ravel()} - set(self.index),
                      reverse=True)
-        for a in new:
+        for k, a in enumerate(new):
             self.index[a] = len(self.index)
             self.amplitudes.append(a)
-            if self.pool is not None:
-                self.pool.submit(self.net, self.law, self._path(a), self.settings, self.pressure,
-                                 background=len(new) > 1 and a != max(new))
+            if self.pool is not None:  # new[0], the largest, keeps the normal priority
+                self.pool.submit(self.net, self.law, self._path(a), self.settings, self.pressure, background=k > 0)
 
     def run(self, *, progress: Callable[[int, float, Any], None] | None = None,
             on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,

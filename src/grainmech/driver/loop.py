@@ -136,7 +136,7 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         raise ParameterError("amplitudes", amplitudes, "must be a non-empty list of positive strains")
     G, D, res, done = [], [], [], []
     failures: list[str] = []
-    liquefied: list[str] = []
+    liquefied: list[tuple[float, str]] = []  # (amplitude, message) of runs that liquefied
     path = cyclic_simple_shear(float(amps[0]), n_cycles, steps_per_cycle, waveform, constant=constant)
     for i, a in enumerate(amps):
         path = cyclic_simple_shear(float(a), n_cycles, steps_per_cycle, waveform, constant=constant)
@@ -145,7 +145,7 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         r = run_one(path)
         res.append(r)
         if not r.success and int(r.status) == Status.LIQUEFIED:
-            liquefied.append(f"amplitude {a:g}: {r.message}")
+            liquefied.append((float(a), r.message))
             continue
         if not r.success:
             if raise_on_failure:
@@ -159,10 +159,15 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         done.append(float(a))
         if on_amplitude is not None:
             on_amplitude(ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), list(res),
-                                          run_amplitudes=amps[:len(res)].copy(), liquefied=tuple(liquefied)))
+                                          run_amplitudes=amps[:len(res)].copy(), liquefied=_named(liquefied)))
     message = "; ".join(failures) + (f" ({len(failures)} of {amps.size} amplitudes stopped, the others completed)"
                                       if failures and len(failures) < amps.size else "") if failures else "done"
     if liquefied:
-        message += "; liquefied (the test's answer, no loop): " + ", ".join(m.split(":")[0] for m in liquefied)
+        message += "; liquefied (the test's answer, no loop): " + ", ".join(f"amplitude {a:g}" for a, _ in liquefied)
     return ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), res, not failures, message,
-                            run_amplitudes=amps[:len(res)].copy(), liquefied=tuple(liquefied))
+                            run_amplitudes=amps[:len(res)].copy(), liquefied=_named(liquefied))
+
+
+def _named(liquefied: list[tuple[float, str]]) -> tuple[str, ...]:
+    """``ModulusReduction.liquefied``: ``"amplitude a: <message>"`` of each ``(a, message)``."""
+    return tuple(f"amplitude {a:g}: {m}" for a, m in liquefied)

@@ -124,7 +124,7 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
         + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law)
         + envelope_and_loop_warnings(method, amps, envelope, quality)
         + [f"[{method}] {m}; no loop to analyse at this amplitude (its steps are written)"
-           for m in getattr(mr, "liquefied", ())],
+           for m in mr.liquefied],
         amplitudes=amps, G=np.asarray(mr.G, dtype=float),
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
