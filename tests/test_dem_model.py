@@ -10,6 +10,7 @@ re-settled start state and the rearrangements the fixed geometry does not follow
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -370,6 +371,36 @@ def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
     # nothing to hand over: a packing model that completed, or no DEM model after it
     spec2 = prepare_run(cfg)
     assert _hand_to_dem(spec2, stopped, ()) == [] and spec2.amplitudes_of("dem") == [1e-3]
+
+
+@pytest.mark.parametrize("lammps", [True, False])
+def test_a_stopped_packing_model_without_dem_says_how_to_run_the_rest(monkeypatch, lammps) -> None:
+    """Issue 29 item 6: a packing model that stops with no DEM model after it warns which
+    amplitudes it did not run and how to hand them over (naming the extra when LAMMPS is
+    missing); no warning when it completed, failed before any amplitude, or the DEM runs."""
+    import tomllib
+
+    import numpy as np
+
+    import grainmech.packing.engine as engine
+    from grainmech.jobs import CyclicOutcome, _dem_hint, prepare_run
+
+    monkeypatch.setattr(engine, "lammps_available", lambda: lammps)
+    cfg = tomllib.loads(BASE.format(law="hertz-mindlin", method='"packing"', amps="[1e-5]", constant="stress",
+                                    extra_contacts="", model="packing_amplitudes = [1e-6, 1e-4, 3e-4, 0.1]"))
+    spec = prepare_run(cfg)
+    # results: the amplitude that completed and the one that stopped (only their presence matters)
+    stopped = CyclicOutcome(kind=spec.kind, pressure=spec.pressure, results=["1e-6 run", "1e-4 run"], success=False,
+                            message="amplitude 0.0001: step 5: no equilibrium found", seconds=1.0, point=None,
+                            method="packing", G=np.array([1e8]), damping=np.array([0.01]))
+    hint = _dem_hint(spec, stopped, ())
+    # 0.1 is beyond the DEM model's range (0.05): not offered
+    assert hint is not None and "[0.0001, 0.0003]" in hint and "0.1" not in hint
+    assert 'method = ["packing", "dem"]' in hint
+    assert ("grainmech[dem]" in hint) is (not lammps)
+    assert _dem_hint(spec, stopped, ("dem",)) is None
+    assert _dem_hint(spec, dataclasses.replace(stopped, success=True), ()) is None
+    assert _dem_hint(spec, dataclasses.replace(stopped, results=[]), ()) is None
 
 
 def _linear_run(G: float, liquefy_above: float):  # noqa: ANN202

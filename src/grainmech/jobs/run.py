@@ -9,7 +9,7 @@ import numpy as np
 
 from grainmech.conventions import ORDER_3D
 from grainmech.jobs.affine import _execute_affine
-from grainmech.jobs.dem import _execute_dem, _hand_to_dem, _start_dem_early
+from grainmech.jobs.dem import _dem_hint, _execute_dem, _hand_to_dem, _start_dem_early
 from grainmech.jobs.packing import _execute_packing
 from grainmech.jobs.run_config import prepare_run
 from grainmech.jobs.schedule import compile_ahead
@@ -51,6 +51,9 @@ def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list) -> None:
             handed = _hand_to_dem(spec, outs[-1], spec.methods[i + 1:])
             if handed:
                 say(f"[packing] stopped; the DEM model runs {handed} instead")
+            hint = _dem_hint(spec, outs[-1], spec.methods[i + 1:])
+            if hint:
+                outs[-1].warnings.append(hint)
         else:
             outs.append(_execute_dem(spec, say))
 
