@@ -6,7 +6,11 @@ constant volume), 2 cycles x 40 steps of cyclic simple shear from the packing at
 100 kPa (:func:`grainmech.driver.packing.run_packing`). Prints one row per run: whether it
 completed, where and why it stopped, the largest equilibrium residual of the accepted
 steps (max-based unbalanced force ratio, ``PackingResult.residual``; the bar is 0.05),
-G/Gmax and damping of the last cycle, the wall time and its ratio to the dgemm yardstick.
+G/Gmax and damping of the last cycle, the change of mean stress over the two cycles
+(``p_end / p_0 - 1``; at constant volume minus the pore-pressure ratio, the column the DEM
+campaign ``benchmarks/dem_campaign.py`` prints for the same cells), the largest grain
+displacement fluctuation (``PackingResult.fluctuation``, in radii), the wall time and its
+ratio to the dgemm yardstick.
 
 ``--perturb`` adds, for each completed run, the same run with the input positions moved by
 1e-12 of a radius (random directions) and gives the difference in the loop's G/Gmax and,
@@ -56,7 +60,7 @@ def perturbed(net: ContactNetwork, eps: float, seed: int = 0) -> ContactNetwork:
 
 
 def run_one(net: ContactNetwork, law, amp: float, constant: str, reproducible: bool = True, **options):
-    """``(result, G/Gmax curve of the last cycle, G/Gmax, damping, seconds)`` of one run.
+    """``(result, G/Gmax curve of the last cycle, G/Gmax, damping, seconds)`` of one run (also when it stopped).
 
     ``reproducible=False``: PARDISO factors and solves on every core (2 threads here)
     instead of one (:class:`PackingOptions`).
@@ -97,9 +101,9 @@ def main() -> None:
         extra["rest_step"] = a.rest_step
     dg = dgemm_seconds()
     print(f"dgemm yardstick (n = 2048): {dg:.3f} s", flush=True)
-    print("| packing | law | control | γ | result | max residual | G/Gmax | D % | s | dgemm "
-          "| perturbed 1e-12 R: ΔG/Gmax (along the loop) | all cores: ΔG/Gmax (along the loop) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    print("| packing | law | control | γ | result | max residual | G/Gmax | D % | Δp/p0 | max fluctuation [R] | s "
+          "| dgemm | perturbed 1e-12 R: ΔG/Gmax (along the loop) | all cores: ΔG/Gmax (along the loop) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
     for pk in a.packings.split(","):
         net = load_packing(pk)
         for lw in a.laws.split(","):
@@ -117,8 +121,10 @@ def main() -> None:
                         r3, c3, g3, *_ = run_one(net, law, amp, ctl, reproducible=False, **extra)
                         thr = (f"{abs(g3 - gr):.1e} ({np.nanmax(np.abs(c3 - curve)):.1e})" if r3.success
                                else f"stops: {r3.message}")
+                    dp = float(np.mean(res.stress[-1, :3]) / np.mean(res.stress[0, :3]) - 1.0)
                     print(f"| {pk} | {lw} | {ctl} | {amp:g} | {what} | {res.residual.max():.3g} | {gr:.4f} | "
-                          f"{100 * d:.3f} | {sec:.1f} | {sec / dg:.0f} | {pert} | {thr} |", flush=True)
+                          f"{100 * d:.3f} | {dp:+.4f} | {res.fluctuation.max():.3g} | {sec:.1f} | {sec / dg:.0f} "
+                          f"| {pert} | {thr} |", flush=True)
 
 
 if __name__ == "__main__":
