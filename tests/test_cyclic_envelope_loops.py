@@ -265,3 +265,85 @@ def test_drifting_loop_is_warned_everywhere(tmp_path, monkeypatch, cli):
     from grainmech.io.site_response import read_curves
 
     assert np.allclose(read_curves(tmp_path / "o" / "site_response_curves.csv").strain, [1e-5, 1e-4])
+
+
+# ------------------------------------------------------------------------------ grains that rearrange
+def _cv_run(dp: float, n: int = 8):
+    """A stand-in completed constant-volume run: mean stress from 100 kPa to 100 (1 + dp) kPa,
+    a closed elastic loop tau = 1e8 gamma."""
+    from grainmech.driver.base import DriverResult
+
+    g = 1e-4 * np.sin(np.linspace(0.0, 2 * np.pi, n + 1))
+    p = 1e5 * (1.0 + dp * np.linspace(0.0, 1.0, n + 1))
+    stress = np.zeros((n + 1, 6))
+    stress[:, :3] = p[:, None]
+    stress[:, 4] = 1e8 * g
+    strain = np.zeros((n + 1, 6))
+    strain[:, 4] = g
+    z = np.zeros(n + 1)
+    return DriverResult(success=True, status=0, message="done", strain=strain, stress=stress,
+                        tangent=np.full((n + 1, 6, 6), np.nan), sliding_fraction=z, open_fraction=z, dissipation=z,
+                        work=z, stored=z, substeps=np.ones(n + 1, int), iterations=np.ones(n + 1, int), final=None,
+                        n_steps=n)
+
+
+def test_packing_loops_whose_mean_stress_drifts_at_constant_volume_are_flagged(tmp_path, monkeypatch, cli):
+    """Issue 29 (honest outputs): a packing-model loop at constant volume whose mean stress
+    changes by more than REARRANGEMENT_DP is flagged. The cases are the measured ones of
+    docs/packing-driver.md ("Where the fixed geometry holds", Hertz-Mindlin): 'loose' at 3e-5
+    (-0.0196; the DEM model's G differs by 6.9 %) and 1e-4 (-0.1177; +20 %) flagged, 'medium'
+    at 1e-4 (-0.0028; within 0.2 % of the DEM) and 'dense' at 3e-4 (+0.0017; 1.0 %) not."""
+    from grainmech.analysis.loops import ModulusReduction
+    from grainmech.jobs import REARRANGEMENT_DP, _cyclic_outcome, prepare_run, rearrangement_warnings, rearranging
+
+    assert 0.0028 < REARRANGEMENT_DP < 0.0196
+    runs = [_cv_run(d) for d in (-0.0028, +0.0017, -0.0196, -0.1177)]
+    amps = [1e-4, 3e-4, 3e-5, 1e-4]
+    assert rearranging("packing", "volume", runs) == [False, False, True, True]
+    # constant stress (the measured link is at constant volume) and the other models: no flag
+    assert rearranging("packing", "stress", runs) == [False] * 4
+    assert rearranging("dem", "volume", runs) == [False] * 4
+    w = rearrangement_warnings("packing", "volume", amps, runs)
+    assert len(w) == 2
+    assert w[0].startswith("packing model, amplitude 3.0e-05: the mean stress changed by -2.0 %")
+    assert "-11.8 %" in w[1] and 'method = "dem"' in w[1]
+
+    # in a run's outcome: the flags in details, the sentences in warnings
+    cfg = tomllib.loads(f"""
+[contacts]
+law = "hertz-mindlin"
+shear_modulus = "29 GPa"
+poisson = 0.15
+friction = 0.5
+[initial]
+pressure = "100 kPa"
+[model]
+method = "packing"
+packing = "loose"
+[test]
+kind = "cyclic-simple-shear"
+amplitudes = [1e-5, 3e-5]
+n_cycles = 2
+steps_per_cycle = 8
+constant = "volume"
+""")
+    spec = prepare_run(cfg)
+    pair = [_cv_run(-0.0028), _cv_run(-0.0196)]
+    mr = ModulusReduction(amplitude=np.array([1e-5, 3e-5]), G=np.array([1e8, 1e8]), damping=np.zeros(2),
+                          G_max=1e8, results=pair)
+    o = _cyclic_outcome(spec, "packing", mr, 1.0, None, 0.717, {})
+    assert o.details["rearranging"] == [False, True]
+    assert [x for x in o.warnings if "rearrange" in x] == rearrangement_warnings("packing", "volume",
+                                                                                 [1e-5, 3e-5], pair)
+    # where a user reads it: the amplitude's line, stderr, summary.json
+    import grainmech.jobs as jobs
+
+    monkeypatch.setattr(jobs, "compute_run", lambda cfg, progress=None: o)
+    (tmp_path / "c.toml").write_text(_cfg("[1e-5, 3e-5]"))
+    res = cli("run", tmp_path / "c.toml", "-o", tmp_path / "o", "--quiet")
+    assert res.rc == 0, res.err
+    lines = {a: next(ln for ln in res.out.splitlines() if f"amplitude  {a}" in ln) for a in ("1.00e-05", "3.00e-05")}
+    assert "GRAINS REARRANGE" in lines["3.00e-05"] and "GRAINS REARRANGE" not in lines["1.00e-05"]
+    assert "grainmech: warning: packing model, amplitude 3.0e-05: the mean stress changed by -2.0 %" in res.err
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["details"]["rearranging"] == [False, True]

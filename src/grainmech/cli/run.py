@@ -157,6 +157,9 @@ def main(args: argparse.Namespace) -> int:
                     r = o.envelope[i]["max_ratio"]
                     marks.append("BEYOND ENVELOPE (sigma1/sigma3 "
                                  + (f"{r:.3g}" if r < float("inf") else "unbounded") + ")")
+                moved = (det or {}).get("rearranging", [])
+                if i < len(moved) and moved[i]:
+                    marks.append("GRAINS REARRANGE (fixed geometry left: see warnings)")
                 if i < len(quality) and not quality[i].ok:
                     marks.append("WARNING: loop not closed/symmetric")
                 show(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"

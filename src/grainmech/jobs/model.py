@@ -22,6 +22,8 @@ from grainmech.jobs.checks import (
     envelope_check,
     grain_modulus_warning,
     last_cycle_quality,
+    rearrangement_warnings,
+    rearranging,
 )
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
 from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome, envelope_and_loop_warnings
@@ -117,12 +119,16 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
     envelope = [cyclic_envelope(r.stress) for r in mr.results]
     spc = spec.dem_steps_per_cycle if method == "dem" else spec.steps_per_cycle
     quality = [last_cycle_quality(r, spc) for r in mr.completed]
+    details = dict(details or {})
+    if method == "packing":
+        details["rearranging"] = rearranging(method, spec.constant, mr.completed)
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
-        message=mr.message, seconds=seconds, point=point, method=method, details=dict(details or {}),
+        message=mr.message, seconds=seconds, point=point, method=method, details=details,
         warnings=(list(spec.warnings) if method == "affine" else [])
         + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law)
         + envelope_and_loop_warnings(method, amps, envelope, quality)
+        + rearrangement_warnings(method, spec.constant, amps, mr.completed)
         + [f"[{method}] {m}; no loop to analyse at this amplitude (its steps are written)"
            for m in mr.liquefied],
         amplitudes=amps, G=np.asarray(mr.G, dtype=float),
