@@ -7,7 +7,8 @@ simple shear with the DEM model (``n_cycles = 2``, 16 steps per cycle, default
 :class:`grainmech.driver.dem.DemSettings`) and prints one markdown row per amplitude as
 it finishes: completed, liquefied (constant volume) or where it stopped, G, G/Gmax,
 damping, the change of mean stress over the path (at constant volume the pore-pressure
-ratio), the largest unbalanced force ratio of the recorded states, the LAMMPS time steps
+ratio), the volumetric strain over the path (compression positive: contraction at constant
+stress), the largest unbalanced force ratio of the recorded states, the LAMMPS time steps
 and the wall time.
 
 Usage: ``python benchmarks/dem_campaign.py [--packings dense,medium,loose]
@@ -45,9 +46,9 @@ def main(argv: list[str]) -> int:
     amps = [float(x) for x in a.amplitudes.split(",")]
     settings = settings_from(a.set)
     print(f"{datetime.date.today()}: DEM campaign, 2 cycles x 16 steps, settings {settings.as_dict()}")
-    print("| packing | control | amplitude | result | G [MPa] | G/Gmax | damping | Δp/p0 | max unbalanced "
+    print("| packing | control | amplitude | result | G [MPa] | G/Gmax | damping | Δp/p0 | Δε_v | max unbalanced "
           "| time steps | wall [s] |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     stopped = 0
     for name in a.packings.split(","):
         net = load_packing(name)
@@ -62,8 +63,9 @@ def main(argv: list[str]) -> int:
                 r = mr.completed[-1]
                 now = time.perf_counter()
                 p = np.mean(r.stress[:, :3], axis=1)
+                ev = float(np.sum(r.strain[-1, :3] - r.strain[0, :3]))
                 print(f"| {name} | {control} | {mr.amplitude[k]:g} | completed | {mr.G[k] / 1e6:.2f} | "
-                      f"{mr.G[k] / mr.G_max:.3f} | {mr.damping[k]:.4f} | {p[-1] / p[0] - 1:+.3f} | "
+                      f"{mr.G[k] / mr.G_max:.3f} | {mr.damping[k]:.4f} | {p[-1] / p[0] - 1:+.3f} | {ev:+.2e} | "
                       f"{float(np.max(r.unbalanced)):.2g} | {int(r.iterations.sum())} | {now - last[0]:.0f} |",
                       flush=True)
                 last[0] = now
@@ -74,12 +76,12 @@ def main(argv: list[str]) -> int:
                 if int(r.status) == Status.LIQUEFIED:  # the test's answer (docs/dem-model.md)
                     p = np.mean(r.stress[:, :3], axis=1)
                     print(f"| {name} | {control} | {amp:g} | LIQUEFIED: {r.message} | | | | "
-                          f"{p[-1] / p[0] - 1:+.3f} at step {len(p) - 1} | {float(np.max(r.unbalanced)):.2g} | "
+                          f"{p[-1] / p[0] - 1:+.3f} at step {len(p) - 1} | | {float(np.max(r.unbalanced)):.2g} | "
                           f"{int(r.iterations.sum())} to step {len(p) - 1} | {time.perf_counter() - last[0]:.0f} |",
                           flush=True)
             if not mr.success:
                 stopped += 1
-                print(f"| {name} | {control} | | STOPPED: {mr.message} | | | | | | | |", flush=True)
+                print(f"| {name} | {control} | | STOPPED: {mr.message} | | | | | | | | |", flush=True)
     return 1 if stopped else 0
 
 

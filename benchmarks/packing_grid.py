@@ -8,7 +8,8 @@ completed, where and why it stopped, the largest equilibrium residual of the acc
 steps (max-based unbalanced force ratio, ``PackingResult.residual``; the bar is 0.05),
 G/Gmax and damping of the last cycle, the change of mean stress over the two cycles
 (``p_end / p_0 - 1``; at constant volume minus the pore-pressure ratio, the column the DEM
-campaign ``benchmarks/dem_campaign.py`` prints for the same cells), the largest grain
+campaign ``benchmarks/dem_campaign.py`` prints for the same cells), the volumetric strain
+over them (compression positive: contraction at constant stress), the largest grain
 displacement fluctuation (``PackingResult.fluctuation``, in radii), the wall time and its
 ratio to the dgemm yardstick.
 
@@ -101,9 +102,9 @@ def main() -> None:
         extra["rest_step"] = a.rest_step
     dg = dgemm_seconds()
     print(f"dgemm yardstick (n = 2048): {dg:.3f} s", flush=True)
-    print("| packing | law | control | γ | result | max residual | G/Gmax | D % | Δp/p0 | max fluctuation [R] | s "
+    print("| packing | law | control | γ | result | max residual | G/Gmax | D % | Δp/p0 | Δε_v | max fluctuation [R] | s "
           "| dgemm | perturbed 1e-12 R: ΔG/Gmax (along the loop) | all cores: ΔG/Gmax (along the loop) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|", flush=True)
     for pk in a.packings.split(","):
         net = load_packing(pk)
         for lw in a.laws.split(","):
@@ -122,8 +123,9 @@ def main() -> None:
                         thr = (f"{abs(g3 - gr):.1e} ({np.nanmax(np.abs(c3 - curve)):.1e})" if r3.success
                                else f"stops: {r3.message}")
                     dp = float(np.mean(res.stress[-1, :3]) / np.mean(res.stress[0, :3]) - 1.0)
+                    ev = float(np.sum(res.strain[-1, :3] - res.strain[0, :3]))
                     print(f"| {pk} | {lw} | {ctl} | {amp:g} | {what} | {res.residual.max():.3g} | {gr:.4f} | "
-                          f"{100 * d:.3f} | {dp:+.4f} | {res.fluctuation.max():.3g} | {sec:.1f} | {sec / dg:.0f} "
+                          f"{100 * d:.3f} | {dp:+.4f} | {ev:+.2e} | {res.fluctuation.max():.3g} | {sec:.1f} | {sec / dg:.0f} "
                           f"| {pert} | {thr} |", flush=True)
 
 
