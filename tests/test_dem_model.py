@@ -373,6 +373,42 @@ def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
     assert _hand_to_dem(spec2, stopped, ()) == [] and spec2.amplitudes_of("dem") == [1e-3]
 
 
+def test_rearranging_packing_amplitudes_are_handed_to_dem_too(monkeypatch) -> None:
+    """Issue 29: a completed packing-model amplitude flagged as rearranging (constant volume,
+    mean stress drifted by more than REARRANGEMENT_DP: details['rearranging']) joins the DEM
+    model's amplitudes as a stopped one does, and the reason names both."""
+    import tomllib
+
+    import numpy as np
+
+    import grainmech.packing.engine as engine
+    from grainmech.jobs import CyclicOutcome, _hand_to_dem, prepare_run
+
+    monkeypatch.setattr(engine, "require_lammps", lambda: None)
+    cfg = tomllib.loads(BASE.format(law="hertz-mindlin", method='["packing", "dem"]', amps="[1e-5]",
+                                    constant="volume", extra_contacts="",
+                                    model="packing_amplitudes = [1e-5, 3e-5, 1e-4]\ndem_amplitudes = [1e-3]"))
+    spec = prepare_run(cfg)
+    flagged = CyclicOutcome(kind=spec.kind, pressure=spec.pressure, results=[], success=True, message="done",
+                            seconds=1.0, point=None, method="packing", amplitudes=np.array([1e-5, 3e-5, 1e-4]),
+                            G=np.array([1e8, 9e7, 6e7]), damping=np.array([0.01, 0.05, 0.1]),
+                            details={"rearranging": [False, True, True]})
+    assert _hand_to_dem(spec, flagged, ("dem",)) == [3e-5, 1e-4]
+    assert spec.amplitudes_of("dem") == [3e-5, 1e-4, 1e-3]
+    assert "[3e-05, 0.0001] its grains rearrange" in spec.dem_handed[1] and "stopped" not in spec.dem_handed[1]
+    # flagged and then stopped: both, in the packing model's order
+    spec2 = prepare_run(cfg)
+    both = dataclasses.replace(flagged, success=False, message="amplitude 0.0001: step 5: no equilibrium found",
+                               amplitudes=flagged.amplitudes[:2], G=flagged.G[:2], damping=flagged.damping[:2],
+                               details={"rearranging": [False, True]})
+    assert _hand_to_dem(spec2, both, ("dem",)) == [3e-5, 1e-4]
+    assert "rearrange" in spec2.dem_handed[1] and "it stopped (amplitude 0.0001: step 5" in spec2.dem_handed[1]
+    # nothing flagged, nothing stopped: nothing handed over
+    spec3 = prepare_run(cfg)
+    calm = dataclasses.replace(flagged, details={"rearranging": [False] * 3})
+    assert _hand_to_dem(spec3, calm, ("dem",)) == [] and spec3.dem_handed is None
+
+
 @pytest.mark.parametrize("lammps", [True, False])
 def test_a_stopped_packing_model_without_dem_says_how_to_run_the_rest(monkeypatch, lammps) -> None:
     """Issue 29 item 6: a packing model that stops with no DEM model after it warns which

@@ -24,6 +24,7 @@ from grainmech.driver.dem import (
     run_dem,
 )
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
+from grainmech.jobs.checks import REARRANGEMENT_DP
 from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec, _read_amplitudes
 from grainmech.outcomes import CyclicOutcome, RunOutcome
@@ -116,27 +117,36 @@ def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
 
 
 def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
-    """Amplitudes a stopped packing model hands to the DEM model run after it (issue 28 item 2).
+    """Amplitudes the packing model hands to the DEM model run after it (issue 28 item 2, issue 29).
 
-    When the packing model stops at an amplitude of a cyclic test (fixed geometry left,
-    no equilibrium found) and ``"dem"`` runs later in the same job, that amplitude and the
-    packing model's later ones join the DEM model's amplitudes (each amplitude starts from
-    the initial state, so the order does not matter); the DEM outcome's notes say which
-    and why. Returns the amplitudes handed over (none if nothing stopped or no DEM runs).
+    When ``"dem"`` runs later in the same job, two kinds of amplitude of a cyclic test
+    join the DEM model's amplitudes (each amplitude starts from the initial state, so the
+    order does not matter): the one the packing model stopped at (fixed geometry left, no
+    equilibrium found) and its later ones; and the completed ones whose grains rearrange
+    (:func:`grainmech.jobs.checks.rearranging`: the mean stress drifted by more than
+    ``REARRANGEMENT_DP`` at constant volume, where the fixed geometry's loop was 7-20 % off
+    the DEM model's, ``docs/packing-driver.md``). The DEM outcome's notes say which and
+    why (``spec.dem_handed``). Returns the amplitudes handed over (none if no DEM runs).
     """
-    if "dem" not in later or packing.success or not isinstance(packing, CyclicOutcome):
+    if "dem" not in later or not isinstance(packing, CyclicOutcome):
         return []
     mine = spec.amplitudes_of("packing")
     done = len(packing.G)
-    if done >= len(mine):
-        return []
-
+    flags = packing.details.get("rearranging", []) if packing.details else []
+    moved = [a for a, f in zip(packing.amplitudes, flags) if f]
+    left = [] if packing.success else list(mine[done:])
     dem = list(spec.amplitudes_of("dem"))
-    handed = [a for a in mine[done:] if a not in dem and a <= DEM_MAX_AMPLITUDE]
+    handed = [a for a in moved + left if a not in dem and a <= DEM_MAX_AMPLITUDE]
     if not handed:
         return []
+    why = []
+    if moved:
+        why.append(f"at {[float(f'{a:.3g}') for a in moved]} its grains rearrange (mean stress changed by more "
+                   f"than {100 * REARRANGEMENT_DP:g} % at constant volume)")
+    if left:
+        why.append(f"it stopped ({packing.message})")
     spec.dem_amplitudes = sorted(dem + handed)
-    spec.dem_handed = (handed, packing.message)
+    spec.dem_handed = (handed, "; ".join(why))
     if spec.dem_series is not None:
         spec.dem_series.add(handed)
     return handed
@@ -219,7 +229,7 @@ def _cyclic_notes(spec: RunSpec, details: dict[str, Any]) -> None:
     details["steps_per_cycle"] = spec.dem_steps_per_cycle
     if spec.dem_handed:
         details["notes"].append(f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over "
-                                f"from the packing model, which stopped ({spec.dem_handed[1]})")
+                                f"from the packing model: {spec.dem_handed[1]}")
     if spec.constant == "volume":
         details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
                                 "pore-pressure ratio r_u an undrained test would show")

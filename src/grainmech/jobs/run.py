@@ -49,8 +49,8 @@ def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list) -> None:
         elif m == "packing":
             outs.append(_execute_packing(spec, say))
             handed = _hand_to_dem(spec, outs[-1], spec.methods[i + 1:])
-            if handed:
-                say(f"[packing] stopped; the DEM model runs {handed} instead")
+            if handed and spec.dem_handed:
+                say(f"[packing] the DEM model runs {handed} too: {spec.dem_handed[1]}")
             hint = _dem_hint(spec, outs[-1], spec.methods[i + 1:])
             if hint:
                 outs[-1].warnings.append(hint)
