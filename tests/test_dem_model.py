@@ -393,7 +393,8 @@ def test_rearranging_packing_amplitudes_are_handed_to_dem_too(monkeypatch) -> No
                             seconds=1.0, point=None, method="packing", amplitudes=np.array([1e-5, 3e-5, 1e-4]),
                             G=np.array([1e8, 9e7, 6e7]), damping=np.array([0.01, 0.05, 0.1]),
                             details={"rearranging": [False, True, True]})
-    assert _hand_to_dem(spec, flagged, ("dem",)) == [3e-5, 1e-4]
+    handed = _hand_to_dem(spec, flagged, ("dem",))
+    assert handed == [3e-5, 1e-4] and all(type(a) is float for a in handed)  # printed as [3e-05, 0.0001]
     assert spec.amplitudes_of("dem") == [3e-5, 1e-4, 1e-3]
     assert "[3e-05, 0.0001] its grains rearrange" in spec.dem_handed[1] and "stopped" not in spec.dem_handed[1]
     # flagged and then stopped: both, in the packing model's order

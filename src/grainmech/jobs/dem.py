@@ -133,7 +133,7 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
     mine = spec.amplitudes_of("packing")
     done = len(packing.G)
     flags = packing.details.get("rearranging", []) if packing.details else []
-    moved = [a for a, f in zip(packing.amplitudes, flags) if f]
+    moved = [float(a) for a, f in zip(packing.amplitudes, flags) if f]
     left = [] if packing.success else list(mine[done:])
     dem = list(spec.amplitudes_of("dem"))
     handed = [a for a in moved + left if a not in dem and a <= DEM_MAX_AMPLITUDE]
