@@ -535,3 +535,21 @@ def test_a_run_whose_amplitude_liquefies_exits_0_and_says_so(tmp_path, capsys, m
     assert summary["amplitudes"] == [1e-5] and summary["G_over_Gmax"] == pytest.approx([1.0], rel=1e-9)
     assert "cycles_gamma_1.0e-02.csv" in summary["files"]  # the liquefied amplitude's steps
     assert "liquefied" in summary["message"]
+
+
+def test_dem_progress_lines_name_the_ratio_and_never_print_nan(monkeypatch) -> None:
+    """A DEM progress line (every DEM_PROGRESS_EVERY s) names the amplitude, step, LAMMPS
+    time steps and the unbalanced force ratio; a ratio not known (NaN) is left out instead
+    of printed as 'nan'."""
+    import grainmech.jobs.dem as jd
+
+    lines: list[str] = []
+    tag = {"amp": "1/2 amplitude 1e-05", "t": 0.0}
+    on_step, tick = jd._dem_reporter(lines.append, tag)
+    monkeypatch.setattr(jd, "DEM_PROGRESS_EVERY", 0.0)
+    on_step(3, 32)
+    tick(15000, 3.9e-6)
+    tick(16000, float("nan"))
+    assert lines[0].startswith("[dem]  1/2 amplitude 1e-05, step 3/32 done, 15000 LAMMPS time steps, "
+                               "unbalanced force ratio 3.9e-06, ")
+    assert "nan" not in lines[1] and "16000 LAMMPS time steps, " in lines[1]

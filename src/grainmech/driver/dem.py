@@ -380,8 +380,8 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
                 return net, ub
             except RelaxationTimeout as exc:
                 used += budget
-                if tick is not None:
-                    tick(s.steps, float("nan"))
+                if tick is not None:  # still relaxing: the ratio reached so far
+                    tick(s.steps, float(exc.reached))
                 if p0 is not None and exc.mean_stress <= (1.0 - st.liquefaction) * p0:
                     if servo and exc.network is not None:
                         return exc.network, exc.reached

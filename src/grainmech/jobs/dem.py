@@ -256,8 +256,10 @@ def _dem_reporter(say: Callable[[str], None],
         if now - st["last"] >= DEM_PROGRESS_EVERY:
             st["last"] = now
             what = f" {tag['amp']}," if tag["amp"] else ""
-            say(f"[dem] {what} step {tag['k']}/{tag['n']} done, {steps} LAMMPS time steps, unbalanced force ratio "
-                f"{ub:.2g}, {now - tag['t']:.0f} s")
+            # a ratio not known (NaN: a relaxation with no contact force to measure it by)
+            ratio = f", unbalanced force ratio {ub:.2g}" if np.isfinite(ub) else ""
+            say(f"[dem] {what} step {tag['k']}/{tag['n']} done, {steps} LAMMPS time steps{ratio}, "
+                f"{now - tag['t']:.0f} s")
 
     def on_step(k: int, n: int) -> None:
         tag["k"], tag["n"] = k, n
