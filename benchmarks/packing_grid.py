@@ -20,7 +20,7 @@ the last cycle over Gmax; ill-conditioned near the zero crossings of the strain)
 
 Run: ``nice -n 5 python benchmarks/packing_grid.py [--packings dense,medium,loose]
 [--amplitudes 1e-6,1e-5,1e-4,3e-4] [--controls stress,volume] [--laws md,hm] [--perturb]
-[--threads] [--accept-unbalanced X] [--rest-step X]``. ``--threads`` repeats each completed run with PARDISO on every core
+[--threads] [--accept-unbalanced X] [--rest-step X] [--set KEY=VALUE]``. ``--threads`` repeats each completed run with PARDISO on every core
 (``PackingOptions.reproducible = False``) and gives the largest difference in G/Gmax.
 """
 
@@ -96,8 +96,13 @@ def main() -> None:
                     help="PackingOptions.accept_unbalanced (default: the option's default)")
     ap.add_argument("--rest-step", type=float, default=None,
                     help="PackingOptions.rest_step (default: the option's default)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="another PackingOptions field (a number), e.g. settle=0 (repeatable)")
     a = ap.parse_args()
     extra = {} if a.accept_unbalanced is None else {"accept_unbalanced": a.accept_unbalanced}
+    for kv in a.set:
+        k, v = kv.split("=", 1)
+        extra[k] = float(v)
     if a.rest_step is not None:
         extra["rest_step"] = a.rest_step
     dg = dgemm_seconds()
