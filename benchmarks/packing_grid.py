@@ -40,6 +40,7 @@ from grainmech.contact import HertzMindlin, MindlinDeresiewicz
 from grainmech.driver import cyclic_simple_shear
 from grainmech.driver.packing import PackingOptions, PackingPoint, run_packing
 from grainmech.network import ContactNetwork
+from grainmech.outcomes import run_mean_stress_change
 from grainmech.packing import QUARTZ, load_packing
 
 
@@ -127,7 +128,7 @@ def main() -> None:
                         r3, c3, g3, *_ = run_one(net, law, amp, ctl, reproducible=False, **extra)
                         thr = (f"{abs(g3 - gr):.1e} ({np.nanmax(np.abs(c3 - curve)):.1e})" if r3.success
                                else f"stops: {r3.message}")
-                    dp = float(np.mean(res.stress[-1, :3]) / np.mean(res.stress[0, :3]) - 1.0)
+                    dp = run_mean_stress_change(res)
                     ev = float(np.sum(res.strain[-1, :3] - res.strain[0, :3]))
                     print(f"| {pk} | {lw} | {ctl} | {amp:g} | {what} | {res.residual.max():.3g} | {gr:.4f} | "
                           f"{100 * d:.3f} | {dp:+.4f} | {ev:+.2e} | {res.fluctuation.max():.3g} | {sec:.1f} | {sec / dg:.0f} "

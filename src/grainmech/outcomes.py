@@ -14,7 +14,16 @@ from typing import Any
 import numpy as np
 
 __all__ = ["StiffnessOutcome", "RunOutcome", "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome",
-           "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line"]
+           "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line", "run_mean_stress_change"]
+
+
+def run_mean_stress_change(result: Any) -> float:
+    """``p_end / p_0 - 1`` of one run, ``p`` the mean of its normal stresses (``result.stress`` (k+1, 6)).
+
+    At constant volume minus the pore-pressure ratio an undrained test reads; at constant
+    sigma_zz the horizontal stresses still change during cycling.
+    """
+    return float(np.mean(result.stress[-1, :3]) / np.mean(result.stress[0, :3]) - 1.0)
 
 
 @dataclass
@@ -148,8 +157,7 @@ class CyclicOutcome(RunOutcome):
         ``p_end / p_0 - 1``: at constant sigma_zz the horizontal stresses change during
         cycling (affine model).
         """
-        return np.array([float(np.mean(r.stress[-1, :3]) / np.mean(r.stress[0, :3]) - 1.0)
-                         for r in self.completed_results])
+        return np.array([run_mean_stress_change(r) for r in self.completed_results])
 
 
 @dataclass

@@ -151,13 +151,13 @@ def main(args: argparse.Namespace) -> int:
             if pg:
                 show(packing_gmax_line(pg, o.G_max))
             beyond, quality = o.beyond_envelope, o.loop_quality
+            moved = (det or {}).get("rearranging", [])
             for i, (a, g, dd, c) in enumerate(zip(o.amplitudes, o.G_ratio, o.damping, o.mean_stress_change)):
                 marks = []
                 if i < len(beyond) and beyond[i]:
                     r = o.envelope[i]["max_ratio"]
                     marks.append("BEYOND ENVELOPE (sigma1/sigma3 "
                                  + (f"{r:.3g}" if r < float("inf") else "unbounded") + ")")
-                moved = (det or {}).get("rearranging", [])
                 if i < len(moved) and moved[i]:
                     marks.append("GRAINS REARRANGE (fixed geometry left: see warnings)")
                 if i < len(quality) and not quality[i].ok:

