@@ -61,6 +61,12 @@ from grainmech.contact.law import (
     state_from_normal_force,
     update,
 )
+from grainmech.contact.rolling import (
+    RollingConstants,
+    RollingResistance,
+    rolling_constants,
+    rolling_update,
+)
 from grainmech.contact.params import (
     Cylinder,
     Hertz,
@@ -70,6 +76,10 @@ from grainmech.contact.params import (
 )
 
 __all__ = [
+    "RollingResistance",
+    "RollingConstants",
+    "rolling_constants",
+    "rolling_update",
     "ContactDomainError",
     "ReversalMemoryError",
     "Hertz",
