@@ -163,11 +163,13 @@ _AA_RESTARTS = 2
 
 
 def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
-               shift: float, m: float, opts: PackingOptions, ctx: _Context, rtol: float | None = None) -> tuple:
+               shift: float, m: float, opts: PackingOptions, ctx: _Context, rtol: float | None = None,
+               roll: Any = None) -> tuple:
     """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
 
     ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)
-    and ``r = (rq, re)`` the residual. Right preconditioning by the factorised elastic
+    and ``r = (rq, re)`` the residual; ``roll``: the contact moments' part
+    (:class:`~grainmech.driver.packing._operators.RollingTangent`) or None. Right preconditioning by the factorised elastic
     operator: GMRES minimises the true (scaled) residual of the linear model, not the
     preconditioned one, which the near-singular directions of the elastic operator
     (mechanisms: grains that roll or slide freely) would dominate.
@@ -185,8 +187,12 @@ def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq
         vq = Dq * y[:nq]
         d6 = np.zeros(6)
         d6[S] = De * y[nq:]
-        df = Kb @ kin.delta(vq, d6).reshape(-1)
-        return np.concatenate([Dq * (kin.Gt @ df), De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
+        d = kin.delta(vq, d6)
+        df = Kb @ d.reshape(-1)
+        gq = kin.Gt @ df
+        if roll is not None:
+            gq = gq + roll.apply(vq, d)
+        return np.concatenate([Dq * gq, De * voigt_of(df.reshape(-1, 3), kin.l)[S]]) + shift * y
 
     def psolve(z: np.ndarray) -> np.ndarray:
         yq, ye = prec.apply(z[:nq] / Dq, z[nq:] / De, S)
@@ -318,7 +324,11 @@ def _mechanisms(kin: Kinematics, R: np.ndarray, closed: np.ndarray) -> tuple[np.
     ``W_p phi = 0``. Only a grain with at most two closed contacts has any (a rigid motion
     that moves none of three points of a sphere is zero: no line passes through three of
     them): six with none, three rotations about the one contact point, one rolling about
-    the line through two. ``proj`` is the orthogonal projector onto them in the scaled
+    the line through two. With rolling and twisting resistance (``kin.rolling``) the
+    contacts resist the relative rotation as well (its part along ``n`` only with twisting
+    resistance), and a grain with one closed contact keeps at most its spin about that
+    contact's normal (a cap reached is a sliding of the moment, as Coulomb sliding is for
+    forces, and is not a mechanism here either). ``proj`` is the orthogonal projector onto them in the scaled
     coordinates ``(u, R theta)`` (and ``(F, M / R)`` for loads), ``scale`` the grain's
     ``(1, 1, 1, R, R, R)``. Cached per kinematics and closed set (the same contacts stay
     closed over most updates and steps).
@@ -348,6 +358,13 @@ def _mechanisms(kin: Kinematics, R: np.ndarray, closed: np.ndarray) -> tuple[np.
     W[1, :, :, 3:] = _cross_rows(-R[b][:, None] * n) / R[b][:, None, None]
     ga = np.einsum("cki,ckj->cij", W[0], W[0]).reshape(-1, 36)
     gb = np.einsum("cki,ckj->cij", W[1], W[1]).reshape(-1, 36)
+    if kin.rolling:  # moment springs resist the relative rotation too: rolling (and twisting) mechanisms go
+        Pr = np.eye(3) - (0.0 if kin.twisting else n[:, :, None] * n[:, None, :])
+        Wr = np.zeros((2, a.size, 3, 6))
+        Wr[0, :, :, 3:] = Pr / R[a][:, None, None]
+        Wr[1, :, :, 3:] = -Pr / R[b][:, None, None]
+        ga = ga + np.einsum("cki,ckj->cij", Wr[0], Wr[0]).reshape(-1, 36)
+        gb = gb + np.einsum("cki,ckj->cij", Wr[1], Wr[1]).reshape(-1, 36)
     gram = np.stack([np.bincount(a, ga[:, k], P) + np.bincount(b, gb[:, k], P) for k in range(36)],
                     axis=1).reshape(P, 6, 6)
     w, U = np.linalg.eigh(gram[g])  # ascending; the grain's mechanisms have w ~ 0 (entries O(1))

@@ -77,10 +77,21 @@ class Kinematics:
     G: sp.csr_matrix
     Gt: sp.csr_matrix
     E: np.ndarray
+    Hr: sp.csr_matrix | None = None
+    Hrt: sp.csr_matrix | None = None
+    Rs: np.ndarray | None = None
+    twisting: bool = False
 
     @classmethod
     def build(cls, a: np.ndarray, b: np.ndarray, n: np.ndarray, l_: np.ndarray, RA: np.ndarray,
-              RB: np.ndarray, n_grains: int) -> Kinematics:
+              RB: np.ndarray, n_grains: int, rolling: bool = False, twisting: bool = False) -> Kinematics:
+        """The kinematics of contacts ``a``-``b``; ``rolling``: also the relative rotations ``Hr``.
+
+        ``Hr`` (3C, n_free) maps the grain unknowns to each contact's relative rotation
+        ``omega_c = theta_A - theta_B`` (:mod:`grainmech.contact.rolling`); its transpose
+        ``Hrt`` turns contact moments into the grains' out-of-balance moments. ``twisting``:
+        the twisting part along ``n`` is resisted too.
+        """
         C = a.size
         rA = RA[:, None] * n
         rB = -RB[:, None] * n
@@ -103,7 +114,34 @@ class Kinematics:
             unit = np.zeros(6)
             unit[k] = 1.0
             E[:, :, k] = l_ @ strain_tensor(unit)
-        return cls(a, b, n, l_, int(n_grains), free, Gf, Gf.T.tocsr(), E.reshape(3 * C, 6))
+        Hr = Hrt = Rs = None
+        if rolling:
+            rows_r = (3 * np.arange(C)[:, None] + np.arange(3)).ravel()
+            H = sp.csr_matrix((np.concatenate([np.ones(3 * C), -np.ones(3 * C)]),
+                               (np.concatenate([rows_r, rows_r]),
+                                np.concatenate([(6 * a[:, None] + 3 + np.arange(3)).ravel(),
+                                                (6 * b[:, None] + 3 + np.arange(3)).ravel()]))),
+                              shape=(3 * C, 6 * n_grains))
+            Hr = H[:, free].tocsr()
+            Hrt = Hr.T.tocsr()
+            Rs = RA * RB / (RA + RB)
+        return cls(a, b, n, l_, int(n_grains), free, Gf, Gf.T.tocsr(), E.reshape(3 * C, 6), Hr, Hrt, Rs,
+                   bool(rolling and twisting))
+
+    @property
+    def rolling(self) -> bool:
+        """Whether the contacts resist relative rotation (:mod:`grainmech.contact.rolling`)."""
+        return self.Hr is not None
+
+    def omega(self, dq: np.ndarray) -> np.ndarray:
+        """Relative rotations ``theta_A - theta_B`` (C, 3) of ``dq`` (n_free,)."""
+        assert self.Hr is not None
+        return (self.Hr @ dq).reshape(-1, 3)
+
+    def moment_balance(self, m: np.ndarray) -> np.ndarray:
+        """Out-of-balance moments ``Hr^T m`` (n_free,) of contact moments ``m`` (C, 3)."""
+        assert self.Hrt is not None
+        return self.Hrt @ m.reshape(-1)
 
     @property
     def n_contacts(self) -> int:
@@ -166,6 +204,40 @@ def block_diagonal(K: np.ndarray) -> sp.bsr_matrix:
     """Block-diagonal sparse matrix of (C, 3, 3) blocks."""
     C = K.shape[0]
     return sp.bsr_matrix((K, np.arange(C), np.arange(C + 1)), shape=(3 * C, 3 * C))
+
+
+class RollingTangent:
+    """The contact moments' part of the consistent tangent (:mod:`grainmech.contact.rolling`).
+
+    ``d(Hr^T m) = Hr^T (KR Hr dq + dm/dN kn (n . Delta))``: the moment springs (``KR``,
+    (C, 3, 3)) and, on a cap, the cap's dependence on the normal force (``dmdN`` (C, 3)
+    times the physical normal stiffness ``kn`` (C,) of the contact).
+    """
+
+    def __init__(self, kin: Kinematics, KR: np.ndarray, dmdN: np.ndarray, kn: np.ndarray) -> None:
+        self.kin = kin
+        self.KRb = block_diagonal(KR)
+        self.c = dmdN * kn[:, None]
+        self.coupled = bool(np.any(self.c))
+
+    def apply(self, vq: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """Out-of-balance moments (n_free,) of the update ``vq`` whose contact displacements are ``d`` (C, 3)."""
+        kin = self.kin
+        dm = (self.KRb @ (kin.Hr @ vq)).reshape(-1, 3)
+        if self.coupled:
+            dm = dm + self.c * kin.normal_part(d)[:, None]
+        return kin.moment_balance(dm)
+
+    def strain_columns(self) -> np.ndarray:
+        """``d(Hr^T m)/de`` (n_free, 6): the cap coupling through the affine normal displacements."""
+        kin = self.kin
+        out = np.zeros((kin.n_free, 6))
+        if self.coupled:
+            En = kin.E.reshape(-1, 3, 6)
+            dn = np.einsum("ci,cik->ck", kin.n, En)
+            for k in range(6):
+                out[:, k] = kin.moment_balance(self.c * dn[:, k:k + 1])
+        return out
 
 
 #: PARDISO's perm argument (unused: iparm(5) = 0)
@@ -338,10 +410,12 @@ class Preconditioner:
     """
 
     def __init__(self, kin: Kinematics, K0: np.ndarray, backend: str = "auto", reg: float = 1e-4,
-                 reproducible: bool = True) -> None:
+                 reproducible: bool = True, KR0: np.ndarray | None = None) -> None:
         Kb = block_diagonal(K0)
         KG = (Kb @ kin.G).tocsr()
         H = (kin.Gt @ KG).tocsr()
+        if KR0 is not None and kin.Hr is not None:  # the elastic rolling and twisting springs
+            H = (H + kin.Hrt @ (block_diagonal(KR0) @ kin.Hr)).tocsr()
         dg = H.diagonal().copy()
         rot = np.tile(np.arange(6) >= 3, kin.n_grains)[kin.free]
         # floors of the translational [force/length] and rotational [force length] diagonals

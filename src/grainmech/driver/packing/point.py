@@ -25,6 +25,14 @@ from grainmech.contact import (
     update,
 )
 from grainmech.contact.forms import frictional as is_frictional
+from grainmech.contact.rolling import (
+    RollingConstants,
+    RollingResistance,
+    RollingResponse,
+    rolling_constants,
+    rolling_elastic_stiffness,
+    rolling_update,
+)
 from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
@@ -34,6 +42,7 @@ from grainmech.driver.packing._iterations import _grain_residuals
 from grainmech.driver.packing._operators import (
     Kinematics,
     Preconditioner,
+    RollingTangent,
     block_diagonal,
     contact_tangent,
     openblas_one_thread,
@@ -130,6 +139,14 @@ class PackingPoint:
     load : array (n_free,) or None
         Constant external grain loads (force, moment) that balance the input's
         out-of-balance forces (``imbalance="hold"`` of :meth:`from_network`); ``None``: none.
+    rolling : RollingConstants or None
+        The contacts' rolling and twisting resistance (:mod:`grainmech.contact.rolling`);
+        ``None``: smooth spheres (no contact moments).
+    moments : array (C, 3) or None
+        Contact moments (rolling normal to ``n``, twisting along it) [force x length],
+        work-conjugate to the relative rotation ``theta_A - theta_B``.
+    rolling_response : RollingResponse or None
+        The moment springs' response at this state (tangents, caps reached).
     """
 
     network: ContactNetwork
@@ -154,13 +171,17 @@ class PackingPoint:
     load: np.ndarray | None = None
     regularization: float = 1e-4
     reproducible: bool = True
+    rolling: RollingConstants | None = None
+    moments: np.ndarray | None = None
+    rolling_response: RollingResponse | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     # ------------------------------------------------------------------ constructor
     @classmethod
     def from_network(cls, net: ContactNetwork, params: Any, *, forces: str = "auto", gap: float = 0.05,
                      max_unbalanced: float = 1e-2, imbalance: str = "hold",
-                     options: PackingOptions | None = None) -> PackingPoint:
+                     options: PackingOptions | None = None,
+                     rolling: RollingResistance | RollingConstants | None = None) -> PackingPoint:
         """Packing point from a contact network and a contact law.
 
         Parameters
@@ -192,6 +213,15 @@ class PackingPoint:
             strain-controlled step of zero increment (the grains move; contacts at the
             Coulomb limit may slide; the stress change is in ``notes``); ``"none"``: keep
             them in the residual (the first step removes them).
+        rolling : RollingResistance or RollingConstants, optional
+            Rolling and twisting resistance of the contacts (:mod:`grainmech.contact.rolling`):
+            moment springs and caps in every grain's moment balance and in the tangents. A
+            :class:`RollingResistance` is resolved on this packing's contacts
+            (:func:`~grainmech.contact.rolling.rolling_constants`); constants already
+            resolved (e.g. those the DEM model used) are taken as they are. The contact
+            moments start at zero (a packing prepared with rolling resistance relaxes its
+            moments with its forces; its imbalance is then held as for any input). ``None``
+            or a zero coefficient: smooth spheres, today's results.
 
         Raises
         ------
@@ -235,15 +265,26 @@ class PackingPoint:
         grains = _pin_first(np.flatnonzero(alive), net, keep_c & carrying, N)
         newidx = -np.ones(net.n_particles, dtype=int)
         newidx[grains] = np.arange(grains.size)
-        kin = Kinematics.build(newidx[I], newidx[J], nc, br, Ra, Rb, grains.size)
+        consts = _rolling_constants(rolling, params, Nk, Rs[:Nk.size])
+        kin = Kinematics.build(newidx[I], newidx[J], nc, br, Ra, Rb, grains.size, rolling=consts is not None,
+                               twisting=consts is not None and consts.twist_cap > 0)
         V = net.volume
         st0, resp0 = update(params, state, np.zeros(state.n_contacts), np.zeros((state.n_contacts, 3)),
                             **_law_kw(opts.law_backend))
         f = resp0.normal_force[:, None] * nc + resp0.tangential_force
+        roll: dict = {}
+        if consts is not None:
+            notes.append(f"rolling resistance mu_r = {consts.mu_roll:g}, twisting cap {consts.twist_cap:.4g} m x N; "
+                         f"{consts.source}; contact moments start at zero")
+            m0 = np.zeros((I.size, 3))
+            Nopen = np.where(np.asarray(resp0.open, bool), 0.0, resp0.normal_force)
+            roll = {"rolling": consts, "moments": m0,
+                    "rolling_response": rolling_update(consts, nc, kin.Rs, Nopen, m0, m0)}
         pt = cls(net, params, kin, grains, net.radii[grains], rows, s, st0, resp0, f,
                  np.zeros((grains.size, 6)), np.zeros(6), voigt_of(f, br) / V, V, int(ratt.sum()),
                  np.concatenate([Nk > 0, np.zeros(gi.size, bool)]), tuple(notes), opts.law_backend,
-                 opts.factorization, regularization=opts.regularization, reproducible=opts.reproducible)
+                 opts.factorization, regularization=opts.regularization, reproducible=opts.reproducible,
+                 **roll)
         ufr = unbalanced_force_ratio(pt)
         if not ufr <= max_unbalanced:
             raise GrainmechError(
@@ -343,7 +384,7 @@ class PackingPoint:
         ufr = unbalanced_force_ratio(fin)
         # the prepared state is the equilibrium state, as the input is (imbalance="hold"):
         # its out-of-balance forces are held as constant grain loads from here on
-        return replace(fin, load=fin.kinematics.balance(fin.forces), notes=fin.notes + (
+        return replace(fin, load=fin.out_of_balance(), notes=fin.notes + (
             f"brought from the input stress to {np.round(sig, 6).tolist()} in {len(res.strain) - 1} stress-controlled "
             "steps "
             f"(volumetric strain {float(res.final.strain[:3].sum()):.3g}); its unbalanced force ratio "
@@ -377,11 +418,39 @@ class PackingPoint:
         K0 = contact_tangent(kin.n, kn, ksp, ksp, np.zeros_like(kn), r.axis)
         return K, K0
 
+    def moment_stiffness(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Consistent and elastic moment-spring tangents (C, 3, 3) of the current state, or None without rolling."""
+        if self.rolling is None or self.rolling_response is None:
+            return None
+        closed = ~np.asarray(self.response.open, bool)
+        return (self.rolling_response.tangent,
+                rolling_elastic_stiffness(self.rolling, self.kinematics.n, self.kinematics.Rs, closed))
+
+    def rolling_tangent(self, elastic: bool = False) -> RollingTangent | None:
+        """The moment springs' part of the consistent (or elastic) tangent, or None without rolling."""
+        km = self.moment_stiffness()
+        if km is None:
+            return None
+        assert self.rolling_response is not None
+        closed = ~np.asarray(self.response.open, bool)
+        kn = np.where(closed, self.response.kn, 0.0) * self.scale
+        dmdN = np.zeros_like(self.rolling_response.dmoment_dnormal) if elastic else self.rolling_response.dmoment_dnormal
+        return RollingTangent(self.kinematics, km[1 if elastic else 0], dmdN, kn)
+
+    def out_of_balance(self) -> np.ndarray:
+        """Out-of-balance forces and moments (n_free,) of the contact forces and moments (no held load)."""
+        b = self.kinematics.balance(self.forces)
+        if self.moments is not None:
+            b = b + self.kinematics.moment_balance(self.moments)
+        return b
+
     def preconditioner(self) -> Preconditioner:
         """Factorised elastic operator of this state (cached)."""
         if "prec" not in self._cache:
+            km = self.moment_stiffness()
             self._cache["prec"] = Preconditioner(self.kinematics, self.contact_stiffness()[1], self.factorization,
-                                                 self.regularization, self.reproducible)
+                                                 self.regularization, self.reproducible,
+                                                 None if km is None else km[1])
         return self._cache["prec"]
 
     @cached_property
@@ -438,7 +507,11 @@ class PackingPoint:
         return float(np.max(np.linalg.norm(u, axis=1) / self.radii, where=carrying, initial=0.0))
 
     def dissipated(self) -> float:
-        """Cumulative frictional dissipation per unit volume since the input state."""
+        """Cumulative frictional dissipation per unit volume since the input state.
+
+        Sliding at the contacts; with rolling resistance the rolling and twisting caps'
+        work is in the run's dissipation counter (``PackingResult.dissipation``).
+        """
         return float(np.sum(self.state.dissipated_energy / self.scale) / self.volume)
 
     def stored_energy(self) -> float:
@@ -457,7 +530,15 @@ class PackingPoint:
             en = r.normal_force ** 2 / (2 * self.params.kn)
         else:
             en = 0.4 * r.normal_force * np.maximum(st.approach, 0.0) / self.scale
-        return float(np.sum(np.where(closed, en, 0.0) + et) / self.volume)
+        em = 0.0
+        if self.moments is not None and self.rolling is not None:  # moment springs M_r^2/(2 k_r) + M_t^2/(2 k_t)
+            kin, c = self.kinematics, self.rolling
+            mt = np.einsum("ci,ci->c", self.moments, kin.n)
+            mr2 = np.einsum("ci,ci->c", self.moments, self.moments) - mt * mt
+            kr = c.k_roll * kin.Rs * kin.Rs
+            em = float(np.sum(np.where(closed, mr2 / (2 * kr) + (mt * mt / (2 * c.k_twist) if c.k_twist > 0 else 0.0),
+                                       0.0)))
+        return float((np.sum(np.where(closed, en, 0.0) + et) + em) / self.volume)
 
     def fractions(self) -> tuple[float, float]:
         """(sliding fraction of the closed contacts, fraction of the initially closed contacts now open)."""
@@ -478,7 +559,7 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     of ``|F_p|``, ``|M_p|/R_p`` over the same mean (the driver's convergence measure).
     Returns 0 for a packing without contact forces.
     """
-    b = point.kinematics.balance(point.forces)
+    b = point.out_of_balance()
     g = _grain_residuals(point.kinematics, b if point.load is None else b - _held_load(point, point.response))
     fm = np.linalg.norm(point.forces, axis=1)
     fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
@@ -505,18 +586,30 @@ def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int,
     KE = Kb @ kin.E
     B = kin.Gt @ KE
     A = kin.E.T @ KE
+    rt = point.rolling_tangent(elastic)  # contact moments: grain moment balance only, not the stress
+
+    def hop(y: np.ndarray) -> np.ndarray:
+        d = kin.G @ y
+        out = kin.Gt @ (Kb @ d)
+        if rt is not None:
+            out = out + (rt.apply(y, d.reshape(-1, 3)) if y.ndim == 1 else
+                         np.stack([rt.apply(y[:, k], d[:, k].reshape(-1, 3)) for k in range(y.shape[1])], axis=1))
+        return out
+
+    if rt is not None:
+        B = B + rt.strain_columns()
     if elastic and direct and prec.Y.shape == B.shape:
         # the preconditioner factorised this operator (shifted) and holds Y = (H0 + S)^-1 B0:
         # refined to H0^-1 B0 by CG with that factor, no further factorisation, when it
         # solves this point's operator (PackingPoint.elastic_tangent)
         Y = prec.exact_Y()[0]
-        R = kin.Gt @ (Kb @ (kin.G @ Y)) - B
+        R = hop(Y) - B
         if np.all(np.linalg.norm(R, axis=0) <= 1e-8 * np.linalg.norm(B, axis=0)):
-            return (A - B.T @ Y) / point.volume
+            return (A - KE.T @ (kin.G @ Y)) / point.volume if rt is not None else (A - B.T @ Y) / point.volume
     D = prec.dq
     nq = kin.n_free
     S0 = np.zeros(6, bool)
-    op = spla.LinearOperator((nq, nq), matvec=lambda y: D * (kin.Gt @ (Kb @ (kin.G @ (D * y)))), dtype=float)
+    op = spla.LinearOperator((nq, nq), matvec=lambda y: D * hop(D * y), dtype=float)
     pc = spla.LinearOperator((nq, nq), matvec=lambda z: prec.apply(z / D, np.zeros(0), S0)[0] / D, dtype=float)
     X = np.zeros((nq, 6))
     for k in range(6):
@@ -591,9 +684,9 @@ def _treat_imbalance(pt: PackingPoint, imbalance: str, opts: PackingOptions) -> 
     loads; ``"relax"``: :func:`run_packing` at fixed strain to equilibrium (fluctuations
     reset to zero); ``"none"``: unchanged.
     """
-    kin, f, net = pt.kinematics, pt.forces, pt.network
+    net = pt.network
     if imbalance == "hold":
-        pt = replace(pt, load=kin.balance(f), notes=pt.notes + (
+        pt = replace(pt, load=pt.out_of_balance(), notes=pt.notes + (
             "the input's out-of-balance forces and moments are held as constant external grain loads "
             "(the input is the equilibrium state)",))
     elif imbalance == "relax":
@@ -779,3 +872,17 @@ def _run_notes(ctx: _Context, opts: PackingOptions) -> tuple[str, ...]:
             + ((f"{ctx.relaxations} substeps solved by committed relaxation ({ctx.relaxed} "
                 "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
                 "quasi-static DEM)",) if ctx.relaxations else ()))
+
+
+def _rolling_constants(rolling: RollingResistance | RollingConstants | None, params: Any, N: np.ndarray,
+                       Rs: np.ndarray) -> RollingConstants | None:
+    """:meth:`PackingPoint.from_network`'s ``rolling``, resolved on the listed contacts (None: off)."""
+    if rolling is None:
+        return None
+    if isinstance(rolling, RollingConstants):
+        return rolling if (rolling.mu_roll > 0 or rolling.twist_cap > 0) else None
+    if not isinstance(rolling, RollingResistance):
+        raise ParameterError("rolling", rolling, "must be a RollingResistance, RollingConstants or None")
+    if not rolling.active:
+        return None
+    return rolling_constants(rolling, params, N, Rs)

@@ -25,6 +25,7 @@ from grainmech.contact import (
     ContactState,
 )
 from grainmech.contact.forms import frictional, law_forms
+from grainmech.contact.rolling import rolling_update
 from grainmech.driver.packing._iterations import (  # noqa: F401 (re-exported: the names this module always had)
     _AA_PATIENCE,
     _AA_PROGRESS,
@@ -49,6 +50,7 @@ from grainmech.driver.packing._iterations import (  # noqa: F401 (re-exported: t
 )
 from grainmech.driver.packing._operators import (
     Preconditioner,
+    RollingTangent,
     block_diagonal,
     contact_tangent,
     voigt_of,
@@ -222,13 +224,18 @@ class _StepSolve:
             vs = voigt_of(f, kin.l)
         else:
             st, resp, f, rq, vs = self.fast.evaluate(point, xq, de)
+        roll = None
+        if point.rolling is not None:  # contact moments (grain moment balance; not in the stress)
+            N = np.where(np.asarray(resp.open, bool), 0.0, resp.normal_force)
+            roll = rolling_update(point.rolling, kin.n, kin.Rs, N, point.moments, kin.omega(xq))
+            rq = rq + kin.moment_balance(roll.moment)
         if point.load is not None:
             rq = rq - _held_load(point, resp)
         re = vs[S] - self.V * self.target[S]
         ctx.evals += 1
         if ctx.budget and ctx.work >= ctx.budget:
             _out_of_budget(kin, rq, self.Rg, self.fref, resp, ctx)
-        return st, resp, f, rq, re, vs, de
+        return st, resp, f, rq, re, vs, de, roll
 
     def limit(self, dxq: np.ndarray, dxe: np.ndarray, st: ContactState) -> tuple[np.ndarray, np.ndarray]:
         """The update within the trust limit ``move``, each grain by itself.
@@ -310,10 +317,13 @@ class _StepSolve:
         """The point of ``cur`` (at the unknowns ``xq``, ``xe``), counted as a (sub)step if ``final``."""
         point, kin, ctx, counters, V = self.point, self.kin, self.ctx, self.counters, self.V
         ctx.newton_ok = self.newton_ok
-        st, resp, f, _rq, _re, vs, de = cur
+        st, resp, f, _rq, _re, vs, de, roll = cur
         new = replace(point, state=st, response=resp, forces=f, q=point.q + kin.full(self.xq),
                       strain=point.strain + de, stress=vs / V, _cache={})
         counters[2] += float(np.sum(resp.dissipation / point.scale) / V)
+        if roll is not None:
+            new = replace(new, moments=roll.moment, rolling_response=roll)
+            counters[2] += float(np.sum(roll.dissipated) / V)
         counters[3] += float(np.dot(0.5 * (point.stress + new.stress), de))
         if final:
             counters[0] += 1
@@ -343,8 +353,8 @@ class _StepSolve:
         self.base = None
         if relax:
             point = self.point
-            self.base = self.kin.balance(point.forces) - (0.0 if point.load is None
-                                                          else _held_load(point, point.response))
+            self.base = point.out_of_balance() - (0.0 if point.load is None
+                                                  else _held_load(point, point.response))
         self.newton_ok = ctx.newton_ok
         if self.opts.anderson and not relax and not ctx.energy:
             new = self.anderson()
@@ -404,7 +414,7 @@ class _StepSolve:
         self.dbg = dbg = _debug()
         self.jenkins = law_forms(self.point.params).kind == "jenkins" and frictional(self.point.params)
         for it in range(1, self.n_iter + 1):
-            st, resp, _f, rq, re, _vs, de = self.cur
+            st, resp, _f, rq, re, _vs, de, _roll = self.cur
             if dbg:
                 sV = self.sref * self.V
                 dbg(f"it {it} merit {self.m:.3g} force {float(np.max(np.abs(rq) / self.tolq)) * opts.rtol:.3g} "
@@ -443,9 +453,16 @@ class _StepSolve:
         return self.finish()
 
     def tangent(self, resp: Any, closed: np.ndarray, de: np.ndarray) -> Any:
-        """Block-diagonal consistent tangent of the trial state ``resp`` (seed Eq. 3.9-3.17 laws)."""
+        """Block-diagonal consistent tangent of the trial state ``resp`` (seed Eq. 3.9-3.17 laws).
+
+        With rolling resistance also the moment springs' part of the iterate ``cur``
+        (``self.roll_tan``, :class:`RollingTangent`), which the Newton directions add.
+        """
         point, kin = self.point, self.kin
         r_s = point.scale
+        roll = self.cur[7]
+        self.roll_tan = None if roll is None else RollingTangent(
+            kin, roll.tangent, roll.dmoment_dnormal, np.where(closed, resp.kn, 0.0) * r_s)
         if getattr(resp, "t_delta", None) is not None and not self.jenkins:
             K = _step_tangent(kin.n, resp, r_s, closed)
         else:
@@ -467,7 +484,8 @@ class _StepSolve:
         m, cur, xq, xe = self.m, self.cur, self.xq, self.xe
         rq, re = cur[3], cur[4]
         if self.newton_ok:
-            dxq, dxe, slope, pred, kr = _direction(kin, Kb, self.prec, S, rq, re, _MU_FLOOR, m, opts, ctx)
+            dxq, dxe, slope, pred, kr = _direction(kin, Kb, self.prec, S, rq, re, _MU_FLOOR, m, opts, ctx,
+                                                   roll=self.roll_tan)
         else:  # Newton failed in this (sub)step: elastic updates (below) until they stall
             dxq, dxe, slope, pred, kr = np.zeros(self.nq), np.zeros(self.ms), 0.0, 0.0, 0
         # trust limit (see `move` in _scales) on each grain by itself: a grain on a
@@ -552,7 +570,7 @@ class _StepSolve:
         mu = self.mu
         for _grow in range(_MU_GROWTHS + 1):
             dxq, dxe, _slope, _pred, kr = _direction(kin, Kb, self.prec, S, rq, re, mu, m, opts, ctx,
-                                                     _RELAX_KRYLOV_RTOL if relax else None)
+                                                     _RELAX_KRYLOV_RTOL if relax else None, roll=self.roll_tan)
             dxq, dxe = self.limit(dxq, dxe, st)
             lam = 1.0
             try:
