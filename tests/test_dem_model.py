@@ -501,7 +501,7 @@ def test_the_largest_amplitude_is_submitted_first_at_normal_priority(monkeypatch
         def __init__(self, workers):  # noqa: ANN001
             pass
 
-        def submit(self, net, law, path, settings, pressure, background=False):  # noqa: ANN001
+        def submit(self, net, law, path, settings, pressure, background=False, rolling=None):  # noqa: ANN001
             calls.append((round(float(abs(path.increment[:, 4]).sum()) / 8, 12), background))
 
         def close(self) -> None:

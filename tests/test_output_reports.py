@@ -45,8 +45,62 @@ def test_hardin_drnevich_reference_strain_is_empirical(default_run):
     # Darendeli (2001) Table 8.12, PI = 0, OCR = 1: gamma_r [%] = 0.0352 (p/1 atm)^0.3483
     assert s["darendeli_gamma_r"] == pytest.approx(0.0352e-2 * (1e5 / 101325) ** 0.3483, rel=1e-9)
     page = (default_run / "index.html").read_text()
-    assert "Both reference strains come from correlations, not from the model" in page
+    assert "reference strains come from correlations, not from the model" in page
     assert "Hardin-Richart (1963) angular grains" in page
+
+
+def test_menq_beside_with_the_grading_it_used(default_run):
+    """Menq (2003) at the run's mean stress: in summary.json (reference strain, grading and
+    where it came from), in modulus_reduction.csv at the model's amplitudes, and on the page.
+    This run has no grains (affine model): the default grading, the shipped packings' sand
+    (Cu 1.3, D50 0.3 mm). gamma_r [%] = 0.12 Cu^-0.6 (p/p_a)^(0.5 Cu^-0.15)."""
+    import csv
+
+    from grainmech.analysis import menq_curve
+
+    s = json.loads((default_run / "summary.json").read_text())
+    assert (s["menq_uniformity_coefficient"], s["menq_d50_m"]) == (1.3, 3e-4)
+    assert "default" in s["menq_grading_source"] and "no grains" in s["menq_grading_source"]
+    assert s["menq_gamma_r"] == pytest.approx(0.12e-2 * 1.3 ** -0.6 * (1e5 / 101325) ** (0.5 * 1.3 ** -0.15),
+                                              rel=1e-12)
+    rows = list(csv.DictReader(open(default_run / "modulus_reduction.csv")))
+    amps = [float(r["shear_strain_amplitude [-]"]) for r in rows]
+    ref = menq_curve(amps, 1e5, 1.3, 3e-4)
+    assert [float(r["menq_G_over_Gmax [-]"]) for r in rows] == pytest.approx(ref.G_ratio, rel=1e-9)
+    assert [float(r["menq_damping [-]"]) for r in rows] == pytest.approx(ref.damping, rel=1e-9)
+    assert {r["menq_uniformity_coefficient [-]"] for r in rows} == {"1.3"}
+    assert {r["menq_d50 [m]"] for r in rows} == {"0.0003"}
+    assert s["menq_G_over_Gmax"] == pytest.approx(ref.G_ratio, rel=1e-12)
+    page = (default_run / "index.html").read_text()
+    assert "Menq (2003)" in page and "the shipped packings&#x27; sand" in page
+
+
+def test_menq_grading_from_grains_from_config_or_default():
+    """Cu and D50 of Menq's curve: measured by mass on the grains the run used (shipped
+    'dense': D50 0.298 mm, Cu 1.28), a [reference] key wins, and without grains the default."""
+    import tomllib
+
+    from grainmech.errors import ConfigError
+    from grainmech.jobs import prepare_run
+
+    cfg = tomllib.loads(CFG)
+    ref = prepare_run(cfg).reference
+    assert (ref["uniformity_coefficient"], ref["d50"]) == (1.3, 3e-4) and "default" in ref["grading_source"]
+    grains = tomllib.loads(CFG)
+    grains["model"] = {"method": "packing", "packing": "dense"}
+    del grains["packing"]
+    ref = prepare_run(grains).reference
+    assert ref["d50"] == pytest.approx(0.298e-3, rel=2e-3) and ref["uniformity_coefficient"] == pytest.approx(
+        1.278, rel=1e-3)
+    assert ref["grading_source"] == "measured by mass on the 2000 grains of shipped packing 'dense'"
+    grains["reference"] = {"d50": "0.2 mm"}
+    ref = prepare_run(grains).reference
+    assert ref["d50"] == pytest.approx(2e-4) and ref["uniformity_coefficient"] == pytest.approx(1.278, rel=1e-3)
+    assert ref["grading_source"].startswith("Cu: measured by mass") and "D50: [reference] d50" in ref["grading_source"]
+    for key, bad in (("d50", 0.2), ("uniformity_coefficient", 0.9)):
+        cfg["reference"] = {key: bad}
+        with pytest.raises(ConfigError, match=f"reference.{key}"):
+            prepare_run(cfg)
 
 
 def test_every_file_is_linked_and_named_by_what_it_holds(default_run):

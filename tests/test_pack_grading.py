@@ -78,3 +78,24 @@ def test_bad_d50_cu_and_uniform():
         D50Cu(0.3e-3, 0.9)
     with pytest.raises(ParameterError, match="spread"):
         UniformRadius(1e-4, 1.0)
+
+
+def test_measured_grading_by_mass():
+    """D10, D50, D60 by mass (D^3) and Cu = D60/D10: one size gives Cu = 1; a sample of a
+    D50-Cu curve gives its D50 and Cu back (within the sampling and the cut sizes); the
+    shipped packings (drawn from D50 = 0.3 mm, Cu = 1.3, cut to a size ratio of 2.5)
+    measure D50 = 0.298 mm, Cu = 1.28."""
+    from grainmech.packing import load_packing, measured_grading
+
+    one = measured_grading(np.full(7, 1e-4))
+    assert one.cu == 1.0 and one.d50 == pytest.approx(2e-4, rel=1e-12) and one.n_grains == 7
+    # mass, not number: 1000 grains of 0.1 mm and one of 1 mm carry equal mass
+    two = measured_grading(np.r_[np.full(1000, 0.5e-4), 0.5e-3])
+    assert 1e-4 < two.d50 < 1e-3 and two.d10 == pytest.approx(1e-4, rel=1e-12)
+    s = D50Cu(3e-4, 1.5).sample(20000, np.random.default_rng(3), max_ratio=20)
+    m = measured_grading(s.radii)
+    assert m.d50 == pytest.approx(3e-4, rel=0.02) and m.cu == pytest.approx(1.5, rel=0.03)
+    dense = measured_grading(load_packing("dense").radii)
+    assert dense.d50 == pytest.approx(0.298e-3, rel=2e-3) and dense.cu == pytest.approx(1.278, rel=1e-3)
+    with pytest.raises(ParameterError, match="radii"):
+        measured_grading([1e-4, -1e-4])

@@ -219,6 +219,30 @@ def test_darendeli_beside_at_the_layer_mean_stress_in_atm(site_run):
         assert d["G_ratio"] == pytest.approx(1.0 / (1.0 + (g / d["gamma_r"]) ** 0.919), rel=1e-12)
 
 
+def test_menq_beside_at_the_layer_mean_stress_and_grading(site_run):
+    """Menq's (2003) curves at p' in atm and the run's grading (affine layers: no grains, the
+    default Cu 1.3, D50 0.3 mm): gamma_r = 0.12 % Cu^-0.6 (p'/101.325 kPa)^(0.5 Cu^-0.15),
+    written as curves/<layer>-menq.csv in the site-response format."""
+    from grainmech.analysis import menq_curve
+    from grainmech.io.site_response import read_curves
+
+    _, out, _ = site_run
+    s = json.loads((out / "summary.json").read_text())
+    for lay in s["layers"]:
+        m = lay["menq"]
+        i = m["inputs"]
+        assert (i["uniformity_coefficient"], i["d50_m"], i["n_cycles"]) == (1.3, 3e-4, 10.0)
+        assert "default" in i["grading_source"]
+        s_atm = lay["p_eff_Pa"] / 101325.0
+        assert m["gamma_r"] == pytest.approx(0.12e-2 * 1.3 ** -0.6 * s_atm ** (0.5 * 1.3 ** -0.15), rel=1e-12)
+        ref = menq_curve(lay["amplitudes"], lay["p_eff_Pa"], 1.3, 3e-4)
+        assert m["at_amplitudes_G_ratio"] == pytest.approx(ref.G_ratio, rel=1e-12)
+        c = read_curves(out / "curves" / f"{lay['slug']}-menq.csv")
+        assert c.g_ratio == pytest.approx(m["G_ratio"], rel=1e-9) and c.damping == pytest.approx(m["damping"], rel=1e-9)
+        assert "Menq (2003)" in c.comment and "Cu = 1.3, D50 = 0.3 mm" in c.comment
+    assert "curves/02-deep-menq.csv" in s["files"]
+
+
 def test_resume_on_dask_reuses_finished_layers_and_reruns_changed_ones(site_run, tmp_path, cli):
     """On a Dask client (as `--workers N` / `--scheduler`): a rerun on the same folder
     reuses every finished layer (its record untouched); a layer whose record is gone

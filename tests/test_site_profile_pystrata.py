@@ -81,6 +81,25 @@ def test_darendeli_run_equals_pystratas_own_column(response):
     assert np.max(np.abs(got / ref - 1)) < 1e-6
 
 
+def test_menq_run_equals_pystratas_own_column(response):
+    """With Menq's curves the run equals a pystrata column of MenqSoilType built here by hand
+    (the layers' p', unit weights and the run's Vs; affine layers: the default grading
+    Cu 1.3, D50 0.3 mm, N = 10) -- same spectrum to 1e-6."""
+    rc, d = response
+    assert rc == 0
+    s = json.loads((d / "out/summary.json").read_text())
+    sr = s["site_response"]
+    layers = [pystrata.site.Layer(pystrata.site.MenqSoilType(lay["unit_weight_N_m3"] / 1e3, uniformity_coeff=1.3,
+                                                             diam_mean=0.3, stress_mean=lay["p_eff_Pa"] / 1e3,
+                                                             num_cycles=10),
+                                  lay["thickness_m"], vs) for lay, vs in zip(s["layers"], sr["vs_m_s"])]
+    ref = _column(layers, d / "m.AT2")
+    got = np.asarray(sr["runs"]["menq"]["spectrum_g"])
+    assert np.max(np.abs(got / ref - 1)) < 1e-6
+    head = (d / "out/response_spectra.csv").read_text().splitlines()[0]
+    assert head == "period [s],Sa grainmech [g],Sa darendeli [g],Sa menq [g]"
+
+
 def test_grainmech_run_equals_the_recipe_on_its_curve_files(response):
     """The run with grainmech's curves equals pystrata fed the curve files the command wrote
     (read back with read_curves, as the docs' recipe does) -- same spectrum to 1e-6."""

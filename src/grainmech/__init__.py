@@ -58,7 +58,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("MaterialPoint", "run", "segment", "cycles", "concatenate", "cyclic_simple_shear",
                      "triaxial", "DriverResult"), "grainmech.driver"),
     # analysis and empirical references
-    **dict.fromkeys(("modulus_reduction", "ModulusReduction", "darendeli", "hardin_drnevich",
+    **dict.fromkeys(("modulus_reduction", "ModulusReduction", "darendeli", "menq_curve", "hardin_drnevich",
                      "hardin_drnevich_reference", "hardin_richart", "apparent_moduli"), "grainmech.analysis"),
     # packings of grains (DEM contact networks)
     **dict.fromkeys(("ContactNetwork", "relaxed_stiffness", "affine_stiffness"), "grainmech.network"),

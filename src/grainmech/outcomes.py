@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 __all__ = ["StiffnessOutcome", "RunOutcome", "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome",
-           "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line", "run_mean_stress_change"]
+           "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line", "run_mean_stress_change",
+           "curve_value_problems", "curve_value_warnings"]
 
 
 def run_mean_stress_change(result: Any) -> float:
@@ -141,6 +142,21 @@ class CyclicOutcome(RunOutcome):
         return np.array([bool(e["beyond_any"]) for e in self.envelope[:len(self.G)]], dtype=bool)
 
     @property
+    def value_problems(self) -> list:
+        """:func:`curve_value_problems` of each completed amplitude (``None`` where G/Gmax and damping are usual)."""
+        return curve_value_problems(self.G_ratio, self.damping)
+
+    @property
+    def site_response_keep(self) -> np.ndarray:
+        """Which completed amplitudes go into the site-response curves (bool, len(G)).
+
+        Those within the envelope of sands (all with ``keep_beyond_envelope``) whose G/Gmax
+        and damping a site-response program takes (:func:`curve_value_problems`).
+        """
+        usual = np.array([p is None for p in self.value_problems], dtype=bool)
+        return (~self.beyond_envelope | bool(self.keep_beyond_envelope)) & usual
+
+    @property
     def completed_results(self) -> list:
         """Runs of the completed amplitudes (aligned with ``amplitudes``, ``G``, ``damping``)."""
         return [r for r in self.results if r.success][:len(self.G)]
@@ -261,6 +277,39 @@ def envelope_and_loop_warnings(method: str, amplitudes: Any, envelope: list, qua
                        f"{env['max_tau_over_sigma_zz']:.3g}); {why}")
         out += [f"{method} model, amplitude {a:.1e}: {p}" for p in q.problems]
     return out
+
+
+#: G/Gmax may exceed 1 by round-off only and still count as usual
+_G_RATIO_TOL = 1e-6
+
+
+def curve_value_problems(g_ratio: Any, damping: Any) -> list[str | None]:
+    """What is unusual about each amplitude's G/Gmax and damping, or ``None``.
+
+    A site-response program takes ``0 < G/Gmax <= 1`` and ``0 <= damping < 1``; a value
+    outside (G/Gmax above 1 where a loop came out stiffer than the model's Gmax, a NaN) is
+    kept in every table with a flag, and left out of the site-response curves.
+    """
+    out: list[str | None] = []
+    for g, d in zip(np.asarray(g_ratio, dtype=float), np.asarray(damping, dtype=float)):
+        why = []
+        if not np.isfinite(g):
+            why.append("G/Gmax is not finite")
+        elif g <= 0 or g > 1 + _G_RATIO_TOL:
+            why.append(f"G/Gmax = {g:.4g} {'above 1 (a loop stiffer than Gmax)' if g > 1 else 'not positive'}")
+        if not np.isfinite(d):
+            why.append("damping is not finite")
+        elif d < 0 or d >= 1:
+            why.append(f"damping = {d:.4g} outside [0, 1)")
+        out.append("; ".join(why) or None)
+    return out
+
+
+def curve_value_warnings(method: str, amplitudes: Any, g_ratio: Any, damping: Any) -> list[str]:
+    """One warning per amplitude whose G/Gmax or damping is unusual (:func:`curve_value_problems`)."""
+    return [f"{method} model, amplitude {a:.1e}: {p}: written with a flag (value_flag = 1 in "
+            "modulus_reduction.csv) and left out of the site-response curves"
+            for a, p in zip(amplitudes, curve_value_problems(g_ratio, damping)) if p]
 
 
 def packing_gmax_line(pg: dict, g_affine: float) -> str:

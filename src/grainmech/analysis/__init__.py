@@ -10,16 +10,19 @@ from typing import Any
 from grainmech.analysis.directional import apparent_moduli
 from grainmech.analysis.empirical import (
     DARENDELI_PHI,
+    MENQ_D50_MAX,
     P_ATM,
     SAND_PEAK_FRICTION_DEG,
     DarendeliCurves,
     HardinDrnevichReference,
     HardinRichart,
+    MenqCurves,
     darendeli,
     hardin_drnevich,
     hardin_drnevich_reference,
     hardin_richart,
     masing_damping_hyperbolic,
+    menq_curve,
     mohr_coulomb_ratio,
 )
 from grainmech.analysis.loops import (
@@ -33,7 +36,8 @@ from grainmech.analysis.loops import (
     loop_quality,
 )
 
-__all__ = ["DARENDELI_PHI", "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinDrnevichReference",
+__all__ = ["DARENDELI_PHI", "MENQ_D50_MAX", "MenqCurves", "menq_curve",
+           "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinDrnevichReference",
            "HardinRichart", "hardin_drnevich_reference", "LOOP_ASYMMETRY_TOLERANCE", "LOOP_CLOSURE_TOLERANCE",
            "LoopQuality", "loop_quality",
            "hardin_richart", "mohr_coulomb_ratio", "LoopProperties", "ModulusReduction",

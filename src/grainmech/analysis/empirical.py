@@ -6,6 +6,10 @@
   with reference strain from mean effective stress, PI, OCR and Masing damping scaled by
   cycles and frequency. **Mean stress in atmospheres**: the function takes Pa and
   converts explicitly with ``P_ATM = 101325 Pa``.
+* Menq (2003), PhD thesis, Univ. of Texas at Austin: modified hyperbola for clean sands
+  and gravels with reference strain and curvature from mean effective stress and the
+  coefficient of uniformity, minimum damping from ``Cu``, ``D50`` and mean stress, and
+  Darendeli's Masing damping scaled by cycles (as pystrata's ``MenqSoilType``).
 
 * Hardin & Richart (1963): small-strain shear modulus of clean sands from void ratio
   and mean effective stress (round and angular grains).
@@ -22,11 +26,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from grainmech.errors import ParameterError
 
 __all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "HardinDrnevichReference",
-           "hardin_drnevich_reference", "darendeli", "DarendeliCurves",
+           "hardin_drnevich_reference", "darendeli", "DarendeliCurves", "menq_curve", "MenqCurves",
+           "MENQ_D50_MAX",
            "masing_damping_hyperbolic", "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
            "SAND_PEAK_FRICTION_DEG"]
 
@@ -125,6 +131,22 @@ def hardin_drnevich_reference(mean_stress: float, friction_angle: float, g_max: 
                                    float((33.0 - 1.5 * np.log10(n_cycles)) / 100.0))
 
 
+def _masing_modified_pct(g_pct: np.ndarray, gr_pct: float, a: float) -> np.ndarray:
+    """Masing damping [%] of the modified hyperbola of curvature ``a`` (Darendeli 2001, Eq. 9.4).
+
+    ``D_Masing = c1 D1 + c2 D1^2 + c3 D1^3`` with ``D1`` the Masing damping [%] of the
+    hyperbola (a = 1, :func:`masing_damping_hyperbolic`) at ``g_pct / gr_pct`` and
+    ``c1 = -1.1143 a^2 + 1.8618 a + 0.2523``, ``c2 = 0.0805 a^2 - 0.0710 a - 0.0095``,
+    ``c3 = -0.0005 a^2 + 0.0002 a + 0.0003`` (Darendeli's fit to the Masing loops of the
+    modified hyperbola; strains in percent).
+    """
+    d1 = 100.0 * masing_damping_hyperbolic(g_pct, gr_pct)
+    c1 = -1.1143 * a ** 2 + 1.8618 * a + 0.2523
+    c2 = 0.0805 * a ** 2 - 0.0710 * a - 0.0095
+    c3 = -0.0005 * a ** 2 + 0.0002 * a + 0.0003
+    return c1 * d1 + c2 * d1 ** 2 + c3 * d1 ** 3
+
+
 def masing_damping_hyperbolic(gamma: Any, gamma_r: float) -> np.ndarray:
     """Masing damping ratio of the hyperbola ``tau = G gamma/(1 + gamma/gamma_r)``.
 
@@ -192,13 +214,139 @@ def darendeli(gamma: Any, mean_stress: float, *, pi: float = 0.0, ocr: float = 1
     ratio = 1.0 / (1.0 + (g_pct / gr_pct) ** a)
     dmin_pct = (p[5] + p[6] * pi * ocr ** p[7]) * s_atm ** p[8] * (1.0 + p[9] * np.log(frequency))
     b = p[10] + p[11] * np.log(n_cycles)
-    d1 = 100.0 * masing_damping_hyperbolic(g_pct, gr_pct)
-    c1 = -1.1143 * a ** 2 + 1.8618 * a + 0.2523
-    c2 = 0.0805 * a ** 2 - 0.0710 * a - 0.0095
-    c3 = -0.0005 * a ** 2 + 0.0002 * a + 0.0003
-    dm = c1 * d1 + c2 * d1 ** 2 + c3 * d1 ** 3
+    dm = _masing_modified_pct(g_pct, gr_pct, a)
     d_pct = b * ratio ** 0.1 * dm + dmin_pct
     return DarendeliCurves(g, ratio, d_pct / 100.0, gr_pct / 100.0, dmin_pct / 100.0, a)
+
+
+#: the largest median grain size [m] :func:`menq_curve` takes: Menq's soils are sands and
+#: gravels; a D50 above 0.1 m (cobbles and boulders) is most likely a D50 in millimetres
+#: given as metres
+MENQ_D50_MAX = 0.1
+
+
+@dataclass(frozen=True)
+class MenqCurves:
+    """Menq (2003) curves (see :func:`menq_curve`); strains and damping as ratios (not percent).
+
+    Attributes
+    ----------
+    gamma, G_ratio, damping : arrays
+        Shear strain amplitude, ``G/Gmax`` and damping ratio (decimal).
+    gamma_r : float
+        Reference strain (decimal), where ``G/Gmax = 0.5``.
+    curvature : float
+        Curvature ``a`` of the modified hyperbola.
+    d_min : float
+        Small-strain damping ratio (decimal).
+    masing_scaling : float
+        Scaling ``b`` of the Masing damping.
+    peak_strain : float
+        Strain (decimal) above which the damping is held at its largest value.
+    uniformity_coefficient, d50, mean_stress, n_cycles : float
+        Inputs (``d50`` in m, ``mean_stress`` in Pa).
+    """
+
+    gamma: np.ndarray
+    G_ratio: np.ndarray
+    damping: np.ndarray
+    gamma_r: float
+    curvature: float
+    d_min: float
+    masing_scaling: float
+    peak_strain: float
+    uniformity_coefficient: float
+    d50: float
+    mean_stress: float
+    n_cycles: float
+    citation: str = ("Menq, F.-Y. (2003). Dynamic properties of sandy and gravelly soils. PhD thesis, "
+                     "University of Texas at Austin (as in pystrata's MenqSoilType)")
+
+
+def _menq_masing_peak(a: float) -> float:
+    """``x = gamma / gamma_r`` where ``(G/Gmax)^0.1 D_Masing`` of curvature ``a`` is largest.
+
+    The product rises from 0 and, past a single peak (``x`` about 65 for ``a = 0.86``,
+    400 for ``a = 0.5``, 40 for ``a = 1.2``), falls again; found by a bounded search in
+    ``ln x`` over ``1 ... 1e7``.
+    """
+    def neg(u: float) -> float:
+        x = np.exp(u)
+        return -float((1.0 + x ** a) ** -0.1 * _masing_modified_pct(np.array([x]), 1.0, a)[0])
+
+    res = minimize_scalar(neg, bounds=(0.0, np.log(1e7)), method="bounded", options={"xatol": 1e-10})
+    return float(np.exp(res.x))
+
+
+def menq_curve(gamma: Any, mean_stress: float, uniformity_coefficient: float, d50: float,
+               n_cycles: float = 10.0) -> MenqCurves:
+    """Menq (2003) modulus reduction and damping of clean sands and gravels.
+
+    Parameters
+    ----------
+    gamma : array
+        Shear strain amplitudes (dimensionless, NOT percent; > 0).
+    mean_stress : float
+        Mean effective stress ``sigma'_m`` **in Pa** (> 0; divided by ``p_a`` =
+        :data:`P_ATM` = 101325 Pa).
+    uniformity_coefficient : float
+        Coefficient of uniformity ``Cu = D60 / D10`` (>= 1).
+    d50 : float
+        Median grain size ``D50`` **in m** (> 0, at most :data:`MENQ_D50_MAX`; the
+        correlation takes mm and the conversion is done here).
+    n_cycles : float
+        Number of loading cycles ``N`` (> 0); 10 as in pystrata.
+
+    Returns
+    -------
+    MenqCurves
+        ``G_ratio`` and ``damping`` (decimal) at ``gamma``, and the parameters.
+
+    Notes
+    -----
+    With ``s = sigma'_m / p_a`` (Menq 2003; the form of pystrata's ``MenqSoilType``):
+
+    * ``gamma_r [%] = 0.12 Cu^-0.6 s^(0.5 Cu^-0.15)``, ``a = 0.86 + 0.1 log10 s``,
+      ``G/Gmax = 1 / (1 + (gamma/gamma_r)^a)``;
+    * ``D_min [%] = 0.55 Cu^0.1 D50^-0.3 s^-0.08`` with ``D50`` in mm;
+    * ``b = 0.6329 - 0.00566 ln N``;
+    * ``D = b (G/Gmax)^0.1 D_Masing + D_min`` with ``D_Masing`` Darendeli's (2001,
+      Eq. 9.4) Masing damping of the modified hyperbola: the closed-form Masing damping
+      of the hyperbola (a = 1, :func:`masing_damping_hyperbolic`) corrected for the
+      curvature by his polynomial ``c1 D1 + c2 D1^2 + c3 D1^3``.
+
+    The term ``b (G/Gmax)^0.1 D_Masing`` rises with strain to a peak (at about 65
+    ``gamma_r`` for ``a = 0.86``) and then falls; pystrata keeps its damping curve from
+    falling with a running maximum over its strain grid, and this function holds the
+    damping at the peak value beyond ``peak_strain`` (the running maximum of the
+    continuous curve). Below ``peak_strain`` both are the same formula; above it
+    pystrata holds the value of its last grid point before the peak, which is at most
+    this peak value. Example: 100 kPa, ``Cu = 1.5``: ``G/Gmax`` = 0.872, 0.727,
+    0.486, 0.115 at ``gamma`` = 1e-4, 3e-4, 1e-3, 1e-2 (``gamma_r`` = 0.0935 %,
+    ``a`` = 0.859).
+    """
+    g = _strain(gamma)
+    if not (np.isfinite(mean_stress) and mean_stress > 0):
+        raise ParameterError("mean_stress", mean_stress, "must be finite and > 0 (Pa)")
+    if not (np.isfinite(uniformity_coefficient) and uniformity_coefficient >= 1):
+        raise ParameterError("uniformity_coefficient", uniformity_coefficient,
+                             "the coefficient of uniformity D60/D10 must be finite and >= 1")
+    if not (np.isfinite(d50) and 0 < d50 <= MENQ_D50_MAX):
+        raise ParameterError("d50", d50, f"must lie in (0, {MENQ_D50_MAX:g}] m (a length in metres: "
+                             "0.2 mm is 2e-4)")
+    if not (np.isfinite(n_cycles) and n_cycles > 0):
+        raise ParameterError("n_cycles", n_cycles, "must be finite and > 0")
+    cu, s = float(uniformity_coefficient), float(mean_stress) / P_ATM
+    gr_pct = 0.12 * cu ** -0.6 * s ** (0.5 * cu ** -0.15)
+    a = 0.86 + 0.1 * np.log10(s)
+    ratio = 1.0 / (1.0 + (100.0 * g / gr_pct) ** a)
+    dmin_pct = 0.55 * cu ** 0.1 * (1e3 * float(d50)) ** -0.3 * s ** -0.08
+    b = 0.6329 - 0.00566 * np.log(n_cycles)
+    x_peak = _menq_masing_peak(a)
+    g_pct = np.minimum(100.0 * g, x_peak * gr_pct)  # the damping is held at its peak beyond it
+    d_pct = b * (1.0 + (g_pct / gr_pct) ** a) ** -0.1 * _masing_modified_pct(g_pct, gr_pct, a) + dmin_pct
+    return MenqCurves(g, ratio, d_pct / 100.0, gr_pct / 100.0, float(a), dmin_pct / 100.0, float(b),
+                      x_peak * gr_pct / 100.0, cu, float(d50), float(mean_stress), float(n_cycles))
 
 
 @dataclass(frozen=True)

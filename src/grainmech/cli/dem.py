@@ -71,7 +71,7 @@ def _config(args: argparse.Namespace) -> dict:
     The dem job config: the ``--material`` tables plus a ``[network]`` table from the
     command-line arguments (the form a sweep's ``dem`` config has).
     """
-    cfg = load_toml(args.material) if args.material else {}
+    cfg = load_toml(args.material, allow_empty=True) if args.material else {}
     if "network" in cfg:
         raise ConfigError("network", cfg["network"], f"{args.material}: the network files are given on "
                           "the command line, not in --material")

@@ -5,8 +5,8 @@ simple shear of an isotropic Hertz-Mindlin/Mindlin-Deresiewicz quartz sand with 
 kinematic models (the seed's affine model at seven amplitudes, the shipped 'dense' packing
 with every grain in equilibrium at 1e-6 ... 1e-4, and the same grains in LAMMPS at 3e-4 and
 1e-3; 117 s on 2 cores, ``docs/performance.md``), and writes CSV tables, a JSON summary and
-PNG plots (loops, G/Gmax and damping with Darendeli 2001 and Hardin-Drnevich 1972 for the
-same mean stress) to OUTDIR (default ``./grainmech-out/run``).
+PNG plots (loops, G/Gmax and damping with Darendeli 2001, Hardin-Drnevich 1972 and Menq
+2003 for the same mean stress) to OUTDIR (default ``./grainmech-out/run``).
 """
 
 from __future__ import annotations
@@ -164,6 +164,10 @@ def main(args: argparse.Namespace) -> int:
                     marks.append("WARNING: loop not closed/symmetric")
                 show(f"  amplitude {a:9.2e}   G/Gmax {g:6.3f}   damping {100 * dd:6.2f} %"
                      f"   change of p {100 * c:+6.1f} %" + "".join(f"   {k}" for k in marks))
+            if "menq_G_over_Gmax" in m:
+                show("  Menq (2003) at these amplitudes: G/Gmax "
+                     + " ".join(f"{v:.3f}" for v in m["menq_G_over_Gmax"]) + "; damping "
+                     + " ".join(f"{100 * v:.2f}" for v in m["menq_damping"]) + " %")
             if beyond.any():
                 env = m["envelope"]
                 show(f"  envelope of sands: Mohr-Coulomb phi = {env['friction_angle_deg']:g} deg (sigma1/sigma3 <= "
@@ -181,6 +185,12 @@ def main(args: argparse.Namespace) -> int:
         env = m.get("envelope")
         if env and env.get("first_step_beyond") is not None:  # a path's
             warn(env["note"])
+    if "menq_gamma_r" in summary:
+        show(f"references at p = {summary['initial_pressure_Pa']:.6g} Pa (modulus_reduction.png): Darendeli (2001) "
+             f"gamma_r = {summary['darendeli_gamma_r']:.3g}; Hardin-Drnevich (1972) gamma_r = "
+             f"{summary['hardin_drnevich_gamma_r']:.3g}; Menq (2003) gamma_r = {summary['menq_gamma_r']:.3g}, "
+             f"D_min = {100 * summary['menq_d_min']:.2f} % for Cu = {summary['menq_uniformity_coefficient']:.3g}, "
+             f"D50 = {1e3 * summary['menq_d50_m']:.3g} mm ({summary['menq_grading_source']})")
     show(f"wrote {len(summary['files'])} files to {args.outdir}")
     if not out.success:
         print(f"grainmech: error: {out.message} (results so far are in {args.outdir})", file=sys.stderr)

@@ -2,10 +2,10 @@
 
 Curves for every layer of a soil profile: each layer's effective stresses at mid-depth,
 one cyclic-simple-shear run of the chosen model at its mean effective stress (anchored to
-a measured Vs where given), Darendeli's (2001) curves beside, the layers in parallel on
-dask.distributed with every finished layer saved (a killed run restarted on the same
-OUTDIR reruns only the unfinished layers), and with ``[motion]`` and pystrata (``pip
-install "grainmech[site]"``) the equivalent-linear site response with both sets of
+a measured Vs where given), Darendeli's (2001) and Menq's (2003) curves beside, the layers
+in parallel on dask.distributed with every finished layer saved (a killed run restarted on
+the same OUTDIR reruns only the unfinished layers), and with ``[motion]`` and pystrata
+(``pip install "grainmech[site]"``) the equivalent-linear site response with each set of
 curves. See ``docs/site-profile.md``. Exit status 0 if every layer completed, 1 if a
 layer's model stopped, 2 for a bad profile (nothing written).
 """

@@ -1,6 +1,6 @@
 """One rank of a DEM job started by :func:`grainmech.driver.dem_mpi.run_dem_ranks` (``python -m``).
 
-Reads the inputs ``IN`` (pickle: network, law, path, settings, pressure), runs
+Reads the inputs ``IN`` (pickle: network, law, path, settings, pressure, rolling), runs
 :func:`grainmech.driver.dem.run_dem` (LAMMPS on ``MPI_COMM_WORLD``); rank 0 writes
 progress lines (JSON) on its standard output and ``("result", DemResult)`` or
 ``("error", message)`` to ``OUT``. An unexpected error aborts every rank.
@@ -23,7 +23,7 @@ from grainmech.packing.engine import mpi_comm
 def _main(argv: list[str]) -> int:
     """One rank of a DEM job: run the path, rank 0 reports progress and writes the result."""
     src, out = argv
-    net, law, path, settings, pressure = pickle.loads(Path(src).read_bytes())
+    net, law, path, settings, pressure, rolling = pickle.loads(Path(src).read_bytes())
     comm = mpi_comm()
     rank = 0 if comm is None else int(comm.Get_rank())
 
@@ -40,7 +40,7 @@ def _main(argv: list[str]) -> int:
 
     try:
         result: tuple[str, Any] = ("result", run_dem(net, law, path, settings, pressure=pressure,
-                                                     on_step=on_step, tick=tick))
+                                                     on_step=on_step, tick=tick, rolling=rolling))
     except GrainmechError as exc:
         result = ("error", str(exc))
     except BaseException:

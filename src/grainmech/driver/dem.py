@@ -28,6 +28,18 @@ the step's stress change (at least ``1e-3`` of the mean stress). A step whose se
 relaxation does not converge within its budget raises
 :class:`~grainmech.driver.base.StepFailure`; the path keeps what was done.
 
+**Rolling and twisting resistance** (``rolling``, :mod:`grainmech.contact.rolling`): the
+constants are resolved once on the start packing's contacts
+(:func:`~grainmech.contact.rolling.rolling_constants`: ``k_roll`` tied to the Mindlin
+stiffness at their mean normal force and mean effective radius unless given) and LAMMPS
+runs them as ``rolling sds`` / ``twisting sds`` in the ``pair_coeff``, with dashpots of half
+the critical damping of a grain rocking on one contact
+(:func:`grainmech.packing.rolling.rolling_damping`; they act on spins only, so the recorded
+equilibria do not depend on them). The moment springs start from zero, as the tangential
+ones do; every recorded state carries the contact moments read from LAMMPS
+(:func:`~grainmech.packing.prepare.network_from_lammps`), which enter the unbalanced force
+ratio, the stored energy and the relaxed tensor of the start state.
+
 Strains are the sum of the increments (for large strains the natural strain of the cell);
 compression positive, engineering shears, Voigt order ``xx yy zz yz xz xy``.
 """
@@ -48,6 +60,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
+from grainmech.contact.rolling import RollingConstants, RollingResistance, rolling_constants
 from grainmech.driver.base import DriverResult, Status, StepFailure
 from grainmech.driver.dem_mpi import Tick, run_dem_ranks
 from grainmech.driver.dem_settings import DAMPINGS, DEFAULT_DENSITY, DemSettings, dem_material
@@ -60,6 +73,7 @@ from grainmech.network.relaxed import relaxed_stiffness
 from grainmech.packing.engine import Lammps, mpi_world_size
 from grainmech.packing.prepare import GrainMaterial
 from grainmech.packing.reference import RelaxationTimeout, _ramp, _Session, _voigt, load_network, relax
+from grainmech.packing.rolling import ROLLING_DAMPING
 
 __all__ = ["DemSettings", "DemPoint", "DemResult", "DemSeries", "dem_material", "run_dem", "dem_modulus_reduction",
            "DEM_MAX_AMPLITUDE", "DAMPINGS", "DEFAULT_DENSITY"]
@@ -94,11 +108,14 @@ class DemPoint:
     """
 
     def __init__(self, lmp: Lammps, session: _Session, net: ContactNetwork, unbalanced: float,
-                 settings: DemSettings, material: GrainMaterial, tick: Tick | None) -> None:
+                 settings: DemSettings, material: GrainMaterial, tick: Tick | None,
+                 rolling: RollingConstants | None = None) -> None:
         self._lmp = lmp
         self._s = session
         self.settings = settings
         self.material = material
+        #: the rolling and twisting resistance LAMMPS runs (None: none)
+        self.rolling = rolling
         self._tick = tick
         self.reference = net
         self.strain = np.zeros(6)
@@ -117,7 +134,8 @@ class DemPoint:
     # -- construction -------------------------------------------------------------------
     @classmethod
     def start(cls, net: ContactNetwork, law: Any, settings: DemSettings | None = None, *,
-              pressure: float | None = None, tick: Tick | None = None) -> DemPoint:
+              pressure: float | None = None, tick: Tick | None = None,
+              rolling: RollingResistance | None = None) -> DemPoint:
         """Load ``net`` into LAMMPS with the grains of ``law`` and relax it to equilibrium.
 
         LAMMPS keeps no tangential spring history from a network file: the tangential
@@ -127,20 +145,25 @@ class DemPoint:
         changes when the law's grain moduli differ from those it was made with) if its
         mean stress differs by more than :data:`PRESSURE_TOLERANCE`. The start state, strain
         zero, is that equilibrium (its stress, contacts and unbalanced force ratio are the
-        first recorded row).
+        first recorded row). ``rolling``: rolling and twisting resistance, resolved on
+        ``net``'s contacts (:func:`dem_rolling`; module notes).
         """
         st = settings or DemSettings()
         mat, _ = dem_material(law)
         if pressure is not None and not (math.isfinite(pressure) and pressure > 0):
             raise ParameterError("pressure", pressure, "must be a finite stress > 0")
+        consts = dem_rolling(rolling, law, net)
         lmp = Lammps(st.threads)
         try:
             s = load_network(lmp, net, mat, viscous=st.viscous, safety=st.safety,
                              cundall=st.cundall if st.damping == "cundall" else 0.0,
-                             kinetic=st.damping == "kinetic")
+                             kinetic=st.damping == "kinetic", rolling=consts)
             ref, ub = _relax(s, st, None, tick)
-            pt = cls(lmp, s, ref, ub, st, mat, tick)
-            pt.notes.append(f"LAMMPS keeps no tangential spring history from a network file: the packing "
+            pt = cls(lmp, s, ref, ub, st, mat, tick, consts)
+            if consts is not None:
+                pt.notes.append(rolling_note(consts))
+            springs = "tangential spring history" if consts is None else "tangential or moment spring history"
+            pt.notes.append(f"LAMMPS keeps no {springs} from a network file: the packing "
                             f"re-settled at fixed cell (unbalanced force ratio {pt.unbalanced:.2g}, "
                             f"{pt.network.n_contacts} contacts, mean stress {pt.p0:.5g} Pa)")
             if lmp.ranks > 1:
@@ -191,11 +214,14 @@ class DemPoint:
         self.coordination = float(coordination(net).z)
 
     def _relaxed(self, net: ContactNetwork) -> np.ndarray:
-        """Relaxed small-strain tensor of ``net`` with the Hertz-Mindlin no-slip stiffnesses (Voigt) [Pa]."""
+        """Relaxed small-strain tensor of ``net`` with the Hertz-Mindlin no-slip stiffnesses (Voigt) [Pa].
+
+        With rolling resistance, its elastic moment springs too (``relaxed_stiffness(rolling=)``).
+        """
         kn, ks, _ = contact_stiffnesses(net, shear_modulus=self.material.shear_modulus,
                                         poisson=self.material.poisson, source="overlap")
         try:
-            return np.asarray(relaxed_stiffness(net, kn, ks).C_relaxed, float)
+            return np.asarray(relaxed_stiffness(net, kn, ks, rolling=self.rolling).C_relaxed, float)
         except GrainmechError as exc:
             raise GrainmechError(f"the relaxed DEM packing is not mechanically stable: {exc}") from None
 
@@ -208,7 +234,9 @@ class DemPoint:
         """Elastic energy per unit volume in the contacts [Pa].
 
         Hertz normal ``(2/5) N alpha`` (seed Eq. 3.2) plus the tangential spring's
-        ``|T|^2 / (2 k_t)`` with ``k_t = 8 G* a`` (Mindlin 1949, seed Eq. 3.11-3.12).
+        ``|T|^2 / (2 k_t)`` with ``k_t = 8 G* a`` (Mindlin 1949, seed Eq. 3.11-3.12), plus,
+        with rolling resistance, the moment springs' ``|M_r|^2 / (2 k_roll R*^2) +
+        M_t^2 / (2 k_twist)`` (:mod:`grainmech.contact.rolling`).
         """
         net = self.network
         if net.n_contacts == 0:
@@ -220,6 +248,8 @@ class DemPoint:
         _, ks, _ = contact_stiffnesses(net, shear_modulus=self.material.shear_modulus,
                                        poisson=self.material.poisson, source="overlap")
         e = 0.4 * N * alpha + np.where(ks > 0, np.maximum(T2, 0.0) / (2.0 * np.where(ks > 0, ks, 1.0)), 0.0)
+        if self.rolling is not None and net.moment is not None:
+            e = e + rolling_energy(self.rolling, net)
         return float(np.sum(e) / net.volume)
 
     # -- one step -----------------------------------------------------------------------
@@ -347,6 +377,49 @@ class DemPoint:
             self._K = new
 
 
+def dem_rolling(rolling: RollingResistance | None, law: Any, net: ContactNetwork) -> RollingConstants | None:
+    """The rolling constants LAMMPS runs on ``net`` (None without rolling resistance).
+
+    :func:`~grainmech.contact.rolling.rolling_constants` on the packing's contacts: their
+    normal forces and effective radii ``R* = R_A R_B / (R_A + R_B)``.
+    """
+    if rolling is None or not rolling.active:
+        return None
+    R = net.require_radii("rolling resistance")
+    Rs = R[net.i] * R[net.j] / (R[net.i] + R[net.j])
+    return rolling_constants(rolling, law, net.normal_force, Rs)
+
+
+def rolling_note(consts: RollingConstants) -> str:
+    """The run note of the rolling resistance LAMMPS ran: its constants and where ``k_roll`` came from."""
+    twist = (f"twisting sds k_twist = {consts.k_twist:.4g} N m/rad, cap {consts.twist_cap:.4g} m x N"
+             if consts.twist_cap > 0 else "no twisting resistance")
+    roll = f"mu_r = {consts.mu_roll:g}" if consts.mu_roll > 0 else "no rolling resistance (mu_r = 0)"
+    return (f"rolling resistance (LAMMPS rolling sds / twisting sds): {roll}, {consts.source}; {twist}; "
+            f"dashpots at {ROLLING_DAMPING:g} of critical damping (they act on spins only, not on the "
+            "recorded equilibria); the moment springs start from zero")
+
+
+def rolling_energy(consts: RollingConstants, net: ContactNetwork) -> np.ndarray:
+    """Elastic energy in the contacts' moment springs (C,) [energy].
+
+    ``|M_r|^2 / (2 k_roll R*^2) + M_t^2 / (2 k_twist)`` with ``M_t = M . n`` and
+    ``M_r = M - M_t n`` (the springs of :func:`~grainmech.contact.rolling.rolling_update`).
+    """
+    M = np.asarray(net.moment, float)
+    n = np.asarray(net.normals, float)
+    R = net.require_radii("rolling energy")
+    Rs = R[net.i] * R[net.j] / (R[net.i] + R[net.j])
+    mt = np.einsum("ci,ci->c", M, n)
+    mr2 = np.maximum(np.einsum("ci,ci->c", M, M) - mt * mt, 0.0)
+    e = np.zeros(len(mt))
+    if consts.mu_roll > 0:
+        e += mr2 / (2.0 * consts.k_roll * Rs * Rs)
+    if consts.twist_cap > 0:
+        e += mt * mt / (2.0 * consts.k_twist)
+    return e
+
+
 def _liquefied(p: float, p0: float, how: str) -> str:
     """The message of a liquefied path: the mean stress reached and the pore-pressure ratio."""
     return (f"liquefied: the mean stress fell to {p:.4g} Pa ({100 * p / p0:.2g} % of p0 = {p0:.5g} Pa, pore-pressure "
@@ -434,7 +507,7 @@ class DemResult(DriverResult):
 
 def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None = None, *,
             pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
-            tick: Tick | None = None) -> DemResult:
+            tick: Tick | None = None, rolling: RollingResistance | None = None) -> DemResult:
     """Run ``path`` with LAMMPS on the packing ``net`` (module notes).
 
     Parameters
@@ -451,6 +524,9 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         After each step.
     tick : callable ``(time_steps, unbalanced)``, optional
         After each relaxation (progress during long steps).
+    rolling : RollingResistance, optional
+        Rolling and twisting resistance of the contacts (module notes); the notes state
+        the constants LAMMPS ran.
 
     Returns
     -------
@@ -462,7 +538,7 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     """
     st = settings or DemSettings()
     if st.ranks > 1 and mpi_world_size() == 1:
-        return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick)
+        return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
     _, notes = dem_material(law)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "sl", "op", "work", "stored", "sub", "it", "ub",
                                              "z", "nc")}
@@ -487,7 +563,7 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         rows["z"].append(pt.coordination)
         rows["nc"].append(pt.network.n_contacts)
 
-    with DemPoint.start(net, law, st, pressure=pressure, tick=tick) as point:
+    with DemPoint.start(net, law, st, pressure=pressure, tick=tick, rolling=rolling) as point:
         notes += point.notes
         state["steps"] = point.relax_steps
         final, success, status, message = follow_path(point, path, record, on_step=on_step)
@@ -529,7 +605,8 @@ _BACKGROUND_NICE = 10
 
 
 def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
-                pressure: float | None, background: bool, index: int, q: Any) -> DemResult:
+                pressure: float | None, rolling: RollingResistance | None, background: bool, index: int,
+                q: Any) -> DemResult:
     """One amplitude in a worker process; progress goes to the parent through ``q``.
 
     ``background``: the worker lowers its own priority to niceness ``_BACKGROUND_NICE``
@@ -547,7 +624,7 @@ def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSett
     def tick(steps: int, ub: float) -> None:
         q.put((index, "tick", steps, ub))
 
-    return run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick)
+    return run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
 
 
 class _Pool:
@@ -568,8 +645,8 @@ class _Pool:
         self.ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
         self.futures: list[Future] = []
 
-    def submit(self, *args: Any, background: bool = False) -> None:
-        call = (*args, background, len(self.futures), self.queue)
+    def submit(self, *args: Any, background: bool = False, rolling: RollingResistance | None = None) -> None:
+        call = (*args, rolling, background, len(self.futures), self.queue)
         self.futures.append(self.ex.submit(_worker_run, *call))
 
     def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> DemResult:
@@ -612,7 +689,8 @@ class DemSeries:
 
     def __init__(self, net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
                  steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
-                 settings: DemSettings | None = None, pressure: float | None = None, workers: int = 1) -> None:
+                 settings: DemSettings | None = None, pressure: float | None = None, workers: int = 1,
+                 rolling: RollingResistance | None = None) -> None:
         dem_material(law)  # refuse a law LAMMPS cannot run before anything starts
         amps = np.asarray(amplitudes, dtype=float)
         if amps.ndim != 1 or amps.size == 0 or not np.all(np.isfinite(amps)) or np.any(amps <= 0):
@@ -624,6 +702,7 @@ class DemSeries:
         if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
             raise ParameterError("workers", workers, "must be an integer >= 1")
         self.net, self.law, self.settings, self.pressure = net, law, settings, pressure
+        self.rolling = rolling
         self.n_cycles, self.steps_per_cycle = n_cycles, steps_per_cycle
         self.waveform, self.constant = waveform, constant
         self.amplitudes: list[float] = []
@@ -646,7 +725,8 @@ class DemSeries:
             self.index[a] = len(self.index)
             self.amplitudes.append(a)
             if self.pool is not None:  # new[0], the largest, keeps the normal priority
-                self.pool.submit(self.net, self.law, self._path(a), self.settings, self.pressure, background=k > 0)
+                self.pool.submit(self.net, self.law, self._path(a), self.settings, self.pressure,
+                                 background=k > 0, rolling=self.rolling)
 
     def run(self, *, progress: Callable[[int, float, Any], None] | None = None,
             on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
@@ -662,7 +742,7 @@ class DemSeries:
                 r = self.pool.result(self.index[a], on_step, tick)
             else:
                 r = run_dem(self.net, self.law, path, self.settings, pressure=self.pressure, on_step=on_step,
-                            tick=tick)
+                            tick=tick, rolling=self.rolling)
             tangents.append(r.elastic_tangent)
             return r
 
@@ -689,7 +769,8 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
                           progress: Callable[[int, float, Any], None] | None = None,
                           on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
                           raise_on_failure: bool = True,
-                          on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
+                          on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                          rolling: RollingResistance | None = None) -> ModulusReduction:
     """G/Gmax and damping of a packing by DEM: cyclic simple shear ``gamma_xz`` per amplitude.
 
     Each amplitude starts from the same state (the packing loaded and relaxed anew; LAMMPS
@@ -704,10 +785,12 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
     ``workers`` > 1 runs the amplitudes side by side in that many processes (each
     LAMMPS runs on one core; the amplitudes are independent): the same results, in the
     time of the slowest amplitude per worker. Progress is passed on for the amplitude the
-    series is waiting for.
+    series is waiting for. ``rolling``: rolling and twisting resistance (module notes);
+    ``G_max`` then comes from the relaxed tensor with the moment springs.
     """
     series = DemSeries(net, law, amplitudes, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle,
-                       waveform=waveform, constant=constant, settings=settings, pressure=pressure, workers=workers)
+                       waveform=waveform, constant=constant, settings=settings, pressure=pressure, workers=workers,
+                       rolling=rolling)
     try:
         return series.run(progress=progress, on_step=on_step, tick=tick, raise_on_failure=raise_on_failure,
                           on_amplitude=on_amplitude)

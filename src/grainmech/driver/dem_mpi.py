@@ -97,7 +97,7 @@ def _follow(proc: subprocess.Popen, on_step: Callable[[int, int], None] | None, 
 
 def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings, *,
                   pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
-                  tick: Tick | None = None) -> DemResult:
+                  tick: Tick | None = None, rolling: Any = None) -> DemResult:
     """:func:`grainmech.driver.dem.run_dem` as an ``mpiexec -n settings.ranks`` job (module notes).
 
     Raises
@@ -109,7 +109,7 @@ def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSe
     launcher = mpiexec()
     with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as tmp:
         src, out, err = Path(tmp) / "in.pkl", Path(tmp) / "out.pkl", Path(tmp) / "stderr.txt"
-        src.write_bytes(pickle.dumps((net, law, path, settings, pressure)))
+        src.write_bytes(pickle.dumps((net, law, path, settings, pressure, rolling)))
         cmd = [launcher, "-n", str(settings.ranks), sys.executable, "-m", "grainmech.driver._dem_rank",
                str(src), str(out)]
         env = dict(os.environ, OMP_NUM_THREADS="1")

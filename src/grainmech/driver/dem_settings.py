@@ -9,6 +9,7 @@ granular model runs for a grainmech contact law). Both are re-exported by
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +26,45 @@ __all__ = ["DAMPINGS", "DEFAULT_DENSITY", "DemSettings", "dem_material"]
 DEFAULT_DENSITY = 2650.0
 #: the relaxation's dampings (:attr:`DemSettings.damping`)
 DAMPINGS = ("viscous", "kinetic", "cundall")
+
+
+#: least pore-pressure ratio :attr:`DemSettings.liquefaction` may name
+LIQUEFACTION_MIN = 0.5
+
+
+def _cores() -> tuple[int, str]:
+    n = os.cpu_count() or 1
+    return n, f"the {n} cores of this machine; pair_style granular has no threaded variant"
+
+
+#: largest value of each count of :class:`DemSettings` and why: the time a run may take
+#: (LAMMPS does some 1e4-1e5 time steps a second on a few thousand grains) and the machine
+_COUNT_BOUNDS: dict = {
+    "ramp_steps": (1_000_000, "time steps per increment: beyond, one cycle takes hours"),
+    "chunk": (1_000_000, "time steps between two checks of a relaxation"),
+    "max_relax_steps": (100_000_000, "time steps of one relaxation: beyond, one step takes days"),
+    "max_corrections": (1000, "servo corrections of one step"),
+    "max_substeps": (10_000, "substeps of one step"),
+    "threads": _cores,
+    "ranks": (65_536, "MPI ranks of one path"),
+}
+#: range of each ratio of :class:`DemSettings` and why
+_RATIO_BOUNDS: dict = {
+    # the drag's damping ratio is viscous / 2: above critical damping it only slows the relaxation,
+    # and far above it the explicit integration of the drag is unstable (lost atoms)
+    "viscous": (1e-6, 2.0, "a fraction of the contact frequency; 2 is critical damping"),
+    # below ~1e-10 the round-off of the force sums keeps the ratio from ever getting there
+    "tol": (1e-10, 1.0, "an unbalanced force ratio; below 1e-10 round-off keeps a packing from reaching it"),
+    "settle": (1e-10, 1.0, "a ratio of stress changes"),
+    # velocity Verlet is stable for dt < 2 / omega_max; a grain pressed by ~6 contacts whose
+    # tangential springs also turn it has omega_max ~ 6 sqrt(kn / m), so dt < ~0.3 sqrt(m / kn)
+    "safety": (1e-3, 0.3, "a fraction of sqrt(m / kn): above 0.3 the integration of a grain held by several "
+                          "contacts is unstable (lost atoms)"),
+    "stress_tol": (1e-6, 1.0, "relative to the step's stress change"),
+    "max_ramp_strain": (1e-9, 1e-3, "strain per time step: below 1e-9 an increment of 2.5e-4 (1e-3 in "
+                                    "16 steps per cycle) is ramped over more than 2.5e5 time steps"),
+    "max_stress_step": (1e-4, 1.0, "a fraction of the mean stress"),
+}
 
 
 @dataclass(frozen=True)
@@ -125,20 +165,29 @@ class DemSettings:
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ParameterError(k, v, "must be an integer >= 1")
+            hi, why = _COUNT_BOUNDS[k]() if k == "threads" else _COUNT_BOUNDS[k]
+            if v > hi:
+                raise ParameterError(k, v, f"must be <= {hi:.0f} ({why})")
         for k in ("viscous", "tol", "settle", "safety", "stress_tol", "max_ramp_strain", "max_stress_step"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(k, v, "must be a finite number > 0")
+            lo, hi, why = _RATIO_BOUNDS[k]
+            if not lo <= v <= hi:
+                raise ParameterError(k, v, f"must lie in [{lo:g}, {hi:g}] ({why})")
+        if self.chunk > self.max_relax_steps:
+            raise ParameterError("chunk", self.chunk, f"must be <= max_relax_steps = {self.max_relax_steps} (the "
+                                 "criteria are checked every chunk time steps of a relaxation)")
         if self.damping not in DAMPINGS:
             raise ParameterError("damping", self.damping, f"must be one of {', '.join(DAMPINGS)}")
         if not isinstance(self.fallback, (bool, np.bool_)):
             raise ParameterError("fallback", self.fallback, "must be true or false")
         if not (isinstance(self.cundall, (int, float)) and 0 < self.cundall < 1):
             raise ParameterError("cundall", self.cundall, "must be a number in (0, 1)")
-        if not (isinstance(self.liquefaction, (int, float)) and 0 < self.liquefaction <= 1):
-            raise ParameterError("liquefaction", self.liquefaction, "must be a pore-pressure ratio in (0, 1]")
-        if self.safety > 0.5:
-            raise ParameterError("safety", self.safety, "must be <= 0.5 (fraction of the critical time step)")
+        if not (isinstance(self.liquefaction, (int, float)) and LIQUEFACTION_MIN <= self.liquefaction <= 1):
+            raise ParameterError("liquefaction", self.liquefaction, f"must be a pore-pressure ratio r_u in "
+                                 f"[{LIQUEFACTION_MIN:g}, 1]: the ratio at which the test counts as liquefied "
+                                 "(0.95 usual); below 0.5 the grains still carry more than half the mean stress")
 
     def as_dict(self) -> dict:
         """The settings as a JSON-ready dict."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import re
+import zipfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -69,11 +70,16 @@ def _csv_header(rd: _LineReader) -> tuple[list[str], dict[str, str], str | None]
 
 
 def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    if path.is_file() and path.stat().st_size == 0:
+        raise GrainmechError(f"{path}: the file is empty (0 bytes), not a .npz file")
     try:
         with np.load(path, allow_pickle=False) as z:
             return {k: np.asarray(z[k]) for k in z.files}
-    except (OSError, ValueError) as exc:
-        raise GrainmechError(f"{path}: not a readable .npz file ({exc})") from None
+    except FileNotFoundError:
+        raise
+    # EOFError: a truncated file; zipfile.BadZipFile: not a zip archive
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise GrainmechError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
 
 
 def _npz_cols(z: dict[str, np.ndarray], path: Path, names: Iterable[str], int_cols: Iterable[str]) -> dict:

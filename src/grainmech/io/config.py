@@ -42,13 +42,21 @@ def read_text_file(path: str | Path, what: str) -> str:
         raise GrainmechError(f"{p}: not a UTF-8 text file ({exc.reason})") from None
 
 
-def load_toml(path: str | Path) -> dict:
-    """Read a TOML file; syntax errors become a GrainmechError naming file and line."""
+def load_toml(path: str | Path, allow_empty: bool = False) -> dict:
+    """Read a TOML file; syntax errors become a GrainmechError naming file and line.
+
+    A file with no table and no key (empty, or comments only) is an error unless
+    ``allow_empty``: the message says so instead of naming the first key a command misses.
+    """
     text = read_text_file(path, "config")
     try:
-        return tomllib.loads(text)
+        cfg = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise GrainmechError(f"{Path(path)}: invalid TOML: {exc}") from None
+    if not cfg and not allow_empty:
+        raise GrainmechError(f"{Path(path)}: the config is empty (no table, no key); the examples/ folder has a "
+                             "config for every command")
+    return cfg
 
 
 class Section:
@@ -129,8 +137,8 @@ class Section:
             raise ConfigError(self.key(k), v, f"must lie in {rng}")
         return x
 
-    def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None) -> int:
-        """The integer at ``k`` (``>= min`` if given), or ``default``; a ConfigError names the key otherwise."""
+    def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None, max: int | None = None) -> int:
+        """The integer at ``k`` (``>= min``, ``<= max`` if given), or ``default``; a ConfigError names the key otherwise."""
         v = self.raw(k, default)
         if v is default and default is not _MISSING:
             return v
@@ -138,6 +146,8 @@ class Section:
             raise ConfigError(self.key(k), v, "expected an integer")
         if min is not None and v < min:
             raise ConfigError(self.key(k), v, f"must be >= {min}")
+        if max is not None and v > max:
+            raise ConfigError(self.key(k), v, f"must be <= {max} (memory and time)")
         return v
 
     def choice(self, k: str, options: Iterable[str], default: Any = _MISSING) -> str:

@@ -219,6 +219,12 @@ class OutputFolder:
                 self.path.rmdir()  # only if empty: nothing else was put there meanwhile
 
 
+def _rename_staging_in(exc: BaseException, staging: Path, final: Path) -> None:
+    """Make the message of ``exc`` name ``final`` where it names the (now removed) ``staging`` folder."""
+    if exc.args and isinstance(exc.args[0], str) and str(staging) in exc.args[0]:
+        exc.args = (exc.args[0].replace(str(staging), str(final)),) + exc.args[1:]
+
+
 @contextlib.contextmanager
 def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
     """Open OUTDIR for one run of ``command`` (see the module docstring).
@@ -285,6 +291,8 @@ def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
                     folder.commit(success=False)
                 except OSError:
                     folder.abandon()
+                else:  # the staged files are in OUTDIR now: an error naming one names it there
+                    _rename_staging_in(exc, staging, p)
             raise
         else:
             if folder.success is None:

@@ -21,6 +21,7 @@ from grainmech.analysis import (
     darendeli,
     hardin_drnevich,
     hardin_drnevich_reference,
+    menq_curve,
     mohr_coulomb_ratio,
 )
 from grainmech.analysis.strength import path_strength
@@ -56,13 +57,24 @@ def default_outdir(command: str) -> str:
 
 
 # ----------------------------------------------------------------------------------- run
+def _menq(out: Any, gamma: Any) -> Any:
+    """Menq (2003) at the run's mean stress and the grading of ``out.reference`` (None without one)."""
+    ref = out.reference
+    if "uniformity_coefficient" not in ref or "d50" not in ref:
+        return None
+    return menq_curve(gamma, out.pressure, ref["uniformity_coefficient"], ref["d50"], ref.get("n_cycles", 10.0))
+
+
 def _reference_curves(out: Any) -> dict:
-    """Empirical reference curves (Darendeli 2001, Hardin-Drnevich 1972) for a run.
+    """Empirical reference curves (Darendeli 2001, Hardin-Drnevich 1972, Menq 2003) for a run.
 
-    Darendeli (2001) and Hardin-Drnevich (1972) curves at the run's mean stress, over
-    the strain range of the model's amplitudes (a decade either side of a single one).
+    Darendeli (2001), Hardin-Drnevich (1972) and Menq (2003) curves at the run's mean
+    stress, over the strain range of the model's amplitudes (a decade either side of a
+    single one). Menq's takes the coefficient of uniformity and D50 of
+    ``out.reference`` (the grains the run used, ``[reference]`` keys or the default:
+    :func:`grainmech.jobs.prepare_run`).
 
-    Both are empirical end to end: neither reference strain uses the model's Gmax.
+    All are empirical end to end: no reference strain uses the model's Gmax.
     Darendeli's ``gamma_r`` comes from his correlation (mean stress, PI, OCR; Table 8.12);
     Hardin-Drnevich's ``gamma_r = tau_max / Gmax`` takes ``tau_max = p sin(phi')`` and the
     Gmax of Hardin's correlation for angular grains at the run's void ratio and mean stress
@@ -87,7 +99,7 @@ def _reference_curves(out: Any) -> dict:
     hd = hardin_drnevich_reference(out.pressure, ref["phi"], g_hd, ref["n_cycles"])
     hd_r, hd_d = hardin_drnevich(gam, hd.gamma_r, hd.d_max)
     return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d,
-            "hd_gmax": g_hd, "hd_gmax_source": source}
+            "hd_gmax": g_hd, "hd_gmax_source": source, "menq": _menq(out, gam)}
 
 
 def amplitude_csv_name(amplitude: float) -> str:
@@ -183,8 +195,12 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         # jobs.cyclic_envelope of each amplitude's run)
         env_i = (o.envelope[i] if i < len(o.envelope) else None) if cyclic else env
         if env_i is not None and len(env_i["ratio"]) == len(rows):
-            cols = cols + ["stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"]
-            rows = np.hstack([rows, env_i["ratio"][:, None], env_i["beyond"][:, None].astype(float)])
+            # sigma1/sigma3 is unbounded where sigma3 <= 0: an empty cell (write_csv) and a flag, never inf
+            unbounded = ~np.isfinite(np.asarray(env_i["ratio"], dtype=float))
+            cols = cols + ["stress_ratio_sigma1_sigma3 [-]", "stress_ratio_unbounded [0/1]",
+                           "beyond_sand_envelope [0/1]"]
+            rows = np.hstack([rows, env_i["ratio"][:, None], unbounded[:, None].astype(float),
+                              env_i["beyond"][:, None].astype(float)])
         write_csv(d / name, cols, rows)
         files.append(name)
     if cyclic and o.empirical_G_max:
@@ -211,20 +227,36 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         dp = o.mean_stress_change
         checks = _cyclic_checks(o)
         m.update(checks)
-        write_csv(d / f"{prefix}modulus_reduction.csv",
-                  ["shear_strain_amplitude [-]", "G [Pa]", "G_over_Gmax [-]", "damping [-]",
-                   "mean_stress_change [-]", "max_stress_ratio_sigma1_sigma3 [-]", "max_tau_over_sigma_zz [-]",
-                   "beyond_envelope [0/1]", "loop_stress_closure [-]", "loop_strain_closure [-]",
-                   "loop_asymmetry [-]", "loop_warning [0/1]"],
-                  zip(amps, G, ratio, Dm, dp, [e["max_ratio"] for e in o.envelope[:len(G)]],
-                      checks["max_tau_over_sigma_zz"], [int(b) for b in checks["beyond_envelope"]],
-                      [q.stress_closure for q in o.loop_quality], [q.strain_closure for q in o.loop_quality],
-                      [q.asymmetry for q in o.loop_quality], [int(w) for w in checks["loop_warning"]]))
+        mr_cols = ["shear_strain_amplitude [-]", "G [Pa]", "G_over_Gmax [-]", "damping [-]",
+                "mean_stress_change [-]", "max_stress_ratio_sigma1_sigma3 [-]", "max_tau_over_sigma_zz [-]",
+                "beyond_envelope [0/1]", "loop_stress_closure [-]", "loop_strain_closure [-]",
+                "loop_asymmetry [-]", "loop_warning [0/1]"]
+        mr_rows = [list(r) for r in zip(amps, G, ratio, Dm, dp, [e["max_ratio"] for e in o.envelope[:len(G)]],
+                                     checks["max_tau_over_sigma_zz"], [int(b) for b in checks["beyond_envelope"]],
+                                     [q.stress_closure for q in o.loop_quality],
+                                     [q.strain_closure for q in o.loop_quality],
+                                     [q.asymmetry for q in o.loop_quality], [int(w) for w in checks["loop_warning"]])]
+        menq = _menq(o, amps)
+        if menq is not None:  # Menq (2003) at the same amplitudes and mean stress, and its grading
+            mr_cols += ["menq_G_over_Gmax [-]", "menq_damping [-]", "menq_uniformity_coefficient [-]", "menq_d50 [m]"]
+            mr_rows = [r + [float(mg), float(md), menq.uniformity_coefficient, menq.d50]
+                    for r, mg, md in zip(mr_rows, menq.G_ratio, menq.damping)]
+            m.update(menq_G_over_Gmax=menq.G_ratio, menq_damping=menq.damping)
+        # sigma1/sigma3 unbounded (sigma3 <= 0): an empty cell (write_csv) and a flag; G/Gmax above 1 or
+        # a NaN: written, flagged and left out of the site-response curves
+        problems = o.value_problems
+        m["value_problems"] = problems
+        mr_cols += ["max_stress_ratio_unbounded [0/1]", "value_flag [0/1]"]
+        mr_rows = [r + [int(not np.isfinite(e["max_ratio"])), int(p is not None)]
+                   for r, e, p in zip(mr_rows, o.envelope[:len(G)], problems)]
+        write_csv(d / f"{prefix}modulus_reduction.csv", mr_cols, mr_rows)
         files.append(f"{prefix}modulus_reduction.csv")
         # the same curves for site-response tools (strain and damping as decimals); an
-        # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope
-
-        keep = ~o.beyond_envelope | bool(o.keep_beyond_envelope)
+        # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope, one
+        # whose G/Gmax or damping such a tool does not take (value_flag) never
+        keep = o.site_response_keep
+        odd = [f"{a:.1e} ({p})" for a, p in zip(amps, problems) if p]
+        left = o.beyond_envelope & (not o.keep_beyond_envelope)
         order = np.argsort(amps)
         order = order[keep[order]]
         if order.size and np.all(np.diff(amps[order]) > 0):
@@ -232,11 +264,13 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
                          g_max=o.G_max, source=f"grainmech run ({o.method} model): {source}, "
                                                f"mean stress {o.pressure:.6g} Pa"
                                                + (f"; amplitudes beyond the envelope of sands left out: "
-                                                  f"{', '.join(f'{a:.1e}' for a in amps[~keep])}"
-                                                  if not keep.all() else "")
+                                                  f"{', '.join(f'{a:.1e}' for a in amps[left])}"
+                                                  if left.any() else "")
                                                + ("; kept beyond the envelope of sands (keep_beyond_envelope): "
                                                   f"{', '.join(f'{a:.1e}' for a in amps[o.beyond_envelope])}"
-                                                  if o.keep_beyond_envelope and o.beyond_envelope.any() else ""))
+                                                  if o.keep_beyond_envelope and o.beyond_envelope.any() else "")
+                                               + (f"; left out, values a site-response program does not take: "
+                                                  f"{', '.join(odd)}" if odd else ""))
             files.append(f"{prefix}site_response_curves.csv")
         fig, ax = plots.subplots(figsize=(6.4, 4.8))
         plots.loops(o.completed_results, amps, ax=ax)
@@ -298,30 +332,38 @@ def _cyclic_checks(o: Any) -> dict:
 def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
     """Write ``modulus_reduction.png``: G/Gmax and damping with empirical references.
 
-    ``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001)
-    and Hardin-Drnevich (1972) at the run's mean stress (:func:`_reference_curves` of the
-    first model: both references are empirical, neither depends on the model).
+    ``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001),
+    Hardin-Drnevich (1972) and Menq (2003) at the run's mean stress
+    (:func:`_reference_curves` of the first model: the references are empirical, none
+    depends on the model).
     """
     first, _ = cyclic[0]
     refs = _reference_curves(first)
-    dar, hd, gam = refs["darendeli"], refs["hardin_drnevich"], refs["gamma"]
+    dar, hd, gam, menq = refs["darendeli"], refs["hardin_drnevich"], refs["gamma"], refs["menq"]
+    ref_g = {"Darendeli (2001)": (gam, dar.G_ratio), "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])}
+    ref_d = {"Darendeli (2001)": (gam, dar.damping), "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])}
+    if menq is not None:
+        ref_g["Menq (2003)"] = (gam, menq.G_ratio)
+        ref_d["Menq (2003)"] = (gam, menq.damping)
     fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
     for k, (o, m) in enumerate(cyclic):
         style, name = MODEL_STYLE[o.method] if compare else ("ko", "grainmech")
         last = k == len(cyclic) - 1
         hollow = m.get("beyond_envelope")
         plots.modulus_reduction(m["amplitudes"], m["G_over_Gmax"], ax=a1, label=name, style=style, hollow=hollow,
-                                references={"Darendeli (2001)": (gam, dar.G_ratio),
-                                            "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])} if last else None)
+                                references=ref_g if last else None)
         plots.damping(m["amplitudes"], m["damping"], ax=a2, label=name, style=style, hollow=hollow,
-                      references={"Darendeli (2001)": (gam, dar.damping),
-                                  "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])} if last else None)
+                      references=ref_d if last else None)
     fig.tight_layout()
     write_figure(d / "modulus_reduction.png", fig)
     summary["files"].append("modulus_reduction.png")
     summary.update(darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
                    hardin_drnevich_d_max=hd.d_max, hardin_drnevich_G_max_Pa=refs["hd_gmax"],
                    hardin_drnevich_G_max_source=refs["hd_gmax_source"])
+    if menq is not None:
+        summary.update(menq_gamma_r=menq.gamma_r, menq_curvature=menq.curvature, menq_d_min=menq.d_min,
+                       menq_masing_scaling=menq.masing_scaling, menq_uniformity_coefficient=menq.uniformity_coefficient,
+                       menq_d50_m=menq.d50, menq_grading_source=first.reference["grading_source"])
 
 
 def _ratio_text(r: Any) -> str:
@@ -405,6 +447,8 @@ def _model_details(m: dict) -> str:
                  f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
                  f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "
                  "(column equilibrium_residual).</p>")
+    if det and m["method"] != "dem":  # the DEM model's notes are above, with its grains
+        head += "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", []))
     if det and "amplitudes_note" in det:
         head += f"<p>Amplitudes: {html.escape(str(det['amplitudes_note']))}.</p>"
     sg = m.get("strength")
@@ -508,22 +552,32 @@ def _path_part(d: Path, summary: dict, m: dict, compare: bool, pre: str, section
 
 
 def _curves_section(d: Path, summary: dict, compare: bool) -> Any:
-    """The section of the modulus-reduction and damping curves with the two empirical references."""
+    """The section of the modulus-reduction and damping curves with the empirical references."""
+    menq = "menq_gamma_r" in summary
+    menq_text = ("; and Menq (2003), clean sands and gravels, "
+                 f"gamma_r = {summary['menq_gamma_r']:.3g} ({100 * summary['menq_gamma_r']:.4f} %), curvature "
+                 f"a = {summary['menq_curvature']:.3f}, D_min = {100 * summary['menq_d_min']:.2f} %, for "
+                 f"Cu = {summary['menq_uniformity_coefficient']:.3g} and "
+                 f"D50 = {1e3 * summary['menq_d50_m']:.3g} mm ({summary['menq_grading_source']}; columns "
+                 "menq_* of modulus_reduction.csv give it at the model's amplitudes)") if menq else ""
+    n_refs, every = ("three", "All three reference strains") if menq else ("two", "Both reference strains")
     return PageSection("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
                        "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
                        "amplitude" + (" for each model" if compare else "")
-                       + " (markers; strain as a decimal, 1e-3 = 0.1 %), with two empirical "
+                       + f" (markers; strain as a decimal, 1e-3 = 0.1 %), with {n_refs} empirical "
                        "reference curves for a sand at the same mean stress over the same strain range. "
-                       "Both reference strains come from correlations, not from the model: Darendeli "
+                       f"{every} come from correlations, not from the model: Darendeli "
                        f"(2001) gamma_r = {summary['darendeli_gamma_r']:.3g} "
-                       f"({100 * summary['darendeli_gamma_r']:.4f} %), and Hardin-Drnevich (1972) "
+                       f"({100 * summary['darendeli_gamma_r']:.4f} %), "
+                       + ("" if menq else "and ")
+                       + "Hardin-Drnevich (1972) "
                        f"gamma_r = tau_max/Gmax = {summary['hardin_drnevich_gamma_r']:.3g} "
                        f"({100 * summary['hardin_drnevich_gamma_r']:.4f} %) with tau_max = p sin(phi') and "
                        f"Gmax = {summary['hardin_drnevich_G_max_Pa']:.4g} Pa from "
                        f"{summary['hardin_drnevich_G_max_source']}, "
-                       f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %. The model's G/Gmax is "
-                       "normalised by its own Gmax; a model that is too stiff shows against both "
-                       "references alike.",
+                       f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %{menq_text}. The model's G/Gmax is "
+                       "normalised by its own Gmax; a model that is too stiff shows against "
+                       f"{'all' if menq else 'both'} references alike.",
                        ("modulus_reduction.png",))
 
 

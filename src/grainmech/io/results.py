@@ -96,19 +96,36 @@ def write_json(path: str | Path, obj: Any) -> Path:
     return atomic_write(path, lambda fh: json.dump(_jsonable(obj), fh, indent=2))
 
 
+def _cell(v: Any) -> Any:
+    """A CSV cell: floats to 10 digits; NaN and infinities as an empty cell (a column beside says why)."""
+    if isinstance(v, (float, np.floating)):
+        return f"{v:.10g}" if np.isfinite(v) else ""
+    return v
+
+
 def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> Path:
-    """Write a CSV file (one ``header`` row, then ``rows``) atomically."""
+    """Write a CSV file (one ``header`` row, then ``rows``) atomically.
+
+    A value that is not finite (NaN, an unbounded ratio) is written as an empty cell,
+    never as ``nan`` or ``inf``: where it can occur the table has a flag column saying why.
+    """
     def w(fh: Any) -> None:
         wr = csv.writer(fh)
         wr.writerow(header)
         for r in rows:
-            wr.writerow([f"{v:.10g}" if isinstance(v, (float, np.floating)) else v for v in r])
+            wr.writerow([_cell(v) for v in r])
     return atomic_write(path, w)
 
 
 def write_figure(path: str | Path, fig: Any, dpi: int = 120) -> Path:
     """A matplotlib figure as PNG (atomically); a pyplot figure is closed afterwards."""
-    p = atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=dpi), binary=True)
+    import matplotlib
+
+    def save(fh: Any) -> None:
+        # long lines (a million recorded states) in chunks: Agg refuses one path of that size
+        with matplotlib.rc_context({"agg.path.chunksize": 10_000}):
+            fig.savefig(fh, format="png", dpi=dpi)
+    p = atomic_write(path, save, binary=True)
     if getattr(getattr(fig, "canvas", None), "manager", None) is not None:  # made by pyplot
         import matplotlib.pyplot as plt
 

@@ -24,6 +24,7 @@ Angles must carry their unit (``"24 deg"``); a bare angle is an error.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,8 @@ from typing import Any
 import numpy as np
 
 from grainmech import contact, fabric
-from grainmech.contact.forms import normal_law
+from grainmech.contact.forms import law_forms, normal_law
+from grainmech.contact.rolling import RollingResistance
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.fabric import CORRELATIONS, coordination_number, fit_density
 from grainmech.io.config import Section, read_text_file
@@ -41,7 +43,7 @@ from grainmech.material import Microstructure
 __all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress",
            "build_pressure", "check_pressure", "pressure_problem", "PRESSURE_MIN", "PRESSURE_MAX",
            "LAWS", "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial",
-           "ContactSegment"]
+           "ContactSegment", "build_rolling", "ROLLING_KEYS"]
 
 SEED_3D = ("a20", "a22", "b22")
 SEED_2D = ("a2", "b2", "a4", "b4")
@@ -60,8 +62,8 @@ def read_normals(path: str | Path, key: str = "fabric.normals") -> np.ndarray:
             arr = np.load(p, allow_pickle=False)
         except FileNotFoundError:
             raise ConfigError(key, str(path), "file not found") from None
-        except (OSError, ValueError) as exc:
-            raise ConfigError(key, str(path), f"cannot read the .npy file ({exc})") from None
+        except (OSError, ValueError, EOFError) as exc:
+            raise ConfigError(key, str(path), f"cannot read the .npy file ({type(exc).__name__}: {exc})") from None
         lines: list[int] | None = list(range(1, len(arr) + 1)) if np.ndim(arr) == 2 else None
     else:
         try:
@@ -147,6 +149,11 @@ def build_fabric(sec: Section, fit_report: dict | None = None) -> Any:
         return cls.from_seed(**vals)
 
 
+#: highest ``fabric.fit_order`` by dimension (3D: spherical harmonics, whose fit grows as the
+#: order's fourth power or so; 2D: a Fourier series, cheap)
+FIT_MAX_ORDER = {2: 64, 3: 16}
+
+
 def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
     raw = sec.raw("normals")
     if not isinstance(raw, str) or not raw.strip():
@@ -155,7 +162,11 @@ def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
     dim = sec.integer("dim", n.shape[1])
     if dim != n.shape[1]:
         raise ConfigError(sec.key("dim"), dim, f"but the normals in {raw} have {n.shape[1]} components")
+    top = FIT_MAX_ORDER[dim]
     order = sec.integer("fit_order", 2, min=2)
+    if order > top:
+        raise ConfigError(sec.key("fit_order"), order, f"must be <= {top} in {dim}D (time and memory: in 3D order 16 "
+                          "takes some 10 s, order 30 minutes; 2 and 4 describe measured fabrics)")
     if order % 2:
         raise ConfigError(sec.key("fit_order"), order, "must be even (the density of normals is centrosymmetric)")
     for k in (SEED_3D + SEED_2D + ("tensor",)):
@@ -324,6 +335,9 @@ PACKING_LAWS = ("linear", "hertz-mindlin", "mindlin-deresiewicz")
 #: keys renamed in the config schema: old key -> new key
 RENAMED = {"radius1": "radius"}
 
+#: the ``[contacts]`` keys of rolling and twisting resistance (:func:`build_rolling`)
+ROLLING_KEYS = ("rolling_friction", "rolling_stiffness", "twisting_friction")
+
 
 def _friction(sec: Section, required: bool) -> float:
     """Coulomb coefficient from ``friction`` (mu) or ``friction_angle`` (tan phi)."""
@@ -345,7 +359,8 @@ def _reversals(sec: Section) -> dict:
     return {"max_reversals": sec.integer("max_reversals", min=1)} if sec.has("max_reversals") else {}
 
 
-def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...] = PACKING_LAWS) -> Any:
+def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...] = PACKING_LAWS,
+              rolling: bool = False) -> Any:
     """Contact-law parameters (:mod:`grainmech.contact`) from a ``[contacts]``/``[contact]`` table.
 
     The one reader of a contact law for every command. Keys by ``law``:
@@ -370,6 +385,9 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
         body (``radius2``, ``shear_modulus2``, ``poisson2``).
     laws : tuple of str
         The laws this command accepts.
+    rolling : bool
+        Whether the command reads the rolling-resistance keys (:data:`ROLLING_KEYS`, read by
+        :func:`build_rolling`); without it they are an error naming the key.
 
     Raises
     ------
@@ -379,6 +397,11 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
     for old, new in RENAMED.items():
         if sec.has(old):
             raise ConfigError(sec.key(old), sec.data[old], f"renamed: write {new!r} (the grain radius)")
+    if not rolling:
+        for k in ROLLING_KEYS:
+            if sec.has(k):
+                raise ConfigError(sec.key(k), sec.data[k], "rolling and twisting resistance needs grain rotations: "
+                                  "it is read by grainmech run (packing and DEM models), not by this command")
     law = sec.choice("law", laws)
     if radius is not None and sec.has("radius"):
         raise ConfigError(sec.key("radius"), sec.data["radius"],
@@ -417,6 +440,70 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
         return make(contact.HertzMindlin, G, nu, R1, *second, friction=_friction(sec, False))
     mu = _friction(sec, True)
     return make(contact.MindlinDeresiewicz, G, nu, R1, *second, friction=mu, **_reversals(sec))
+
+
+def _dimensionless(sec: Section, k: str) -> float:
+    """A finite coefficient ``>= 0`` at ``k``, written as a plain number (no unit, no angle)."""
+    raw = sec.raw(k)
+    if isinstance(raw, str):
+        try:
+            float(raw.strip())
+        except ValueError:
+            raise ConfigError(sec.key(k), raw, "is a dimensionless coefficient (|M| <= mu R* N): write a plain "
+                              "number, without a unit") from None
+    return sec.number(k, None, min=0)
+
+
+def build_rolling(sec: Section, law: Any) -> RollingResistance | None:
+    """Rolling and twisting resistance from the ``[contacts]`` table, or None.
+
+    Keys (all optional; :mod:`grainmech.contact.rolling`):
+
+    * ``rolling_friction``: ``mu_r >= 0`` (dimensionless): ``|M_r| <= mu_r R* N``;
+      required when either other key is given;
+    * ``rolling_stiffness``: ``k_roll > 0`` [N/m] (rolling moment stiffness
+      ``k_roll R*^2``); omitted: the Mindlin tangential stiffness ``8 G* a`` at the packing's
+      mean contact force (Iwashita & Oda 1998), or ``ks`` of linear springs;
+    * ``twisting_friction``: ``mu_t >= 0``: ``|M_t| <= mu_t R̄* N``; omitted: ``mu_r``.
+
+    Returns None when the keys are absent or resist nothing (``mu_r = 0`` and ``mu_t = 0``):
+    a run is then exactly the run without them.
+
+    Raises
+    ------
+    ConfigError
+        Naming the key and value: a negative, non-finite or unit-carrying coefficient, a
+        stiffness <= 0, or a law that cannot carry contact moments (rods: ``'cylinder'``;
+        the frictionless ``'hertz'``; linear springs with ``ks = 0`` and no
+        ``rolling_stiffness``).
+    """
+    given = [k for k in ROLLING_KEYS if sec.has(k)]
+    if not given:
+        return None
+    if not sec.has("rolling_friction"):
+        k = given[0]
+        raise ConfigError(sec.key(k), sec.data[k], "needs contacts.rolling_friction (mu_r; 0 for twisting "
+                          "resistance alone)")
+    mu_r = _dimensionless(sec, "rolling_friction")
+    k_roll = sec.number("rolling_stiffness", "N/m", None, min=0, min_inclusive=False)
+    mu_t = _dimensionless(sec, "twisting_friction") if sec.has("twisting_friction") else None
+    first = given[0]
+    forms = law_forms(law)
+    name = sec.data.get("law")
+    if normal_law(law) == "cylinder":
+        raise ConfigError(sec.key(first), sec.data[first], f"law = {name!r} (rods, forces per unit length) "
+                          "carries no contact moments: rolling resistance is for spheres "
+                          "('hertz-mindlin', 'mindlin-deresiewicz' or 'linear')")
+    if forms.kind == "frictionless":
+        raise ConfigError(sec.key(first), sec.data[first], f"law = {name!r} is frictionless (no tangential "
+                          "spring): rolling resistance needs a frictional law ('hertz-mindlin' or "
+                          "'mindlin-deresiewicz')")
+    if forms.linear and not law.ks > 0 and k_roll is None:
+        raise ConfigError(sec.key(first), sec.data[first], "law = 'linear' with ks = 0 has no tangential "
+                          "stiffness to tie the rolling stiffness to: give contacts.rolling_stiffness")
+    with sec.checked():
+        rr = RollingResistance(mu_r, k_roll, mu_t)
+    return rr if rr.active else None
 
 
 # ------------------------------------------------------------------ a single contact's path
@@ -527,6 +614,17 @@ class PackConfig:
     settings: Any
 
 
+#: most grains ``grainmech pack`` prepares (LAMMPS on one machine: memory and days beyond)
+PACK_MAX_GRAINS = 1_000_000
+#: largest ``[grains] max_size_ratio``: LAMMPS' neighbour bins follow the largest grain and the
+#: time step the smallest, so a wide ratio multiplies both a small grain's neighbours and the time steps
+PACK_MAX_SIZE_RATIO = 10.0
+#: grain diameters a config may give [m] (1 micrometre to 1 m)
+GRAIN_SIZE_RANGE = (1e-6, 1.0)
+#: grain shear moduli LAMMPS is given [Pa]: soft polymer beads (1 MPa) to diamond (~0.5 TPa)
+GRAIN_SHEAR_MODULUS_RANGE = (1e6, 1e12)
+
+
 def build_pack_config(cfg: dict) -> PackConfig:
     """Read a ``grainmech pack`` config (``docs/packing.md``).
 
@@ -537,9 +635,14 @@ def build_pack_config(cfg: dict) -> PackConfig:
     lengths, and ``passing``, percent) | ``"d50-cu"`` (``d50``, ``cu``) | ``"uniform"``
     (``radius``, ``spread`` in [0, 1)), ``max_size_ratio`` (4), ``seed`` (1).
     ``[material]``: ``name`` (``"quartz"`` | ``"glass"``, the defaults of the other keys),
-    ``shear_modulus``, ``poisson``, ``density``, ``friction``, ``restitution``.
+    ``shear_modulus``, ``poisson``, ``density``, ``friction``, ``restitution``, and the
+    grains' rolling resistance ``rolling_friction``, ``rolling_stiffness``,
+    ``twisting_friction`` (as in ``[contacts]`` of a run, :func:`build_rolling`; it acts
+    with the grain friction).
     ``[preparation]``: ``stress`` (one stress or three principal stresses, compression
-    positive, required), ``friction`` (preparation friction, default 0), ``unbalanced_tol``
+    positive, required), ``friction`` (preparation friction, default 0), ``rolling_friction``
+    (rolling friction during compression, with the preparation friction; default 0),
+    ``unbalanced_tol``
     (1e-5), ``stress_tol`` (0.005), ``max_steps``, ``threads`` (0 = all cores).
     """
     # imported on use: keeps grainmech.packing (about 0.1 s) out of `grainmech --help`
@@ -547,8 +650,10 @@ def build_pack_config(cfg: dict) -> PackConfig:
 
     root = Section(cfg, "")
     g = root.section("grains")
-    n = g.integer("count", min=50)
+    n = g.integer("count", min=50, max=PACK_MAX_GRAINS)
     kind = g.choice("distribution", ("sieve", "d50-cu", "uniform"))
+    lo_d, hi_d = GRAIN_SIZE_RANGE
+    ratio = g.number("max_size_ratio", None, 4.0, min=1, min_inclusive=False, max=PACK_MAX_SIZE_RATIO)
     if kind == "sieve":
         sizes, passing = g.raw("sizes"), g.raw("passing")
         for k, v in (("sizes", sizes), ("passing", passing)):
@@ -556,34 +661,56 @@ def build_pack_config(cfg: dict) -> PackConfig:
                 raise ConfigError(g.key(k), v, "expected a list of at least two values")
         d = [to_float(v, "m", f"{g.key('sizes')}[{i}]") for i, v in enumerate(sizes)]
         p = [to_float(v, None, f"{g.key('passing')}[{i}]") for i, v in enumerate(passing)]
+        for i, di in enumerate(d):
+            if not lo_d <= di <= hi_d:
+                raise ConfigError(f"{g.key('sizes')}[{i}]", sizes[i], f"must lie in [{lo_d:g} m, {hi_d:g} m] "
+                                  "(grain sizes)")
         try:
             grading: Any = SieveCurve(d, p, key=g.name)
         except ParameterError as exc:  # the grading names its keys as g.key(...)
             raise ConfigError(exc.name, exc.value, exc.problem) from None
     elif kind == "d50-cu":
-        grading = D50Cu(g.number("d50", "m", min=0, min_inclusive=False), g.number("cu", None, min=1),
+        # Cu of soils: 1 (one size) to some tens (well-graded gravels); beyond 100 the top of the
+        # distribution a packing keeps (D_max / max_size_ratio ... D_max) holds no mass
+        grading = D50Cu(g.number("d50", "m", min=lo_d, max=hi_d), g.number("cu", None, min=1, max=100),
                         key=g.name)
     else:
-        grading = UniformRadius(g.number("radius", "m", min=0, min_inclusive=False),
-                                g.number("spread", None, 0.0, min=0, max=1, max_inclusive=False), key=g.name)
-    ratio = g.number("max_size_ratio", None, 4.0, min=1, min_inclusive=False)
+        # R (1 - spread) ... R (1 + spread): a size ratio (1 + spread) / (1 - spread) <= max_size_ratio
+        top = (ratio - 1.0) / (ratio + 1.0)
+        spread = g.number("spread", None, 0.0, min=0, max=1, max_inclusive=False)
+        if spread > top:
+            raise ConfigError(g.key("spread"), g.raw("spread"), f"gives grains {(1 + spread) / (1 - spread):.3g} "
+                              f"times as large as the smallest, more than max_size_ratio = {ratio:g}: at most "
+                              f"{top:.4g} (or raise grains.max_size_ratio, up to {PACK_MAX_SIZE_RATIO:g})")
+        grading = UniformRadius(g.number("radius", "m", min=lo_d / 2, max=hi_d / 2), spread, key=g.name)
     seed = g.integer("seed", 1, min=0)
 
     m = root.section("material", {})
     mat = MATERIALS[m.choice("name", tuple(MATERIALS), "quartz")]
     fields: dict[str, Any] = {}
-    for k, unit, lo, hi in (("shear_modulus", "Pa", 0, None), ("poisson", None, -1, 0.5),
-                            ("density", "kg/m^3", 0, None), ("friction", None, 0, None),
+    # physical ranges: shear moduli from soft polymer beads (1 MPa) to diamond (~0.5 TPa);
+    # densities from foams (10 kg/m^3) to osmium (22 600 kg/m^3); friction coefficients to 10
+    # (84 deg: a contact that never slides)
+    for k, unit, lo, hi in (("shear_modulus", "Pa", *GRAIN_SHEAR_MODULUS_RANGE), ("poisson", None, -1, 0.5),
+                            ("density", "kg/m^3", 10, 30000), ("friction", None, 0, 10),
                             ("restitution", None, 0, 1)):
         if m.has(k):
-            fields[k] = m.number(k, unit, min=lo, max=hi, min_inclusive=k in ("friction",),
-                                 max_inclusive=k == "restitution")
+            fields[k] = m.number(k, unit, min=lo, max=hi, min_inclusive=k not in ("poisson", "restitution"),
+                                 max_inclusive=k != "poisson")
     try:
         mat = replace(mat, **fields)
     except ValueError as exc:
         raise ConfigError(m.name, fields, str(exc)) from None
+    from grainmech.packing.rolling import grain_law
+
+    rolling = build_rolling(m, grain_law(mat, 1.0))
+    if rolling is not None:
+        mat = replace(mat, rolling=rolling)
 
     pr = root.section("preparation")
+    if not pr.has("stress"):  # not "unknown key 'stress_tol' (did you mean 'stress'?)"
+        raise ConfigError(pr.key("stress"), None, "required key is missing (the stress the packing is brought to, "
+                          "e.g. stress = \"100 kPa\")")
     raw = pr.raw("stress")
     if isinstance(raw, list):
         if len(raw) != 3:
@@ -598,15 +725,17 @@ def build_pack_config(cfg: dict) -> PackConfig:
     for sv in stress:
         check_pressure(sv, pr.key("stress"), raw)
     kw: dict[str, Any] = {}
-    kw["prep_friction"] = pr.number("friction", None, 0.0, min=0)
+    kw["prep_friction"] = pr.number("friction", None, 0.0, min=0, max=10)
+    if pr.has("rolling_friction"):
+        kw["prep_rolling"] = _dimensionless(pr, "rolling_friction")
     if pr.has("unbalanced_tol"):
         kw["unbalanced_tol"] = pr.number("unbalanced_tol", None, min=0, max=1, min_inclusive=False,
                                          max_inclusive=False)
     if pr.has("stress_tol"):
         kw["stress_tol"] = pr.number("stress_tol", None, min=0, max=1, min_inclusive=False, max_inclusive=False)
     if pr.has("max_steps"):
-        kw["max_steps"] = pr.integer("max_steps", min=1000)
-    threads = pr.integer("threads", 0, min=0)
+        kw["max_steps"] = pr.integer("max_steps", min=1000, max=1_000_000_000)
+    threads = pr.integer("threads", 0, min=0, max=os.cpu_count() or 1)
     settings = PackSettings(stress, seed=seed, threads=threads or None, **kw)
     root.finish()
     return PackConfig(grading, n, ratio, mat, settings)

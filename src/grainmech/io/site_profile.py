@@ -6,6 +6,7 @@ Layout of the output folder (``docs/site-profile.md``)::
       layers/<NN-name>.json            one record per layer, written as the layer finishes (resume)
       curves/<NN-name>.csv             the model's G/Gmax and damping (site-response format)
       curves/<NN-name>-darendeli.csv   Darendeli (2001) at the layer's mean effective stress
+      curves/<NN-name>-menq.csv        Menq (2003) at the layer's mean effective stress and grading
       layers.csv                       one row per layer
       profile.png                      Vs, stresses, Gmax against depth; the curves of every layer
       response.png, response.csv       with [motion] and pystrata: both site-response runs
@@ -87,7 +88,9 @@ def write_layer_curves(folder: str | Path, rec: dict, source: str) -> list[str]:
 
     ``<slug>.csv``: the model's completed amplitudes, those beyond the envelope of sands
     left out (``site_curve`` of the record; no file if none is left);
-    ``<slug>-darendeli.csv``: Darendeli (2001) at the layer's mean effective stress.
+    ``<slug>-darendeli.csv``: Darendeli (2001) at the layer's mean effective stress;
+    ``<slug>-menq.csv``: Menq (2003) at the layer's mean effective stress and grading (a
+    record written without it, reused from an earlier run, has none).
     """
     folder = Path(folder)
     out = []
@@ -106,6 +109,14 @@ def write_layer_curves(folder: str | Path, rec: dict, source: str) -> list[str]:
                      source=f"Darendeli (2001) at mean effective stress {p:.6g} Pa ({d['mean_stress_atm']:.4g} atm), "
                      f"layer {rec['name']!r}")
         out.append(f"{rec['slug']}-darendeli.csv")
+    mq = rec.get("menq")
+    if mq:
+        i = mq["inputs"]
+        write_curves(folder / f"{rec['slug']}-menq.csv", mq["strain"], mq["G_ratio"], mq["damping"],
+                     source=f"Menq (2003) at mean effective stress {p:.6g} Pa ({mq['mean_stress_atm']:.4g} atm), "
+                     f"Cu = {i['uniformity_coefficient']:.4g}, D50 = {1e3 * i['d50_m']:.4g} mm "
+                     f"({i['grading_source']}), N = {i['n_cycles']:g}, layer {rec['name']!r}")
+        out.append(f"{rec['slug']}-menq.csv")
     return out
 
 
@@ -176,7 +187,9 @@ def write_site_page(folder: str | Path, summary: dict, records: list[dict], resp
              + _layer_table_html(records))
     sections = [PageSection("profile", "Profile and curves", folder / "profile.png",
                             "Vs, effective stresses and Gmax against depth; G/Gmax and damping of every layer "
-                            "(solid: the model; dashed: Darendeli 2001 at the layer's mean effective stress).",
+                            "(solid: the model; dashed: Darendeli 2001; dotted: Menq 2003, clean sands and "
+                            "gravels, at the coefficient of uniformity and D50 of the layer's grains or its "
+                            "[reference]; both at the layer's mean effective stress).",
                             files=["layers.csv"] + [f"curves/{f}" for f in summary.get("curve_files", [])])]
     if (folder / "response.png").exists():
         sections.append(PageSection("response", "Site response (pystrata, equivalent linear)", folder / "response.png",

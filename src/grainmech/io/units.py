@@ -68,6 +68,10 @@ def to_float(value: Any, unit: str | None, key: str) -> float:
             target = unit if unit else "dimensionless"
             if not isinstance(q, ureg.Quantity):  # e.g. "2" parsed as a plain number
                 q = ureg.Quantity(float(q), "dimensionless")
+            if not unit and q.units != ureg.dimensionless:
+                # pint counts angles and percent as dimensionless: "1 deg" would pass as 0.01745
+                raise ConfigError(key, value, f"is a dimensionless number: write it without a unit "
+                                  f"(got {format(q.units, '~') or str(q.units)!r})")
             try:
                 out = float(q.to(target).magnitude)
             except pint.errors.DimensionalityError:

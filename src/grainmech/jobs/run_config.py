@@ -11,16 +11,24 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis import MENQ_D50_MAX
 from grainmech.contact.forms import normal_law
 from grainmech.driver import concatenate, cycles, parse_mask, segment
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.fabric import LEBEDEV_ORDERS
 from grainmech.io.config import Section
 from grainmech.io.dem import read_network
-from grainmech.io.schema import GRAINS_PRESSURE_RANGE, build_fabric, build_law, build_packing, build_pressure
+from grainmech.io.schema import (
+    GRAINS_PRESSURE_RANGE,
+    build_fabric,
+    build_law,
+    build_packing,
+    build_pressure,
+    build_rolling,
+)
 from grainmech.io.units import to_float
 from grainmech.jobs.checks import input_warnings
-from grainmech.jobs.dem import _check_dem, _dem_settings, _read_dem_keys
+from grainmech.jobs.dem import _check_dem, _dem_settings, _read_dem_keys, _refuse_unused_dem_table
 from grainmech.jobs.spec import (
     CYCLIC_SIMPLE_SHEAR,
     GRAIN_METHODS,
@@ -28,11 +36,62 @@ from grainmech.jobs.spec import (
     RUN_TEST_KINDS,
     PackingSource,
     RunSpec,
+    MAX_DEM_STATES,
+    MAX_STATES,
     _read_amplitudes,
+    check_states,
 )
-from grainmech.packing import load_packing
+from grainmech.packing import load_packing, measured_grading
 
 __all__ = ["prepare_run"]
+
+
+#: the grading Menq's (2003) curve takes when the run has no grains and ``[reference]``
+#: gives none: coefficient of uniformity and D50 [m] of the shipped packings' sand
+#: (``grainmech.packing.shipped``: drawn from ``D50 = 0.3 mm``, ``Cu = 1.3``), a uniform
+#: clean quartz sand like those the default run's analytical microstructure describes
+DEFAULT_MENQ_GRADING = (1.3, 3e-4)
+
+
+def _menq_grading(ref: Any, spec: RunSpec) -> dict:
+    """``uniformity_coefficient``, ``d50`` [m] and their ``grading_source`` for Menq's curve.
+
+    A key of ``[reference]`` wins; else the grains the run used (``spec.grains``, or the
+    ``gmax_packing`` of an affine run) measured by mass (:func:`measured_grading`); else
+    :data:`DEFAULT_MENQ_GRADING`.
+    """
+    cu = ref.number("uniformity_coefficient", None, None, min=1)
+    d50 = ref.number("d50", "m", None, min=0, min_inclusive=False, max=MENQ_D50_MAX)
+    grains = spec.grains if spec.grains is not None else spec.gmax_grains
+    sources = {}
+    no_grains = "default (the shipped packings' sand; this run has no grains)"
+    measured, on_grains = None, ""
+    if grains is not None and grains.network.radii is not None:
+        measured = measured_grading(grains.network.radii)
+        on_grains = f"measured by mass on the {measured.n_grains} grains of {grains.label}"
+    elif grains is not None:
+        no_grains = f"default (the shipped packings' sand; the grains of {grains.label} have no radii)"
+    if cu is not None:
+        sources["uniformity_coefficient"] = "[reference] uniformity_coefficient"
+    elif measured is not None:
+        cu = measured.cu
+        sources["uniformity_coefficient"] = on_grains
+    else:
+        cu = DEFAULT_MENQ_GRADING[0]
+        sources["uniformity_coefficient"] = no_grains
+    if d50 is not None:
+        sources["d50"] = "[reference] d50"
+    elif measured is not None:
+        d50 = measured.d50
+        sources["d50"] = on_grains
+    else:
+        d50 = DEFAULT_MENQ_GRADING[1]
+        sources["d50"] = no_grains
+    if sources["uniformity_coefficient"] == sources["d50"]:
+        text = sources["d50"]
+    else:
+        text = f"Cu: {sources['uniformity_coefficient']}; D50: {sources['d50']}"
+    return {"uniformity_coefficient": float(cu), "d50": float(d50), "grading_source": text}
 
 
 #: keys of ``[model.packing_options]``: the packing model's small-strain bounds
@@ -64,6 +123,16 @@ def _read_packing_options(model: Any, methods: tuple) -> dict:
     return out
 
 
+def affine_rolling_note(rolling: Any) -> str:
+    """What the affine model says of rolling resistance: it is inert there (warning and note)."""
+    what = f"contacts.rolling_friction = {rolling.friction:g}"
+    if rolling.twisting_friction is not None:
+        what += f", contacts.twisting_friction = {rolling.twisting_friction:g}"
+    return (f"{what}: rolling and twisting resistance is inert in the affine model (every contact follows the "
+            "mean strain, so no grain rotates and no contact moment arises); the packing and DEM models "
+            "carry it")
+
+
 def _read_methods(model: Any) -> tuple:
     """``[model] method``: one of :data:`RUN_METHODS` or a list of them (default ``"affine"``)."""
     raw = model.raw("method", "affine")
@@ -93,8 +162,8 @@ class _GmaxKey:
         return self._m.key("gmax_packing" if k == "packing" else k)
 
 
-def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
-    """The packing of ``method = "packing"`` from the ``[model]`` table.
+def _read_grains(model: Any, base_dir: str | Path | None, who: str = "method = 'packing'") -> PackingSource:
+    """The packing of ``method = "packing"`` or ``"dem"`` from the ``[model]`` table.
 
     ``packing = "<name>"`` (a shipped packing, :func:`grainmech.packing.load_packing`) or
     ``network = "<file>"`` (a contact network :func:`grainmech.io.dem.read_network` reads;
@@ -103,7 +172,7 @@ def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
     has_name, has_file = model.has("packing"), model.has("network")
     if has_name == has_file:
         raise ConfigError(model.key("packing"), model.raw("packing", None),
-                          "method = 'packing' needs exactly one of model.packing (a shipped packing by name) "
+                          f"{who} needs exactly one of model.packing (a shipped packing by name) "
                           "or model.network (a contact-network file)")
     if has_name:
         name = model.raw("packing")
@@ -130,12 +199,22 @@ def _read_grains(model: Any, base_dir: str | Path | None) -> PackingSource:
         if contacts is None:  # has_file: model.network is given
             raise ConfigError(model.key("network"), None, "must be a file path")
         fmt = model.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto")
-        net = read_network(contacts, particles, format=fmt)
         label = str(model.raw("network"))
+        try:  # a missing, empty or truncated file: named by the key that names it
+            net = read_network(contacts, particles, format=fmt)
+        except (GrainmechError, OSError) as exc:
+            k = "particles" if particles is not None and _names(exc, particles) else "network"
+            why = str(exc) if isinstance(exc, GrainmechError) else f"{exc.strerror}: {exc.filename}"
+            raise ConfigError(model.key(k), model.raw(k), why) from None
     if net.dim != 3 or net.radii is None or not net.box.periodic.all():
         raise ConfigError(model.key("packing" if has_name else "network"), label,
                           "the packing driver needs a 3D periodic packing of spheres with radii")
     return PackingSource(label, net)
+
+
+def _names(exc: BaseException, path: Path) -> bool:
+    """Whether the error ``exc`` is about the file ``path`` (its message or filename names it)."""
+    return str(path) in str(exc) or str(getattr(exc, "filename", "")) == str(path)
 
 
 def _segments(sec: Any) -> Any:
@@ -158,7 +237,7 @@ def _segments(sec: Any) -> Any:
             if not isinstance(ch, list) or len(ch) != 6:
                 raise ConfigError(s.key("change"), ch, "must list 6 values (xx, yy, zz, yz, xz, xy)")
             change = [to_float(v, u, s.key("change")) for v, u in zip(ch, units)]
-            parts.append(segment(ctrl, change, s.integer("steps", min=1)))
+            parts.append(segment(ctrl, change, s.integer("steps", min=1, max=MAX_STATES)))
         else:
             d = s.raw("direction")
             if not isinstance(d, list) or len(d) != 6:
@@ -166,9 +245,13 @@ def _segments(sec: Any) -> Any:
             direction = [float(to_float(v, None, s.key("direction"))) for v in d]
             k = int(np.argmax(np.abs(direction)))
             amp = s.number("amplitude", units[k], min=0, min_inclusive=False)
-            parts.append(cycles(ctrl, direction, amp, s.integer("n_cycles", min=1),
-                                s.integer("steps_per_cycle", min=4),
-                                s.choice("waveform", ("triangle", "sine"), "triangle")))
+            n, per = s.integer("n_cycles", min=1, max=MAX_STATES), s.integer("steps_per_cycle", min=4, max=MAX_STATES)
+            check_states(s, ("n_cycles", "steps_per_cycle"), n, per, what="steps in this segment")
+            parts.append(cycles(ctrl, direction, amp, n, per, s.choice("waveform", ("triangle", "sine"), "triangle")))
+        total = sum(len(p) for p in parts)
+        if total > MAX_STATES:
+            raise ConfigError(sec.key("segments"), f"{total} steps", f"the path has more than {MAX_STATES:.0e} "
+                              "steps in all (memory and time)")
         s.finish()
     return concatenate(parts)
 
@@ -182,7 +265,10 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     root = Section(cfg, "")
     model = root.section("model", {})
     methods = _read_methods(model)
-    grains = _read_grains(model, base_dir) if any(m in methods for m in GRAIN_METHODS) else None
+    _refuse_unused_dem_table(model, methods)
+    grain_methods = [m for m in methods if m in GRAIN_METHODS]
+    grains = (_read_grains(model, base_dir, " and ".join(f"method = {m!r}" for m in grain_methods))
+              if grain_methods else None)
     gmax_grains = None
     if model.has("gmax_packing"):
         if any(m in methods for m in GRAIN_METHODS):
@@ -204,9 +290,10 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     if grains is not None and not lo <= pressure <= hi:
         raise ConfigError("initial.pressure", ini.raw("pressure"), f"is {pressure:.4g} Pa, outside the range a packing "
                           f"of grains is brought to ({lo:g} Pa to {hi:g} Pa) by method 'packing' or 'dem'")
+    contacts = root.section("contacts")
     if "affine" in methods:
         packing = build_packing(root.section("packing"), density, pressure)
-        law = build_law(root.section("contacts"), packing.radius)
+        law = build_law(contacts, packing.radius, rolling=True)
     else:
         if root.has("packing"):
             raise ConfigError("packing", cfg.get("packing"), "[packing] describes the affine model's "
@@ -216,7 +303,8 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         packing = None
         if grains is None:  # _read_grains gives the packing whenever 'packing' is a method
             raise ConfigError("model.method", list(methods), "the packing model needs model.packing or model.network")
-        law = build_law(root.section("contacts"), float(np.median(grains.network.require_radii("the packing model"))))
+        law = build_law(contacts, float(np.median(grains.network.require_radii("the packing model"))), rolling=True)
+    rolling = build_rolling(contacts, law)
     packing_law = None
     if grains is not None or gmax_grains is not None:
         if normal_law(law) not in ("hertz", "linear"):
@@ -248,12 +336,14 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     packing_options = _read_packing_options(model, methods)
     spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
                    methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains,
-                   packing_options=packing_options)
+                   packing_options=packing_options, rolling=rolling)
     pk = cfg.get("packing", {})
     if isinstance(pk, dict) and "void_ratio" in pk:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
     spec.friction = float(getattr(law, "friction", float("inf")))
     spec.warnings = input_warnings(cfg)
+    if rolling is not None and "affine" in methods:
+        spec.warnings.append(affine_rolling_note(rolling))
     if fit and ((fit["p_value"] is not None and fit["p_value"] < 0.01) or fit["shrink_factor"] < 1):
         spec.warnings.append(fit["summary"] + ": the fitted order does not describe the measured normals "
                              "well (raise fabric.fit_order, or check the file)")
@@ -267,8 +357,13 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             spec.packing_amplitudes = _read_amplitudes(model, "packing_amplitudes")
         _read_dem_keys(spec, model, methods)
         spec.keep_beyond_envelope = model.boolean("keep_beyond_envelope", False)
-        spec.n_cycles = test.integer("n_cycles", 2, min=2)
-        spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8)
+        spec.n_cycles = test.integer("n_cycles", 2, min=2, max=MAX_STATES)
+        spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8, max=MAX_STATES)
+        check_states(test, ("n_cycles", "steps_per_cycle"), spec.n_cycles, spec.steps_per_cycle)
+        if "dem" in methods:
+            check_states(test, ("n_cycles", "steps_per_cycle"), spec.n_cycles, spec.dem_steps_per_cycle,
+                         MAX_DEM_STATES, f"DEM states per amplitude (model.dem_steps_per_cycle = "
+                         f"{spec.dem_steps_per_cycle})")
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
         spec.constant = test.choice("constant", ("stress", "volume"), "stress")
         mu = float(getattr(packing_law, "friction", 0.0) or 0.0)
@@ -282,6 +377,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             n_cycles=ref.number("n_cycles", None, 10.0, min=0, min_inclusive=False),
             frequency=ref.number("frequency", "Hz", 1.0, min=0, min_inclusive=False),
             phi=ref.angle("friction_angle", float(np.radians(33.0)), max_deg=90.0))
+        spec.reference.update(_menq_grading(ref, spec))
         root.finish()
         return spec
     for k in ("packing_amplitudes", "dem_amplitudes", "dem_steps_per_cycle", "keep_beyond_envelope"):

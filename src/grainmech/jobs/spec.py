@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.driver.dem import DEM_MAX_AMPLITUDE
 from grainmech.errors import ConfigError
 
 __all__ = ["CYCLIC_SIMPLE_SHEAR", "RUN_TEST_KINDS", "RUN_METHODS", "GRAIN_METHODS", "RunSpec", "PackingSource"]
@@ -29,11 +30,36 @@ RUN_TEST_KINDS = (CYCLIC_SIMPLE_SHEAR, "path")
 RUN_METHODS = ("affine", "packing", "dem")
 #: the methods that run on a packing of grains (``[model] packing`` or ``network``)
 GRAIN_METHODS = ("packing", "dem")
+#: largest strain amplitude of any model: the DEM model's (:data:`grainmech.driver.dem.DEM_MAX_AMPLITUDE`);
+#: the affine and packing models are small-strain models and stop well before it
+MAX_AMPLITUDE = DEM_MAX_AMPLITUDE
+#: most recorded states of one amplitude's cycles (``n_cycles * steps_per_cycle``) or of a
+#: path (the sum of its segments' steps): the step tables of one run stay within a few GB
+MAX_STATES = 1_000_000
+#: most recorded states of one DEM amplitude or path (each a LAMMPS relaxation of 0.1-1 s:
+#: beyond, a day per amplitude)
+MAX_DEM_STATES = 100_000
+
+
+def check_states(sec: Any, keys: tuple[str, str], n: int, steps: int, limit: int = MAX_STATES,
+                 what: str = "recorded states per amplitude") -> None:
+    """Refuse ``n * steps`` above ``limit``, naming both keys of ``sec`` and their values."""
+    if n * steps > limit:
+        a, b = keys
+        raise ConfigError(sec.key(b), steps, f"with {sec.key(a)} = {n}: {n * steps:.3g} {what}, more than "
+                          f"{limit:.0e} (memory and time); lower one of them")
 
 
 @dataclass
 class RunSpec:
-    """Objects read from a ``grainmech run`` config."""
+    """Objects read from a ``grainmech run`` config.
+
+    ``rolling``: the contacts' rolling and twisting resistance
+    (:class:`~grainmech.contact.rolling.RollingResistance`, ``[contacts]``
+    ``rolling_friction``, ``rolling_stiffness``, ``twisting_friction``), None when the
+    config has none or it resists nothing; the packing and DEM models carry it, the
+    affine model has no grain rotation (its run warns).
+    """
 
     kind: str
     packing: Any
@@ -63,6 +89,7 @@ class RunSpec:
     dem_workers: int = 1
     dem_handed: tuple | None = None
     dem_series: Any = None
+    rolling: Any = None
 
     def amplitudes_of(self, method: str) -> list[float]:
         """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
@@ -108,4 +135,9 @@ def _read_amplitudes(section: Any, key: str) -> list[float]:
         bad = [amps]
     if bad:
         raise ConfigError(section.key(key), amps, "every amplitude must be a positive strain")
+    big = [float(a) for a in amps if float(a) > MAX_AMPLITUDE]
+    if big:
+        raise ConfigError(section.key(key), amps, f"amplitude {big[0]:g} is beyond what any test reaches (at most "
+                          f"{MAX_AMPLITUDE:g}, the DEM model's): amplitudes are decimal strains, did you mean "
+                          f"{big[0]:g} % ({big[0] / 100:g})?")
     return [float(a) for a in amps]

@@ -133,6 +133,10 @@ class ContactNetwork:
         Contact stiffnesses given in the file [force/length].
     source : str
         Description of the origin (file names) for reports.
+    moment : array (C, 3) or None
+        Contact moment exerted by A on B (rolling and twisting resistance,
+        :mod:`grainmech.contact.rolling`: A receives ``-M``, B ``+M``) [force x length];
+        ``None``: the contacts carry no moments.
     """
 
     ids: np.ndarray
@@ -148,6 +152,7 @@ class ContactNetwork:
     kn: np.ndarray | None = None
     ks: np.ndarray | None = None
     source: str = ""
+    moment: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -164,9 +169,11 @@ class ContactNetwork:
             v = getattr(self, name)
             if v is not None and np.shape(v) != (C,):
                 raise GrainmechError(f"{name} must have shape ({C},), got {np.shape(v)}")
+        if self.moment is not None and np.shape(self.moment) != (C, 3):
+            raise GrainmechError(f"moment must have shape ({C}, 3), got {np.shape(self.moment)}")
         # the checks run over blocks of rows: whole-array temporaries (norm's squares are
         # (C, d) floats) would add 0.3x the kept arrays to the peak memory of a reader
-        for name in ("positions", "radii", "force", "branch", "overlap", "contact_point", "kn", "ks"):
+        for name in ("positions", "radii", "force", "branch", "overlap", "contact_point", "kn", "ks", "moment"):
             v = getattr(self, name)
             if v is None:
                 continue
@@ -254,4 +261,5 @@ class ContactNetwork:
 
         return ContactNetwork(self.ids, self.positions, self.radii, self.box, self.i[sel], self.j[sel],
                               self.force[sel], self.branch[sel], pick(self.overlap),
-                              pick(self.contact_point), pick(self.kn), pick(self.ks), self.source)
+                              pick(self.contact_point), pick(self.kn), pick(self.ks), self.source,
+                              pick(self.moment))

@@ -8,6 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
+from grainmech.contact.rolling import RollingConstants, rolling_elastic_stiffness
 from grainmech.errors import GrainmechError
 from grainmech.network import _solvers
 from grainmech.network.data import ContactNetwork
@@ -114,12 +115,20 @@ class _System:
 
 
 def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndarray, kn: np.ndarray,
-              ks: np.ndarray, rA: np.ndarray, rB: np.ndarray, rotations: bool) -> _System:
+              ks: np.ndarray, rA: np.ndarray, rB: np.ndarray, rotations: bool,
+              Km: np.ndarray | None = None) -> _System:
     """Per-contact blocks, coupling ``B`` and diagonal blocks of the relaxed stiffness.
 
     ``b`` unknowns per particle: ``2 d`` in 3D with rotations, ``d + 1`` in 2D with
     rotations, ``d`` without. Per-grain sums of per-contact blocks are sparse incidence
     products (grain x contact), which scale linearly.
+
+    ``Km`` (C, 3, 3), 3D with rotations only: the contacts' moment stiffness (rolling and
+    twisting resistance). Each contact's deformation then has six components, the
+    relative displacement and the relative rotation ``omega = theta_A - theta_B``
+    (``G_A = [[I, -[r_A]x], [0, I]]``, ``G_B = [[-I, [r_B]x], [0, -I]]``), with the
+    block-diagonal stiffness ``diag(K, Km)``; the strain moves no rotation (the affine
+    field ``-eps x`` has none), so ``E`` has zero rows there.
     """
     d = n.shape[1]
     b = 2 * d if (rotations and d == 3) else (d + 1 if rotations else d)
@@ -136,7 +145,20 @@ def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndar
         else:  # theta e_z x r = theta (-r_y, r_x)
             GA[:, 0, 2], GA[:, 1, 2] = -rA[:, 1], rA[:, 0]
             GB[:, 0, 2], GB[:, 1, 2] = rB[:, 1], -rB[:, 0]
-    KE = np.matmul(K, strain_map(l_))  # (C, d, m)
+    E = strain_map(l_)  # (C, d, m)
+    if Km is not None:
+        if not (rotations and d == 3):
+            raise GrainmechError("rolling resistance needs 3D grains with rotations")
+        GA = np.concatenate([GA, np.zeros((C, 3, b))], axis=1)
+        GB = np.concatenate([GB, np.zeros((C, 3, b))], axis=1)
+        GA[:, 3:, 3:] = np.eye(3)
+        GB[:, 3:, 3:] = -np.eye(3)
+        Kx = np.zeros((C, 6, 6))
+        Kx[:, :3, :3] = K
+        Kx[:, 3:, 3:] = Km
+        K = Kx
+        E = np.concatenate([E, np.zeros((C, 3, E.shape[2]))], axis=1)
+    KE = np.matmul(K, E)  # (C, d, m)
     m = KE.shape[2]
     one, cols = np.ones(C), np.arange(C)
     SA = sp.csr_matrix((one, (ci, cols)), shape=(P, C))
@@ -180,7 +202,7 @@ def _block_cg(sys_: _System, rhs: np.ndarray, n: np.ndarray, kn: np.ndarray, ks:
     """
     kernel = _cg_kernel()
     ref = 1e-6 * sys_.bref
-    if kernel is None or sys_.b != 6:
+    if kernel is None or sys_.b != 6 or sys_.K.shape[1] != 3:  # the kernel has no moment springs
         return _solvers.block_cg(sys_.hessian(), rhs, sys_.diag_blocks, tol, maxiter, ref,
                                  predict_after=predict_after)
     m = rhs.shape[1]
@@ -253,7 +275,7 @@ def _apply_hessian(sys_: _System, q: np.ndarray, n: np.ndarray, kn: np.ndarray, 
                    rA: np.ndarray, rB: np.ndarray) -> np.ndarray:
     """``H q`` for ``q`` (P b, m): matrix-free when compiled and ``H`` was not built."""
     kernel = _cg_kernel()
-    if sys_._H is not None or kernel is None or sys_.b != 6:
+    if sys_._H is not None or kernel is None or sys_.b != 6 or sys_.K.shape[1] != 3:
         return sys_.hessian() @ q
     m = q.shape[1]
     out = np.empty((sys_.P, 6, m))
@@ -410,7 +432,8 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
                       remove_rattlers: bool = True, min_contacts: int | None = None,
                       rotations: bool = True, geometric: bool = False, solver: str = "auto",
                       tol: float = 1e-7, maxiter: int = 20000,
-                      return_displacements: bool = False) -> RelaxedResult:
+                      return_displacements: bool = False,
+                      rolling: RollingConstants | None = None) -> RelaxedResult:
     """Relaxed (non-affine) small-strain stiffness of a contact network.
 
     Each particle ``p`` has a fluctuation ``q_p = (u_p, theta_p)`` on top of the affine
@@ -428,6 +451,16 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         ``C_relaxed = C_affine - (1/V) B^T H^+ B``
 
     (Lemaitre & Maloney 2006, Eq. 12; Agnolin & Roux 2007; Kruyt & Rothenburg 1998).
+    With rolling and twisting resistance (``rolling``) each contact also resists the
+    relative rotation ``omega_c = theta_A - theta_B`` of its grains with the elastic moment
+    stiffness ``K_m = k_roll R*^2 (I - n n) + k_twist n n``
+    (:func:`~grainmech.contact.rolling.rolling_elastic_stiffness`; Iwashita & Oda 1998,
+    Eq. 5; LAMMPS ``rolling sds`` / ``twisting sds``): the energy gains
+    ``(1/2V) sum_c omega_c^T K_m omega_c`` and the grains' rotational block of ``H`` gains
+    ``H_r^T K_m H_r``, ``H_r`` mapping the grains' rotations to ``omega``. The strain
+    does not enter ``omega``, so ``B`` and ``C_affine`` are unchanged and the rolling
+    springs can only stiffen ``C_relaxed``. The caps (``mu_r R* N``, ``c_twist N``) do
+    not act at zero strain: every ``mu_r > 0`` gives the same tensor.
     ``B`` lies in the range of ``H`` (a zero mode ``z`` has ``K G z = 0``), so the
     product does not depend on the zero modes: the global translation is pinned (one
     particle's translation fixed) and the remaining floppy modes (e.g. free rotations of
@@ -471,6 +504,13 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
         ``1e-6`` to 1e-10, ``docs/performance.md``).
     maxiter : int
         CG iteration cap.
+    rolling : RollingConstants, optional
+        Rolling and twisting resistance of the contacts
+        (:func:`~grainmech.contact.rolling.rolling_constants`), 3D with rotations; contacts
+        carrying no compressive force (``N <= 0`` when the network has forces) get no
+        moment stiffness. ``None`` or a resistance that resists nothing (``mu_r = 0`` and no
+        twisting cap) gives the tensor without it, identically. Solved by the NumPy block
+        CG or a factorisation (the compiled matrix-free CG has no moment springs).
 
     Returns
     -------
@@ -500,7 +540,11 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     rB = -RB[:, None] * n
     P = alive_idx.size
     knc, ksc = kn[csel], ks_e[csel]
-    sys_ = _assemble(P, ci, cj, n, l_, knc, ksc, rA, rB, rotations)
+    Km = None
+    if rolling is not None and (rolling.mu_roll > 0 or rolling.twist_cap > 0):
+        closed = net.normal_force[csel] > 0 if np.any(net.force) else np.ones(n.shape[0], bool)
+        Km = rolling_elastic_stiffness(rolling, n, RA * RB / (RA + RB), closed)
+    sys_ = _assemble(P, ci, cj, n, l_, knc, ksc, rA, rB, rotations, Km)
     b, B = sys_.b, sys_.B
     V = net.volume
     ndof = P * b

@@ -10,7 +10,7 @@ Modules
 -------
 * :mod:`~grainmech.packing.engine` - :class:`Lammps` (start, commands, errors).
 * :mod:`~grainmech.packing.grading` - :class:`SieveCurve`, :class:`D50Cu`,
-  :class:`UniformRadius`.
+  :class:`UniformRadius`; :func:`measured_grading` (``D50``, ``Cu`` of a set of grains).
 * :mod:`~grainmech.packing.shipped` - :func:`load_packing` (``"dense"``, ``"medium"``,
   ``"loose"``), :func:`packing_info`.
 * :mod:`~grainmech.packing.prepare` - :func:`prepare_packing`, :class:`GrainMaterial`
@@ -19,7 +19,7 @@ Modules
 
 from __future__ import annotations
 
-from grainmech.packing.grading import D50Cu, Sample, SieveCurve, UniformRadius
+from grainmech.packing.grading import D50Cu, MeasuredGrading, Sample, SieveCurve, UniformRadius, measured_grading
 from grainmech.packing.prepare import (
                                        GLASS,
                                        MATERIALS,
@@ -34,6 +34,7 @@ from grainmech.packing.prepare import (
 )
 from grainmech.packing.shipped import PACKINGS, load_packing, packing_info
 
-__all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "GrainMaterial", "QUARTZ", "GLASS",
+__all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "MeasuredGrading", "measured_grading",
+           "GrainMaterial", "QUARTZ", "GLASS",
            "MATERIALS", "PackSettings", "PackResult", "PreparationError", "prepare_packing", "packing_summary",
            "unbalanced_ratio", "PACKINGS", "load_packing", "packing_info"]

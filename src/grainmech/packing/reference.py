@@ -33,6 +33,7 @@ import numpy as np
 
 from grainmech.analysis.loops import loop_properties
 from grainmech.contact.geometry import hertz_kn, hertz_radius_from_approach
+from grainmech.contact.rolling import RollingConstants
 from grainmech.errors import GrainmechError
 from grainmech.network import ContactNetwork, network_stress
 from grainmech.packing.engine import Lammps
@@ -43,6 +44,7 @@ from grainmech.packing.prepare import (
     setup_lammps,
     unbalanced_ratio,
 )
+from grainmech.packing.rolling import rolling_pair_suffix
 
 __all__ = ["ProbeResult", "CyclicResult", "load_network", "relax", "strain_probes", "cyclic_simple_shear",
            "VOIGT_DEFORM"]
@@ -153,7 +155,8 @@ class _Session:
 
 
 def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: float = 0.01,
-                 safety: float = 0.07, cundall: float = 0.0, kinetic: bool = False) -> _Session:
+                 safety: float = 0.07, cundall: float = 0.0, kinetic: bool = False,
+                 rolling: RollingConstants | None = None) -> _Session:
     """Put a periodic network into LAMMPS with grainmech's granular model.
 
     Put a periodic network into LAMMPS with the granular model of
@@ -161,7 +164,10 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     (:func:`critical_time_step` times ``safety``) and the drags (``viscous`` times the contact
     frequency at the packing's stress; with ``cundall`` > 0 Cundall's local damping
     instead, :meth:`_Session.drags`; with ``kinetic``, kinetic damping,
-    :meth:`_Session.advance`).
+    :meth:`_Session.advance`). ``rolling``: rolling and twisting resistance (LAMMPS
+    ``rolling sds`` / ``twisting sds`` with the dashpots of
+    :func:`grainmech.packing.rolling.rolling_damping`); the springs start from zero
+    moment, as the tangential ones start from zero force.
     """
     if net.radii is None or not bool(np.all(net.box.periodic)):
         raise GrainmechError("a DEM reference run needs a periodic 3D packing with radii")
@@ -174,9 +180,10 @@ def load_network(lmp: Any, net: ContactNetwork, mat: GrainMaterial, *, viscous: 
     p = float(np.trace(np.asarray(network_stress(net).stress)) / 3.0)
     if not p > 0:
         raise GrainmechError("the packing carries no compressive stress")
-    setup_lammps(lmp, pos, net.radii, c, mat, mat.friction, p, ids=net.ids)
-    dt = critical_time_step(net.radii, mat, p, safety)
     rbar = float(np.mean(net.radii))
+    setup_lammps(lmp, pos, net.radii, c, mat, mat.friction, p, ids=net.ids,
+                 rolling=rolling_pair_suffix(rolling, rbar, mat.density))
+    dt = critical_time_step(net.radii, mat, p, safety)
     m_bar = mat.density * 4.0 / 3.0 * math.pi * rbar ** 3
     # Hertz stiffness of a mean contact: approach 2 rbar (p / E*)^(2/3), R* = rbar / 2 (seed Eq. 3.5, 3.7)
     kn = float(hertz_kn(hertz_radius_from_approach(2.0 * rbar * (p / mat.e_star) ** (2.0 / 3.0), 0.5 * rbar),
@@ -299,8 +306,12 @@ class ProbeResult:
 def strain_probes(net: ContactNetwork, mat: GrainMaterial, *, strain: float = 1e-6, tol: float = 1e-5,
                   ramp_steps: int = 2000, max_relax_steps: int = 200_000, viscous: float = 0.01,
                   settle: float = 1e-3, threads: int | None = None,
-                  progress: Progress | None = None) -> ProbeResult:
+                  progress: Progress | None = None, components: Sequence[int] = range(6),
+                  rolling: RollingConstants | None = None) -> ProbeResult:
     """Small-strain probes of the six strain components on a packing (module notes).
+
+    ``components``: the strain components probed (Voigt indices; the other columns of
+    ``C`` stay NaN); ``rolling``: rolling and twisting resistance (:func:`load_network`).
 
     Each component ``k``: from the relaxed reference state apply ``+strain`` (ramp, relax
     until the unbalanced force ratio is below ``tol`` and the stress changes over a chunk
@@ -318,16 +329,16 @@ def strain_probes(net: ContactNetwork, mat: GrainMaterial, *, strain: float = 1e
     """
     say = progress or (lambda m: None)
     t0 = time.perf_counter()
-    C = np.zeros((6, 6))
+    C = np.full((6, 6), np.nan)
     ubs = []
     with Lammps(threads) as lmp:
-        s = load_network(lmp, net, mat, viscous=viscous)
+        s = load_network(lmp, net, mat, viscous=viscous, rolling=rolling)
         ref, ub, n = relax(s, tol, max_relax_steps)
         ubs.append(ub)
         say(f"  reference state relaxed in {n} steps (unbalanced {ub:.2e})")
         sig0 = _voigt(np.asarray(network_stress(ref).stress))
         base = sig0
-        for k in range(6):
+        for k in components:
             de = np.zeros(6)
             de[k] = strain
             _ramp(s, de, ramp_steps)
@@ -342,7 +353,8 @@ def strain_probes(net: ContactNetwork, mat: GrainMaterial, *, strain: float = 1e
             say(f"  probe {k + 1}/6: C[{k},{k}] = {C[k, k]:.4g} Pa ({n} + {n2} relaxation steps, "
                 f"{time.perf_counter() - t0:.0f} s)")
     settings = {"strain": strain, "tol": tol, "settle": settle, "ramp_steps": ramp_steps, "viscous": viscous,
-                "time_step_s": s.dt, "restitution": mat.restitution}
+                "time_step_s": s.dt, "restitution": mat.restitution,
+                "rolling": None if rolling is None else rolling.source}
     return ProbeResult(C, strain, ref, sig0, np.array(ubs), settings, time.perf_counter() - t0)
 
 

@@ -3,9 +3,10 @@
 ``grainmech site PROFILE.toml`` (``docs/site-profile.md``): a profile of layers over a
 half-space (:func:`read_profile`, :func:`load_profile`), every layer's effective stresses
 at mid-depth, one ``grainmech run`` per layer at its mean effective stress (optionally
-anchored to a measured shear-wave velocity), Darendeli's (2001) curves beside, all layers
-on Dask with resume (:func:`run_site`), and with pystrata (extra ``site``) the
-equivalent-linear site response with both sets of curves (:mod:`grainmech.site.strata`).
+anchored to a measured shear-wave velocity), Darendeli's (2001) and Menq's (2003) curves
+beside, all layers on Dask with resume (:func:`run_site`), and with pystrata (extra
+``site``) the equivalent-linear site response with each set of curves
+(:mod:`grainmech.site.strata`).
 """
 
 from __future__ import annotations

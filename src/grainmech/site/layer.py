@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from grainmech import jobs
-from grainmech.analysis import condensed_modulus, darendeli
+from grainmech.analysis import condensed_modulus, darendeli, menq_curve
 from grainmech.contact.forms import normal_law
 from grainmech.driver import MaterialPoint
 from grainmech.errors import ConfigError, GrainmechError
@@ -42,11 +42,13 @@ from grainmech.jobs import CyclicOutcome, cyclic_control, packing_gmax, prepare_
 from grainmech.site.profile import GRAIN_MODULUS_RANGE, Layer
 
 __all__ = ["layer_config", "prepare_layer", "model_gmax", "anchor_task", "check_anchor", "run_task",
-           "layer_key", "DARENDELI_STRAINS", "ANCHOR_TOLERANCE"]
+           "layer_key", "DARENDELI_STRAINS", "MENQ_STRAINS", "ANCHOR_TOLERANCE"]
 
 #: strains [decimal] of the Darendeli (2001) curves written beside the model's
 #: (pystrata's default grid of ``DarendeliSoilType``: 1e-6 ... 10^-1.5, 20 points)
 DARENDELI_STRAINS = np.logspace(-6, -1.5, num=20)
+#: strains [decimal] of the Menq (2003) curves written beside the model's (the same grid)
+MENQ_STRAINS = DARENDELI_STRAINS
 #: relative difference between the anchored run's Gmax and rho vs^2 above which the
 #: record flags the anchoring
 ANCHOR_TOLERANCE = 0.01
@@ -158,6 +160,25 @@ def _darendeli(spec: Any, layer: Layer, amplitudes: np.ndarray) -> dict:
     return out
 
 
+def _menq(spec: Any, layer: Layer, amplitudes: np.ndarray) -> dict:
+    """Menq (2003) at the layer's mean effective stress, on its grid and at the model's amplitudes.
+
+    Its grading (coefficient of uniformity, D50) is the layer run's: measured on its grains,
+    from ``[reference]`` or the default (:func:`grainmech.jobs.prepare_run`).
+    """
+    ref = spec.reference or {}
+    cu, d50, n = float(ref["uniformity_coefficient"]), float(ref["d50"]), float(ref.get("n_cycles", 10.0))
+    inputs = {"uniformity_coefficient": cu, "d50_m": d50, "n_cycles": n, "grading_source": str(ref["grading_source"])}
+    grid = menq_curve(MENQ_STRAINS, layer.p_eff, cu, d50, n)
+    out = {"strain": MENQ_STRAINS.tolist(), "G_ratio": grid.G_ratio.tolist(), "damping": grid.damping.tolist(),
+           "gamma_r": float(grid.gamma_r), "curvature": grid.curvature, "d_min": float(grid.d_min),
+           "inputs": inputs, "mean_stress_atm": layer.p_eff / 101325.0}
+    if len(amplitudes):
+        at = menq_curve(amplitudes, layer.p_eff, cu, d50, n)
+        out.update(at_amplitudes_G_ratio=at.G_ratio.tolist(), at_amplitudes_damping=at.damping.tolist())
+    return out
+
+
 def layer_facts(layer: Layer) -> dict:
     """The layer's geometry and stresses (JSON-ready; units in the names)."""
     return {"index": layer.index, "name": layer.name, "slug": layer.slug, "top_m": layer.top,
@@ -196,12 +217,14 @@ def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
                G_max_Pa=g_max, vs_model_m_s=float(np.sqrt(g_max / layer.density)) if g_max > 0 else None,
                amplitudes=amps[order].tolist(), G_ratio=np.asarray(out.G_ratio)[order].tolist(),
                damping=np.asarray(out.damping)[order].tolist(),
-               darendeli=_darendeli(spec, layer, amps[order]), empirical_G_max=out.empirical_G_max,
+               darendeli=_darendeli(spec, layer, amps[order]), menq=_menq(spec, layer, amps[order]),
+               empirical_G_max=out.empirical_G_max,
                warnings=list(out.warnings), details={k: v for k, v in out.details.items() if k != "notes"},
                config=layer_config(layer, modulus))
     # the curves for site response: as grainmech run's site_response_curves.csv, an
-    # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope
-    keep = (~out.beyond_envelope | bool(out.keep_beyond_envelope))[order]
+    # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope, one whose
+    # G/Gmax or damping a site-response program does not take never (its warning says which)
+    keep = out.site_response_keep[order]
     rec["beyond_envelope"] = out.beyond_envelope[order].tolist()
     rec["site_curve"] = {"strain": amps[order][keep].tolist(),
                          "G_ratio": np.asarray(out.G_ratio)[order][keep].tolist(),

@@ -29,8 +29,9 @@ def response_note(profile: SiteProfile, response: dict | None, reason: str | Non
                 f"({', '.join(f'{v:.0f}' for v in response['vs_m_s'])} m/s; measured where given, else the "
                 f"model's) and half-space, input motion {m['file']} ({m['points']} points, dt = "
                 f"{m['time_step_s']:g} s, PGA {m['pga_g']:.3g} g, {m['location']}): surface response spectra "
-                "(5 % damping), maximum shear strain and PGA against depth, with grainmech's curves and with "
-                "pystrata's DarendeliSoilType. " + " ".join(response["warnings"]))
+                "(5 % damping), maximum shear strain and PGA against depth, with grainmech's curves, with "
+                "pystrata's DarendeliSoilType and with its MenqSoilType (Cu and D50 of each layer's grains or "
+                "[reference]). " + " ".join(response["warnings"]))
     if profile.motion is None:
         return ("No [motion] in the profile: the curve files in curves/ are what a site-response program reads "
                 "(docs/site-response.md has the pystrata recipe); add [motion] and [bedrock] to run pystrata here.")
@@ -60,7 +61,7 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
     if profile.motion is not None:
         reason = strata.pystrata_missing() if response else "switched off (--no-response)"
         if reason is None and motion is not None and profile.bedrock is not None:
-            say("grainmech site: pystrata equivalent-linear runs (grainmech's curves, Darendeli's)")
+            say("grainmech site: pystrata equivalent-linear runs (grainmech's curves, Darendeli's, Menq's)")
             res = strata.site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)
             files += write_response(stage, res)
             warnings += res["warnings"]

@@ -33,8 +33,9 @@ def profile_figure(records: list[dict], water_table: float) -> Any:
 
     Top row: Vs of the model (and the measured Vs where given) [m/s]; the effective
     vertical and mean stress at mid-depth [kPa]; Gmax of the model [MPa]. Bottom row:
-    G/Gmax and damping of every layer (solid, markers: the model; dashed: Darendeli 2001
-    at the layer's mean effective stress), coloured by the depth of the layer's middle.
+    G/Gmax and damping of every layer (solid, markers: the model; dashed: Darendeli 2001;
+    dotted: Menq 2003; both at the layer's mean effective stress), coloured by the depth of
+    the layer's middle.
     """
     import matplotlib.cm
     import matplotlib.colors
@@ -76,12 +77,17 @@ def profile_figure(records: list[dict], water_table: float) -> Any:
         if d:
             bottom[0].semilogx(d["strain"], d["G_ratio"], "--", color=c, lw=1)
             bottom[1].semilogx(d["strain"], np.asarray(d["damping"]) * 100, "--", color=c, lw=1)
+        mq = r.get("menq")
+        if mq:
+            bottom[0].semilogx(mq["strain"], mq["G_ratio"], ":", color=c, lw=1.2)
+            bottom[1].semilogx(mq["strain"], np.asarray(mq["damping"]) * 100, ":", color=c, lw=1.2)
     bottom[0].set_ylabel("G/Gmax")
     bottom[1].set_ylabel("damping [%]")
     for ax in bottom:
         ax.set_xlabel("shear strain amplitude [decimal]")
         ax.grid(alpha=0.3, which="both")
-    bottom[0].legend(fontsize=8, title="model (solid); Darendeli 2001 (dashed)", title_fontsize=8)
+    bottom[0].legend(fontsize=8, title="model (solid); Darendeli 2001 (dashed); Menq 2003 (dotted)",
+                     title_fontsize=8)
     fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=list(bottom), label="depth of layer middle [m]")
     fig.suptitle("Soil profile: stresses, Gmax and curves of every layer")
     return fig
@@ -91,11 +97,11 @@ def response_figure(response: dict) -> Any:
     """Site response of both runs on one page.
 
     Surface response spectra (5 % damping) [g], maximum shear strain [%] and PGA [g]
-    against depth, for grainmech's curves and Darendeli's (``response`` from
+    against depth, for grainmech's curves, Darendeli's and Menq's (``response`` from
     :func:`grainmech.site.strata.site_response`).
     """
     fig, ax = plots.subplots(1, 3, figsize=(14.0, 5.0))
-    styles = {"grainmech": ("C0", "-"), "darendeli": ("C3", "--")}
+    styles = {"grainmech": ("C0", "-"), "darendeli": ("C3", "--"), "menq": ("C2", ":")}
     for name, run in response["runs"].items():
         col, ls = styles.get(name, ("k", "-"))
         lab = run["label"]
@@ -117,6 +123,6 @@ def response_figure(response: dict) -> Any:
         a.grid(alpha=0.3, which="both")
         a.legend(fontsize=8)
     fig.suptitle(f"Equivalent-linear site response (pystrata {response.get('pystrata_version', '')}): "
-                 "grainmech's curves vs Darendeli's")
+                 "grainmech's curves vs Darendeli's and Menq's")
     fig.tight_layout()
     return fig

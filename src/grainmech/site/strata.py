@@ -1,6 +1,6 @@
 """Equivalent-linear site response with pystrata (optional extra ``site``).
 
-Two runs of pystrata's ``EquivalentLinearCalculator`` on the same profile (thicknesses,
+Three runs of pystrata's ``EquivalentLinearCalculator`` on the same profile (thicknesses,
 unit weights, shear-wave velocities, half-space) and the same input motion, differing
 only in the layers' nonlinear curves:
 
@@ -8,7 +8,10 @@ only in the layers' nonlinear curves:
   (``pystrata.site.SoilType`` with two ``NonlinearProperty`` curves; pystrata
   interpolates them linearly in log strain and holds the end values beyond them);
 * ``"darendeli"``: pystrata's own ``DarendeliSoilType`` (Darendeli 2001) at the layer's
-  mean effective stress (kPa), plasticity index, OCR, frequency and number of cycles.
+  mean effective stress (kPa), plasticity index, OCR, frequency and number of cycles;
+* ``"menq"``: pystrata's own ``MenqSoilType`` (Menq 2003, clean sands and gravels) at
+  the layer's mean effective stress (kPa), coefficient of uniformity, D50 (mm) and
+  number of cycles (the grading of the layer's run, :func:`grainmech.jobs.prepare_run`).
 
 The shear-wave velocity of a layer is its measured ``vs`` where given (the model is
 anchored to it), else the model's ``sqrt(Gmax / rho)``. Outputs: the 5 %-damped
@@ -56,6 +59,10 @@ def _soil(rec: dict, curves: str, reference: dict) -> Any:
         return pystrata.site.DarendeliSoilType(unit_wt=unit_wt, plas_index=ref.get("pi", 0.0),
                                                ocr=ref.get("ocr", 1.0), stress_mean=rec["p_eff_Pa"] / 1e3,
                                                freq=ref.get("frequency", 1.0), num_cycles=ref.get("n_cycles", 10.0))
+    if curves == "menq":
+        return pystrata.site.MenqSoilType(unit_wt=unit_wt, uniformity_coeff=reference["uniformity_coefficient"],
+                                          diam_mean=1e3 * reference["d50_m"], stress_mean=rec["p_eff_Pa"] / 1e3,
+                                          num_cycles=reference["n_cycles"])
     name = f"grainmech {rec['name']}"
     c = rec["site_curve"]
     strains = np.asarray(c["strain"], dtype=float)
@@ -72,12 +79,12 @@ def site_vs(rec: dict) -> float:
 def build_profile(records: list[dict], bedrock: Any, water_table: float, curves: str) -> Any:
     """A ``pystrata.site.Profile`` of the layer records over the half-space ``bedrock``.
 
-    ``curves`` is ``"grainmech"`` or ``"darendeli"``; thicknesses [m], unit weights
+    ``curves`` is ``"grainmech"``, ``"darendeli"`` or ``"menq"``; thicknesses [m], unit weights
     [kN/m^3], velocities [m/s] as pystrata takes them.
     """
     import pystrata
 
-    layers = [pystrata.site.Layer(_soil(r, curves, (r.get("darendeli") or {}).get("inputs", {})),
+    layers = [pystrata.site.Layer(_soil(r, curves, (r.get(curves) or {}).get("inputs", {})),
                                   r["thickness_m"], site_vs(r)) for r in records]
     rock = pystrata.site.SoilType("Rock", bedrock.unit_weight / 1e3, None, bedrock.damping)
     layers.append(pystrata.site.Layer(rock, 0, bedrock.vs))
@@ -136,7 +143,8 @@ def site_response(records: list[dict], bedrock: Any, water_table: float, motion:
 
     Returns a JSON-ready dict: ``pystrata_version``, ``motion`` (file, time step, points,
     PGA), ``vs_m_s`` (per layer), ``runs`` (``"grainmech"`` when every layer has curves,
-    and ``"darendeli"``: :func:`run_column`), ``warnings``.
+    ``"darendeli"``, and ``"menq"`` when every layer record has Menq's inputs:
+    :func:`run_column`), ``warnings``.
     """
     res: dict[str, Any] = {"pystrata_version": version("pystrata"),
                            "motion": {"file": motion.source, "description": motion.description,
@@ -157,4 +165,13 @@ def site_response(records: list[dict], bedrock: Any, water_table: float, motion:
     run["label"] = "Darendeli (2001), pystrata DarendeliSoilType"
     res["runs"]["darendeli"] = run
     res["input_spectrum_g"] = run["input_spectrum_g"]
+    no_menq = [r["name"] for r in records if not r.get("menq")]
+    if no_menq:
+        res["warnings"].append(f"no site response with Menq's curves: the record(s) of layer(s) {no_menq} were "
+                               "written without them (reused from an earlier run; delete their layers/*.json to "
+                               "run them again)")
+    else:
+        run = run_column(build_profile(records, bedrock, water_table, "menq"), motion, location)
+        run["label"] = "Menq (2003), pystrata MenqSoilType"
+        res["runs"]["menq"] = run
     return res
