@@ -120,7 +120,7 @@ def test_dem_consolidation_falls_back_to_kinetic_damping(dense, monkeypatch):
         network, notes, unbalanced, coordination = net, ["re-settled"], 5e-5, 4.0
 
         @classmethod
-        def start(cls, net, law, settings, pressure=None):  # noqa: ANN001, ANN206
+        def start(cls, net, law, settings, pressure=None, rolling=None):  # noqa: ANN001, ANN206
             seen.append(None if settings is None else settings.damping)
             if settings is None or settings.damping == "viscous":
                 raise GrainmechError("no equilibrium within max_relax_steps = 200000 time steps")

@@ -485,7 +485,7 @@ def test_elastic_tangent_from_the_factorisation_equals_gmres(packing):
     """``elastic_tangent`` from the factorised elastic operator (``(A0 - B0^T H0^-1 B0)/V``,
     no further solve) equals the GMRES condensation of the same operator to 1e-7, and the
     packing's relaxed C55 from ``relaxed_stiffness`` (independent assembly) to 1e-6."""
-    from grainmech.driver.packing import _relaxed_tangent
+    from grainmech.driver.packing.tangent import _relaxed_tangent
 
     pt = PackingPoint.from_network(packing, MD)
     C = pt.elastic_tangent

@@ -47,12 +47,12 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         f"void ratio {src.void_ratio:.3f}; equilibrium check and elastic factorisation")
     cyclic = spec.kind == CYCLIC_SIMPLE_SHEAR
     try:
-        pt = PackingPoint.from_network(net, spec.packing_law, options=opts)
+        pt = PackingPoint.from_network(net, spec.packing_law, options=opts, rolling=spec.rolling)
         p0 = float(np.mean(pt.stress[:3]))
         if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
             say(f"[packing] bringing the packing from p = {p0:.4g} Pa to {spec.pressure:.4g} Pa "
                 "(stress-controlled, every grain in equilibrium)")
-            pt = PackingPoint.at_stress(net, spec.packing_law, spec.pressure, options=opts)
+            pt = PackingPoint.at_stress(net, spec.packing_law, spec.pressure, options=opts, rolling=spec.rolling)
     except GrainmechError as exc:  # the other models' results still get written
         cls = CyclicOutcome if cyclic else PathOutcome
         return cls(kind=spec.kind, pressure=spec.pressure, results=[], success=False,
@@ -109,10 +109,10 @@ def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:
     # kernel variant in the first run
     opts = PackingOptions(law_backend="numpy", tangent="none")
     try:
-        pt = PackingPoint.from_network(src.network, spec.law, options=opts)
+        pt = PackingPoint.from_network(src.network, spec.law, options=opts, rolling=spec.rolling)
         p0 = float(np.mean(pt.stress[:3]))
         if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
-            pt = PackingPoint.at_stress(src.network, spec.law, spec.pressure, options=opts)
+            pt = PackingPoint.at_stress(src.network, spec.law, spec.pressure, options=opts, rolling=spec.rolling)
         g = condensed_modulus(pt.elastic_tangent, 4, [bool(b) for b in cyclic_control(spec.constant)])
     except GrainmechError as exc:
         out["error"] = f"preparing the packing failed: {exc}"

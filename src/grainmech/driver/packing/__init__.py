@@ -51,15 +51,8 @@ from grainmech.driver.packing.options import (  # noqa: F401 (re-exported: the n
     _check_params,
     _law_scale,
 )
-from grainmech.driver.packing.point import (  # noqa: F401
-    PackingPoint,
-    PackingResult,
-    _gap_pairs,
-    _relaxed_tangent,
-    _run,
-    run_packing,
-    unbalanced_force_ratio,
-)
+from grainmech.driver.packing.point import PackingPoint, PackingResult, _run, run_packing
+from grainmech.driver.packing.tangent import unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import Box, ContactNetwork, lattice_network
 

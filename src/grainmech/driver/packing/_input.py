@@ -10,6 +10,7 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from grainmech.contact import ContactState, state_from_approach, state_from_forces
 from grainmech.driver.packing.options import _law_scale
@@ -175,3 +176,34 @@ def _pin_first(grains: np.ndarray, net: ContactNetwork, carrying: np.ndarray, N:
     load = np.bincount(ends, np.tile(N[carrying], 2), net.n_particles)
     best = grains[np.lexsort((grains, -load[grains], -count[grains]))[0]]
     return np.concatenate([[best], grains[grains != best]])
+
+
+def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pairs of non-rattler grains not in contact whose gap is below ``gap`` times their mean radius."""
+    pos, R, box = net.positions, net.require_radii("tracking gap pairs"), net.box
+    idx = np.flatnonzero(alive)
+    if idx.size < 2 or gap <= 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))
+    cut = 2.0 * float(R[idx].max()) * (1.0 + gap)
+    if np.allclose(box.cell, np.diag(np.diag(box.cell))) and box.periodic.all():
+        L = np.diag(box.cell)
+        tree = cKDTree(np.mod(pos[idx] - box.origin, L), boxsize=L)
+        pr = tree.query_pairs(min(cut, 0.4999 * float(L.min())), output_type="ndarray")
+        I, J = idx[pr[:, 0]], idx[pr[:, 1]]
+    else:
+        if idx.size > 4000:
+            raise ParameterError("gap", gap, "gap-pair search in a non-orthogonal or non-periodic cell is "
+                              "limited to 4000 grains; use gap = 0")
+        I, J = np.triu_indices(idx.size, 1)
+        I, J = idx[I], idx[J]
+    br = box.minimum_image(pos[J] - pos[I])
+    d = np.linalg.norm(br, axis=1)
+    g = d - R[I] - R[J]
+    keep = (g > 0) & (g < gap * 0.5 * (R[I] + R[J]))
+    I, J, br = I[keep], J[keep], br[keep]
+    # drop pairs already listed as contacts
+    P = net.n_particles
+    listed = set((np.minimum(net.i, net.j) * P + np.maximum(net.i, net.j)).tolist())
+    key = np.minimum(I, J) * P + np.maximum(I, J)
+    new = np.array([k not in listed for k in key.tolist()], dtype=bool)
+    return I[new], J[new], br[new]

@@ -169,9 +169,9 @@ def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq
 
     ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)
     and ``r = (rq, re)`` the residual; ``roll``: the contact moments' part
-    (:class:`~grainmech.driver.packing._operators.RollingTangent`) or None. Right preconditioning by the factorised elastic
-    operator: GMRES minimises the true (scaled) residual of the linear model, not the
-    preconditioned one, which the near-singular directions of the elastic operator
+    (:class:`~grainmech.driver.packing._operators.RollingTangent`) or None. Right
+    preconditioning by the factorised elastic operator: GMRES minimises the true (scaled)
+    residual of the linear model, not the preconditioned one, which the near-singular directions of the elastic operator
     (mechanisms: grains that roll or slide freely) would dominate.
 
     Returns

@@ -20,7 +20,7 @@ import contextlib
 import ctypes
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -66,6 +66,12 @@ class Kinematics:
         Its transpose (CSR): out-of-balance forces and moments ``G^T f``.
     E : array (3C, 6)
         Affine map of the engineering strain.
+    Hr, Hrt : sparse (3C, n_free), (n_free, 3C) or None
+        Relative rotations of the contacts and their transpose (rolling resistance only).
+    Rs : array (C,)
+        Effective radius ``R_A R_B / (R_A + R_B)`` of each contact [length].
+    twisting : bool
+        The contacts resist the relative rotation along their normal too.
     """
 
     a: np.ndarray
@@ -79,7 +85,7 @@ class Kinematics:
     E: np.ndarray
     Hr: sp.csr_matrix | None = None
     Hrt: sp.csr_matrix | None = None
-    Rs: np.ndarray | None = None
+    Rs: np.ndarray = field(default_factory=lambda: np.zeros(0))
     twisting: bool = False
 
     @classmethod
@@ -114,7 +120,8 @@ class Kinematics:
             unit = np.zeros(6)
             unit[k] = 1.0
             E[:, :, k] = l_ @ strain_tensor(unit)
-        Hr = Hrt = Rs = None
+        Hr = Hrt = None
+        Rs = RA * RB / (RA + RB)
         if rolling:
             rows_r = (3 * np.arange(C)[:, None] + np.arange(3)).ravel()
             H = sp.csr_matrix((np.concatenate([np.ones(3 * C), -np.ones(3 * C)]),
@@ -124,7 +131,6 @@ class Kinematics:
                               shape=(3 * C, 6 * n_grains))
             Hr = H[:, free].tocsr()
             Hrt = Hr.T.tocsr()
-            Rs = RA * RB / (RA + RB)
         return cls(a, b, n, l_, int(n_grains), free, Gf, Gf.T.tocsr(), E.reshape(3 * C, 6), Hr, Hrt, Rs,
                    bool(rolling and twisting))
 

@@ -49,7 +49,7 @@ def isotropic_pressure(sigma: float | Sequence[float]) -> float | None:
 
 
 def dem_consolidated(net: ContactNetwork, law: Any, pressure: float,
-                     settings: Any | None = None) -> tuple[ContactNetwork, list[str]]:
+                     settings: Any | None = None, rolling: Any | None = None) -> tuple[ContactNetwork, list[str]]:
     """``net`` brought to the isotropic ``pressure`` [Pa] by the DEM model (module notes).
 
     Parameters
@@ -65,6 +65,9 @@ def dem_consolidated(net: ContactNetwork, law: Any, pressure: float,
         The DEM model's settings (relaxation tolerance, servo, damping). Default: the
         default settings, and if they do not settle the packing (a loose packing
         unloaded: the viscous drags leave it creeping), kinetic damping; the notes say so.
+    rolling : RollingResistance, optional
+        Rolling and twisting resistance of the grains in LAMMPS (the network returned
+        carries the contact moments).
 
     Returns
     -------
@@ -89,14 +92,14 @@ def dem_consolidated(net: ContactNetwork, law: Any, pressure: float,
                    if law_forms(law).kind == "md" else ""))
     tried: list[str] = []
     try:
-        dp = DemPoint.start(net, law, settings, pressure=pressure)
+        dp = DemPoint.start(net, law, settings, pressure=pressure, rolling=rolling)
     except GrainmechError as exc:
         if settings is not None:
             raise
         # the default drags leave a loose packing creeping when it is unloaded; kinetic
         # damping comes to rest there (docs/dem-model.md, "Relaxation")
         tried.append(f"with the viscous drags the DEM model did not settle ({exc}); it relaxed with kinetic damping")
-        dp = DemPoint.start(net, law, DemSettings(damping="kinetic"), pressure=pressure)
+        dp = DemPoint.start(net, law, DemSettings(damping="kinetic"), pressure=pressure, rolling=rolling)
     with dp:
         p = float(np.mean(dp.stress[:3]))
         out = dp.network

@@ -17,14 +17,13 @@ from functools import cached_property
 from typing import Any, cast
 
 import numpy as np
-import scipy.sparse.linalg as spla
-from scipy.spatial import cKDTree
 
 from grainmech.contact import (
     ContactState,
     update,
 )
 from grainmech.contact.forms import frictional as is_frictional
+from grainmech.contact.forms import normal_law
 from grainmech.contact.rolling import (
     RollingConstants,
     RollingResistance,
@@ -33,17 +32,14 @@ from grainmech.contact.rolling import (
     rolling_elastic_stiffness,
     rolling_update,
 )
-from grainmech.contact.forms import normal_law
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
 from grainmech.driver.loop import follow_path
-from grainmech.driver.packing._input import _check_network, _initial_state, _input_forces, _pin_first
-from grainmech.driver.packing._iterations import _grain_residuals
+from grainmech.driver.packing._input import _check_network, _gap_pairs, _initial_state, _input_forces, _pin_first
 from grainmech.driver.packing._operators import (
     Kinematics,
     Preconditioner,
     RollingTangent,
-    block_diagonal,
     contact_tangent,
     openblas_one_thread,
     voigt_of,
@@ -58,7 +54,8 @@ from grainmech.driver.packing.options import (
     _OutOfBudget,
     _StepFailure,
 )
-from grainmech.driver.packing.step import _held_load, _subdivided
+from grainmech.driver.packing.step import _subdivided
+from grainmech.driver.packing.tangent import _relaxed_tangent, unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork, rattlers
 from grainmech.packing.engine import lammps_available
@@ -67,37 +64,6 @@ from grainmech.packing.engine import lammps_available
 AT_STRESS_UNBALANCED = 1e-4
 
 __all__ = ["PackingPoint", "PackingResult", "run_packing", "unbalanced_force_ratio"]
-
-
-def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pairs of non-rattler grains not in contact whose gap is below ``gap`` times their mean radius."""
-    pos, R, box = net.positions, net.require_radii("tracking gap pairs"), net.box
-    idx = np.flatnonzero(alive)
-    if idx.size < 2 or gap <= 0:
-        return np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3))
-    cut = 2.0 * float(R[idx].max()) * (1.0 + gap)
-    if np.allclose(box.cell, np.diag(np.diag(box.cell))) and box.periodic.all():
-        L = np.diag(box.cell)
-        tree = cKDTree(np.mod(pos[idx] - box.origin, L), boxsize=L)
-        pr = tree.query_pairs(min(cut, 0.4999 * float(L.min())), output_type="ndarray")
-        I, J = idx[pr[:, 0]], idx[pr[:, 1]]
-    else:
-        if idx.size > 4000:
-            raise ParameterError("gap", gap, "gap-pair search in a non-orthogonal or non-periodic cell is "
-                              "limited to 4000 grains; use gap = 0")
-        I, J = np.triu_indices(idx.size, 1)
-        I, J = idx[I], idx[J]
-    br = box.minimum_image(pos[J] - pos[I])
-    d = np.linalg.norm(br, axis=1)
-    g = d - R[I] - R[J]
-    keep = (g > 0) & (g < gap * 0.5 * (R[I] + R[J]))
-    I, J, br = I[keep], J[keep], br[keep]
-    # drop pairs already listed as contacts
-    P = net.n_particles
-    listed = set((np.minimum(net.i, net.j) * P + np.maximum(net.i, net.j)).tolist())
-    key = np.minimum(I, J) * P + np.maximum(I, J)
-    new = np.array([k not in listed for k in key.tolist()], dtype=bool)
-    return I[new], J[new], br[new]
 
 
 @dataclass(frozen=True, eq=False)
@@ -219,9 +185,9 @@ class PackingPoint:
             :class:`RollingResistance` is resolved on this packing's contacts
             (:func:`~grainmech.contact.rolling.rolling_constants`); constants already
             resolved (e.g. those the DEM model used) are taken as they are. The contact
-            moments start at zero (a packing prepared with rolling resistance relaxes its
-            moments with its forces; its imbalance is then held as for any input). ``None``
-            or a zero coefficient: smooth spheres, today's results.
+            moments are the network's (``ContactNetwork.moment``, a DEM state read from
+            LAMMPS), else zero (the imbalance that leaves is held as for any input).
+            ``None`` or a zero coefficient: smooth spheres, today's results.
 
         Raises
         ------
@@ -274,12 +240,15 @@ class PackingPoint:
         f = resp0.normal_force[:, None] * nc + resp0.tangential_force
         roll: dict = {}
         if consts is not None:
-            notes.append(f"rolling resistance mu_r = {consts.mu_roll:g}, twisting cap {consts.twist_cap:.4g} m x N; "
-                         f"{consts.source}; contact moments start at zero")
             m0 = np.zeros((I.size, 3))
+            if net.moment is not None:  # the moments of the input (by A on B, as the forces)
+                m0[:Nk.size] = np.asarray(net.moment, float)[keep_c]
+            notes.append(f"rolling resistance mu_r = {consts.mu_roll:g}, twisting cap {consts.twist_cap:.4g} m x N; "
+                         f"{consts.source}; contact moments "
+                         + ("from the input" if net.moment is not None else "start at zero"))
             Nopen = np.where(np.asarray(resp0.open, bool), 0.0, resp0.normal_force)
             roll = {"rolling": consts, "moments": m0,
-                    "rolling_response": rolling_update(consts, nc, kin.Rs, Nopen, m0, m0)}
+                    "rolling_response": rolling_update(consts, nc, kin.Rs, Nopen, m0, np.zeros_like(m0))}
         pt = cls(net, params, kin, grains, net.radii[grains], rows, s, st0, resp0, f,
                  np.zeros((grains.size, 6)), np.zeros(6), voigt_of(f, br) / V, V, int(ratt.sum()),
                  np.concatenate([Nk > 0, np.zeros(gi.size, bool)]), tuple(notes), opts.law_backend,
@@ -357,7 +326,9 @@ class PackingPoint:
         if p is None:
             raise ParameterError("sigma", np.asarray(sigma).tolist(),
                                  "the DEM model brings a packing to an isotropic pressure only (a number or p I)")
-        new, notes = dem_consolidated(net, params, p, dem_settings)
+        rolling = from_network.get("rolling")
+        new, notes = dem_consolidated(net, params, p, dem_settings,
+                                      rolling if isinstance(rolling, RollingResistance) else None)
         pt = cls.from_network(new, params, options=options or PackingOptions(), **from_network)
         return replace(pt, notes=pt.notes + why + tuple(notes))
 
@@ -434,7 +405,9 @@ class PackingPoint:
         assert self.rolling_response is not None
         closed = ~np.asarray(self.response.open, bool)
         kn = np.where(closed, self.response.kn, 0.0) * self.scale
-        dmdN = np.zeros_like(self.rolling_response.dmoment_dnormal) if elastic else self.rolling_response.dmoment_dnormal
+        dmdN = self.rolling_response.dmoment_dnormal
+        if elastic:
+            dmdN = np.zeros_like(dmdN)
         return RollingTangent(self.kinematics, km[1 if elastic else 0], dmdN, kn)
 
     def out_of_balance(self) -> np.ndarray:
@@ -548,77 +521,6 @@ class PackingPoint:
         ic = self.initially_closed
         op = float(np.sum(ic & ~closed) / max(int(ic.sum()), 1))
         return sl, op
-
-
-def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
-    """Out-of-balance measure of a packing point.
-
-    ``kind="mean"``: mean over grains of ``sqrt(|F_p|^2 + (|M_p|/R_p)^2)`` over the mean
-    ``|f_c|`` of the force-carrying contacts (the usual DEM "unbalanced force ratio",
-    e.g. YADE's ``unbalancedForce``, with moments added); ``kind="max"``: the largest
-    of ``|F_p|``, ``|M_p|/R_p`` over the same mean (the driver's convergence measure).
-    Returns 0 for a packing without contact forces.
-    """
-    b = point.out_of_balance()
-    g = _grain_residuals(point.kinematics, b if point.load is None else b - _held_load(point, point.response))
-    fm = np.linalg.norm(point.forces, axis=1)
-    fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
-    if fmean == 0.0:
-        return 0.0
-    F = np.linalg.norm(g[:, :3], axis=1)
-    M = np.linalg.norm(g[:, 3:], axis=1) / point.radii
-    if kind == "max":
-        return float(max(F.max(), M.max()) / fmean)
-    return float(np.mean(np.hypot(F, M)) / fmean)
-
-
-def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False,
-                     direct: bool = True) -> np.ndarray:
-    """Relaxed tangent (6, 6) of ``point`` by GMRES per column.
-
-    With its consistent contact tangent, or with the elastic one (``elastic``); the
-    elastic one straight from the preconditioner's ``Y = H0^-1 B0`` when that solves this
-    point's operator (``direct``, see :attr:`PackingPoint.elastic_tangent`).
-    """
-    kin = point.kinematics
-    K = point.contact_stiffness()[1 if elastic else 0]
-    Kb = block_diagonal(K)
-    KE = Kb @ kin.E
-    B = kin.Gt @ KE
-    A = kin.E.T @ KE
-    rt = point.rolling_tangent(elastic)  # contact moments: grain moment balance only, not the stress
-
-    def hop(y: np.ndarray) -> np.ndarray:
-        d = kin.G @ y
-        out = kin.Gt @ (Kb @ d)
-        if rt is not None:
-            out = out + (rt.apply(y, d.reshape(-1, 3)) if y.ndim == 1 else
-                         np.stack([rt.apply(y[:, k], d[:, k].reshape(-1, 3)) for k in range(y.shape[1])], axis=1))
-        return out
-
-    if rt is not None:
-        B = B + rt.strain_columns()
-    if elastic and direct and prec.Y.shape == B.shape:
-        # the preconditioner factorised this operator (shifted) and holds Y = (H0 + S)^-1 B0:
-        # refined to H0^-1 B0 by CG with that factor, no further factorisation, when it
-        # solves this point's operator (PackingPoint.elastic_tangent)
-        Y = prec.exact_Y()[0]
-        R = hop(Y) - B
-        if np.all(np.linalg.norm(R, axis=0) <= 1e-8 * np.linalg.norm(B, axis=0)):
-            return (A - KE.T @ (kin.G @ Y)) / point.volume if rt is not None else (A - B.T @ Y) / point.volume
-    D = prec.dq
-    nq = kin.n_free
-    S0 = np.zeros(6, bool)
-    op = spla.LinearOperator((nq, nq), matvec=lambda y: D * hop(D * y), dtype=float)
-    pc = spla.LinearOperator((nq, nq), matvec=lambda z: prec.apply(z / D, np.zeros(0), S0)[0] / D, dtype=float)
-    X = np.zeros((nq, 6))
-    for k in range(6):
-        if not np.any(B[:, k]):
-            continue
-        y, _ = spla.gmres(op, D * B[:, k], rtol=1e-10, atol=0.0, restart=krylov_max, maxiter=3, M=pc)
-        X[:, k] = D * y
-    C = (A - (kin.E.T @ (Kb @ (kin.G @ X)))) / point.volume
-    return C
 
 
 def _stress_path(s0: np.ndarray, s1: np.ndarray, n_steps: int | None) -> LoadPath:

@@ -226,6 +226,7 @@ class _StepSolve:
             st, resp, f, rq, vs = self.fast.evaluate(point, xq, de)
         roll = None
         if point.rolling is not None:  # contact moments (grain moment balance; not in the stress)
+            assert point.moments is not None
             N = np.where(np.asarray(resp.open, bool), 0.0, resp.normal_force)
             roll = rolling_update(point.rolling, kin.n, kin.Rs, N, point.moments, kin.omega(xq))
             rq = rq + kin.moment_balance(roll.moment)
