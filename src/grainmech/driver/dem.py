@@ -61,9 +61,10 @@ import numpy as np
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact.rolling import RollingConstants, RollingResistance, rolling_constants
+from grainmech.driver._dem_flow import flow_step
 from grainmech.driver.base import DriverResult, Status, StepFailure
 from grainmech.driver.dem_mpi import Tick, run_dem_ranks
-from grainmech.driver.dem_settings import DAMPINGS, DEFAULT_DENSITY, DemSettings, dem_material
+from grainmech.driver.dem_settings import DAMPINGS, DEFAULT_DENSITY, PROTOCOLS, DemSettings, dem_material
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
@@ -76,7 +77,7 @@ from grainmech.packing.reference import RelaxationTimeout, _ramp, _Session, _voi
 from grainmech.packing.rolling import ROLLING_DAMPING
 
 __all__ = ["DemSettings", "DemPoint", "DemResult", "DemSeries", "dem_material", "run_dem", "dem_modulus_reduction",
-           "DEM_MAX_AMPLITUDE", "DAMPINGS", "DEFAULT_DENSITY"]
+           "DEM_MAX_AMPLITUDE", "DAMPINGS", "DEFAULT_DENSITY", "PROTOCOLS"]
 
 #: largest cyclic amplitude the DEM model accepts (cells tilt; beyond it a simple-shear
 #: cell of a 2000-grain packing is too thin for the shear band)
@@ -130,6 +131,9 @@ class DemPoint:
         self.n_contacts0 = net.n_contacts
         self.elastic_tangent = self._relaxed(net)
         self._K = self.elastic_tangent.copy()
+        self.mean_radius = float(np.mean(net.require_radii("the DEM model")))
+        self._flow = None  # the continuous protocol's cell rate and servo estimate
+        self.inertial = 0.0  # inertial number of the last increment (continuous protocol)
 
     # -- construction -------------------------------------------------------------------
     @classmethod
@@ -293,6 +297,15 @@ class DemPoint:
         target = np.asarray(target, float)
         start = self.stress.copy()
         st = self.settings
+        if st.protocol == "continuous":
+            try:
+                flow_step(self, d_e, sc, target)
+            except GrainmechError as exc:
+                raise exc if isinstance(exc, StepFailure) else StepFailure(str(exc)) from None
+            p = float(np.mean(self.stress[:3]))
+            if not sc[:3].any() and p <= (1.0 - st.liquefaction) * self.p0:
+                raise StepFailure(_liquefied(p, self.p0, "while shearing continuously"), Status.LIQUEFIED)
+            return self
         try:
             n_sub = self._substeps(d_e, sc, target, start)
             for i in range(1, n_sub):
@@ -485,7 +498,10 @@ class DemResult(DriverResult):
 
     Attributes
     ----------
-    unbalanced : (k+1,) unbalanced force ratio of every recorded equilibrium state
+    unbalanced : (k+1,) unbalanced force ratio of every recorded state (an equilibrium,
+        or a state of the flow with ``protocol = "continuous"``)
+    inertial : (k+1,) largest inertial number of the increment that led to each state
+        (0 for step and relax)
     coordination : (k+1,) coordination number ``2 C / P`` (all grains) of every state
     n_contacts : (k+1,) int, contacts of every state
     notes : tuple of str (contact law that ran, re-settling of the start state, ...)
@@ -503,6 +519,7 @@ class DemResult(DriverResult):
     notes: tuple = ()
     settings: dict = field(default_factory=dict)
     elastic_tangent: np.ndarray = field(default_factory=lambda: np.full((6, 6), np.nan))
+    inertial: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None = None, *,
@@ -541,7 +558,7 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
     _, notes = dem_material(law)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "sl", "op", "work", "stored", "sub", "it", "ub",
-                                             "z", "nc")}
+                                             "z", "nc", "I")}
     state = {"corr": 0, "steps": 0}
 
     def record(pt: DemPoint, k: int) -> None:
@@ -562,6 +579,7 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         rows["ub"].append(pt.unbalanced)
         rows["z"].append(pt.coordination)
         rows["nc"].append(pt.network.n_contacts)
+        rows["I"].append(pt.inertial)
 
     with DemPoint.start(net, law, st, pressure=pressure, tick=tick, rolling=rolling) as point:
         notes += point.notes
@@ -573,13 +591,17 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
                          f"damping within max_relax_steps = {st.max_relax_steps} time steps and were finished "
                          "under kinetic damping ([model.dem] fallback)")
     arr = {k: np.array(v) for k, v in rows.items()}
+    if st.protocol == "continuous" and len(arr["I"]) > 1:
+        notes.append(f"continuous shearing at inertial number {st.inertial_number:g} (largest of the path "
+                     f"{float(arr['I'].max()):.3g}); the recorded states are states of the flow (unbalanced force "
+                     f"ratio up to {float(arr['ub'][1:].max()):.3g})")
     n = len(arr["strain"])
     work = arr["work"]
     diss = work - (arr["stored"] - arr["stored"][0])
     return DemResult(success, int(status), message, arr["strain"], arr["stress"], np.full((n, 6, 6), np.nan),
                      arr["sl"], arr["op"], diss, work, arr["stored"], arr["sub"].astype(int), arr["it"].astype(int),
                      None, len(path), {}, arr["ub"], arr["z"], arr["nc"].astype(int), tuple(notes), st.as_dict(),
-                     tangent0)
+                     tangent0, arr["I"])
 
 
 def _worker_init() -> None:

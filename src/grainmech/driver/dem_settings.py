@@ -19,13 +19,15 @@ from grainmech.contact.forms import law_forms
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.packing.prepare import GrainMaterial
 
-__all__ = ["DAMPINGS", "DEFAULT_DENSITY", "DemSettings", "dem_material"]
+__all__ = ["DAMPINGS", "DEFAULT_DENSITY", "PROTOCOLS", "DemSettings", "dem_material"]
 
 #: grain density used when the contact law gives none [kg/m^3] (quartz); a quasi-static
 #: run's equilibria do not depend on it (it sets the time step and the drags only)
 DEFAULT_DENSITY = 2650.0
 #: the relaxation's dampings (:attr:`DemSettings.damping`)
 DAMPINGS = ("viscous", "kinetic", "cundall")
+#: how a path is loaded (:attr:`DemSettings.protocol`)
+PROTOCOLS = ("relax", "continuous")
 
 
 #: least pore-pressure ratio :attr:`DemSettings.liquefaction` may name
@@ -47,6 +49,8 @@ _COUNT_BOUNDS: dict = {
     "max_substeps": (10_000, "substeps of one step"),
     "threads": _cores,
     "ranks": (65_536, "MPI ranks of one path"),
+    "servo_interval": (1_000_000, "time steps between two servo corrections of a continuous path"),
+    "min_flow_steps": (10_000_000, "time steps of one increment of a continuous path"),
 }
 #: range of each ratio of :class:`DemSettings` and why
 _RATIO_BOUNDS: dict = {
@@ -64,6 +68,9 @@ _RATIO_BOUNDS: dict = {
     "max_ramp_strain": (1e-9, 1e-3, "strain per time step: below 1e-9 an increment of 2.5e-4 (1e-3 in "
                                     "16 steps per cycle) is ramped over more than 2.5e5 time steps"),
     "max_stress_step": (1e-4, 1.0, "a fraction of the mean stress"),
+    # GDR MiDi (2004): I < ~1e-3 is quasi-static; 1e-6 makes a 1e-2 cycle take ~1e8 time steps
+    "inertial_number": (1e-6, 0.1, "the inertial number I = rate d sqrt(rho / p) of continuous shearing; "
+                                   "quasi-static below ~1e-3 (GDR MiDi 2004), days of LAMMPS below 1e-6"),
 }
 
 
@@ -139,6 +146,21 @@ class DemSettings:
         MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
         with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
         too large for one core.
+    protocol : {"relax", "continuous"}
+        How a path is loaded: ``"relax"`` (step and relax: every recorded state an
+        equilibrium, the settings above) or ``"continuous"`` (the cell sheared without
+        stopping at the rate of ``inertial_number``, the stress-controlled components held
+        by a servo every ``servo_interval`` time steps; every recorded state a state of the
+        flow with its unbalanced force ratio and inertial number;
+        :mod:`grainmech.driver._dem_flow`).
+    inertial_number : float
+        Target inertial number ``I = rate d sqrt(rho_s / p)`` of the continuous protocol
+        (GDR MiDi 2004): the largest strain rate of a path at the mean stress of each
+        increment's start.
+    servo_interval : int
+        Time steps between two servo corrections of the continuous protocol.
+    min_flow_steps : int
+        Fewest time steps of an increment of the continuous protocol.
     """
 
     ramp_steps: int = 400
@@ -159,16 +181,22 @@ class DemSettings:
     fallback: bool = True
     liquefaction: float = 0.95
     ranks: int = 1
+    protocol: str = "relax"
+    inertial_number: float = 1e-3
+    servo_interval: int = 50
+    min_flow_steps: int = 50
 
     def __post_init__(self) -> None:
-        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads", "max_substeps", "ranks"):
+        for k in ("ramp_steps", "chunk", "max_relax_steps", "max_corrections", "threads", "max_substeps", "ranks",
+                  "servo_interval", "min_flow_steps"):
             v = getattr(self, k)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ParameterError(k, v, "must be an integer >= 1")
             hi, why = _COUNT_BOUNDS[k]() if k == "threads" else _COUNT_BOUNDS[k]
             if v > hi:
                 raise ParameterError(k, v, f"must be <= {hi:.0f} ({why})")
-        for k in ("viscous", "tol", "settle", "safety", "stress_tol", "max_ramp_strain", "max_stress_step"):
+        for k in ("viscous", "tol", "settle", "safety", "stress_tol", "max_ramp_strain", "max_stress_step",
+                  "inertial_number"):
             v = getattr(self, k)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ParameterError(k, v, "must be a finite number > 0")
@@ -178,6 +206,8 @@ class DemSettings:
         if self.chunk > self.max_relax_steps:
             raise ParameterError("chunk", self.chunk, f"must be <= max_relax_steps = {self.max_relax_steps} (the "
                                  "criteria are checked every chunk time steps of a relaxation)")
+        if self.protocol not in PROTOCOLS:
+            raise ParameterError("protocol", self.protocol, f"must be one of {', '.join(PROTOCOLS)}")
         if self.damping not in DAMPINGS:
             raise ParameterError("damping", self.damping, f"must be one of {', '.join(DAMPINGS)}")
         if not isinstance(self.fallback, (bool, np.bool_)):

@@ -17,6 +17,7 @@ import numpy as np
 from grainmech.driver.dem import (
     DAMPINGS,
     DEM_MAX_AMPLITUDE,
+    PROTOCOLS,
     DemSeries,
     DemSettings,
     dem_material,
@@ -52,7 +53,8 @@ def _check_dem(law: Any) -> None:
 DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle": float, "chunk": int,
                     "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
                     "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int,
-                    "ranks": int, "liquefaction": float, "cundall": float}
+                    "ranks": int, "liquefaction": float, "cundall": float, "inertial_number": float,
+                    "servo_interval": int, "min_flow_steps": int}
 
 
 def _dem_settings(model: Any) -> tuple[Any, int]:
@@ -72,6 +74,8 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
             kw[k] = sec.integer(k, min=1) if typ is int else sec.number(k, None, min=0, min_inclusive=False)
     if sec.has("damping"):
         kw["damping"] = sec.choice("damping", DAMPINGS)
+    if sec.has("protocol"):
+        kw["protocol"] = sec.choice("protocol", PROTOCOLS)
     if sec.has("fallback"):
         kw["fallback"] = sec.boolean("fallback")
     sec.finish()
