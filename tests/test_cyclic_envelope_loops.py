@@ -110,7 +110,10 @@ def test_default_affine_loops_beyond_the_envelope_are_flagged(default_affine):
     # modulus_reduction.csv: a 0/1 column
     rows = list(csv.DictReader(open(out / "modulus_reduction.csv")))
     assert [int(r["beyond_envelope [0/1]"]) for r in rows] == [0] * 5 + [1, 1]
-    assert rows[-1]["max_stress_ratio_sigma1_sigma3 [-]"] == "inf"
+    # unbounded (sigma_3 <= 0): an empty cell and a flag, never "inf"
+    assert rows[-1]["max_stress_ratio_sigma1_sigma3 [-]"] == ""
+    assert [int(r["max_stress_ratio_unbounded [0/1]"]) for r in rows] == [0] * 6 + [1]
+    assert [int(r["value_flag [0/1]"]) for r in rows] == [0] * 7
     # site-response curves without them
     from grainmech.io.site_response import read_curves
 

@@ -61,18 +61,18 @@ from grainmech.contact.law import (
     state_from_normal_force,
     update,
 )
-from grainmech.contact.rolling import (
-    RollingConstants,
-    RollingResistance,
-    rolling_constants,
-    rolling_update,
-)
 from grainmech.contact.params import (
     Cylinder,
     Hertz,
     HertzMindlin,
     LinearSpring,
     MindlinDeresiewicz,
+)
+from grainmech.contact.rolling import (
+    RollingConstants,
+    RollingResistance,
+    rolling_constants,
+    rolling_update,
 )
 
 __all__ = [

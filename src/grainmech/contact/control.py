@@ -102,7 +102,13 @@ def solve_step(params: ContactParams, state: ContactState, *,
 
     # bracket: x = 0 gives f0; step out along -sign(f0) with the no-slip stiffness (an upper
     # bound of the tangent, so the first guess undershoots) and double until the sign changes
-    k0 = np.maximum(law_forms(params).kt0(N1), 1e-300)
+    k0 = np.asarray(law_forms(params).kt0(N1), dtype=float)
+    stiff = k0 > 0
+    if not np.all(done | stiff):
+        raise GrainmechError("a prescribed tangential force needs a tangential stiffness: this contact has none "
+                             "(linear springs with ks = 0, or no normal force); prescribe a tangential "
+                             "displacement instead")
+    k0 = np.where(stiff, k0, 1.0)
     lo, flo, hi, fhi = _bracket(F, f0, k0, done, tol)
     x = _illinois(F, lo, flo, hi, fhi, done, tol, max_iter)
     x = np.where(done, 0.0, x)

@@ -138,7 +138,7 @@ class Section:
         return x
 
     def integer(self, k: str, default: Any = _MISSING, *, min: int | None = None, max: int | None = None) -> int:
-        """The integer at ``k`` (``>= min``, ``<= max`` if given), or ``default``; a ConfigError names the key otherwise."""
+        """The integer at ``k`` (``>= min``, ``<= max`` if given), or ``default``; else a ConfigError naming the key."""
         v = self.raw(k, default)
         if v is default and default is not _MISSING:
             return v

@@ -70,16 +70,19 @@ def _read_at2(path: Path, text: str, units: str | None) -> Motion:
     if m_n and m_dt:
         n, dt_text = int(m_n.group(1)), m_dt.group(1)
     else:
-        parts = head.split()
+        parts = head.replace(",", " ").split()
         if len(parts) < 2 or "NPTS" not in head:
             raise _bad(path, f"line 4 {lines[3].strip()!r} gives neither 'NPTS= n, DT= dt' nor 'n dt NPTS, DT'")
-        n, dt_text = int(float(parts[0])), parts[1]
+        try:
+            n, dt_text = int(float(parts[0])), parts[1]
+        except (ValueError, OverflowError):
+            raise _bad(path, f"line 4 {lines[3].strip()!r}: cannot read the number of points and the time step "
+                       "('NPTS= n, DT= dt' or 'n dt NPTS, DT')") from None
     try:
         dt = float(dt_text.replace("D", "E").replace("d", "e"))
     except ValueError:
         raise _bad(path, f"line 4: cannot read the time step {dt_text!r}") from None
-    if not dt > 0:
-        raise _bad(path, f"line 4: the time step {dt!r} must be > 0 s")
+    _check_time_step(path, dt, "line 4: the time step")
     found = next((u for name, u in sorted(_AT2_UNITS.items(), key=lambda kv: -len(kv[0]))
                   if re.search(rf"UNITS OF {re.escape(name)}\b", lines[2].upper())), None)
     if found is None and units is None:
@@ -93,7 +96,7 @@ def _read_at2(path: Path, text: str, units: str | None) -> Motion:
     if acc.size != n:
         raise _bad(path, f"the header says NPTS = {n} but the file has {acc.size} values")
     unit = found or units or "g"
-    return Motion(dt, acc * MOTION_UNITS[unit], lines[1].strip(), path.name)
+    return _checked(Motion(dt, acc * MOTION_UNITS[unit], lines[1].strip(), path.name), path)
 
 
 def _read_two_column(path: Path, text: str, units: str) -> Motion:
@@ -121,18 +124,50 @@ def _read_two_column(path: Path, text: str, units: str) -> Motion:
     if len(t) < 8:
         raise _bad(path, f"{len(t)} samples: too short for a motion")
     tt = np.asarray(t)
+    if not np.all(np.isfinite(tt)):
+        i = int(np.flatnonzero(~np.isfinite(tt))[0])
+        raise _bad(path, f"line {lineno[i]}: time {t[i]!r} is not finite")
     d = np.diff(tt)
     dt = float(d[0])
     if not dt > 0:
         raise _bad(path, f"line {lineno[1]}: time {float(tt[1]):.10g} s does not increase")
+    _check_time_step(path, dt, f"line {lineno[1]}: the time step")
     bad = np.flatnonzero(np.abs(d - dt) > DT_TOLERANCE * dt)
     if bad.size:
         i = int(bad[0]) + 1
         raise _bad(path, f"non-uniform time step: line {lineno[i]} (t = {float(tt[i]):.10g} s) is "
                    f"{float(d[i - 1]):.10g} s after the previous sample, the first step is {dt:.10g} s")
-    if not np.all(np.isfinite(a)):
-        raise _bad(path, "an acceleration is not finite")
-    return Motion(dt, np.asarray(a) * MOTION_UNITS[units], f"{path.name} ({units})", path.name)
+    return _checked(Motion(dt, np.asarray(a) * MOTION_UNITS[units], f"{path.name} ({units})", path.name), path,
+                    lineno)
+
+
+#: time steps of a motion [s]: strong-motion records are sampled at 50-1000 Hz (0.001-0.02 s)
+TIME_STEP_RANGE = (1e-5, 1.0)
+#: fewest samples of a motion
+MIN_SAMPLES = 8
+#: largest acceleration of a motion [g]: the largest recorded peak ground accelerations are about 4 g
+MAX_ACCEL_G = 10.0
+
+
+def _check_time_step(path: Path, dt: float, what: str) -> None:
+    lo, hi = TIME_STEP_RANGE
+    if not (np.isfinite(dt) and lo <= dt <= hi):
+        raise _bad(path, f"{what} {dt!r} s must lie in [{lo:g} s, {hi:g} s] (records are sampled at 1 Hz to 100 kHz)")
+
+
+def _checked(m: Motion, path: Path, lineno: list[int] | None = None) -> Motion:
+    """``m`` if it has enough samples, all finite and within :data:`MAX_ACCEL_G` (errors name the sample)."""
+    a = m.accel_g
+    if a.size < MIN_SAMPLES:
+        raise _bad(path, f"{a.size} sample(s): too short for a motion (at least {MIN_SAMPLES})")
+    bad = np.flatnonzero(~np.isfinite(a) | (np.abs(a) > MAX_ACCEL_G))
+    if bad.size:
+        i = int(bad[0])
+        where = f"line {lineno[i]}" if lineno is not None else f"value {i + 1}"
+        what = ("is not finite" if not np.isfinite(a[i])
+                else f"is {a[i]:.4g} g, above {MAX_ACCEL_G:g} g (check the units)")
+        raise _bad(path, f"{where}: the acceleration {what}")
+    return m
 
 
 def read_motion(path: str | Path, format: str, units: str | None) -> Motion:

@@ -567,7 +567,7 @@ def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list
     for i, item in enumerate(raw):
         sec = Section(item, f"path[{i}]")
         kind = sec.choice("kind", ("ramp", "cycles"), "ramp")
-        steps = sec.integer("steps", min=1)
+        steps = sec.integer("steps", min=1, max=MAX_CONTACT_STEPS)
         if kind == "ramp":
             n_mode, n_t = _channel(sec, "normal_force", "normal_displacement", fu, du)
             if n_mode == "force" and n_t < 0:
@@ -585,12 +585,25 @@ def build_contact_path(root: Section, params: Any) -> tuple[ContactInitial, list
             if amp <= 0:
                 key = "tangential_force_amplitude" if t_mode == "force" else "tangential_displacement_amplitude"
                 raise ConfigError(sec.key(key), sec.data[key], "amplitude must be positive")
+            if count * steps > MAX_CONTACT_STEPS:
+                raise ConfigError(sec.key("count"), count, f"with steps = {steps}: more than {MAX_CONTACT_STEPS:.0e} "
+                                  "steps (memory and time)")
             segs.append(ContactSegment(max(1, (steps + 1) // 2), i, None, 0.0, t_mode, amp))
             for _ in range(count):
                 segs.append(ContactSegment(steps, i, None, 0.0, t_mode, -amp))
                 segs.append(ContactSegment(steps, i, None, 0.0, t_mode, amp))
         sec.finish()
+    total = sum(sg.steps for sg in segs)
+    if total > MAX_CONTACT_STEPS:
+        raise ConfigError("path", f"{total} steps", f"more than {MAX_CONTACT_STEPS:.0e} steps in all (memory and time)")
+    if any(sg.t_mode == "force" for sg in segs) and hasattr(params, "ks") and not params.ks > 0:
+        raise ConfigError("contact.ks", params.ks, "a path that prescribes a tangential force needs a tangential "
+                          "stiffness: ks = 0 carries none (prescribe tangential_displacement instead)")
     return init, segs
+
+
+#: most steps of a ``grainmech contact`` path (one row each in the table)
+MAX_CONTACT_STEPS = 1_000_000
 
 
 # ------------------------------------------------------------------ grainmech pack

@@ -71,7 +71,7 @@ def to_float(value: Any, unit: str | None, key: str) -> float:
             if not unit and q.units != ureg.dimensionless:
                 # pint counts angles and percent as dimensionless: "1 deg" would pass as 0.01745
                 raise ConfigError(key, value, f"is a dimensionless number: write it without a unit "
-                                  f"(got {format(q.units, '~') or str(q.units)!r})")
+                                  f"(got {format(q.units, '~') or str(q.units)!r})") from None
             try:
                 out = float(q.to(target).magnitude)
             except pint.errors.DimensionalityError:

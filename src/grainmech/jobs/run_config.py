@@ -32,12 +32,12 @@ from grainmech.jobs.dem import _check_dem, _dem_settings, _read_dem_keys, _refus
 from grainmech.jobs.spec import (
     CYCLIC_SIMPLE_SHEAR,
     GRAIN_METHODS,
+    MAX_DEM_STATES,
+    MAX_STATES,
     RUN_METHODS,
     RUN_TEST_KINDS,
     PackingSource,
     RunSpec,
-    MAX_DEM_STATES,
-    MAX_STATES,
     _read_amplitudes,
     check_states,
 )

@@ -135,6 +135,8 @@ def _read_amplitudes(section: Any, key: str) -> list[float]:
         bad = [amps]
     if bad:
         raise ConfigError(section.key(key), amps, "every amplitude must be a positive strain")
+    if len({float(a) for a in amps}) != len(amps):
+        raise ConfigError(section.key(key), amps, "lists an amplitude twice: give each once")
     big = [float(a) for a in amps if float(a) > MAX_AMPLITUDE]
     if big:
         raise ConfigError(section.key(key), amps, f"amplitude {big[0]:g} is beyond what any test reaches (at most "

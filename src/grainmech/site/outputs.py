@@ -60,6 +60,10 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
     warnings: list[str] = []
     if profile.motion is not None:
         reason = strata.pystrata_missing() if response else "switched off (--no-response)"
+        no_vs = [r["name"] for r in records if not (r.get("vs_measured_m_s") or r.get("vs_model_m_s"))]
+        if reason is None and no_vs:  # a layer whose model stopped before its Gmax, with no measured vs
+            reason = (f"not run: layer(s) {no_vs} have no shear-wave velocity (no Gmax: their model stopped "
+                      "before the first amplitude; a measured vs in the layer gives one)")
         if reason is None and motion is not None and profile.bedrock is not None:
             say("grainmech site: pystrata equivalent-linear runs (grainmech's curves, Darendeli's, Menq's)")
             res = strata.site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)

@@ -117,8 +117,19 @@ class Layer:
     @property
     def slug(self) -> str:
         """File-name form ``NN-name`` of the layer."""
-        s = re.sub(r"[^A-Za-z0-9]+", "-", self.name).strip("-").lower() or "layer"
+        s = re.sub(r"[^A-Za-z0-9]+", "-", self.name).strip("-").lower()[:SLUG_LENGTH].strip("-") or "layer"
         return f"{self.index + 1:02d}-{s}"
+
+
+#: longest name part of a layer's file names (a file name of 255 bytes is the usual limit;
+#: the layer's number keeps two long names apart)
+SLUG_LENGTH = 60
+#: shear-wave velocities of soils and rocks [m/s] (soft clays ~50, hard rock ~3500)
+VS_RANGE = (10.0, 10_000.0)
+#: unit weights of soils and rocks [N/m^3] (no mineral is denser than ~5 t/m^3)
+UNIT_WEIGHT_MAX = 50e3
+#: largest damping ratio of the bedrock (rock: 0.5-5 %)
+BEDROCK_DAMPING_MAX = 0.2
 
 
 @dataclass(frozen=True)
@@ -268,14 +279,14 @@ def _read_layers(root: Section, run_base: dict, water_table: float, gamma_w: flo
         if item.has("unit_weight") == item.has("density"):
             raise ConfigError(item.key("unit_weight"), None, f"{label}: give exactly one of unit_weight or density")
         if item.has("unit_weight"):
-            gamma, key = item.number("unit_weight", "N/m^3"), "unit_weight"
+            gamma, key = item.number("unit_weight", "N/m^3", max=UNIT_WEIGHT_MAX), "unit_weight"
         else:
-            gamma, key = item.number("density", "kg/m^3") * GRAVITY, "density"
+            gamma, key = item.number("density", "kg/m^3", max=UNIT_WEIGHT_MAX / GRAVITY) * GRAVITY, "density"
         if not gamma > gamma_w:
             raise ConfigError(item.key(key), item.raw(key), f"{label}: the unit weight {gamma / 1e3:.4g} kN/m^3 must "
                               f"exceed water's ({gamma_w / 1e3:.4g} kN/m^3): below the water table the effective "
                               "stress would not grow with depth")
-        vs = item.number("vs", "m/s", None, min=0, min_inclusive=False) if item.has("vs") else None
+        vs = item.number("vs", "m/s", None, min=VS_RANGE[0], max=VS_RANGE[1]) if item.has("vs") else None
         if k0_given is not None:
             k0 = k0_given
             if item.has("friction_angle"):
@@ -286,7 +297,10 @@ def _read_layers(root: Section, run_base: dict, water_table: float, gamma_w: flo
                                   f"{label}: site.k0 = 'jaky' needs the layer's friction angle (K0 = 1 - sin phi')")
             k0 = jaky_k0(item.angle("friction_angle", max_deg=90.0, max_inclusive=False))
         run = copy.deepcopy(run_base)
-        key_map: dict[str, str] = {}
+        # the layer's mean effective stress at mid-depth is the run's initial.pressure, which a
+        # profile does not have: a stress out of range is the layer's depth and thickness
+        key_map: dict[str, str] = {"initial.pressure": f"{item.key('thickness')} (the mean effective stress at "
+                                                       "mid-depth)"}
         _grains(item, run, key_map, label)
         item.finish()
         sv, u, sve, she, p = layer_stresses(top, h, gamma, sigma, water_table, gamma_w, k0)
@@ -302,9 +316,9 @@ def _read_bedrock(root: Section) -> Bedrock | None:
     if not root.has("bedrock"):
         return None
     b = root.section("bedrock")
-    return Bedrock(vs=b.number("vs", "m/s", min=0, min_inclusive=False),
-                   unit_weight=b.number("unit_weight", "N/m^3", min=0, min_inclusive=False),
-                   damping=b.number("damping", None, 0.01, min=0, max=1, max_inclusive=False))
+    return Bedrock(vs=b.number("vs", "m/s", min=VS_RANGE[0], max=VS_RANGE[1]),
+                   unit_weight=b.number("unit_weight", "N/m^3", min=GAMMA_WATER, max=UNIT_WEIGHT_MAX),
+                   damping=b.number("damping", None, 0.01, min=0, max=BEDROCK_DAMPING_MAX))
 
 
 def _read_motion(root: Section, base: Path) -> MotionSpec | None:
