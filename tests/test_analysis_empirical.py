@@ -49,3 +49,28 @@ def test_hardin_drnevich():
         hardin_drnevich([1e-4], -1.0)
     with pytest.raises(ParameterError, match="mean_stress"):
         darendeli([1e-4], 0.0)
+
+
+def test_bolton_1986_relative_dilatancy_and_peak_angle():
+    """Bolton (1986): I_R = D_r (10 - ln p'/kPa) - 1 clipped to [0, 4]; phi_peak = phi_cs + 3 I_R (triaxial)."""
+    from grainmech.analysis.empirical import bolton
+
+    b = bolton(0.85, 100e3)
+    ir = 0.85 * (10 - math.log(100.0)) - 1  # 3.5357
+    assert b.relative_dilatancy == pytest.approx(ir, rel=1e-12)
+    assert b.phi_peak == pytest.approx(33.0 + 3 * ir, rel=1e-12)  # 43.6 deg: dense quartz sand
+    assert b.dilatancy_rate == pytest.approx(0.3 * ir)
+    assert bolton(0.85, 100e3, test="plane strain").phi_peak == pytest.approx(33.0 + 5 * ir)
+    assert bolton(0.1, 100e3).relative_dilatancy == 0.0  # clipped below
+    assert bolton(1.0, 1e3).relative_dilatancy == 4.0  # clipped above (10 - ln 1 - 1 = 9)
+    with pytest.raises(ParameterError, match="relative_density"):
+        bolton(85.0, 100e3)
+
+
+def test_relative_density_and_mobilised_angle():
+    from grainmech.analysis.empirical import mobilised_friction_angle, relative_density
+
+    assert relative_density(0.6, 0.5, 0.9) == pytest.approx(0.75)
+    assert float(mobilised_friction_angle(3.0, 1.0)) == pytest.approx(30.0)  # sin phi = 1/2
+    with pytest.raises(ParameterError, match="e_max"):
+        relative_density(0.6, 0.9, 0.5)

@@ -34,7 +34,8 @@ __all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "HardinDrnevichReference
            "hardin_drnevich_reference", "darendeli", "DarendeliCurves", "menq_curve", "MenqCurves",
            "MENQ_D50_MAX",
            "masing_damping_hyperbolic", "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
-           "SAND_PEAK_FRICTION_DEG"]
+           "SAND_PEAK_FRICTION_DEG", "bolton", "Bolton", "BOLTON_PHI_CS_DEG", "DOBRY_THRESHOLD_STRAIN",
+           "relative_density", "mobilised_friction_angle"]
 
 #: standard atmosphere [Pa] used for the Pa -> atm conversion of Darendeli's mean stress
 P_ATM = 101325.0
@@ -421,3 +422,80 @@ def mohr_coulomb_ratio(friction_angle: float) -> float:
         raise ParameterError("friction_angle", friction_angle, "must lie in [0, pi/2) rad")
     sn = np.sin(friction_angle)
     return float((1 + sn) / (1 - sn))
+
+
+#: critical-state friction angle of quartz and feldspar sands [deg] (Bolton 1986: 33 deg,
+#: measured 32-34 deg)
+BOLTON_PHI_CS_DEG = 33.0
+#: threshold cyclic shear strain below which strain-controlled cycles build no appreciable
+#: pore pressure in sands, whatever their density (Dobry, Ladd, Yokel, Chung & Powell 1982,
+#: NBS Building Science Series 138: about 0.01 %)
+DOBRY_THRESHOLD_STRAIN = 1e-4
+
+
+@dataclass(frozen=True)
+class Bolton:
+    """Bolton's (1986) strength of a sand at a relative density and mean effective stress.
+
+    Attributes
+    ----------
+    relative_dilatancy : float
+        ``I_R = D_r (Q - ln p') - R`` (``Q = 10``, ``R = 1``, ``p'`` in kPa), clipped to [0, 4].
+    phi_cs, phi_peak : float
+        Critical-state and peak friction angles [deg]; ``phi_peak = phi_cs + k I_R`` with
+        ``k = 3`` (triaxial compression) or 5 (plane strain).
+    dilatancy_rate : float
+        Peak ``-(d eps_v / d eps_1)`` in triaxial compression, ``0.3 I_R`` (Bolton 1986),
+        compression positive.
+    """
+
+    relative_dilatancy: float
+    phi_cs: float
+    phi_peak: float
+    dilatancy_rate: float
+
+
+def bolton(relative_density: float, mean_stress: float, *, test: str = "triaxial",
+           phi_cs: float = BOLTON_PHI_CS_DEG) -> Bolton:
+    """Bolton (1986), Geotechnique 36(1), "The strength and dilatancy of sands".
+
+    ``I_R = D_r (10 - ln p') - 1`` with ``p'`` in kPa (quartz and feldspar sands),
+    clipped to ``0 <= I_R <= 4``; ``phi_peak - phi_cs = 3 I_R`` in triaxial compression
+    and ``5 I_R`` in plane strain [deg]; peak dilatancy rate
+    ``-(d eps_v/d eps_1)_max = 0.3 I_R`` (triaxial). The relations as
+    the project's reference sheet quotes them.
+
+    Parameters
+    ----------
+    relative_density : float
+        ``D_r`` as a fraction in [0, 1].
+    mean_stress : float
+        Mean effective stress ``p'`` at failure [Pa] (> 0).
+    test : {"triaxial", "plane strain"}
+    phi_cs : float
+        Critical-state friction angle [deg] (33 for quartz sands).
+    """
+    if not (np.isfinite(relative_density) and 0.0 <= relative_density <= 1.0):
+        raise ParameterError("relative_density", relative_density, "must be a fraction in [0, 1]")
+    if not (np.isfinite(mean_stress) and mean_stress > 0):
+        raise ParameterError("mean_stress", mean_stress, "must be finite and > 0 (Pa)")
+    if test not in ("triaxial", "plane strain"):
+        raise ParameterError("test", test, "must be 'triaxial' or 'plane strain'")
+    ir = float(np.clip(relative_density * (10.0 - np.log(mean_stress / 1e3)) - 1.0, 0.0, 4.0))
+    k = 3.0 if test == "triaxial" else 5.0
+    return Bolton(ir, float(phi_cs), float(phi_cs + k * ir), 0.3 * ir)
+
+
+def relative_density(void_ratio: float, e_min: float, e_max: float) -> float:
+    """``D_r = (e_max - e) / (e_max - e_min)`` (may leave [0, 1] outside the two states)."""
+    if not (np.isfinite(e_min) and np.isfinite(e_max) and e_max > e_min > 0):
+        raise ParameterError("e_max", e_max, f"must be finite and above e_min = {e_min!r} > 0")
+    return float((e_max - void_ratio) / (e_max - e_min))
+
+
+def mobilised_friction_angle(sigma1: Any, sigma3: Any) -> np.ndarray:
+    """``phi = asin((sigma1 - sigma3) / (sigma1 + sigma3))`` [deg] (compression positive; NaN where undefined)."""
+    s1, s3 = np.asarray(sigma1, float), np.asarray(sigma3, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = (s1 - s3) / (s1 + s3)
+    return np.where((s1 + s3 > 0) & (np.abs(r) <= 1), np.degrees(np.arcsin(np.clip(r, -1, 1))), np.nan)
