@@ -67,10 +67,9 @@ def test_bolton_1986_relative_dilatancy_and_peak_angle():
         bolton(85.0, 100e3)
 
 
-def test_relative_density_and_mobilised_angle():
-    from grainmech.analysis.empirical import mobilised_friction_angle, relative_density
+def test_relative_density():
+    from grainmech.analysis.empirical import relative_density
 
     assert relative_density(0.6, 0.5, 0.9) == pytest.approx(0.75)
-    assert float(mobilised_friction_angle(3.0, 1.0)) == pytest.approx(30.0)  # sin phi = 1/2
     with pytest.raises(ParameterError, match="e_max"):
         relative_density(0.6, 0.9, 0.5)

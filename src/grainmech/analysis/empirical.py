@@ -35,7 +35,7 @@ __all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "HardinDrnevichReference
            "MENQ_D50_MAX",
            "masing_damping_hyperbolic", "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
            "SAND_PEAK_FRICTION_DEG", "bolton", "Bolton", "BOLTON_PHI_CS_DEG", "DOBRY_THRESHOLD_STRAIN",
-           "relative_density", "mobilised_friction_angle"]
+           "relative_density"]
 
 #: standard atmosphere [Pa] used for the Pa -> atm conversion of Darendeli's mean stress
 P_ATM = 101325.0
@@ -491,11 +491,3 @@ def relative_density(void_ratio: float, e_min: float, e_max: float) -> float:
     if not (np.isfinite(e_min) and np.isfinite(e_max) and e_max > e_min > 0):
         raise ParameterError("e_max", e_max, f"must be finite and above e_min = {e_min!r} > 0")
     return float((e_max - void_ratio) / (e_max - e_min))
-
-
-def mobilised_friction_angle(sigma1: Any, sigma3: Any) -> np.ndarray:
-    """``phi = asin((sigma1 - sigma3) / (sigma1 + sigma3))`` [deg] (compression positive; NaN where undefined)."""
-    s1, s3 = np.asarray(sigma1, float), np.asarray(sigma3, float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        r = (s1 - s3) / (s1 + s3)
-    return np.where((s1 + s3 > 0) & (np.abs(r) <= 1), np.degrees(np.arcsin(np.clip(r, -1, 1))), np.nan)
