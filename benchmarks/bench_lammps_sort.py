@@ -24,10 +24,10 @@ import time
 
 import numpy as np
 
+from grainmech.lammps.engine import Lammps
+from grainmech.lammps.session import load_network
 from grainmech.network.builders import tile_network
 from grainmech.packing import QUARTZ, load_packing
-from grainmech.packing.engine import Lammps
-from grainmech.packing.reference import load_network
 
 
 def shuffled(net, seed: int = 0):  # noqa: ANN001, ANN201

@@ -16,7 +16,7 @@ from importlib import resources
 
 def main(names: list[str]) -> None:
     from grainmech.jobs import pack_job
-    from grainmech.packing.engine import cores
+    from grainmech.lammps.engine import cores
 
     print(f"cores available: {cores()}")
     for name in names or ["dense", "medium", "loose"]:

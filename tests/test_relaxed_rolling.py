@@ -127,7 +127,7 @@ def test_rolling_needs_rotations(dense):
 # ----------------------------------------------------------------------------- LAMMPS
 def _lammps() -> bool:
     try:
-        from grainmech.packing.engine import require_lammps
+        from grainmech.lammps.engine import require_lammps
 
         require_lammps()
     except GrainmechError:
@@ -141,8 +141,8 @@ def test_relaxed_tensor_with_rolling_matches_lammps_strain_probe():
     LAMMPS ``rolling sds`` / ``twisting sds`` (mu_r = 0.1, k_roll = k_t at the mean contact
     force) against the relaxed tensor of the re-settled reference state with the same
     constants: measured 0.04 % on C66 (2.378e8 Pa with rolling, 1.963e8 Pa without)."""
-    from grainmech.packing.reference import strain_probes
-    from grainmech.packing.rolling import rolling_of_network
+    from grainmech.lammps.probes import strain_probes
+    from grainmech.lammps.rolling import rolling_of_network
 
     net = load_packing("dense")
     consts = rolling_of_network(RollingResistance(0.1), QUARTZ, net)

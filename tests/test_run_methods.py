@@ -22,8 +22,8 @@ from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver.packing import equilibrate_network, perturbed_fcc_network
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.jobs import CyclicOutcome, PathOutcome, RunComparison, compute_run, prepare_run
+from grainmech.lammps.engine import lammps_available
 from grainmech.network import contact_stiffnesses, relaxed_stiffness
-from grainmech.packing.engine import lammps_available
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 

@@ -28,8 +28,8 @@ import numpy as np
 
 from grainmech.analysis import loop_properties
 from grainmech.io.dem import read_network
+from grainmech.lammps.network import unbalanced_ratio
 from grainmech.network import coordination, network_stress
-from grainmech.packing.prepare import unbalanced_ratio
 
 
 def cycle(path: Path, cycles: int, which: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:

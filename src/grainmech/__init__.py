@@ -18,8 +18,10 @@ import importlib
 import os
 from typing import Any
 
-from grainmech._deprecated import warn_renamed
+from grainmech._deprecated import install_module_aliases, warn_renamed
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
+
+install_module_aliases()
 
 # The compiled kernels' parallel loops run on OpenMP (numba's "omp" layer) in regions of
 # ~0.3-3 ms. With OpenMP's default active waiting, a thread that finishes its share spins

@@ -1,7 +1,7 @@
 """Whether this process is one of several MPI ranks (private; imports nothing heavy).
 
 The command line refuses to be started by ``mpiexec`` and the DEM model runs LAMMPS on the
-ranks of ``MPI_COMM_WORLD`` when it is (:mod:`grainmech.packing.engine`); both ask here.
+ranks of ``MPI_COMM_WORLD`` when it is (:mod:`grainmech.lammps.engine`); both ask here.
 """
 
 from __future__ import annotations

@@ -714,7 +714,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
         mat = replace(mat, **fields)
     except ValueError as exc:
         raise ConfigError(m.name, fields, str(exc)) from None
-    from grainmech.packing.rolling import grain_law
+    from grainmech.lammps.rolling import grain_law
 
     rolling = build_rolling(m, grain_law(mat, 1.0))
     if rolling is not None:

@@ -29,8 +29,8 @@ from grainmech.io.schema import GRAIN_SHEAR_MODULUS_RANGE
 from grainmech.jobs.checks import REARRANGEMENT_DP
 from grainmech.jobs.model import ModelRun, execute_model
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, MAX_DEM_STATES, RunSpec, _read_amplitudes
+from grainmech.lammps import engine
 from grainmech.outcomes import CyclicOutcome, RunOutcome
-from grainmech.packing import engine
 
 __all__ = ["DEM_SETTING_KEYS", "DEM_PROGRESS_EVERY"]
 

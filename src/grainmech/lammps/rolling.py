@@ -2,8 +2,8 @@
 
 The law is :mod:`grainmech.contact.rolling`; LAMMPS runs it as ``rolling sds`` /
 ``twisting sds`` after ``tangential mindlin`` (:meth:`~grainmech.contact.rolling.RollingConstants.lammps`).
-Used by the preparation (:mod:`grainmech.packing.prepare`), the DEM reference runs
-(:mod:`grainmech.packing.reference`) and the DEM model.
+Used by the preparation (:mod:`grainmech.packing.prepare`), the LAMMPS session
+(:mod:`grainmech.lammps.session`) and the DEM model.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from grainmech.contact.params import HertzMindlin
 from grainmech.contact.rolling import RollingConstants, RollingResistance, rolling_constants
 
-if TYPE_CHECKING:  # prepare imports this module
+if TYPE_CHECKING:  # for the annotations only
     from grainmech.network import ContactNetwork
 
 __all__ = ["ROLLING_DAMPING", "rolling_damping", "rolling_pair_suffix", "grain_law", "rolling_for_stress",

@@ -27,9 +27,9 @@ Procedure (``docs/packing.md``):
 grain friction, its constants resolved on the packing's contacts at the switch; a
 preparation rolling friction (``PackSettings.prep_rolling``) acts in stage 2 with the
 preparation friction, its stiffness tied to the Mindlin stiffness at the target stress
-(:func:`grainmech.packing.rolling.rolling_for_stress`). Preparation friction and rolling
+(:func:`grainmech.lammps.rolling.rolling_for_stress`). Preparation friction and rolling
 friction both equal to the grains' give the loosest packing of those grains. The dashpots
-(:func:`grainmech.packing.rolling.rolling_damping`) act on spins only.
+(:func:`grainmech.lammps.rolling.rolling_damping`) act on spins only.
 
 Quasi-static tricks (they change the path, not the equilibrium reached): a global
 viscous drag ``fix viscous`` proportional to the grain mass times a fraction of the
@@ -51,19 +51,24 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from grainmech.contact.geometry import hertz_kn, hertz_radius
+from grainmech._deprecated import moved_attribute
 from grainmech.contact.rolling import RollingResistance
 from grainmech.errors import GrainmechError
-from grainmech.network import Box, ContactNetwork, coordination, network_fabric, network_stress
+from grainmech.lammps.engine import Lammps
+from grainmech.lammps.granular import GrainMaterial, critical_time_step, measure_moments, pair_coeff, setup_lammps
+from grainmech.lammps.network import lammps_cell, network_from_lammps, unbalanced_ratio
+from grainmech.lammps.rolling import rolling_for_stress, rolling_of_network, rolling_pair_suffix
+from grainmech.network import ContactNetwork, coordination, network_fabric, network_stress
 from grainmech.network.data import solid_volume, void_ratio
-from grainmech.packing.engine import Lammps
-from grainmech.packing.rolling import rolling_for_stress, rolling_of_network, rolling_pair_suffix
 
-__all__ = ["PreparationError", "GrainMaterial", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
-           "prepare_packing", "place_gas", "network_from_lammps", "unbalanced_ratio",
-           "setup_lammps", "packing_summary"]
+__all__ = ["PreparationError", "QUARTZ", "GLASS", "MATERIALS", "PackSettings", "PackResult",
+           "prepare_packing", "place_gas", "packing_summary"]
 
 Progress = Callable[[str], None]
+
+
+def __getattr__(name: str) -> Any:
+    return moved_attribute(__name__, name)
 
 
 class PreparationError(GrainmechError):
@@ -75,61 +80,6 @@ class PreparationError(GrainmechError):
     def __init__(self, message: str, network: ContactNetwork | None = None) -> None:
         super().__init__(message)
         self.network = network
-
-
-@dataclass(frozen=True)
-class GrainMaterial:
-    """Grain material (SI units).
-
-    Parameters
-    ----------
-    name : str
-    shear_modulus : float
-        ``G`` [Pa].
-    poisson : float
-        ``nu`` [-].
-    density : float
-        Grain density [kg/m^3].
-    friction : float
-        Coulomb coefficient between grains ``mu`` [-].
-    restitution : float
-        Coefficient of restitution of the contact damping (a numerical device for
-        quasi-static preparation) [-].
-    rolling : RollingResistance or None
-        Rolling and twisting resistance between grains (``grainmech pack``'s relaxation
-        stage and final packing); None: none. The DEM model of ``grainmech run`` takes its
-        rolling resistance from the run's ``[contacts]`` table instead.
-    """
-
-    name: str
-    shear_modulus: float
-    poisson: float
-    density: float
-    friction: float
-    restitution: float = 0.1
-    rolling: RollingResistance | None = None
-
-    def __post_init__(self) -> None:
-        for k, lo in (("shear_modulus", 0.0), ("density", 0.0)):
-            v = getattr(self, k)
-            if not (math.isfinite(v) and v > lo):
-                raise ValueError(f"{k} = {v!r}: must be finite and > 0")
-        if not -1 < self.poisson < 0.5:
-            raise ValueError(f"poisson = {self.poisson!r}: must lie in (-1, 0.5)")
-        if not (math.isfinite(self.friction) and self.friction >= 0):
-            raise ValueError(f"friction = {self.friction!r}: must be finite and >= 0")
-        if not 0 < self.restitution <= 1:
-            raise ValueError(f"restitution = {self.restitution!r}: must lie in (0, 1]")
-
-    @property
-    def young(self) -> float:
-        """``E = 2 G (1 + nu)`` [Pa]."""
-        return 2.0 * self.shear_modulus * (1.0 + self.poisson)
-
-    @property
-    def e_star(self) -> float:
-        """Contact modulus of two equal grains ``E* = E / (2 (1 - nu^2))`` [Pa] (seed Eq. 3.6)."""
-        return self.young / (2.0 * (1.0 - self.poisson ** 2))
 
 
 #: quartz: G = 29 GPa, nu = 0.15 (Mavko et al. 2009, The Rock Physics Handbook, Table 7.1:
@@ -184,7 +134,7 @@ class PackSettings:
     prep_rolling : float
         Rolling friction ``mu_r`` during compression (with ``prep_friction``; twisting
         friction the same; stiffness the material's ``rolling_stiffness`` if given, else
-        :func:`grainmech.packing.rolling.rolling_for_stress`); 0: none.
+        :func:`grainmech.lammps.rolling.rolling_for_stress`); 0: none.
     """
 
     stress: tuple[float, float, float]
@@ -294,217 +244,6 @@ def place_gas(radii: np.ndarray, solid_fraction: float, rng: np.random.Generator
     return np.mod(pos, L), L
 
 
-# --------------------------------------------------------------------------- LAMMPS set-up
-
-def _pair_coeff(mat: GrainMaterial, mu: float, rolling: str = "") -> str:
-    """``pair_coeff`` of the granular model (module notes); ``NULL`` k_t = 8 G* a.
-
-    ``rolling``: the ``rolling sds ... twisting sds ...`` suffix of rolling resistance
-    (:func:`grainmech.packing.rolling.rolling_pair_suffix`), empty without it.
-    """
-    return (f"pair_coeff * * hertz/material {mat.young:.10g} {mat.restitution:.6g} {mat.poisson:.6g} "
-            f"tangential mindlin NULL 1.0 {mu:.10g} damping coeff_restitution{rolling}")
-
-
-def critical_time_step(radii: np.ndarray, mat: GrainMaterial, stress: float, safety: float = 0.2) -> float:
-    """Time step ``safety * sqrt(m_min / kn_max)`` [s] of a Hertz packing at mean stress ``stress``.
-
-    The mean contact force at mean stress ``p`` is ``F = p pi d^2 / (z phi)`` with
-    ``z phi ~ 3`` (Love-Weber stress of equal spheres, seed Eq. 2.6, ``p = z phi F / (pi d^2)``);
-    ``kn_max`` is the Hertz stiffness ``kn = 2 E* a``, ``a = (R* delta)^(1/2)`` (seed Eq. 3.5)
-    of the two smallest grains carrying 10 times that force, ``m_min`` the smallest mass.
-    """
-    r = np.asarray(radii, float)
-    rmin, rbar = float(r.min()), float(r.mean())
-    F = 10.0 * stress * math.pi * (2.0 * rbar) ** 2 / 3.0
-    kn = float(hertz_kn(hertz_radius(F, mat.e_star, 0.5 * rmin), mat.e_star))
-    m_min = mat.density * 4.0 / 3.0 * math.pi * rmin ** 3
-    return safety * math.sqrt(m_min / kn)
-
-
-#: more grains than this: LAMMPS sorts its atoms spatially (``atom_modify sort``, every 1000
-#: time steps into bins of half the neighbour cutoff, LAMMPS' own default), so that
-#: neighbours sit close in memory. Measured on 'dense' tiled and its grains shuffled (the
-#: order of a packing made from a random gas; ``benchmarks/bench_lammps_sort.py``), time
-#: steps per CPU second sorted against unsorted: 1.9x at 36 000 grains, 3.1x at 100 000; at
-#: 2000 and 8000 grains 1.0-1.4x, within the scatter of those runs on shared cores
-#: (``docs/performance.md``). Up to this size a run stays bit-identical to an unsorted one
-#: (the shipped packings, the tests and the tables of the docs were made unsorted).
-SORT_MIN_GRAINS = 5000
-
-
-def atom_modify(n_grains: int) -> str:
-    """The ``atom_modify`` command for ``n_grains`` grains: a map by ID, sorted above ``SORT_MIN_GRAINS``."""
-    return "atom_modify map array " + ("sort 1000 0.0" if n_grains > SORT_MIN_GRAINS else "sort 0 0")
-
-
-def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.ndarray,
-                 mat: GrainMaterial, mu: float, stress: float, ids: np.ndarray | None = None,
-                 rolling: str = "") -> dict:
-    """Create the periodic triclinic cell and the grains, the granular model, integrator, pressure and contact computes.
-
-    ``cell`` rows ``a = (lx,0,0)``, ``b = (xy,ly,0)``, ``c = (xz,yz,lz)`` with the origin at
-    0; ``rolling``: the ``rolling sds ... twisting sds ...`` suffix of the ``pair_coeff``
-    (:func:`grainmech.packing.rolling.rolling_pair_suffix`; with it the contact moments are measured too,
-    :func:`measure_moments`). Returns the numerical constants used.
-    """
-    n = len(radii)
-    a, b, c = cell
-    lx, ly, lz = a[0], b[1], c[2]
-    xy, xz, yz = b[0], c[0], c[1]
-    rmin = float(np.min(radii))
-    lmp.commands([
-        "units si", "atom_style sphere", atom_modify(n), "boundary p p p",
-        "comm_modify vel yes",
-        f"region cell prism 0 {lx:.17g} 0 {ly:.17g} 0 {lz:.17g} {xy:.17g} {xz:.17g} {yz:.17g}",
-        "create_box 1 cell"])
-    tags = np.arange(1, n + 1) if ids is None else np.asarray(ids, int)
-    lmp.create_atoms(tags, np.ones(n, int), positions)
-    if lmp.natoms() != n:
-        raise GrainmechError(f"LAMMPS created {lmp.natoms()} of {n} grains (positions outside the cell?)")
-    tag = lmp.atom("id")
-    rowof = {int(t): k for k, t in enumerate(tags)}
-    rows = np.array([rowof[int(t)] for t in tag])
-    lmp.atom_view("radius")[:] = radii[rows]
-    lmp.atom_view("rmass")[:] = mat.density * 4.0 / 3.0 * np.pi * radii[rows] ** 3
-    dt = critical_time_step(radii, mat, stress)
-    lmp.commands([
-        "pair_style granular", _pair_coeff(mat, mu, rolling),
-        f"neighbor {0.3 * rmin:.10g} bin", "neigh_modify delay 0 every 1 check yes",
-        "fix integrate all nve/sphere", f"timestep {dt:.10g}",
-        "compute press all pressure NULL virial",
-        "thermo_style custom step c_press", "thermo_modify norm no",
-        "compute cpair all pair/local force p1 p2 p3 p10 p11 p12 cutoff radius",
-        "compute cids all property/local patom1 patom2 cutoff radius",
-    ])
-    if rolling:
-        measure_moments(lmp)
-    return {"dt": dt}
-
-
-def measure_moments(lmp: Any) -> None:
-    """Define the compute that gives :func:`network_from_lammps` the contacts' rolling and twisting moments.
-
-    ``compute pair/local p5 p6 p7 p9`` of ``pair_style granular``: the rolling force
-    ``F_r`` (3) and the signed twisting torque ``M_t`` of each pair (LAMMPS
-    ``PairGranular::single``); defined once, after a ``pair_coeff`` with ``rolling`` or
-    ``twisting`` (without them LAMMPS does not set these values).
-    """
-    if not lmp.has_id("compute", "croll"):
-        lmp.command("compute croll all pair/local p5 p6 p7 p9 cutoff radius")
-
-
-def _cell(lmp: Any) -> tuple[np.ndarray, np.ndarray]:
-    lo, hi, xy, yz, xz = lmp.box()
-    lx, ly, lz = hi - lo
-    return np.array([[lx, 0, 0], [xy, ly, 0], [xz, yz, lz]], float), lo
-
-
-def network_from_lammps(lmp: Any, source: str = "grainmech pack (LAMMPS)") -> ContactNetwork:
-    """The current LAMMPS state as a :class:`ContactNetwork` (grainmech's convention).
-
-    ``compute pair/local force p1 p2 p3 p10 p11 p12`` of ``pair_style granular`` gives per
-    pair ``(I, J)`` the normal force magnitude, the tangential force on ``I`` and
-    ``x_I - x_J`` (with the periodic image). The force on ``I`` is
-    ``F_I = force (x_I - x_J)/r + F_t``; grainmech stores the force by ``A = I`` on
-    ``B = J``, ``f = -F_I``, and the branch ``l = x_J - x_I``. Call after a ``run``.
-    On several MPI ranks every rank gets the whole network (grains and pairs gathered).
-
-    With rolling resistance (:func:`measure_moments`) the network carries the contact
-    moments too: LAMMPS applies to ``I`` the torque ``R* n_IJ x F_r + M_t n_IJ``
-    (``n_IJ = (x_I - x_J)/r``, ``R* = R_I R_J / (R_I + R_J)``) and its opposite to ``J``;
-    grainmech's moment ``M`` is the one by ``A`` on ``B`` (``A`` receives ``-M``, the
-    convention of :mod:`grainmech.contact.rolling`), ``M = -(R* n_IJ x F_r + M_t n_IJ)``.
-    """
-    lmp.command("run 0 post no")
-    cell, lo = _cell(lmp)
-    tag = lmp.atom_all("id").astype(np.int64)
-    x = lmp.atom_all("x")
-    r = lmp.atom_all("radius")
-    order = np.argsort(tag)
-    ids = tag[order]
-    rowof = np.empty(tag.max() + 1, np.int64)
-    rowof[ids] = np.arange(ids.size)
-    pl = lmp.local_all("cpair")
-    pi = lmp.local_all("cids")
-    if pl.shape[0] != pi.shape[0]:
-        raise GrainmechError(f"LAMMPS pair/local ({pl.shape[0]}) and property/local ({pi.shape[0]}) "
-                             "list different pairs")
-    box = Box(lo, cell, np.ones(3, bool))
-    rolling = lmp.has_id("compute", "croll")
-    moment = None
-    if pl.shape[0] == 0:
-        C = 0
-        I = J = np.zeros(0, np.int64)
-        f = lbr = np.zeros((0, 3))
-        moment = np.zeros((0, 3)) if rolling else None
-    else:
-        I = rowof[pi[:, 0].astype(np.int64)]
-        J = rowof[pi[:, 1].astype(np.int64)]
-        dIJ = pl[:, 4:7]
-        rr = np.linalg.norm(dIJ, axis=1)
-        F_I = pl[:, 0:1] * dIJ / rr[:, None] + pl[:, 1:4]
-        f = -F_I
-        lbr = -dIJ
-        C = len(I)
-        if rolling:
-            pr = lmp.local_all("croll")
-            if pr.shape[0] != C:
-                raise GrainmechError(f"LAMMPS pair/local lists {C} pairs with forces and {pr.shape[0]} with "
-                                     "moments")
-            nIJ = dIJ / rr[:, None]
-            rI, rJ = r[order][I], r[order][J]
-            Rs = rI * rJ / (rI + rJ)
-            moment = -(Rs[:, None] * np.cross(nIJ, pr[:, 0:3]) + pr[:, 3:4] * nIJ)
-    pos = x[order]
-    rad = r[order]
-    ov = rad[I] + rad[J] - np.linalg.norm(lbr, axis=1) if C else np.zeros(0)
-    return ContactNetwork(ids, pos, rad, box, I, J, f, lbr, ov, source=source, moment=moment)
-
-
-def unbalanced_ratio(net: ContactNetwork, *, lever: str = "lammps") -> float:
-    """Unbalanced force ratio of a network from its contact forces (and contact moments).
-
-    Mean over grains with contacts of ``sqrt(|F|^2 + (|M|/R)^2)`` (sum of contact forces
-    and moments on the grain) over the mean contact force magnitude (the usual DEM measure,
-    e.g. Ng 2006, with the moments added as in ``grainmech.driver.packing``). A network
-    with contact moments (rolling resistance, ``net.moment``: by ``A`` on ``B``) adds them
-    to the grains' moments.
-
-    Parameters
-    ----------
-    net : ContactNetwork
-    lever : {"lammps", "radius"}
-        Lever arm of a contact force about a grain centre: ``R - delta/2`` along the normal
-        (the contact point of LAMMPS ``pair_style granular``) or ``R`` (grainmech's
-        packing driver, ``r_A = R_A n``).
-    """
-    if net.n_contacts == 0:
-        return math.inf
-    n = net.normals
-    R = net.require_radii("the unbalanced force ratio")
-    ov = net.overlap if net.overlap is not None else np.zeros(net.n_contacts)
-    half = 0.5 * ov if lever == "lammps" else 0.0 * ov
-    rA = (R[net.i] - half)[:, None] * n
-    rB = -(R[net.j] - half)[:, None] * n
-    P = net.n_particles
-    F = np.zeros((P, 3))
-    M = np.zeros((P, 3))
-    np.add.at(F, net.j, net.force)
-    np.add.at(F, net.i, -net.force)
-    np.add.at(M, net.i, np.cross(rA, -net.force))
-    np.add.at(M, net.j, np.cross(rB, net.force))
-    if net.moment is not None:
-        np.add.at(M, net.j, net.moment)
-        np.add.at(M, net.i, -net.moment)
-    has = np.zeros(P, bool)
-    has[net.i] = True
-    has[net.j] = True
-    fc = np.linalg.norm(net.force, axis=1)
-    res = np.sqrt(np.einsum("ij,ij->i", F, F) + np.einsum("ij,ij->i", M, M) / R ** 2)[has]
-    return float(res.mean() / fc.mean()) if fc.mean() > 0 else math.inf
-
-
 # --------------------------------------------------------------------------- summary
 
 def packing_summary(net: ContactNetwork, mat: GrainMaterial, *, frictional: bool = True) -> dict:
@@ -557,7 +296,7 @@ def _not_converged(lmp: Any, max_steps: int, stage: int, tmean: float, vs: float
         f"preparation did not converge in max_steps = {max_steps} time steps "
         f"(stage {'compression' if stage == 1 else 'relaxation'}: mean stress {p[:3].mean():.4g} Pa "
         f"for target {tmean:.4g} Pa, void ratio "
-        f"{void_ratio(_cell(lmp)[0].diagonal().prod(), vs):.3f})", last_net)
+        f"{void_ratio(lammps_cell(lmp)[0].diagonal().prod(), vs):.3f})", last_net)
 
 
 def _servo_increment(settings: PackSettings, stage: int, pm: float, tmean: float, err: np.ndarray, eps_t: float,
@@ -673,7 +412,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
             p = _stress6(lmp)
             # > 0: too much compression (or too much shear stress) -> expand (or shear back)
             err = (p - target) / tmean
-            cell = _cell(lmp)[0]
+            cell = lammps_cell(lmp)[0]
             e_now = void_ratio(float(np.prod(np.diag(cell))), vs)
             pm = float(p[:3].mean())
             de = _servo_increment(settings, stage, pm, tmean, err, eps_t, rbar, mat.density, chunk, dt)
@@ -693,7 +432,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                     roll_notes["grains"] = (f"mu_r = {grain_roll.mu_roll:g}, {grain_roll.source} (at the switch to "
                                             "the grain friction)")
                 if mat.friction != mu_now or grain_roll is not None or prep_roll is not None:
-                    lmp.command(_pair_coeff(mat, mat.friction, rolling_pair_suffix(grain_roll, rbar, mat.density)))
+                    lmp.command(pair_coeff(mat, mat.friction, rolling_pair_suffix(grain_roll, rbar, mat.density)))
                     mu_now = mat.friction
                     if grain_roll is not None:
                         measure_moments(lmp)

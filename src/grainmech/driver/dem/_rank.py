@@ -1,7 +1,7 @@
-"""One rank of a DEM job started by :func:`grainmech.driver.dem_mpi.run_dem_ranks` (``python -m``).
+"""One rank of a DEM job started by :func:`grainmech.driver.dem.mpi.run_dem_ranks` (``python -m``).
 
 Reads the inputs ``IN`` (pickle: network, law, path, settings, pressure, rolling), runs
-:func:`grainmech.driver.dem.run_dem` (LAMMPS on ``MPI_COMM_WORLD``); rank 0 writes
+:func:`grainmech.driver.dem.run.run_dem` (LAMMPS on ``MPI_COMM_WORLD``); rank 0 writes
 progress lines (JSON) on its standard output and ``("result", DemResult)`` or
 ``("error", message)`` to ``OUT``. An unexpected error aborts every rank.
 """
@@ -15,9 +15,9 @@ import traceback
 from pathlib import Path
 from typing import Any
 
-from grainmech.driver.dem import run_dem
+from grainmech.driver.dem.run import run_dem
 from grainmech.errors import GrainmechError
-from grainmech.packing.engine import mpi_comm
+from grainmech.lammps.engine import mpi_comm
 
 
 def _main(argv: list[str]) -> int:

@@ -1,6 +1,6 @@
 """Continuous quasi-static shearing of a LAMMPS packing at a target inertial number.
 
-The step-and-relax protocol of the DEM model (:mod:`grainmech.driver.dem`) brings the
+The step-and-relax protocol of the DEM model (:mod:`grainmech.driver.dem.point`) brings the
 packing to equilibrium at every recorded state; on a flowing packing every relaxation
 then costs as much as the flow itself. The continuous protocol shears without stopping:
 the cell deforms at a constant rate set from a target inertial number
@@ -34,11 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grainmech.driver.base import Status, StepFailure
-from grainmech.packing.prepare import network_from_lammps, unbalanced_ratio
-from grainmech.packing.reference import VOIGT_DEFORM, _add_affine_velocity
+from grainmech.lammps.session import VOIGT_DEFORM, add_affine_velocity
 
-__all__: list[str] = []
+__all__ = ["FlowState", "flow_increment", "inertial_number", "shear_rate", "stop", "virial_stress"]
 
 #: LAMMPS ``compute pressure`` order (pxx pyy pzz pxy pxz pyz) -> grainmech Voigt (xx yy zz yz xz xy)
 _PRESS_TO_VOIGT = (0, 1, 2, 5, 4, 3)
@@ -72,6 +70,7 @@ class FlowState:
 
     @classmethod
     def at_rest(cls, K: np.ndarray | None = None) -> FlowState:
+        """A cell at rest with the servo's stiffness estimate ``K`` (6, 6) [Pa] (None: no servo)."""
         return cls(np.zeros(6), None if K is None else K.copy(), None if K is None else K.copy())
 
     def learn(self, sc: np.ndarray, s_vec: np.ndarray, y_vec: np.ndarray) -> None:
@@ -86,6 +85,7 @@ class FlowState:
 
     @property
     def flowing(self) -> bool:
+        """Whether the cell deforms (a rate is set)."""
         return bool(np.any(self.rate != 0.0))
 
 
@@ -96,7 +96,7 @@ def _set_rate(s, flow: FlowState, rate: np.ndarray) -> None:
     lmp = s.lmp
     if flow.flowing:
         lmp.command("unfix flow")
-    _add_affine_velocity(s, -(rate - flow.rate), 1.0)  # LAMMPS: tension positive
+    add_affine_velocity(s, -(rate - flow.rate), 1.0)  # LAMMPS: tension positive
     parts = [f"{key} erate {-r:.12g}" for (key, _), r in zip(VOIGT_DEFORM, rate) if r != 0.0]
     if parts:
         lmp.command("fix flow all deform 1 " + " ".join(parts) + " remap v")
@@ -114,7 +114,7 @@ def flow_increment(s, flow: FlowState, d_e: np.ndarray, sc: np.ndarray, start: n
 
     Parameters
     ----------
-    s : the LAMMPS session (:class:`grainmech.packing.reference._Session`)
+    s : the LAMMPS session (:class:`grainmech.lammps.session.Session`)
     flow : FlowState
         The cell's rate and the servo's stiffness estimate; updated.
     d_e : array (6,)
@@ -175,34 +175,3 @@ def flow_increment(s, flow: FlowState, d_e: np.ndarray, sc: np.ndarray, start: n
         done += steps
         top = max(top, float(np.abs(r).max(initial=0.0)))
     return {"steps": done, "strain": applied, "rate": top}
-
-
-def flow_step(point, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray) -> None:
-    """One recorded increment of a :class:`~grainmech.driver.dem.DemPoint` by the continuous protocol.
-
-    The cell is sheared through ``d_e`` (strain-controlled components) at the rate of the
-    settings' inertial number at the mean stress of the increment's start, the
-    stress-controlled components ``sc`` servo-held on their path from the last recorded
-    stress to ``target``; the state reached is read from LAMMPS (contacts, unbalanced
-    force ratio, the increment's largest inertial number in ``point.inertial``).
-    """
-    st = point.settings
-    s = point._s
-    if point._flow is None:
-        point._flow = FlowState.at_rest(point._K)
-    start = point.stress.copy()
-    p = float(np.mean(start[:3]))
-    if not p > 0:
-        raise StepFailure(f"the packing carries no compressive stress (p = {p:.3g} Pa): no inertial number",
-                          Status.FAILED)
-    d = 2.0 * point.mean_radius
-    rho = point.material.density
-    out = flow_increment(s, point._flow, d_e, sc, start, target, shear_rate(st.inertial_number, d, rho, p),
-                         st.servo_interval, st.min_flow_steps)
-    point.strain = point.strain + out["strain"]
-    net = network_from_lammps(s.lmp)
-    point._set(net, unbalanced_ratio(net))
-    p_now = float(np.mean(point.stress[:3]))
-    point.inertial = inertial_number(out["rate"], d, rho, max(min(p, p_now), 1e-300))
-    if point._tick is not None:
-        point._tick(s.steps, point.unbalanced)

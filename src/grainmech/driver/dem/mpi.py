@@ -3,13 +3,13 @@
 With ``DemSettings(ranks=N)``, N > 1, a DEM path (one amplitude of a series, or a
 ``kind = "path"`` test) does not run in the calling process: :func:`run_dem_ranks` writes
 the packing, the law, the path and the settings to a temporary folder and starts
-``mpiexec -n N python -m grainmech.driver._dem_rank IN OUT``. Every rank runs
+``mpiexec -n N python -m grainmech.driver.dem._rank IN OUT``. Every rank runs
 :func:`grainmech.driver.dem.run_dem` on the same inputs; LAMMPS splits the cell into N
 sub-domains (its own domain decomposition), and the network each check needs is gathered
-on every rank (:meth:`grainmech.packing.engine.Lammps.atom_all`), so all ranks take the
+on every rank (:meth:`grainmech.lammps.engine.Lammps.atom_all`), so all ranks take the
 same decisions. Rank 0 sends progress lines (JSON) on its standard output and writes the
 result; the caller reads both. The result is the same as on one rank up to the order of
-floating-point sums (``tests/test_dem_mpi.py`` holds G within 1 %).
+floating-point sums (G within 1 % on 'dense', ``docs/dem-model.md``).
 
 The launcher is the ``mpiexec`` next to the Python interpreter (the ``mpich`` wheel of
 ``grainmech[dem]`` installs it there) or the first on ``PATH``. Each rank runs LAMMPS on
@@ -39,7 +39,8 @@ from typing import TYPE_CHECKING, Any
 from grainmech.errors import GrainmechError
 
 if TYPE_CHECKING:  # the DEM model imports this module; these are for the annotations only
-    from grainmech.driver.dem import DemResult, DemSettings
+    from grainmech.driver.dem.run import DemResult
+    from grainmech.driver.dem.settings import DemSettings
     from grainmech.driver.paths import LoadPath
     from grainmech.network import ContactNetwork
 
@@ -110,7 +111,7 @@ def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSe
     with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as tmp:
         src, out, err = Path(tmp) / "in.pkl", Path(tmp) / "out.pkl", Path(tmp) / "stderr.txt"
         src.write_bytes(pickle.dumps((net, law, path, settings, pressure, rolling)))
-        cmd = [launcher, "-n", str(settings.ranks), sys.executable, "-m", "grainmech.driver._dem_rank",
+        cmd = [launcher, "-n", str(settings.ranks), sys.executable, "-m", "grainmech.driver.dem._rank",
                str(src), str(out)]
         env = dict(os.environ, OMP_NUM_THREADS="1")
         with open(err, "w") as errfh:

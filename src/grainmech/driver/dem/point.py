@@ -1,87 +1,34 @@
-"""The DEM model: the run's test done by LAMMPS on the same grains, quasi-statically.
+"""The DEM model's material point: a packing in LAMMPS at an equilibrium state (:mod:`grainmech.driver.dem`).
 
-Where the packing model keeps the reference geometry fixed, the DEM model lets LAMMPS
-(``pair_style granular``: Hertz normal force, Mindlin no-slip tangential spring
-``k_t = 8 G* a`` capped by Coulomb friction, Mindlin 1949) move the grains: contacts form
-and break, grains rearrange, the packing can dilate, contract, fail and liquefy.
-
-**Quasi-static by construction** (as the DEM reference runs of
-:mod:`grainmech.packing.reference`, whose functions it uses). A step of a path is a strain
-increment applied as a ramp of ``ramp_steps`` time steps with the affine velocity field
-(the cell follows with ``fix deform ... remap v``, so the tangential springs see the
-affine part of the motion), after which the cell is held and the grains relax (viscous
-drags by default, ``DemSettings.damping``) until (a) the unbalanced force ratio is below
-``tol`` and (b) the Love-Weber stress (seed Eq. 2.6) changes over a chunk of ``chunk``
-steps by less than ``settle`` times its change over the step. Only these equilibrium
-states are recorded; on a dense packing the damping and the ramp rate change the path
-between them, not the states, while on a loose one the equilibrium a step ends in depends
-on the dynamics that lead to it (``docs/dem-model.md`` measures both). At constant volume
-a path that loses its mean stress ends as liquefied (``DemSettings.liquefaction``).
-
-**Mixed control.** Stress-controlled components (``sigma_zz`` at constant normal stress,
-the lateral stresses of a drained triaxial test) are held by a servo on the cell: the
-strain of those components is predicted with a stiffness estimate (the relaxed tensor of
-the start state, :func:`grainmech.network.relaxed_stiffness`), applied with the step's
-strain increment, then corrected (ramp + relax again, the estimate updated by Broyden's
-rule from each observed response) until the stress error is below ``stress_tol`` times
-the step's stress change (at least ``1e-3`` of the mean stress). A step whose servo or
-relaxation does not converge within its budget raises
-:class:`~grainmech.driver.base.StepFailure`; the path keeps what was done.
-
-**Rolling and twisting resistance** (``rolling``, :mod:`grainmech.contact.rolling`): the
-constants are resolved once on the start packing's contacts
-(:func:`~grainmech.contact.rolling.rolling_constants`: ``k_roll`` tied to the Mindlin
-stiffness at their mean normal force and mean effective radius unless given) and LAMMPS
-runs them as ``rolling sds`` / ``twisting sds`` in the ``pair_coeff``, with dashpots of half
-the critical damping of a grain rocking on one contact
-(:func:`grainmech.packing.rolling.rolling_damping`; they act on spins only, so the recorded
-equilibria do not depend on them). The moment springs start from zero, as the tangential
-ones do; every recorded state carries the contact moments read from LAMMPS
-(:func:`~grainmech.packing.prepare.network_from_lammps`), which enter the unbalanced force
-ratio, the stored energy and the relaxed tensor of the start state.
-
-Strains are the sum of the increments (for large strains the natural strain of the cell);
-compression positive, engineering shears, Voigt order ``xx yy zz yz xz xy``.
+:class:`DemPoint` takes one mixed-control step at a time: step and relax (ramp, relax,
+servo corrections with a Broyden-learned stiffness) or, with ``protocol = "continuous"``,
+one increment of continuous shearing (:mod:`grainmech.driver.dem.flow`).
 """
 
 from __future__ import annotations
 
-import ctypes
 import math
-import multiprocessing as mp
-import os
-import queue
-import signal
-from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact.rolling import RollingConstants, RollingResistance, rolling_constants
-from grainmech.driver._dem_flow import flow_step
-from grainmech.driver.base import DriverResult, Status, StepFailure
-from grainmech.driver.dem_mpi import Tick, run_dem_ranks
-from grainmech.driver.dem_settings import DAMPINGS, DEFAULT_DENSITY, PROTOCOLS, DemSettings, dem_material
-from grainmech.driver.loop import cyclic_series, follow_path
-from grainmech.driver.paths import LoadPath, cyclic_simple_shear
+from grainmech.driver.base import Status, StepFailure
+from grainmech.driver.dem.flow import FlowState, flow_increment, inertial_number, shear_rate
+from grainmech.driver.dem.mpi import Tick
+from grainmech.driver.dem.settings import DemSettings, dem_material
 from grainmech.errors import GrainmechError, ParameterError
+from grainmech.lammps.engine import Lammps
+from grainmech.lammps.granular import GrainMaterial
+from grainmech.lammps.network import network_from_lammps, unbalanced_ratio
+from grainmech.lammps.rolling import ROLLING_DAMPING
+from grainmech.lammps.session import RelaxationTimeout, Session, load_network, ramp, relax, voigt
 from grainmech.network import ContactNetwork, network_stress
 from grainmech.network.measures import contact_stiffnesses, coordination
 from grainmech.network.relaxed import relaxed_stiffness
-from grainmech.packing.engine import Lammps, mpi_world_size
-from grainmech.packing.prepare import GrainMaterial
-from grainmech.packing.reference import RelaxationTimeout, _ramp, _Session, _voigt, load_network, relax
-from grainmech.packing.rolling import ROLLING_DAMPING
 
-__all__ = ["DemSettings", "DemPoint", "DemResult", "DemSeries", "dem_material", "run_dem", "dem_modulus_reduction",
-           "DEM_MAX_AMPLITUDE", "DAMPINGS", "DEFAULT_DENSITY", "PROTOCOLS"]
+__all__ = ["DemPoint", "PRESSURE_TOLERANCE", "dem_rolling", "rolling_note", "rolling_energy"]
 
-#: largest cyclic amplitude the DEM model accepts (cells tilt; beyond it a simple-shear
-#: cell of a 2000-grain packing is too thin for the shear band)
-DEM_MAX_AMPLITUDE = 0.05
 #: relative difference between a packing's mean stress and the run's pressure below which
 #: the packing is used as it is (as the packing model's ``PACKING_STRESS_TOLERANCE``)
 PRESSURE_TOLERANCE = 5e-3
@@ -108,7 +55,7 @@ class DemPoint:
     returns itself; :meth:`close` ends the LAMMPS instance.
     """
 
-    def __init__(self, lmp: Lammps, session: _Session, net: ContactNetwork, unbalanced: float,
+    def __init__(self, lmp: Lammps, session: Session, net: ContactNetwork, unbalanced: float,
                  settings: DemSettings, material: GrainMaterial, tick: Tick | None,
                  rolling: RollingConstants | None = None) -> None:
         self._lmp = lmp
@@ -132,7 +79,7 @@ class DemPoint:
         self.elastic_tangent = self._relaxed(net)
         self._K = self.elastic_tangent.copy()
         self.mean_radius = float(np.mean(net.require_radii("the DEM model")))
-        self._flow = None  # the continuous protocol's cell rate and servo estimate
+        self._flow: FlowState | None = None  # the continuous protocol's cell rate and servo estimate
         self.inertial = 0.0  # inertial number of the last increment (continuous protocol)
 
     # -- construction -------------------------------------------------------------------
@@ -150,7 +97,7 @@ class DemPoint:
         mean stress differs by more than :data:`PRESSURE_TOLERANCE`. The start state, strain
         zero, is that equilibrium (its stress, contacts and unbalanced force ratio are the
         first recorded row). ``rolling``: rolling and twisting resistance, resolved on
-        ``net``'s contacts (:func:`dem_rolling`; module notes).
+        ``net``'s contacts (:func:`dem_rolling`; :mod:`grainmech.driver.dem`).
         """
         st = settings or DemSettings()
         mat, _ = dem_material(law)
@@ -213,7 +160,7 @@ class DemPoint:
     # -- state --------------------------------------------------------------------------
     def _set(self, net: ContactNetwork, unbalanced: float) -> None:
         self.network = net
-        self.stress = _voigt(np.asarray(network_stress(net).stress))
+        self.stress = voigt(np.asarray(network_stress(net).stress))
         self.unbalanced = float(unbalanced)
         self.coordination = float(coordination(net).z)
 
@@ -269,7 +216,7 @@ class DemPoint:
         the servo, which compresses it again.
         """
         n = max(self.settings.ramp_steps, int(math.ceil(float(np.abs(de).max()) / self.settings.max_ramp_strain)))
-        _ramp(self._s, de, n)
+        ramp(self._s, de, n)
         self.strain = self.strain + de
         servo = bool(sc[:3].any())
         net, ub = _relax(self._s, self.settings, base, self._tick, self.p0, servo)
@@ -279,12 +226,22 @@ class DemPoint:
             raise StepFailure(_liquefied(p, self.p0, "in equilibrium"), Status.LIQUEFIED)
 
     @property
+    def session(self) -> Session:
+        """The LAMMPS session this point runs in (:mod:`grainmech.lammps.session`)."""
+        return self._s
+
+    @property
+    def fallbacks(self) -> int:
+        """Relaxations finished under kinetic damping after the drags ran out of budget (``fallback``)."""
+        return int(self._s.fallbacks)
+
+    @property
     def relax_steps(self) -> int:
         """LAMMPS time steps run so far (ramps and relaxations)."""
         return int(self._s.steps)
 
     def step(self, d_strain: np.ndarray, stress_control: np.ndarray, target: np.ndarray) -> DemPoint:
-        """Apply one mixed-control step (module notes); returns ``self``.
+        """Apply one mixed-control step (:mod:`grainmech.driver.dem`); returns ``self``.
 
         Raises
         ------
@@ -299,7 +256,7 @@ class DemPoint:
         st = self.settings
         if st.protocol == "continuous":
             try:
-                flow_step(self, d_e, sc, target)
+                self._flow_step(d_e, sc, target)
             except GrainmechError as exc:
                 raise exc if isinstance(exc, StepFailure) else StepFailure(str(exc)) from None
             p = float(np.mean(self.stress[:3]))
@@ -334,6 +291,36 @@ class DemPoint:
             if isinstance(exc, StepFailure):
                 raise
             raise StepFailure(str(exc)) from None
+
+    def _flow_step(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray) -> None:
+        """One recorded increment by the continuous protocol (:mod:`grainmech.driver.dem.flow`).
+
+        The cell is sheared through ``d_e`` (strain-controlled components) at the rate of the
+        settings' inertial number at the mean stress of the increment's start, the
+        stress-controlled components ``sc`` servo-held on their path from the last recorded
+        stress to ``target``; the state reached is read from LAMMPS (contacts, unbalanced
+        force ratio, the increment's largest inertial number in :attr:`inertial`).
+        """
+        st = self.settings
+        s = self._s
+        if self._flow is None:
+            self._flow = FlowState.at_rest(self._K)
+        start = self.stress.copy()
+        p = float(np.mean(start[:3]))
+        if not p > 0:
+            raise StepFailure(f"the packing carries no compressive stress (p = {p:.3g} Pa): no inertial number",
+                              Status.FAILED)
+        d = 2.0 * self.mean_radius
+        rho = self.material.density
+        out = flow_increment(s, self._flow, d_e, sc, start, target, shear_rate(st.inertial_number, d, rho, p),
+                             st.servo_interval, st.min_flow_steps)
+        self.strain = self.strain + out["strain"]
+        net = network_from_lammps(s.lmp)
+        self._set(net, unbalanced_ratio(net))
+        p_now = float(np.mean(self.stress[:3]))
+        self.inertial = inertial_number(out["rate"], d, rho, max(min(p, p_now), 1e-300))
+        if self._tick is not None:
+            self._tick(s.steps, self.unbalanced)
 
     def _substeps(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray, start: np.ndarray) -> int:
         """Substeps of a step: the stress change the estimate predicts, over ``max_stress_step`` of p.
@@ -440,9 +427,9 @@ def _liquefied(p: float, p0: float, how: str) -> str:
             "the test's answer rather than a numerical failure")
 
 
-def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None,
+def _relax(s: Session, st: DemSettings, base: np.ndarray | None, tick: Tick | None,
            p0: float | None = None, servo: bool = False) -> tuple[ContactNetwork, float]:
-    """:func:`grainmech.packing.reference.relax` with the settings, progress ticks and one error type.
+    """:func:`grainmech.lammps.session.relax` with the settings, progress ticks and one error type.
 
     The relaxation is checked every ``20 chunk`` time steps: one that has not reached
     equilibrium by then with its mean stress at most ``(1 - liquefaction) p0`` ends the path
@@ -490,331 +477,3 @@ def _relax(s: _Session, st: DemSettings, base: np.ndarray | None, tick: Tick | N
     finally:
         if fell_back:  # the next ramp and relaxation have the drags again
             s.set_kinetic(False)
-
-
-@dataclass(frozen=True)
-class DemResult(DriverResult):
-    """:class:`~grainmech.driver.base.DriverResult` of the DEM model, plus per-state data.
-
-    Attributes
-    ----------
-    unbalanced : (k+1,) unbalanced force ratio of every recorded state (an equilibrium,
-        or a state of the flow with ``protocol = "continuous"``)
-    inertial : (k+1,) largest inertial number of the increment that led to each state
-        (0 for step and relax)
-    coordination : (k+1,) coordination number ``2 C / P`` (all grains) of every state
-    n_contacts : (k+1,) int, contacts of every state
-    notes : tuple of str (contact law that ran, re-settling of the start state, ...)
-    settings : dict, the :class:`DemSettings`
-    G_max : float, small-strain shear modulus of the start state [Pa] (set by the series)
-    elastic_tangent : (6, 6) relaxed small-strain tensor of the start state [Pa]
-
-    ``tangent`` is not measured (NaN); ``iterations`` holds the LAMMPS time steps of each
-    step and ``substeps`` its servo corrections.
-    """
-
-    unbalanced: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    coordination: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    n_contacts: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    notes: tuple = ()
-    settings: dict = field(default_factory=dict)
-    elastic_tangent: np.ndarray = field(default_factory=lambda: np.full((6, 6), np.nan))
-    inertial: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-
-def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None = None, *,
-            pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
-            tick: Tick | None = None, rolling: RollingResistance | None = None) -> DemResult:
-    """Run ``path`` with LAMMPS on the packing ``net`` (module notes).
-
-    Parameters
-    ----------
-    net : ContactNetwork
-        3D periodic packing with radii (e.g. :func:`grainmech.packing.load_packing`).
-    law : contact law
-        Hertz-Mindlin or Mindlin-Deresiewicz (:func:`dem_material`).
-    path : LoadPath
-    settings : DemSettings, optional
-    pressure : float, optional
-        Isotropic stress [Pa] the packing is brought to before the path (:meth:`DemPoint.start`).
-    on_step : callable ``(k, n)``, optional
-        After each step.
-    tick : callable ``(time_steps, unbalanced)``, optional
-        After each relaxation (progress during long steps).
-    rolling : RollingResistance, optional
-        Rolling and twisting resistance of the contacts (module notes); the notes state
-        the constants LAMMPS ran.
-
-    Returns
-    -------
-    DemResult
-        ``success`` False keeps every state before the failed step, the message names it.
-
-    With ``settings.ranks`` > 1 the path runs as an MPI job
-    (:func:`grainmech.driver.dem_mpi.run_dem_ranks`); its ranks call this function.
-    """
-    st = settings or DemSettings()
-    if st.ranks > 1 and mpi_world_size() == 1:
-        return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
-    _, notes = dem_material(law)
-    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "sl", "op", "work", "stored", "sub", "it", "ub",
-                                             "z", "nc", "I")}
-    state = {"corr": 0, "steps": 0}
-
-    def record(pt: DemPoint, k: int) -> None:
-        sl, op = pt.fractions()
-        if k > 0:
-            mid = 0.5 * (rows["stress"][-1] + pt.stress)
-            rows["work"].append(rows["work"][-1] + float(mid @ (pt.strain - rows["strain"][-1])))
-        else:
-            rows["work"].append(0.0)
-        rows["strain"].append(pt.strain.copy())
-        rows["stress"].append(pt.stress.copy())
-        rows["sl"].append(sl)
-        rows["op"].append(op)
-        rows["stored"].append(pt.stored_energy())
-        rows["sub"].append(pt.corrections - state["corr"])
-        rows["it"].append(pt.relax_steps - state["steps"])
-        state["corr"], state["steps"] = pt.corrections, pt.relax_steps
-        rows["ub"].append(pt.unbalanced)
-        rows["z"].append(pt.coordination)
-        rows["nc"].append(pt.network.n_contacts)
-        rows["I"].append(pt.inertial)
-
-    with DemPoint.start(net, law, st, pressure=pressure, tick=tick, rolling=rolling) as point:
-        notes += point.notes
-        state["steps"] = point.relax_steps
-        final, success, status, message = follow_path(point, path, record, on_step=on_step)
-        tangent0 = point.elastic_tangent
-        if point._s.fallbacks:
-            notes.append(f"{point._s.fallbacks} relaxation(s) did not reach equilibrium under the {st.damping} "
-                         f"damping within max_relax_steps = {st.max_relax_steps} time steps and were finished "
-                         "under kinetic damping ([model.dem] fallback)")
-    arr = {k: np.array(v) for k, v in rows.items()}
-    if st.protocol == "continuous" and len(arr["I"]) > 1:
-        notes.append(f"continuous shearing at inertial number {st.inertial_number:g} (largest of the path "
-                     f"{float(arr['I'].max()):.3g}); the recorded states are states of the flow (unbalanced force "
-                     f"ratio up to {float(arr['ub'][1:].max()):.3g})")
-    n = len(arr["strain"])
-    work = arr["work"]
-    diss = work - (arr["stored"] - arr["stored"][0])
-    return DemResult(success, int(status), message, arr["strain"], arr["stress"], np.full((n, 6, 6), np.nan),
-                     arr["sl"], arr["op"], diss, work, arr["stored"], arr["sub"].astype(int), arr["it"].astype(int),
-                     None, len(path), {}, arr["ub"], arr["z"], arr["nc"].astype(int), tuple(notes), st.as_dict(),
-                     tangent0, arr["I"])
-
-
-def _worker_init() -> None:
-    """A DEM worker process leaves Ctrl-C and SIGTERM to the parent (which ends the pool).
-
-    On Linux it also asks for SIGTERM when its parent ends (``prctl(PR_SET_PDEATHSIG)``),
-    so that a parent killed without cleaning up (a script ended by ``kill``) leaves no
-    LAMMPS running.
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    parent = os.getppid()
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM))  # 1 = PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # pragma: no cover - not Linux
-        return
-    if os.getppid() != parent:  # the parent ended before the request took effect
-        os._exit(143)
-
-
-#: niceness of a worker that runs an amplitude other than the largest of its batch (``_Pool``)
-_BACKGROUND_NICE = 10
-
-
-def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
-                pressure: float | None, rolling: RollingResistance | None, background: bool, index: int,
-                q: Any) -> DemResult:
-    """One amplitude in a worker process; progress goes to the parent through ``q``.
-
-    ``background``: the worker lowers its own priority to niceness ``_BACKGROUND_NICE``
-    first (``os.nice``; a process cannot raise it again, so it keeps it for later tasks).
-    """
-    if background and hasattr(os, "nice"):
-        try:
-            os.nice(max(0, _BACKGROUND_NICE - os.nice(0)))
-        except OSError:  # pragma: no cover - a system that refuses it: run at the same priority
-            pass
-
-    def on_step(k: int, n: int) -> None:
-        q.put((index, "step", k, n))
-
-    def tick(steps: int, ub: float) -> None:
-        q.put((index, "tick", steps, ub))
-
-    return run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
-
-
-class _Pool:
-    """Amplitudes run side by side in worker processes (each a LAMMPS on one core).
-
-    The largest amplitude of each batch submitted together (:meth:`DemSeries.add`) is the
-    longest run (more time steps per step, more servo corrections): its worker keeps the
-    normal priority and the others run at niceness ``_BACKGROUND_NICE``, so that when the
-    caller also computes (another model in the main process) the run that decides the
-    wall time keeps its core and the shorter ones take what is left. The results do not
-    depend on it (each LAMMPS is deterministic on one thread).
-    """
-
-    def __init__(self, workers: int) -> None:
-        ctx = mp.get_context("spawn")
-        self.manager = ctx.Manager()
-        self.queue = self.manager.Queue()
-        self.ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
-        self.futures: list[Future] = []
-
-    def submit(self, *args: Any, background: bool = False, rolling: RollingResistance | None = None) -> None:
-        call = (*args, rolling, background, len(self.futures), self.queue)
-        self.futures.append(self.ex.submit(_worker_run, *call))
-
-    def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> DemResult:
-        """Wait for amplitude ``index``, passing on its progress meanwhile."""
-        fut = self.futures[index]
-        while True:
-            try:
-                i, kind, a, b = self.queue.get(timeout=0.5)
-                if i == index and kind == "step" and on_step is not None:
-                    on_step(int(a), int(b))
-                elif i == index and kind == "tick" and tick is not None:
-                    tick(int(a), float(b))
-            except queue.Empty:
-                pass
-            if fut.done():
-                return fut.result()
-
-    def close(self) -> None:
-        """End the pool; workers still running are stopped (interrupted run, failed amplitude)."""
-        for f in self.futures:
-            f.cancel()
-        procs = list(getattr(self.ex, "_processes", {}).values())
-        self.ex.shutdown(wait=False, cancel_futures=True)
-        for pr in procs:
-            if pr.is_alive():
-                pr.terminate()
-        self.manager.shutdown()
-
-
-class DemSeries:
-    """A DEM modulus-reduction series whose amplitudes may start before they are collected.
-
-    ``DemSeries(...)`` checks the inputs and, with ``workers`` > 1, submits every
-    amplitude to worker processes at once (each LAMMPS on one core); :meth:`add` submits
-    more; :meth:`run` collects them in amplitude order through
-    :func:`grainmech.driver.loop.cyclic_series` (with one worker, it runs them there);
-    :meth:`close` ends the workers. A job that runs other models first starts the series
-    before them, so the DEM amplitudes use the cores those models leave idle.
-    """
-
-    def __init__(self, net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
-                 steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
-                 settings: DemSettings | None = None, pressure: float | None = None, workers: int = 1,
-                 rolling: RollingResistance | None = None) -> None:
-        dem_material(law)  # refuse a law LAMMPS cannot run before anything starts
-        amps = np.asarray(amplitudes, dtype=float)
-        if amps.ndim != 1 or amps.size == 0 or not np.all(np.isfinite(amps)) or np.any(amps <= 0):
-            raise ParameterError("amplitudes", list(np.atleast_1d(amplitudes)), "must be a non-empty list of "
-                                 "positive strains")
-        if float(amps.max()) > DEM_MAX_AMPLITUDE:
-            raise ParameterError("amplitudes", list(amps), f"the DEM model takes amplitudes up to "
-                                 f"{DEM_MAX_AMPLITUDE:g}")
-        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-            raise ParameterError("workers", workers, "must be an integer >= 1")
-        self.net, self.law, self.settings, self.pressure = net, law, settings, pressure
-        self.rolling = rolling
-        self.n_cycles, self.steps_per_cycle = n_cycles, steps_per_cycle
-        self.waveform, self.constant = waveform, constant
-        self.amplitudes: list[float] = []
-        self.index: dict[float, int] = {}
-        self.pool = _Pool(min(int(workers), amps.size)) if workers > 1 and amps.size > 1 else None
-        self.add(amps)
-
-    def _path(self, a: float) -> LoadPath:
-        return cyclic_simple_shear(a, self.n_cycles, self.steps_per_cycle, self.waveform, constant=self.constant)
-
-    def add(self, amplitudes: Sequence[float] | np.ndarray) -> None:
-        """Add amplitudes to the series.
-
-        With workers they are submitted at once, the largest first; ``_Pool`` runs all but
-        the largest at a lower priority.
-        """
-        new = sorted({float(a) for a in np.asarray(amplitudes, dtype=float).ravel()} - set(self.index),
-                     reverse=True)
-        for k, a in enumerate(new):
-            self.index[a] = len(self.index)
-            self.amplitudes.append(a)
-            if self.pool is not None:  # new[0], the largest, keeps the normal priority
-                self.pool.submit(self.net, self.law, self._path(a), self.settings, self.pressure,
-                                 background=k > 0, rolling=self.rolling)
-
-    def run(self, *, progress: Callable[[int, float, Any], None] | None = None,
-            on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
-            raise_on_failure: bool = True,
-            on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
-        """Collect the series in increasing amplitude (:func:`dem_modulus_reduction`)."""
-        tangents: list[np.ndarray] = []
-        amps = np.array(sorted(self.amplitudes))
-
-        def one(path: LoadPath) -> DriverResult:
-            a = float(amps[len(tangents)])
-            if self.pool is not None:
-                r = self.pool.result(self.index[a], on_step, tick)
-            else:
-                r = run_dem(self.net, self.law, path, self.settings, pressure=self.pressure, on_step=on_step,
-                            tick=tick, rolling=self.rolling)
-            tangents.append(r.elastic_tangent)
-            return r
-
-        def gmax(path: LoadPath) -> float:
-            if not tangents:
-                return float("nan")
-            return condensed_modulus(tangents[0], 4, path.stress_control[0])
-
-        return cyclic_series(one, amps, gmax, n_cycles=self.n_cycles, steps_per_cycle=self.steps_per_cycle,
-                             waveform=self.waveform, constant=self.constant, progress=progress,
-                             raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
-
-    def close(self) -> None:
-        """End the worker processes (idempotent)."""
-        if self.pool is not None:
-            self.pool.close()
-            self.pool = None
-
-
-def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[float], *, n_cycles: int = 2,
-                          steps_per_cycle: int = 16, waveform: str = "triangle", constant: str = "stress",
-                          settings: DemSettings | None = None, pressure: float | None = None,
-                          workers: int = 1,
-                          progress: Callable[[int, float, Any], None] | None = None,
-                          on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
-                          raise_on_failure: bool = True,
-                          on_amplitude: Callable[[ModulusReduction], None] | None = None,
-                          rolling: RollingResistance | None = None) -> ModulusReduction:
-    """G/Gmax and damping of a packing by DEM: cyclic simple shear ``gamma_xz`` per amplitude.
-
-    Each amplitude starts from the same state (the packing loaded and relaxed anew; LAMMPS
-    is deterministic on one thread), as the other models' series do
-    (:func:`grainmech.driver.loop.cyclic_series`: the last of ``n_cycles`` cycles
-    analysed). ``G_max`` is ``C_55`` of the relaxed small-strain tensor of that start state
-    (:func:`grainmech.network.relaxed_stiffness` with the no-slip Hertz-Mindlin
-    stiffnesses LAMMPS uses, condensed with the path's control: ``sigma_zz`` free at
-    constant stress): the small-strain limit of the same DEM state, which LAMMPS' own
-    strain probes reproduce to 0.13 % on 'dense' (``docs/packing.md``).
-
-    ``workers`` > 1 runs the amplitudes side by side in that many processes (each
-    LAMMPS runs on one core; the amplitudes are independent): the same results, in the
-    time of the slowest amplitude per worker. Progress is passed on for the amplitude the
-    series is waiting for. ``rolling``: rolling and twisting resistance (module notes);
-    ``G_max`` then comes from the relaxed tensor with the moment springs.
-    """
-    series = DemSeries(net, law, amplitudes, n_cycles=n_cycles, steps_per_cycle=steps_per_cycle,
-                       waveform=waveform, constant=constant, settings=settings, pressure=pressure, workers=workers,
-                       rolling=rolling)
-    try:
-        return series.run(progress=progress, on_step=on_step, tick=tick, raise_on_failure=raise_on_failure,
-                          on_amplitude=on_amplitude)
-    finally:
-        series.close()

@@ -2,8 +2,8 @@
 
 :class:`DemSettings` (what makes the DEM model quasi-static: ramp, relaxation damping and
 criteria, servo, liquefaction, MPI ranks) and :func:`dem_material` (the grains LAMMPS'
-granular model runs for a grainmech contact law). Both are re-exported by
-:mod:`grainmech.driver.dem`, where they are documented with the model.
+granular model runs for a grainmech contact law). Both are exported by
+:mod:`grainmech.driver.dem`, where the model is described.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 
 from grainmech.contact.forms import law_forms
 from grainmech.errors import GrainmechError, ParameterError
-from grainmech.packing.prepare import GrainMaterial
+from grainmech.lammps.granular import GrainMaterial
 
 __all__ = ["DAMPINGS", "DEFAULT_DENSITY", "PROTOCOLS", "DemSettings", "dem_material"]
 
@@ -97,7 +97,7 @@ class DemSettings:
     max_relax_steps : int
         Budget of one relaxation; a step that does not reach equilibrium within it fails.
     safety : float
-        Time step as a fraction of the critical one (:func:`grainmech.packing.prepare.critical_time_step`).
+        Time step as a fraction of the critical one (:func:`grainmech.lammps.granular.critical_time_step`).
     stress_tol : float
         Servo tolerance of the stress-controlled components, relative to the step's
         stress change (at least ``1e-3`` of the mean stress).
@@ -118,7 +118,7 @@ class DemSettings:
         How the grains relax between recorded states: ``"viscous"`` drags (``viscous``,
         ``fix viscous`` / ``viscous/sphere``), ``"kinetic"`` damping (no damping force; all
         velocities and spins are set to zero whenever the power of the forces turns
-        negative, :meth:`grainmech.packing.reference._Session.advance`) or Cundall's local
+        negative, :meth:`grainmech.lammps.session.Session.advance`) or Cundall's local
         damping (``cundall``, LAMMPS ``fix damping/cundall``). On 'dense' the drags and
         kinetic damping record the same cycles to 0.2 % at 1e-4 and 1e-3; kinetic damping
         comes to rest where the drags leave a loose packing's stress creeping and takes
@@ -144,7 +144,7 @@ class DemSettings:
         liquefaction in cyclic undrained tests (e.g. Ishihara 1993).
     ranks : int
         MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
-        with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem_mpi`), for packings
+        with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem.mpi`), for packings
         too large for one core.
     protocol : {"relax", "continuous"}
         How a path is loaded: ``"relax"`` (step and relax: every recorded state an
@@ -152,7 +152,7 @@ class DemSettings:
         stopping at the rate of ``inertial_number``, the stress-controlled components held
         by a servo every ``servo_interval`` time steps; every recorded state a state of the
         flow with its unbalanced force ratio and inertial number;
-        :mod:`grainmech.driver._dem_flow`).
+        :mod:`grainmech.driver.dem.flow`).
     inertial_number : float
         Target inertial number ``I = rate d sqrt(rho_s / p)`` of the continuous protocol
         (GDR MiDi 2004): the largest strain rate of a path at the mean stress of each

@@ -29,8 +29,8 @@ import numpy as np
 from grainmech.contact.forms import law_forms
 from grainmech.driver.dem import DemPoint, DemSettings, dem_material
 from grainmech.errors import GrainmechError, ParameterError
+from grainmech.lammps.engine import require_lammps
 from grainmech.network import ContactNetwork
-from grainmech.packing.engine import require_lammps
 
 #: at_stress engines: the packing model's own stress path, the DEM engine, or the first
 #: and then (when it stops and LAMMPS is installed) the second

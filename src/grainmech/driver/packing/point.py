@@ -57,8 +57,8 @@ from grainmech.driver.packing.options import (
 from grainmech.driver.packing.step import _subdivided
 from grainmech.driver.packing.tangent import _relaxed_tangent, unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
+from grainmech.lammps.engine import lammps_available
 from grainmech.network import ContactNetwork, rattlers
-from grainmech.packing.engine import lammps_available
 
 #: ``PackingOptions.accept_unbalanced`` of :meth:`PackingPoint.at_stress` (a DEM packing's "at rest")
 AT_STRESS_UNBALANCED = 1e-4
