@@ -66,7 +66,7 @@ def main() -> None:
                     help="fold by the antipodal map alone (no mirrors): the driver before the mirrors")
     a = ap.parse_args()
     if a.antipodal_only:
-        from grainmech.driver import _fused, _mixed
+        from grainmech.driver.affine import _fused, _mixed
 
         for mod in (_fused, _mixed):
             mod.path_mirrors = lambda *args: ()  # type: ignore[assignment]
@@ -86,7 +86,7 @@ def main() -> None:
     pt = MaterialPoint.isotropic(cs, law, 1e5, backend=a.backend)
     print(f"directions: {len(cs)}  cycles: {a.cycles} x {a.steps} steps  law: Mindlin-Deresiewicz  "
           f"backend: {a.backend}")
-    from grainmech.driver._fold import fold, path_mirrors
+    from grainmech.driver.affine._fold import fold, path_mirrors
 
     for constant in a.constant:
         p = cyclic_simple_shear(a.amplitude, 1, 4, constant=constant)

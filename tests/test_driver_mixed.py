@@ -21,7 +21,7 @@ from grainmech.assembly import ContactSet
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import (LoadPath, MaterialPoint, SolverOptions, cyclic_simple_shear, evaluate, run,
                               segment, tangent)
-from grainmech.driver.point import consistent_tangent
+from grainmech.driver.affine.point import consistent_tangent
 
 pytest.importorskip("numba")
 
@@ -58,7 +58,7 @@ def _agree(a, b, rtol=1e-9):
 @pytest.mark.parametrize("amplitude, max_mean", [(1e-5, 2.1), (1e-4, 2.3), (1e-3, 3.2)])
 def test_compiled_loop_matches_numpy_reference(monkeypatch, amplitude, max_mean):
     """Cyclic simple shear at constant sigma_zz, 194 directions, 2 cycles x 100 steps."""
-    from grainmech.driver import _mixed
+    from grainmech.driver.affine import _mixed
 
     calls = []
     seg = _mixed.mixed_segment
@@ -169,7 +169,7 @@ def test_small_dense_solve_and_condition_match_lapack(n: int) -> None:
     are what the NumPy reference step loop (``solver._solve``) uses; matrices with
     condition numbers from 1 to ~1e10, and exactly singular ones.
     """
-    from grainmech.driver._mixed import _cond2, _solve_small
+    from grainmech.driver.affine._mixed import _cond2, _solve_small
 
     rng = np.random.default_rng(n)
     for _ in range(40):
@@ -197,7 +197,7 @@ def test_loop_is_compiled_once_for_the_law_and_the_pass_it_is_given():
     run pays for it twice."""
     from numba import types
 
-    from grainmech.driver import _mixed
+    from grainmech.driver.affine import _mixed
 
     r = run(_point(23, "auto"), cyclic_simple_shear(1e-4, 1, 20, constant="stress"))
     assert r.success, r.message
@@ -211,7 +211,7 @@ def test_loop_is_compiled_once_for_the_law_and_the_pass_it_is_given():
 def test_compile_worker_can_be_switched_off(monkeypatch):
     """``GRAINMECH_COMPILE_WORKER=0``: no worker process; the law and the pass are then
     compiled in the calling process (the other tests of this file run with the default)."""
-    from grainmech.driver import _mixed
+    from grainmech.driver.affine import _mixed
 
     monkeypatch.setenv("GRAINMECH_COMPILE_WORKER", "0")
     assert _mixed._start_worker(((0, False), (), False, ())) is None
@@ -221,7 +221,7 @@ def _assert_images(state, cs, group, rtol=0.0):
     """Every row of ``state`` is the image of its partner under each sign map of ``group``
     (vector fields mapped, the others equal), bit for bit (``rtol = 0``) or to ``rtol`` of
     the field's largest magnitude: the folding's premise."""
-    from grainmech.driver import _fold
+    from grainmech.driver.affine import _fold
 
     for g in group:
         img = _fold.images(cs.normals, cs.branch, cs.weights, g)
@@ -239,7 +239,7 @@ def _folded_equals_unfolded(monkeypatch, pt, path, mod, group_size):
     """The folded run (one row per orbit) against the unfolded one: stresses, tangents,
     energies and Newton iterations to rounding, the unfolded final state; the folded path
     taken (``mod.unfold`` called with a folding of ``group_size`` maps)."""
-    from grainmech.driver import _fold
+    from grainmech.driver.affine import _fold
 
     full = run(pt, path, options=SolverOptions(fold=False))
     assert full.success, full.message
@@ -270,7 +270,7 @@ def test_symmetric_rows_stay_images_and_folding_them_changes_nothing(monkeypatch
     (5810 -> 1475 rows at degree 131; 194 -> 53 at degree 23), the orbit's weight -- gives the
     unfolded run's stresses, tangents, energies and Newton iterations to rounding, and its
     unfolded final state. Cyclic simple shear to 1e-3."""
-    from grainmech.driver import _fold, _fused, _mixed
+    from grainmech.driver.affine import _fold, _fused, _mixed
 
     pt = _point(41, "auto")
     cs = pt.contacts
@@ -307,7 +307,7 @@ def test_triaxial_path_folds_by_all_three_mirrors(monkeypatch):
     to rounding: with the shear stresses held, the unfolded run's Newton corrects the shear
     strains by rounding-level amounts (its stress sums are symmetric only to rounding),
     so its rows are images to 1e-12, not bit for bit (the folded run keeps them at zero)."""
-    from grainmech.driver import _mixed
+    from grainmech.driver.affine import _mixed
     from grainmech.driver.paths import cyclic_triaxial
 
     pt = _point(23, "auto")
@@ -328,7 +328,7 @@ def test_segments_with_different_symmetries_fold_each_by_its_own_group(monkeypat
     not symmetric under it: the antipodal map alone): each segment is folded by the group
     its path and its starting state allow, and the whole run equals the unfolded one to
     rounding with identical Newton iterations."""
-    from grainmech.driver import _mixed
+    from grainmech.driver.affine import _mixed
     from grainmech.driver.paths import Control, concatenate, triaxial
 
     pt = _point(23, "auto")
@@ -429,7 +429,7 @@ def test_compiled_loop_matches_reference_on_random_turning_paths():
 
 def test_path_mirrors_follow_the_zero_shear_components():
     """Which mirrors a path allows (driver/_fold.path_mirrors)."""
-    from grainmech.driver._fold import path_mirrors
+    from grainmech.driver.affine._fold import path_mirrors
     from grainmech.driver.paths import Control, parse_mask
 
     E = parse_mask("EEEEEE").array
@@ -451,7 +451,7 @@ def test_path_mirrors_follow_the_zero_shear_components():
 def test_a_state_that_breaks_a_mirror_folds_by_the_rest():
     """A tangential force with a y-component on one row breaks y -> -y but keeps the
     antipodal symmetry (it is set on the row's antipode too): the group of two is taken."""
-    from grainmech.driver import _fold
+    from grainmech.driver.affine import _fold
 
     pt = _point(23, "auto")
     cs = pt.contacts
@@ -472,7 +472,7 @@ def test_a_state_that_breaks_a_mirror_folds_by_the_rest():
 def test_no_folding_without_exact_antipodes_or_a_mirrored_state():
     """A set with a row dropped, or with one weight changed, has no pairing; a state in which
     one contact's tangential force is not the mirror of its antipode is not folded."""
-    from grainmech.driver import _fold
+    from grainmech.driver.affine import _fold
 
     pt = _point(41, "auto")
     cs = pt.contacts

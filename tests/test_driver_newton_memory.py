@@ -15,7 +15,7 @@ import pytest
 from grainmech.assembly import ContactSet
 from grainmech.contact import MindlinDeresiewicz
 from grainmech.driver import MaterialPoint, SolverOptions, cyclic_simple_shear, run
-from grainmech.driver.point import consistent_tangent, evaluate, tangent
+from grainmech.driver.affine.point import consistent_tangent, evaluate, tangent
 from grainmech.fabric import sphere_rule
 
 RADIUS = 1e-3
@@ -32,7 +32,7 @@ def _point(degree: int) -> MaterialPoint:
 def test_numpy_jacobian_equals_the_compiled_one():
     """The NumPy consistent tangent equals the compiled pass's Jacobian rows (sliding state)."""
     pytest.importorskip("numba")
-    from grainmech.driver.solver import _fused_evaluate
+    from grainmech.driver.affine.solver import _fused_evaluate
 
     pt = _point(23)
     de = np.array([0, 0, 1e-5, 0, 4e-4, 0.0])
@@ -93,7 +93,7 @@ def test_compiled_pass_returns_the_consistent_tangent_terms():
     """The response of a compiled strain-controlled run carries ks_perp, ktn and the slip
     axis, so the NumPy consistent tangent rebuilt from it equals the compiled Jacobian."""
     pytest.importorskip("numba")
-    from grainmech.driver.solver import _fused_evaluate
+    from grainmech.driver.affine.solver import _fused_evaluate
 
     pt = _point(23)
     de = np.array([0, 0, 1e-5, 0, 4e-4, 0.0])

@@ -1,8 +1,8 @@
 """Every module under src/ stays at most MAX_LINES lines (ARCHITECTURE.md: one module, one
-responsibility), every function at most MAX_FUNCTION_LINES (issue 30: functions of ~120
-lines at most; the limit leaves a margin). A module or function that grows past it is
-split along the phases or responsibilities its docstrings name, keeping the old import
-path working.
+responsibility), every function at most MAX_FUNCTION_LINES (functions of ~120 lines at
+most; the limit leaves a margin). A module or function that grows past it is
+split along the ideas its docstrings name; the parts import each other through public
+names, and no module stays behind at the old path (its importers move to the new one).
 
 The allow-list names the modules exempt for now, each with the reason; it only shrinks
 (remove an entry with the split that brings its module under the limit).
@@ -74,3 +74,39 @@ def test_the_function_measure_counts_every_line():
     text = "def f():\n" + "    x = 1\n" * 200 + "\n\nclass C:\n    def g(self):\n        def h():\n            pass\n"
     got = {name: (line, n) for name, line, n in _function_lengths(text)}
     assert got == {"f": (1, 201), "C.g": (205, 3), "C.g.h": (206, 2)}
+
+
+def _only_reexports(text: str) -> bool:
+    """Whether a module's body is nothing but imports, ``__all__`` and ``sys.modules[...] = ...``."""
+    body = ast.parse(text).body
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+        body = body[1:]  # the docstring
+    if not body:
+        return False
+
+    def plain(node: ast.stmt) -> bool:
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            return True
+        if isinstance(node, ast.Assign) and len(node.targets) == 1:
+            t = node.targets[0]
+            return (isinstance(t, ast.Name) and t.id == "__all__") or (
+                isinstance(t, ast.Subscript) and ast.unparse(t.value) == "sys.modules")
+        return False
+
+    return all(plain(node) for node in body)
+
+
+def test_no_module_only_reexports_another():
+    """Moving code leaves no alias module behind (old documented paths are served by
+    grainmech/_deprecated.py's MOVED_MODULES, with a warning); a package's __init__ may re-export."""
+    root = SRC.parent
+    aliases = [p.relative_to(root).as_posix() for p in sorted(SRC.rglob("*.py"))
+               if p.name != "__init__.py" and _only_reexports(p.read_text(encoding="utf-8"))]
+    assert not aliases, "modules that only re-export another (import from the real path instead):\n" + "\n".join(
+        aliases)
+
+
+def test_the_alias_check_finds_an_alias():
+    assert _only_reexports('"""Old path."""\nimport sys\nfrom a import b as _m\nsys.modules[__name__] = _m\n')
+    assert _only_reexports("from grainmech.elasticity import *\nfrom grainmech.elasticity import __all__\n")
+    assert not _only_reexports("import numpy as np\n\n\ndef f():\n    return np.pi\n")

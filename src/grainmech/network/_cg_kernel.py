@@ -143,7 +143,7 @@ def block_inverses(D, rel):  # pragma: no cover - compiled
 def _make(parallel: bool):
     """Block CG compiled serial or parallel (``prange`` over parts and grain chunks).
 
-    A closure over ``rng`` only (as in :mod:`grainmech.driver._fused`): two dispatchers of
+    A closure over ``rng`` only (as in :mod:`grainmech.driver.affine._fused`): two dispatchers of
     one plain function would share numba's on-disk cache entry, and a closure over other
     dispatchers gets a new cache key in every process. Both give the same bits for the
     same ``gsplit``/``csplit``.

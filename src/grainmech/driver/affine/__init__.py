@@ -9,7 +9,5 @@
   its per-contact pieces in ``_mixed_rows``, its evaluation pass in ``_mixed_pass``) and
   :mod:`~grainmech.driver.affine._fold` (folding by the path's symmetries).
 
-The same names are importable from :mod:`grainmech.driver`; the old module paths
-(``grainmech.driver.point``, ``grainmech.driver.solver``, ``grainmech.driver._mixed``,
-...) are these modules under another name.
+The same names are importable from :mod:`grainmech.driver`.
 """
