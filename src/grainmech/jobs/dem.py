@@ -134,7 +134,7 @@ def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
 
 
 def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
-    """Amplitudes the packing model hands to the DEM model run after it (issue 28 item 2, issue 29).
+    """Amplitudes the packing model hands to the DEM model run after it.
 
     When ``"dem"`` runs later in the same job, two kinds of amplitude of a cyclic test
     join the DEM model's amplitudes (each amplitude starts from the initial state, so the

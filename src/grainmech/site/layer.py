@@ -7,7 +7,7 @@ stress with :meth:`grainmech.driver.packing.PackingPoint.at_stress` there, the a
 model takes the pressure directly. The functions called in worker processes
 (:func:`anchor_task`, :func:`run_task`) take and return plain picklable values.
 
-Anchoring to a measured shear-wave velocity (issue 31 item 2). The target is
+Anchoring to a measured shear-wave velocity. The target is
 ``G_target = rho vs^2``. For Hertz-type contacts at fixed contact forces the contact
 stiffnesses scale as the grains' modulus to the power 2/3: Hertz (seed Eq. 3.1-3.7)
 ``k_n = 2 E* a`` with ``a^3 = 3 N R / (4 E*)`` gives ``k_n ~ E*^(2/3) N^(1/3)``, and

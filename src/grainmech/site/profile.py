@@ -40,7 +40,7 @@ __all__ = ["SiteProfile", "Layer", "Bedrock", "MotionSpec", "read_profile", "jak
 GRAVITY = 9.80665
 #: unit weight of water [N/m^3] (default of ``[site] unit_weight_water``)
 GAMMA_WATER = 9.81e3
-#: grain shear moduli [Pa] a ``vs`` anchoring may ask for (issue 31: 1-1000 GPa)
+#: grain shear moduli [Pa] a ``vs`` anchoring may ask for (1-1000 GPa)
 GRAIN_MODULUS_RANGE = (1e9, 1e12)
 #: tables of a run config that a layer may override (copied into the layer's run config)
 RUN_TABLES = ("model", "contacts", "fabric", "packing", "quadrature", "test", "reference")

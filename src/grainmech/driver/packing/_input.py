@@ -77,7 +77,7 @@ def _input_forces(net: ContactNetwork, params: Any, forces: str, frictional: boo
 #: largest excess ``|T| - mu N`` of a stored tangential force, relative to the mean normal force of
 #: the force-carrying contacts, that the input takes by capping ``|T|`` to ``mu N`` (beyond it the
 #: input is an error); the same fraction as the driver's equilibrium bound on a step's largest
-#: residual (issue 29: 0.05 of the mean contact force)
+#: residual (0.05 of the mean contact force)
 TANGENTIAL_EXCESS_CAP = 0.05
 
 
