@@ -45,6 +45,29 @@ def cli(capsys) -> Callable[..., CliRun]:
     return run
 
 
+#: the small cyclic run of the command-line tests (tests/cli/test_run_command.py, tests/io/test_browser.py)
+CYCLIC = """
+[packing]
+void_ratio = 0.65
+coordination = "chang"
+radius = "0.25 mm"
+[contacts]
+law = "mindlin-deresiewicz"
+shear_modulus = "44 GPa"
+poisson = 0.08
+friction = 0.5
+[initial]
+pressure = "100 kPa"
+[test]
+kind = "cyclic-simple-shear"
+amplitudes = [1e-6, 1e-4, 1e-3]
+n_cycles = 2
+steps_per_cycle = 16
+[quadrature]
+degree = 11
+"""
+
+
 def default_run_affine(text: str | None = None) -> str:
     """The built-in default run config (or ``text``) with the affine model alone.
 

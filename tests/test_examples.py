@@ -99,7 +99,7 @@ def test_both_models_example_is_valid():
 def test_long_dem_example_reads():
     """examples/dem_triaxial_to_critical_state.toml (15 % of axial strain with LAMMPS, minutes
     to hours) is not run here; its config must read, and its two-step version runs in
-    tests/test_dem_model.py."""
+    tests/driver/test_dem_model.py."""
     import tomllib
 
     import grainmech.lammps.engine as engine

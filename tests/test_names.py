@@ -32,7 +32,7 @@ pressure = "100 kPa"
 
 def test_microstructure_and_its_old_names():
     """Walton (1987)-type check on linear springs, physical counting: K = Nv l^2 kn / 9
-    (the same closed form as tests/test_config_schema.py), through the new and old names."""
+    (the same closed form as tests/io/test_config_schema.py), through the new and old names."""
     import grainmech as gm
     from grainmech import material
     from grainmech.contact import LinearSpring

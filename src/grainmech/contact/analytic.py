@@ -26,7 +26,7 @@ With ``1/G* = (2-nu1)/G1 + (2-nu2)/G2`` (seed Eq. 3.12) and ``x = T/(mu N)``:
   ``3 mu^2 N^2 / (20 G* a)`` at ``T* = mu N``. (The inner term is ``1 + (1-x*)^(2/3)``;
   a form with ``1 - (1-x*)^(2/3)`` has a non-zero slope at ``x* = 0`` and is wrong.)
   Derivation: integrate ``delta_U - delta_R`` over ``T`` in ``[-T*, T*]``; checked
-  symbolically in ``tests/test_contact_md_analytic.py``.
+  symbolically in ``tests/contact/test_md_analytic.py``.
 """
 
 from __future__ import annotations

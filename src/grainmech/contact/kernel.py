@@ -18,7 +18,7 @@ the integral of seed Eq. 3.8) stay on the NumPy path.
 Nothing here is a new model: every branch mirrors a line of the reference, with the
 same floating-point evaluation order where that is possible, so the two paths agree to
 rounding (the power and cube-root functions of NumPy and of the compiled code may
-differ in the last bits; ``tests/test_contact_kernel.py`` checks agreement to 1e-12).
+differ in the last bits; ``tests/contact/test_kernel.py`` checks agreement to 1e-12).
 This module imports numba at import time; :mod:`grainmech.contact.law` imports it
 lazily and falls back to NumPy when numba is missing.
 

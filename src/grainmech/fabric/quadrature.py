@@ -8,7 +8,7 @@ Sphere
     SciPy's Lebedev rules (:func:`scipy.integrate.lebedev_rule`; Lebedev and Laikov
     1999).  A rule of *order* ``p`` integrates every polynomial in ``(x, y, z)`` of total
     degree ``<= p`` exactly (checked for every available order in
-    ``tests/test_fabric_quadrature.py``).  The available orders and point counts are
+    ``tests/fabric/test_quadrature.py``).  The available orders and point counts are
     listed in :data:`LEBEDEV_ORDERS` / :data:`LEBEDEV_POINTS`.  Orders 13, 25 and 27
     contain negative weights; they are skipped unless ``positive=False`` is requested,
     because a negative weight would become a "negative contact" in a stiffness sum.

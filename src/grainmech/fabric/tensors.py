@@ -28,7 +28,7 @@ deviatoric part ``phi / F_k``; the constants follow from
 ``<n^(x)2k>`` = sum over pairings of Kronecker deltas / (d (d+2) ... (d+2k-2)).
 In 3D ``1/F_k = k!/(2k+1)!!``; in 2D ``(1/2 pi) integral cos^2(k theta) dtheta = 1/2`` and
 ``cos(k theta) = Re (n_y + i n_x)^k`` give ``1/F_k = 2^-k``.  Both are checked by
-quadrature in ``tests/test_fabric_tensors.py``.
+quadrature in ``tests/fabric/test_fabric_tensors.py``.
 
 Lower-rank fabric tensors are traces of higher ones (``N_ij = N_ijkk``), so a rank-``L``
 fabric tensor determines all ``phi_(k)``, ``k <= L``, and hence a density of order ``L``.

@@ -1,7 +1,7 @@
 r"""Compiled, matrix-free block-Jacobi CG for the relaxed stiffness of a 3D network.
 
 The same iteration as :func:`grainmech.network._solvers.block_cg` (the NumPy reference,
-``tests/test_dem_network.py`` holds the two to the same tensor), for grains with three
+``tests/network/test_network.py`` holds the two to the same tensor), for grains with three
 translations and three rotations, but
 
 * the Hessian is never assembled: ``H p = sum_c G_c^T K_c G_c p`` is applied contact by

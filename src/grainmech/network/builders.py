@@ -134,7 +134,7 @@ def tile_network(net: ContactNetwork, reps: tuple[int, ...] | list[int]) -> Cont
     whole cells between the minimum image and the stored positions. The result is the
     same material: its stress, fabric and affine and relaxed tensors equal the original's
     (a periodic fluctuation of the small cell is one of the large cell), which
-    ``tests/test_dem_network.py`` checks. Used to make large packings for benchmarks.
+    ``tests/network/test_network.py`` checks. Used to make large packings for benchmarks.
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ same normal force, approach, reversal invariants ``P_j`` and branch direction ``
 tangential force ``T`` and slip axis ``e`` mapped by ``g``) stays the image of its
 partner at every step. In floating point each of these maps only changes signs, exactly,
 so the rows of an orbit stay bit-for-bit images of each other
-(``tests/test_driver_mixed.py`` checks it on unfolded runs).
+(``tests/driver/test_affine_mixed.py`` checks it on unfolded runs).
 
 * The antipodal map leaves every strain invariant (``(-I) dε (-I) = dε``).
 * The mirror ``x_k -> -x_k`` leaves ``dε`` invariant iff the two shear components with

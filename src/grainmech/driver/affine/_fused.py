@@ -19,7 +19,7 @@ each contact's whole history can be integrated in one go. This module does exact
 
 -- but with the loop over steps inside the compiled code, chunk by chunk of contacts
 (a ``prange`` over chunks; each chunk's state stays in cache for the whole path). The
-results equal the step-by-step driver's to rounding (``tests/test_driver_fused.py``).
+results equal the step-by-step driver's to rounding (``tests/driver/test_affine_fused.py``).
 
 Used automatically by :func:`~grainmech.driver.affine.solver.run` (``SolverOptions.compiled``)
 for :class:`~grainmech.contact.interface.ContactLaw` points with a law the compiled kernel

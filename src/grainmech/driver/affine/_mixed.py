@@ -29,7 +29,7 @@ tangent (seed Eq. 2.26 with the laws' ``kn``, ``ks``, full tangential projector)
 stored energy. The loop takes the pass (serial or parallel) and the law as first-class functions, so
 the three compile separately, and on an empty cache in two processes at once
 (:func:`_compile`). The NumPy step loop stays the reference (``SolverOptions(compiled=False)``);
-``tests/test_driver_mixed.py`` holds the two to the same success, stresses and Newton
+``tests/driver/test_affine_mixed.py`` holds the two to the same success, stresses and Newton
 iterations.
 
 Modules: the per-contact pieces, compile options and failure codes are in

@@ -7,7 +7,7 @@ operations on ~4000 contacts (~10-50 us each, ~1.5 ms per iteration on the shipp
 packing, a fifth of the iteration). Here each is one compiled pass. The NumPy functions
 of :mod:`grainmech.driver.packing._operators` and :mod:`grainmech.driver.packing.step` stay the
 reference: the iterations use these when the contact law runs compiled (``law_backend``
-``"auto"`` or ``"numba"``), and ``tests/test_packing_kernels.py`` holds the two to the same
+``"auto"`` or ``"numba"``), and ``tests/driver/test_packing_kernels.py`` holds the two to the same
 values.
 
 Conventions as :mod:`grainmech.driver.packing._operators`: ``Delta_c = G_c q + E_c e`` with
