@@ -5,7 +5,7 @@ into your own figure (a notebook, a multi-panel figure), or leave it out to draw
 current pyplot axes. Nothing here changes the matplotlib backend or writes files; the
 command line makes its figures with :func:`figure` (a ``matplotlib.figure.Figure`` not
 attached to pyplot, so no display is needed) and writes them through
-:func:`grainmech.io.results.write_figure`.
+``grainmech.io.results.write_figure``.
 
 Example
 -------
@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis.stress_path import soil_path_table
 from grainmech.conventions import ORDER_3D
 from grainmech.errors import GrainmechError
-from grainmech.io.results import soil_path_table
 
 __all__ = ["figure", "subplots", "loops", "modulus_reduction", "damping", "path_histories",
            "soil_path_views", "contact_loops"]
@@ -197,7 +197,7 @@ def soil_path_views(result: Any, *, axes: Sequence[Any] | None = None) -> Sequen
     The usual soil-mechanics views of a driver path in four Axes: deviator stress ``q``
     and volumetric strain against axial strain, stress ratio ``q/p`` against axial strain,
     and the ``p``-``q`` stress path (quantities of
-    :func:`grainmech.io.results.soil_path_table`; strains decimal, compression positive,
+    :func:`grainmech.analysis.stress_path.soil_path_table`; strains decimal, compression positive,
     stresses in kPa). Returns the four Axes.
     """
     if axes is None:

@@ -25,12 +25,12 @@ from grainmech.analysis import (
     mohr_coulomb_ratio,
 )
 from grainmech.analysis.strength import path_strength
+from grainmech.analysis.stress_path import soil_path_table
 from grainmech.io.html import PageSection, write_page
 from grainmech.io.results import (
     atomic_write,
     driver_table,
     ensure_dir,
-    soil_path_table,
     write_csv,
     write_figure,
     write_json,
