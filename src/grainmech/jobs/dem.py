@@ -54,7 +54,7 @@ DEM_SETTING_KEYS = {"ramp_steps": int, "viscous": float, "tol": float, "settle":
                     "max_relax_steps": int, "safety": float, "stress_tol": float, "max_corrections": int,
                     "max_ramp_strain": float, "max_stress_step": float, "max_substeps": int, "threads": int,
                     "ranks": int, "liquefaction": float, "cundall": float, "inertial_number": float,
-                    "servo_interval": int, "min_flow_steps": int}
+                    "servo_interval": int, "min_flow_steps": int, "wave_crossings": float}
 
 
 def _dem_settings(model: Any) -> tuple[Any, int]:

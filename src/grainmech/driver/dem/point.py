@@ -313,7 +313,7 @@ class DemPoint:
         d = 2.0 * self.mean_radius
         rho = self.material.density
         out = flow_increment(s, self._flow, d_e, sc, start, target, shear_rate(st.inertial_number, d, rho, p),
-                             st.servo_interval, st.min_flow_steps)
+                             st.servo_interval, max(st.min_flow_steps, self._wave_steps()))
         self.strain = self.strain + out["strain"]
         net = network_from_lammps(s.lmp)
         self._set(net, unbalanced_ratio(net))
@@ -321,6 +321,23 @@ class DemPoint:
         self.inertial = inertial_number(out["rate"], d, rho, max(min(p, p_now), 1e-300))
         if self._tick is not None:
             self._tick(s.steps, self.unbalanced)
+
+    def _wave_steps(self) -> int:
+        """Time steps of ``wave_crossings`` shear-wave crossings of the cell (:class:`DemSettings`).
+
+        ``v_s = sqrt(G / rho)`` with the start state's small-strain shear modulus (the mean
+        of the relaxed tensor's shear diagonal) and the packing's bulk density
+        ``rho_s V_s / V``; the crossing length is the longest cell edge.
+        """
+        net = self.reference
+        C = self.elastic_tangent
+        G = float(np.mean(np.diag(C)[3:]))
+        R = net.require_radii("the DEM model")
+        rho = self.material.density * float(np.sum(4.0 / 3.0 * np.pi * R ** 3)) / net.volume
+        L = float(np.max(np.linalg.norm(np.asarray(net.box.cell, float), axis=1)))
+        if not (G > 0 and rho > 0):
+            return 0
+        return int(math.ceil(self.settings.wave_crossings * L / math.sqrt(G / rho) / self._s.dt))
 
     def _substeps(self, d_e: np.ndarray, sc: np.ndarray, target: np.ndarray, start: np.ndarray) -> int:
         """Substeps of a step: the stress change the estimate predicts, over ``max_stress_step`` of p.
