@@ -670,8 +670,12 @@ def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particle
     cp = _vector(cols, ("cpx", "cpy", "cpz")) if all(c in cols for c in ("cpx", "cpy", "cpz")) else None
     kn = cols.get("kn")
     ks = cols.get("ks")
-    return ContactNetwork(parts.ids, parts.pos, parts.radii, box, ia, ib, f, l_, overlap, cp, kn, ks, source)
+    m = _vector(cols, ("mx", "my", "mz")) if all(c in cols for c in ("mx", "my", "mz")) else None
+    if m is not None and force_on == "id1":
+        np.negative(m, out=m)  # the moment on A (by B) -> the moment by A on B, as the force
+    return ContactNetwork(parts.ids, parts.pos, parts.radii, box, ia, ib, f, l_, overlap, cp, kn, ks, source,
+                          moment=m)
 
 
 _CONTACT_WANT = ("id1", "id2", "fx", "fy", "fz", "x1", "y1", "z1", "x2", "y2", "z2", "cpx", "cpy", "cpz",
-                 "delta", "kn", "ks")
+                 "delta", "kn", "ks", "mx", "my", "mz")

@@ -131,7 +131,8 @@ def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None 
     Contact columns (CSV header or NPZ array names): ``id1, id2, fx, fy, fz`` required
     (force exerted **by id1 on id2**, i.e. acting on id2; compression gives
     ``f . (x2 - x1) > 0``); optional ``x1 y1 z1 x2 y2 z2``, ``cpx cpy cpz`` (contact
-    point), ``delta`` (overlap), ``kn ks`` (contact stiffness). Particle columns: ``id, x,
+    point), ``delta`` (overlap), ``kn ks`` (contact stiffness), ``mx my mz`` (contact moment
+    by id1 on id2: rolling and twisting resistance). Particle columns: ``id, x,
     y, z, radius``. The box comes from comment lines ``# box: xlo xhi ylo yhi zlo zhi`` or
     ``# cell: ax ay az bx by bz cx cy cz`` with ``# origin: x y z``, and
     ``# periodic: 1 1 1`` (NPZ: arrays ``cell``, ``origin``, ``periodic``), in either

@@ -121,6 +121,8 @@ def write_table(net: ContactNetwork, contacts: str | os.PathLike, particles: str
         cols.update(cpx=net.contact_point[:, 0], cpy=net.contact_point[:, 1], cpz=net.contact_point[:, 2])
     if net.kn is not None and net.ks is not None:
         cols.update(kn=net.kn, ks=net.ks)
+    if net.moment is not None:  # rolling and twisting resistance: the contact moment by id1 on id2
+        cols.update(mx=net.moment[:, 0], my=net.moment[:, 1], mz=net.moment[:, 2])
     pcols = {"id": net.ids, "x": net.positions[:, 0], "y": net.positions[:, 1], "z": net.positions[:, 2]}
     if net.radii is not None:
         pcols["radius"] = net.radii

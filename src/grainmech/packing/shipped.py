@@ -46,7 +46,8 @@ def load_packing(name: str) -> ContactNetwork:
             resources.as_file(base.joinpath(f"{name}-particles.npz")) as p:
         net = read_table(c, p)
     return ContactNetwork(net.ids, net.positions, net.radii, net.box, net.i, net.j, net.force, net.branch,
-                          net.overlap, source=f"shipped packing {name!r} (grainmech pack, LAMMPS)")
+                          net.overlap, source=f"shipped packing {name!r} (grainmech pack, LAMMPS)",
+                          moment=net.moment)
 
 
 def packing_info(name: str) -> dict:
