@@ -4,7 +4,7 @@ A packing made from a random gas (``grainmech pack``) or read from another code 
 grains in an order unrelated to where they are, so the neighbours of a grain lie far apart
 in memory. For each tiling of the shipped 'dense' packing (``--tiles 1x1x1,2x2x1,3x3x2,5x5x2``
 = 2000, 8000, 36 000, 100 000 grains) this shuffles the grains' rows, loads them into one
-LAMMPS on one thread (:func:`grainmech.packing.reference.load_network`, viscous drags, time
+LAMMPS on one thread (:func:`grainmech.lammps.session.load_network`, viscous drags, time
 step 0.1 of the critical one), and times a run of ``--steps`` time steps unsorted
 (``atom_modify sort 0 0``), then sorted at every reneighbouring (``atom_modify sort 1
 0.0``), then unsorted again (the order the sort left). Prints time steps per CPU second and

@@ -232,7 +232,7 @@ def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
 
 @needs_lammps
 def test_a_lammps_session_switches_to_kinetic_damping_and_back() -> None:
-    """``_Session.set_kinetic``: the drags' fixes go and come back (LAMMPS refuses to unfix
+    """``Session.set_kinetic``: the drags' fixes go and come back (LAMMPS refuses to unfix
     a fix that does not exist, or to define one twice), the power compute is defined once,
     and the packing relaxes under kinetic damping to the DEM model's ``tol``."""
     from grainmech.contact import HertzMindlin
