@@ -1,8 +1,7 @@
 """Rolling and twisting resistance (grainmech.contact.rolling): the law against its definition.
 
-References: Iwashita & Oda (1998), J. Eng. Mech. 124(3), Eq. 5 (rolling spring k_r and
-limit moment); Ai et al. (2011), Powder Technol. 206(3), Eq. 13-16 (the elastic-plastic
-"type C" model); LAMMPS ``pair_style granular`` ``rolling sds`` (moment stiffness
+References: Iwashita & Oda (1998), J. Eng. Mech. 124(3) (rolling spring k_r and limit
+moment); Ai et al. (2011), Powder Technol. 206(3) (the elastic-plastic "type C" model); LAMMPS ``pair_style granular`` ``rolling sds`` (moment stiffness
 k_roll R*^2, cap mu_roll R* N) and ``twisting sds``.
 """
 

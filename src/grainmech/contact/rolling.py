@@ -8,8 +8,8 @@ normal ``n`` and effective radius ``R* = R_A R_B / (R_A + R_B)`` (seed Eq. 3.3):
 
 * **Rolling** (the part of ``omega`` normal to ``n``): a moment
   ``M_r = k_roll R*^2 omega_perp`` accumulated incrementally and capped at
-  ``|M_r| <= mu_r R* N`` by radial return (Ai et al. 2011, Eq. 13–16; Iwashita & Oda 1998,
-  Eq. 5). ``k_roll`` [force/length] is one constant of the packing; by default it is the
+  ``|M_r| <= mu_r R* N`` by radial return (the elastic–plastic rolling spring of Iwashita & Oda 1998 and of
+  Ai et al. 2011's "type C" model). ``k_roll`` [force/length] is one constant of the packing; by default it is the
   Mindlin tangential stiffness ``k_t = 8 G* a`` (seed Eq. 3.11 with theta = 1) at the
   packing's mean contact force and mean effective radius, so that the rolling stiffness is
   ``k_t R*^2`` as in Iwashita & Oda's and LIGGGHTS' EPSD2 form. This is LAMMPS'
@@ -241,7 +241,7 @@ def rolling_update(consts: RollingConstants, n: np.ndarray, effective_radius: np
                    normal_force: np.ndarray, moment: np.ndarray, d_omega: np.ndarray) -> RollingResponse:
     """One increment of the rolling and twisting springs (elastic predictor, radial return).
 
-    Ai et al. (2011), Eq. 13–16 (rolling; the "type C" model without its dashpot, which
+    Ai et al. (2011) (rolling; the "type C" model without its dashpot, which
     acts only on rates) and the same rule for twisting (Marshall 2009, Eq. 30, 34, 44 with
     one constant stiffness and cap, as LAMMPS ``twisting sds``).
 

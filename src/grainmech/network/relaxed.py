@@ -454,8 +454,8 @@ def relaxed_stiffness(net: ContactNetwork, kn: np.ndarray, ks: np.ndarray, *,
     With rolling and twisting resistance (``rolling``) each contact also resists the
     relative rotation ``omega_c = theta_A - theta_B`` of its grains with the elastic moment
     stiffness ``K_m = k_roll R*^2 (I - n n) + k_twist n n``
-    (:func:`~grainmech.contact.rolling.rolling_elastic_stiffness`; Iwashita & Oda 1998,
-    Eq. 5; LAMMPS ``rolling sds`` / ``twisting sds``): the energy gains
+    (:func:`~grainmech.contact.rolling.rolling_elastic_stiffness`; Iwashita & Oda 1998;
+    LAMMPS ``rolling sds`` / ``twisting sds``): the energy gains
     ``(1/2V) sum_c omega_c^T K_m omega_c`` and the grains' rotational block of ``H`` gains
     ``H_r^T K_m H_r``, ``H_r`` mapping the grains' rotations to ``omega``. The strain
     does not enter ``omega``, so ``B`` and ``C_affine`` are unchanged and the rolling
