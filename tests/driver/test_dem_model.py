@@ -486,6 +486,27 @@ def test_a_liquefied_amplitude_is_the_tests_answer_not_a_failure(raise_on_failur
     assert mr.message.startswith("done; liquefied") and "amplitude 0.01" in mr.message
 
 
+def test_until_ends_the_series_and_leaves_the_larger_amplitudes_unrun() -> None:
+    """``cyclic_series(until=...)``: a reason returned after an amplitude ends the series there
+    (the hand-over of a packing model to the DEM model): the larger amplitudes are not run,
+    not in ``run_amplitudes``, and the message names them and the reason; the series is
+    still a success."""
+    from grainmech.driver.loop import cyclic_series
+
+    seen = []
+
+    def until(a, r):  # noqa: ANN001, ANN202
+        seen.append(a)
+        return "its grains rearrange" if a >= 1e-3 else None
+
+    mr = cyclic_series(_linear_run(50e6, 1.0), [1e-4, 1e-3, 3e-3, 1e-2], lambda p: 50e6, n_cycles=2,
+                       steps_per_cycle=16, raise_on_failure=False, until=until)
+    assert mr.success and seen == [1e-4, 1e-3]
+    assert list(mr.amplitude) == [1e-4, 1e-3] and list(mr.run_amplitudes) == [1e-4, 1e-3]
+    assert mr.message == "amplitudes [0.003, 0.01] not run: its grains rearrange"
+    assert len(mr.results) == 2
+
+
 def test_the_largest_amplitude_is_submitted_first_at_normal_priority(monkeypatch) -> None:
     """``DemSeries`` with workers: the amplitudes go to the pool largest first (a worker
     that frees up takes the next one), and every one but the largest is flagged to run at

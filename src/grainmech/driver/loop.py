@@ -95,7 +95,8 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
                   waveform: str = "triangle", constant: str = "stress",
                   progress: Callable[[int, float, Any], None] | None = None,
                   raise_on_failure: bool = True,
-                  on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
+                  on_amplitude: Callable[[ModulusReduction], None] | None = None,
+                  until: Callable[[float, DriverResult], str | None] | None = None) -> ModulusReduction:
     """Cyclic simple shear ``gamma_xz`` at each amplitude and the last cycle's secant G and damping.
 
     Parameters
@@ -125,6 +126,11 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
     on_amplitude : callable ``(ModulusReduction)``, optional
         Called after each completed amplitude with the series so far (a run stopped
         later can still write the finished amplitudes).
+    until : callable ``(amplitude, result) -> str or None``, optional
+        Called after each amplitude's run (with ``raise_on_failure`` False); a string ends
+        the series there: the larger amplitudes are not run (they are left out of
+        ``run_amplitudes``, for another model to run) and the message says why. The
+        amplitudes run in the order given.
 
     Raises
     ------
@@ -146,24 +152,32 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         res.append(r)
         if not r.success and int(r.status) == Status.LIQUEFIED:
             liquefied.append((float(a), r.message))
-            continue
-        if not r.success:
+        elif not r.success:
             if raise_on_failure:
                 raise GrainmechError(f"amplitude {a:g}: {r.message}")
             failures.append(f"amplitude {a:g}: {r.message}")
-            continue
-        last = slice(len(path) - steps_per_cycle, len(path) + 1)
-        lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
-        G.append(lp.secant_modulus)
-        D.append(lp.damping)
-        done.append(float(a))
-        if on_amplitude is not None:
-            on_amplitude(ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), list(res),
-                                          run_amplitudes=amps[:len(res)].copy(), liquefied=_named(liquefied)))
+        else:
+            last = slice(len(path) - steps_per_cycle, len(path) + 1)
+            lp = loop_properties(r.strain[last, 4], r.stress[last, 4])
+            G.append(lp.secant_modulus)
+            D.append(lp.damping)
+            done.append(float(a))
+            if on_amplitude is not None:
+                on_amplitude(ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)),
+                                              list(res), run_amplitudes=amps[:len(res)].copy(),
+                                              liquefied=_named(liquefied)))
+        why = until(float(a), r) if until is not None and i + 1 < amps.size else None
+        if why:
+            ended = f"amplitudes {[float(f'{x:.3g}') for x in amps[i + 1:]]} not run: {why}"
+            break
+    else:
+        ended = ""
     message = "; ".join(failures) + (f" ({len(failures)} of {amps.size} amplitudes stopped, the others completed)"
                                       if failures and len(failures) < amps.size else "") if failures else "done"
     if liquefied:
         message += "; liquefied (the test's answer, no loop): " + ", ".join(f"amplitude {a:g}" for a, _ in liquefied)
+    if ended:
+        message = ended if message == "done" else f"{message}; {ended}"
     return ModulusReduction(np.array(done), np.array(G), np.array(D), float(g_max(path)), res, not failures, message,
                             run_amplitudes=amps[:len(res)].copy(), liquefied=_named(liquefied))
 
