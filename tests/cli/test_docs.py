@@ -50,7 +50,8 @@ def test_run_csv_columns_are_the_documented_ones(tmp_path, cli):
     comps = ("xx", "yy", "zz", "yz", "xz", "xy")
     expected = (["step"] + [f"strain_{c} [-]" for c in comps] + [f"stress_{c} [Pa]" for c in comps]
                 + ["sliding_fraction [-]", "open_fraction [-]", "dissipated_energy [J/m^3]", "work [J/m^3]",
-                   "stored_energy [J/m^3]", "stress_ratio_sigma1_sigma3 [-]", "beyond_sand_envelope [0/1]"])
+                   "stored_energy [J/m^3]", "stress_ratio_sigma1_sigma3 [-]", "stress_ratio_unbounded [0/1]",
+                   "beyond_sand_envelope [0/1]"])
     assert header == expected
     doc = (DOCS / "config.md").read_text()
     para = doc[doc.index("`cycles_gamma_<amplitude>.csv`"):doc.index("`path.csv`",
@@ -58,6 +59,13 @@ def test_run_csv_columns_are_the_documented_ones(tmp_path, cli):
     assert "no\ntangent constants" in para or "no tangent constants" in para
     for col in expected:
         assert f"`{col}`" in para
+    # every column of modulus_reduction.csv is named in its paragraph too
+    mr = (tmp_path / "o" / "modulus_reduction.csv").read_text().splitlines()[0].split(",")
+    assert {"menq_G_over_Gmax [-]", "max_stress_ratio_unbounded [0/1]", "value_flag [0/1]"} <= set(mr)
+    start = doc.index("`modulus_reduction.csv` (`shear_strain_amplitude [-]`")
+    para = doc[start:doc.index("`site_response_curves.csv`", start)]
+    for col in mr:
+        assert f"`{col}`" in para, col
 
 
 def test_unknown_key_message_is_the_documented_one(tmp_path, cli):
