@@ -68,3 +68,20 @@ def test_a_small_continuous_cycle_gives_the_relaxed_modulus_and_the_servo_holds_
     assert np.all(np.abs(r.stress[:, 2] / r.stress[0, 2] - 1.0) < 0.01)
     assert r.inertial[0] == 0.0 and 0.0 < r.inertial[1:].max() <= 1.1e-3  # the wave bound sets 1.1e-5 here
     assert any("continuous shearing" in n for n in r.notes)
+
+
+def test_auto_protocol_shears_monotonic_paths_continuously_and_relaxes_cycles():
+    """``protocol = "auto"`` (DemSettings.for_path): a drained triaxial path to 15 % runs
+    continuously, every cyclic amplitude (even 1e-2) and a short monotonic path by step and
+    relax; the note names the choice and its reason; other protocols are left alone."""
+    from grainmech.driver import cyclic_simple_shear, triaxial
+    from grainmech.driver.dem import DemSettings
+
+    auto = DemSettings(protocol="auto")
+    st, why = auto.for_path(triaxial(0.15, 60))
+    assert st.protocol == "continuous" and "monotonic path to a strain of 0.15" in why
+    st, why = auto.for_path(cyclic_simple_shear(1e-2, 2, 16))
+    assert st.protocol == "relax" and "cyclic path" in why
+    st, _ = auto.for_path(triaxial(5e-3, 4))
+    assert st.protocol == "relax"
+    assert DemSettings().for_path(triaxial(0.15, 60)) == (DemSettings(), None)

@@ -82,10 +82,12 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     With ``settings.ranks`` > 1 the path runs as an MPI job
     (:func:`grainmech.driver.dem.mpi.run_dem_ranks`); its ranks call this function.
     """
-    st = settings or DemSettings()
+    st, why = (settings or DemSettings()).for_path(path)
     if st.ranks > 1 and mpi_world_size() == 1:
         return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
     _, notes = dem_material(law)
+    if why:
+        notes.append(why)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "sl", "op", "work", "stored", "sub", "it", "ub",
                                              "z", "nc", "I")}
     state = {"corr": 0, "steps": 0}

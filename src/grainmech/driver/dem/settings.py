@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +19,7 @@ from grainmech.contact.forms import law_forms
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.lammps.granular import GrainMaterial
 
-__all__ = ["DAMPINGS", "DEFAULT_DENSITY", "PROTOCOLS", "DemSettings", "dem_material"]
+__all__ = ["AUTO_CONTINUOUS_STRAIN", "DAMPINGS", "DEFAULT_DENSITY", "PROTOCOLS", "DemSettings", "dem_material"]
 
 #: grain density used when the contact law gives none [kg/m^3] (quartz); a quasi-static
 #: run's equilibria do not depend on it (it sets the time step and the drags only)
@@ -27,7 +27,13 @@ DEFAULT_DENSITY = 2650.0
 #: the relaxation's dampings (:attr:`DemSettings.damping`)
 DAMPINGS = ("viscous", "kinetic", "cundall")
 #: how a path is loaded (:attr:`DemSettings.protocol`)
-PROTOCOLS = ("relax", "continuous")
+PROTOCOLS = ("relax", "continuous", "auto")
+#: ``protocol = "auto"``: a path is sheared continuously when it is monotonic and reaches
+#: this strain (a drained triaxial test to failure, where every relaxation of a flowing
+#: packing costs ~1e5 time steps), by step and relax otherwise (every cyclic amplitude:
+#: continuous shearing at 1e-3 and 1e-2 gave secant moduli 6 % and 15 % above step and
+#: relax on 'dense', beyond the 2 % the choice must hold; ``docs/dem-model.md``)
+AUTO_CONTINUOUS_STRAIN = 1e-2
 
 
 #: least pore-pressure ratio :attr:`DemSettings.liquefaction` may name
@@ -147,13 +153,15 @@ class DemSettings:
         MPI ranks of each DEM path: above 1, the path runs as an ``mpiexec -n ranks`` job
         with LAMMPS' domain decomposition (:mod:`grainmech.driver.dem.mpi`), for packings
         too large for one core.
-    protocol : {"relax", "continuous"}
+    protocol : {"relax", "continuous", "auto"}
         How a path is loaded: ``"relax"`` (step and relax: every recorded state an
-        equilibrium, the settings above) or ``"continuous"`` (the cell sheared without
+        equilibrium, the settings above), ``"continuous"`` (the cell sheared without
         stopping at the rate of ``inertial_number``, the stress-controlled components held
         by a servo every ``servo_interval`` time steps; every recorded state a state of the
         flow with its unbalanced force ratio and inertial number;
-        :mod:`grainmech.driver.dem.flow`).
+        :mod:`grainmech.driver.dem.flow`) or ``"auto"`` (per path: continuous for a
+        monotonic path reaching :data:`AUTO_CONTINUOUS_STRAIN`, step and relax otherwise;
+        the run's notes say which ran and why).
     inertial_number : float
         Target inertial number ``I = rate d sqrt(rho_s / p)`` of the continuous protocol
         (GDR MiDi 2004): the largest strain rate of a path at the mean stress of each
@@ -228,6 +236,27 @@ class DemSettings:
             raise ParameterError("liquefaction", self.liquefaction, f"must be a pore-pressure ratio r_u in "
                                  f"[{LIQUEFACTION_MIN:g}, 1]: the ratio at which the test counts as liquefied "
                                  "(0.95 usual); below 0.5 the grains still carry more than half the mean stress")
+
+    def for_path(self, path: Any) -> tuple[DemSettings, str | None]:
+        """The settings a path runs with (``protocol = "auto"`` resolved) and the note saying why.
+
+        ``path`` is a :class:`~grainmech.driver.paths.LoadPath`; its strain excursion is the
+        largest cumulative strain component of its strain-controlled increments, and it is
+        monotonic when no strain-controlled component reverses.
+        """
+        if self.protocol != "auto":
+            return self, None
+        inc = np.where(np.asarray(path.stress_control, bool), 0.0, np.asarray(path.increment, float))
+        total = np.cumsum(inc, axis=0)
+        reach = float(np.abs(total).max(initial=0.0))
+        monotonic = bool(np.all((inc >= 0).all(axis=0) | (inc <= 0).all(axis=0)))
+        if monotonic and reach >= AUTO_CONTINUOUS_STRAIN:
+            return replace(self, protocol="continuous"), (
+                f"protocol auto: continuous shearing (a monotonic path to a strain of {reach:.3g}, at least "
+                f"{AUTO_CONTINUOUS_STRAIN:g})")
+        return replace(self, protocol="relax"), (
+            f"protocol auto: step and relax ({'a cyclic path' if not monotonic else 'a path'} reaching a strain of "
+            f"{reach:.3g}; continuous shearing is chosen for monotonic paths from {AUTO_CONTINUOUS_STRAIN:g})")
 
     def as_dict(self) -> dict:
         """The settings as a JSON-ready dict."""
