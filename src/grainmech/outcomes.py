@@ -15,7 +15,7 @@ import numpy as np
 
 __all__ = ["StiffnessOutcome", "RunOutcome", "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome",
            "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line", "run_mean_stress_change",
-           "curve_value_problems", "curve_value_warnings"]
+           "curve_value_problems", "curve_value_warnings", "RecommendedCurve", "recommended_curve"]
 
 
 def run_mean_stress_change(result: Any) -> float:
@@ -221,6 +221,172 @@ class RunComparison:
     def pressure(self) -> float:
         """The initial mean stress [Pa] (the same for every method)."""
         return self.outcomes[0].pressure
+
+    @property
+    def recommended(self) -> RecommendedCurve | None:
+        """:func:`recommended_curve` of the models compared (None where there is none)."""
+        return recommended_curve(self)
+
+
+#: the physically based models whose points make the recommended curve, in the order they are
+#: preferred where both ran an amplitude and the packing model's grains do not rearrange there
+PHYSICAL_MODELS = ("packing", "dem")
+
+
+@dataclass
+class RecommendedCurve:
+    """One modulus-reduction and damping curve of a run with several models.
+
+    The physically based models' points on one Gmax: the packing model's amplitudes where it
+    ran, the DEM model's beyond; the affine model (an upper bound that cannot fail) is a
+    reference only, never part of the curve. Built by :func:`recommended_curve`.
+
+    Attributes
+    ----------
+    amplitudes, G, G_ratio, damping : ndarray (k,)
+        Shear strain amplitude (decimal, ascending), the secant modulus of the model that made
+        the point [Pa], ``G / G_max`` (the one Gmax below) and the damping ratio (decimal).
+    models : list of str
+        The model that made each point (``"packing"`` or ``"dem"``).
+    flags : list of list of str
+        Per point: ``beyond_envelope`` (a state of the amplitude's run beyond the envelope of
+        sands), ``grains_rearrange`` (a packing-model point whose mean stress drifted at
+        constant volume and that no DEM point replaces), ``loop_not_closed`` (the analysed
+        cycle out of tolerance) and ``value_flag`` (G/Gmax above 1 or not positive, damping
+        outside [0, 1), a NaN: :func:`curve_value_problems`).
+    G_max : float
+        The one Gmax [Pa] that divides every G.
+    G_max_model : str
+        The model whose small-strain modulus it is.
+    G_max_reason : str
+        Why that one.
+    choices : list of str
+        One sentence per amplitude both physically based models ran: which point is kept and why.
+    reference : dict
+        The affine model's Gmax and a note (a reference only); empty without an affine model.
+    """
+
+    amplitudes: np.ndarray
+    G: np.ndarray
+    G_ratio: np.ndarray
+    damping: np.ndarray
+    models: list
+    flags: list
+    G_max: float
+    G_max_model: str
+    G_max_reason: str
+    choices: list = field(default_factory=list)
+    reference: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        """The curve for ``summary.json`` (plain lists and strings)."""
+        return {"G_max_Pa": float(self.G_max), "G_max_model": self.G_max_model, "G_max_reason": self.G_max_reason,
+                "amplitudes": [float(a) for a in self.amplitudes], "G_Pa": [float(g) for g in self.G],
+                "G_over_Gmax": [float(r) for r in self.G_ratio], "damping": [float(d) for d in self.damping],
+                "models": list(self.models), "flags": [list(f) for f in self.flags], "choices": list(self.choices),
+                "reference": dict(self.reference),
+                "note": "one curve from the physically based models (packing where its fixed geometry holds, "
+                        "DEM beyond), every secant G divided by the one Gmax; the affine model is a reference "
+                        "only (every contact follows the mean strain: an upper bound that cannot fail)"}
+
+
+def _model_points(o: CyclicOutcome) -> dict[float, dict]:
+    """A cyclic model's completed amplitudes: G, damping and flags per amplitude (its own keys)."""
+    n = len(o.G)
+    beyond = o.beyond_envelope
+    moved = list((o.details or {}).get("rearranging", []))[:n] if o.method == "packing" else []
+    moved += [False] * (n - len(moved))
+    bad_loop = [not q.ok for q in o.loop_quality[:n]] + [False] * max(0, n - len(o.loop_quality))
+    return {float(a): {"G": float(g), "damping": float(d), "beyond": bool(b), "moved": bool(m), "loop": bool(lp)}
+            for a, g, d, b, m, lp in zip(o.amplitudes, o.G, o.damping, beyond, moved, bad_loop)}
+
+
+def _same(a: float, b: float) -> bool:
+    """Whether two amplitudes are the same one (as written in a config)."""
+    return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
+
+
+def recommended_curve(comparison: RunComparison) -> RecommendedCurve | None:
+    """The one curve to trust of a cyclic run with several models.
+
+    Points: the packing model's completed amplitudes, and the DEM model's at the other
+    amplitudes (beyond the packing model's range, or handed over to it). Where both ran an
+    amplitude the DEM point is kept if the packing model's grains rearrange there
+    (``details["rearranging"]``: its mean stress drifted at constant volume, so its fixed
+    reference geometry no longer holds, and the DEM model, whose contacts form and break,
+    does), otherwise the packing point (every grain in exact equilibrium, no relaxation
+    error); ``choices`` says which with both values.
+
+    One Gmax: the packing model's small-strain modulus (every grain in force and moment
+    equilibrium, the exact tangent of the packing at rest) where the packing model ran,
+    else the DEM model's. Every point's secant G, the DEM model's too, is divided by it;
+    rescaling the DEM points by their own G/Gmax would put two different Gmax on one curve
+    (e.g. 251.5 and 228.9 MPa on the same grains) and make the curve jump between models.
+
+    Returns None unless at least two models ran a cyclic test and a physically based model
+    completed an amplitude.
+    """
+    outs = [o for o in comparison.outcomes if isinstance(o, CyclicOutcome)]
+    if len(comparison.outcomes) < 2 or not outs:
+        return None
+    by = {o.method: o for o in outs}
+    phys = [by[m] for m in PHYSICAL_MODELS if m in by and len(by[m].G)]
+    if not phys:
+        return None
+    base = next((o for o in phys if np.isfinite(o.G_max) and o.G_max > 0), None)
+    if base is None:
+        return None
+    if base.method == "packing":
+        why = ("the packing model's Gmax: the small-strain modulus with every grain in force and moment "
+               "equilibrium (the exact tangent of the packing at rest, no relaxation tolerance)")
+    else:
+        why = "the DEM model's Gmax (no packing-model Gmax in this run)"
+    other = [o for o in phys if o is not base and np.isfinite(o.G_max) and o.G_max > 0]
+    if other:
+        why += "; " + "; ".join(
+            f"the {o.method} model's own Gmax {o.G_max:.4g} Pa is {o.G_max / base.G_max:.3f} of it: its secant G "
+            "is divided by this one Gmax, not by its own" for o in other)
+    pk = _model_points(by["packing"]) if "packing" in by else {}
+    dm = _model_points(by["dem"]) if "dem" in by else {}
+    points: list[tuple[float, str, dict]] = []
+    choices: list[str] = []
+    for a, p in pk.items():
+        twin = next((v for k, v in dm.items() if _same(k, a)), None)
+        if twin is None:
+            points.append((a, "packing", p))
+            continue
+        rp, rd = p["G"] / base.G_max, twin["G"] / base.G_max
+        if p["moved"]:
+            points.append((a, "dem", twin))
+            choices.append(f"{a:.3g}: the DEM point (G/Gmax {rd:.4f}, damping {100 * twin['damping']:.2f} %) is kept: "
+                           f"the packing model's grains rearrange there (G/Gmax {rp:.4f}, damping "
+                           f"{100 * p['damping']:.2f} %), its fixed geometry no longer holds")
+        else:
+            points.append((a, "packing", p))
+            choices.append(f"{a:.3g}: the packing point (G/Gmax {rp:.4f}, damping {100 * p['damping']:.2f} %) is "
+                           f"kept: its grains do not rearrange there and every grain is in exact equilibrium; the "
+                           f"DEM model gives G/Gmax {rd:.4f}, damping {100 * twin['damping']:.2f} %")
+    points += [(a, "dem", v) for a, v in dm.items() if not any(_same(a, k) for k in pk)]
+    points.sort(key=lambda t: t[0])
+    amps = np.array([a for a, _, _ in points])
+    G = np.array([v["G"] for _, _, v in points])
+    damp = np.array([v["damping"] for _, _, v in points])
+    ratio = G / base.G_max
+    flags = []
+    for (_, _, v), prob in zip(points, curve_value_problems(ratio, damp)):
+        f = (["beyond_envelope"] if v["beyond"] else []) + (["grains_rearrange"] if v["moved"] else [])
+        f += (["loop_not_closed"] if v["loop"] else []) + (["value_flag"] if prob else [])
+        flags.append(f)
+    ref = {}
+    if "affine" in by:
+        aff = by["affine"]
+        times = (f" (Gmax {aff.G_max / base.G_max:.2f} times the recommended curve's)"
+                 if np.isfinite(aff.G_max) else "")
+        ref = {"model": "affine", "G_max_Pa": float(aff.G_max),
+               "note": "a reference only: every contact follows the mean strain, an upper bound that cannot fail"
+                       + times}
+    return RecommendedCurve(amps, G, ratio, damp, [m for _, m, _ in points], flags, float(base.G_max), base.method,
+                            why, choices, ref)
 
 
 @dataclass

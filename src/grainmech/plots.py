@@ -166,6 +166,19 @@ def damping(amplitude: Any, damping_ratio: Any, *, ax: Any = None,
     return ax
 
 
+def recommended_line(amplitude: Any, values: Any, *, ax: Any = None, label: str = "recommended") -> Any:
+    """The recommended curve of a run with several models as one line over the models' points.
+
+    ``values`` are G/Gmax or damping [%] at ``amplitude`` (decimal strain), already on the
+    curve's one Gmax (:func:`grainmech.outcomes.recommended_curve`). Returns the Axes.
+    """
+    ax = _axes(ax)
+    ax.semilogx(np.asarray(amplitude, dtype=float), np.asarray(values, dtype=float), "-", color="crimson",
+                lw=2.0, alpha=0.8, label=label, zorder=1)
+    ax.legend(fontsize=8)
+    return ax
+
+
 def path_histories(result: Any, *, axes: Sequence[Any] | None = None) -> Sequence[Any]:
     """Strain and stress components against step number of a driver run.
 

@@ -185,6 +185,17 @@ def main(args: argparse.Namespace) -> int:
         env = m.get("envelope")
         if env and env.get("first_step_beyond") is not None:  # a path's
             warn(env["note"])
+    rec = summary.get("recommended_curve")
+    if rec:
+        show(f"recommended curve (recommended_curve.csv): Gmax = {rec['G_max_Pa']:.4g} Pa, {rec['G_max_reason']}")
+        for a, r, dd, mod, fl in zip(rec["amplitudes"], rec["G_over_Gmax"], rec["damping"], rec["models"],
+                                     rec["flags"]):
+            tags = "".join(f"   {k.upper().replace('_', ' ')}" for k in fl)
+            show(f"  amplitude {a:9.2e}   G/Gmax {r:6.3f}   damping {100 * dd:6.2f} %   {mod:7s}{tags}")
+        for c in rec["choices"]:
+            show(f"  at {c}")
+        if rec.get("reference"):
+            show(f"  affine model: {rec['reference']['note']}")
     if "menq_gamma_r" in summary:
         show(f"references at p = {summary['initial_pressure_Pa']:.6g} Pa (modulus_reduction.png): Darendeli (2001) "
              f"gamma_r = {summary['darendeli_gamma_r']:.3g}; Hardin-Drnevich (1972) gamma_r = "

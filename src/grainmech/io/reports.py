@@ -153,8 +153,11 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
         summary.update(success=False, message=interrupted)
     summary["warnings"] = list(out.warnings)
     cyclic = [(o, models[o.method]) for o in outs if "G_max_Pa" in models[o.method]]
+    rec = out.recommended if isinstance(out, RunComparison) else None
+    if rec is not None:
+        _write_recommended(d, rec, summary)
     if cyclic:
-        _write_curves_figure(d, cyclic, compare, summary)
+        _write_curves_figure(d, cyclic, compare, summary, rec)
     cfg_text = json.dumps(cfg, indent=2, default=str)
     write_text(d / "config_used.json", cfg_text)
     summary["files"].append("config_used.json")
@@ -329,7 +332,24 @@ def _cyclic_checks(o: Any) -> dict:
     }
 
 
-def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) -> None:
+#: columns of ``recommended_curve.csv``
+RECOMMENDED_COLUMNS = ("shear_strain_amplitude [-]", "G [Pa]", "G_over_Gmax [-]", "damping [-]", "model", "flags")
+
+
+def _write_recommended(d: Path, rec: Any, summary: dict) -> None:
+    """``recommended_curve.csv`` and ``summary["recommended_curve"]`` of a run with several models.
+
+    The curve is :func:`grainmech.outcomes.recommended_curve`; ``flags`` holds its per-point
+    flags separated by ``;`` (empty where there is none).
+    """
+    rows = [[float(a), float(g), float(r), float(dd), m, ";".join(f)]
+            for a, g, r, dd, m, f in zip(rec.amplitudes, rec.G, rec.G_ratio, rec.damping, rec.models, rec.flags)]
+    write_csv(d / "recommended_curve.csv", RECOMMENDED_COLUMNS, rows)
+    summary["files"].append("recommended_curve.csv")
+    summary["recommended_curve"] = rec.as_dict()
+
+
+def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict, rec: Any = None) -> None:
     """Write ``modulus_reduction.png``: G/Gmax and damping with empirical references.
 
     ``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001),
@@ -354,6 +374,10 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict) ->
                                 references=ref_g if last else None)
         plots.damping(m["amplitudes"], m["damping"], ax=a2, label=name, style=style, hollow=hollow,
                       references=ref_d if last else None)
+    if rec is not None and len(rec.amplitudes):
+        label = f"recommended ({rec.G_max_model} Gmax {rec.G_max / 1e6:.4g} MPa)"
+        plots.recommended_line(rec.amplitudes, rec.G_ratio, ax=a1, label=label)
+        plots.recommended_line(rec.amplitudes, 100 * np.asarray(rec.damping), ax=a2, label=label)
     fig.tight_layout()
     write_figure(d / "modulus_reduction.png", fig)
     summary["files"].append("modulus_reduction.png")
@@ -577,8 +601,24 @@ def _curves_section(d: Path, summary: dict, compare: bool) -> Any:
                        f"{summary['hardin_drnevich_G_max_source']}, "
                        f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %{menq_text}. The model's G/Gmax is "
                        "normalised by its own Gmax; a model that is too stiff shows against "
-                       f"{'all' if menq else 'both'} references alike.",
-                       ("modulus_reduction.png",))
+                       f"{'all' if menq else 'both'} references alike." + _recommended_text(summary),
+                       ("modulus_reduction.png",)
+                       + (("recommended_curve.csv",) if "recommended_curve" in summary else ()))
+
+
+def _recommended_text(summary: dict) -> str:
+    """The page's sentences on the recommended curve (empty without one)."""
+    rec = summary.get("recommended_curve")
+    if not rec:
+        return ""
+    made = ", ".join(f"{a:.3g} {m}" + (f" ({', '.join(f)})" if f else "")
+                     for a, m, f in zip(rec["amplitudes"], rec["models"], rec["flags"]))
+    ref = rec.get("reference") or {}
+    return (f" The red line is the recommended curve (recommended_curve.csv): the physically based models' "
+            f"points, the packing model where it ran, the DEM model beyond, all on one Gmax = "
+            f"{rec['G_max_Pa']:.5g} Pa, {rec['G_max_reason']}. Points (amplitude, model, flags): {made}."
+            + "".join(f" At {c}." for c in rec["choices"])
+            + (f" The affine model is {ref['note']}." if ref else ""))
 
 
 # ------------------------------------------------------------------------------- contact
