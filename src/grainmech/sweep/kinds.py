@@ -12,9 +12,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from grainmech import jobs
+import numpy as np
 
-__all__ = ["Kind", "SWEEP_KINDS", "run_point", "stiffness_point", "run_kind_point", "dem_point"]
+from grainmech import jobs
+from grainmech.outcomes import CyclicOutcome, RunComparison
+
+__all__ = ["Kind", "SWEEP_KINDS", "run_point", "stiffness_point", "run_kind_point", "dem_point", "envelope_columns",
+           "recommended_columns"]
 
 
 def stiffness_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
@@ -23,8 +27,63 @@ def stiffness_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, 
 
 
 def run_kind_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
-    """Scalar outputs of a ``run`` (driver) config (:func:`grainmech.jobs.run_scalars`)."""
-    return jobs.run_scalars(jobs.execute_run(jobs.prepare_run(cfg, base_dir)))
+    """Scalar outputs of a ``run`` (driver) config.
+
+    :func:`grainmech.jobs.run_scalars`, then the envelope and value flags of every cyclic
+    model's amplitudes (:func:`envelope_columns`) and, with several models, the recommended
+    curve (:func:`recommended_columns`).
+    """
+    out = jobs.execute_run(jobs.prepare_run(cfg, base_dir))
+    row = jobs.run_scalars(out)
+    outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
+    for o in outs:
+        if isinstance(o, CyclicOutcome):
+            pre = f"{o.method}: " if len(outs) > 1 else ""
+            row.update({pre + k: v for k, v in envelope_columns(o).items()})
+    if isinstance(out, RunComparison):
+        row.update(recommended_columns(out))
+    return row
+
+
+def envelope_columns(o: CyclicOutcome) -> dict[str, Any]:
+    """The envelope flags of a cyclic outcome as sweep columns.
+
+    ``beyond_envelope@<amplitude>`` (1: a state of that amplitude's run beyond the envelope
+    of sands, the amplitude ``grainmech run`` marks ``BEYOND ENVELOPE``: its G/Gmax and
+    damping are not predictions for a sand), ``value_flag@<amplitude>`` (1: G/Gmax above 1 or
+    not positive, damping outside [0, 1), a NaN), ``beyond_envelope_amplitudes`` (how many)
+    and ``gamma_r_within_envelope`` (the reference strain from the amplitudes within the
+    envelope only; ``gamma_r`` takes them all).
+    """
+    amps = np.asarray(o.amplitudes, dtype=float)
+    beyond = o.beyond_envelope
+    problems = o.value_problems
+    row: dict[str, Any] = {}
+    for a, b, p in zip(amps, beyond, problems):
+        row[f"beyond_envelope@{a:g}"] = int(b)
+        row[f"value_flag@{a:g}"] = int(p is not None)
+    row["beyond_envelope_amplitudes"] = int(np.sum(beyond))
+    keep = ~beyond
+    row["gamma_r_within_envelope"] = (jobs.reference_strain(amps[keep], o.G_ratio[keep]) if keep.any()
+                                      else float("nan"))
+    return row
+
+
+def recommended_columns(out: RunComparison) -> dict[str, Any]:
+    """The recommended curve of a run with several models as sweep columns (none without one).
+
+    ``recommended: G_max [Pa]``, ``recommended: G_max_model`` and per amplitude
+    ``recommended: G/Gmax@<a>``, ``recommended: damping@<a>``, ``recommended: model@<a>`` and
+    ``recommended: flags@<a>`` (:func:`grainmech.outcomes.recommended_curve`).
+    """
+    rec = out.recommended
+    if rec is None:
+        return {}
+    row: dict[str, Any] = {"recommended: G_max [Pa]": rec.G_max, "recommended: G_max_model": rec.G_max_model}
+    for a, r, d, m, f in zip(rec.amplitudes, rec.G_ratio, rec.damping, rec.models, rec.flags):
+        row.update({f"recommended: G/Gmax@{a:g}": float(r), f"recommended: damping@{a:g}": float(d),
+                    f"recommended: model@{a:g}": m, f"recommended: flags@{a:g}": ";".join(f)})
+    return row
 
 
 def dem_point(cfg: dict, base_dir: str | Path | None = None) -> dict[str, Any]:
