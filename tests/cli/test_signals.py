@@ -116,7 +116,10 @@ def test_signal_after_an_amplitude_writes_it_as_an_interrupted_run(tmp_path, sig
     import json
     import signal
 
+    import time
+
     p = _run_until_waiting(tmp_path, 2)  # amplitude 1 finished, amplitude 2 running
+    time.sleep(2.0)  # the message gives the run's real elapsed time, not the finished amplitude's
     p.send_signal(getattr(signal, sig))
     out_text, err = p.communicate(timeout=60)
     assert p.returncode == status
@@ -128,7 +131,10 @@ def test_signal_after_an_amplitude_writes_it_as_an_interrupted_run(tmp_path, sig
     s = json.loads((out / "summary.json").read_text())
     assert s["success"] is False and s["interrupted"] is True
     assert s["amplitudes"] == [1e-5] and len(s["G_over_Gmax"]) == 1
-    assert s["message"].startswith(("terminated (SIGTERM)" if sig == "SIGTERM" else "interrupted (Ctrl-C)"))
+    assert s["message"].startswith(("terminated (SIGTERM)" if sig == "SIGTERM" else "interrupted (Ctrl-C)") + " after ")
+    elapsed = float(s["message"].split(" after ")[1].split(" s;")[0])
+    assert s["seconds"] == pytest.approx(elapsed, abs=0.2) and elapsed >= 2.0
+    assert "affine model: 1 amplitude(s) finished" in s["message"]
     assert (out / "cycles_gamma_1.0e-05.csv").exists() and not list(out.glob("cycles_gamma_1.0e-04*"))
     assert "STOPPED" in (out / "index.html").read_text()
     manifest = json.loads((out / ".grainmech-manifest.json").read_text())
@@ -178,3 +184,26 @@ def test_sigterm_handler_is_restored_after_the_command():
     before = signal.getsignal(signal.SIGTERM)
     assert cli.main(["stiffness", "/no/such.toml"]) == 2
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_interrupted_message_keeps_every_models_stop_reasons_and_the_hand_over():
+    """A packing model that stopped (and handed amplitudes to the DEM model), a DEM model
+    interrupted after one amplitude: the message keeps both, with the real elapsed time."""
+    from types import SimpleNamespace
+
+    from grainmech.cli.run import _interrupted_message, _Progress
+    from grainmech.errors import Terminated
+
+    say = _Progress(True, "")
+    say.t0 -= 1200.0  # the run began 1200 s ago
+    say.amplitudes_done(SimpleNamespace(method="packing", G=[1.0, 2.0], success=False,
+                                        message="stopped at amplitude 0.0001: no equilibrium"))
+    say.handed_over([1e-4], "it stopped (no equilibrium)")
+    say.amplitudes_done(SimpleNamespace(method="dem", G=[1.0], success=False,
+                                        message="interrupted after 1 of 3 amplitudes"))
+    msg = _interrupted_message(Terminated("SIGTERM"), say)
+    assert msg.startswith("terminated (SIGTERM) after 120")  # 1200.x s
+    assert float(msg.split(" after ")[1].split(" s;")[0]) == pytest.approx(1200.0, abs=1.0)
+    assert "packing model: 2 amplitude(s) finished, stopped: stopped at amplitude 0.0001: no equilibrium" in msg
+    assert "dem model: 1 amplitude(s) finished;" in msg
+    assert "handed to the DEM model: [0.0001] (it stopped (no equilibrium))" in msg

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -46,6 +47,8 @@ class _Progress:
     def __init__(self, quiet: bool, header: str) -> None:
         self.quiet, self.header = quiet, header
         self.finished: dict[str, Any] = {}
+        self.handed: tuple | None = None
+        self.t0 = time.perf_counter()  # the run's real elapsed time, for an interrupted run's message
 
     def __call__(self, msg: str) -> None:
         if self.quiet:
@@ -58,6 +61,13 @@ class _Progress:
     def amplitudes_done(self, outcome: Any) -> None:
         self.finished[outcome.method] = outcome
 
+    def handed_over(self, amplitudes: Any, why: str) -> None:
+        self.handed = (list(amplitudes), why)
+
+    def elapsed(self) -> float:
+        """Seconds since the run began."""
+        return time.perf_counter() - self.t0
+
     def partial(self) -> Any:
         """What the models finished before an interruption (None if nothing)."""
         outs = [o for o in self.finished.values() if len(o.G)]
@@ -66,12 +76,23 @@ class _Progress:
         return outs[0] if len(outs) == 1 else RunComparison(outs)
 
 
-def _interrupted_message(exc: BaseException, partial: Any) -> str:
-    """"terminated (SIGTERM) after ..." for the summary of an interrupted run."""
+def _interrupted_message(exc: BaseException, say: _Progress) -> str:
+    """"terminated (SIGTERM) after 1200 s; ..." for the summary of an interrupted run.
+
+    The real elapsed time of the run (not the sum of the models' finished amplitudes), and
+    per model the amplitudes finished and, where a model had ended before the signal, its
+    own message (why it stopped); the amplitudes the packing model handed to the DEM model.
+    """
     why = "terminated (SIGTERM)" if isinstance(exc, Terminated) else "interrupted (Ctrl-C)"
-    outs = list(partial.outcomes) if isinstance(partial, RunComparison) else [partial]
-    done = "; ".join(f"{o.method} model: {len(o.G)} amplitude(s) finished" for o in outs)
-    return f"{why}; {done}; the amplitudes not finished are not in these files"
+    parts = []
+    for o in say.finished.values():
+        ended = not o.message.startswith("interrupted after ")
+        parts.append(f"{o.method} model: {len(o.G)} amplitude(s) finished"
+                     + (f", {'completed' if o.success else 'stopped'}: {o.message}" if ended else ""))
+    if say.handed:
+        parts.append(f"handed to the DEM model: {[float(f'{a:.3g}') for a in say.handed[0]]} ({say.handed[1]})")
+    return (f"{why} after {say.elapsed():.1f} s; " + "; ".join(parts)
+            + "; the amplitudes not finished are not in these files")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -113,8 +134,9 @@ def main(args: argparse.Namespace) -> int:
             partial = say.partial()
             if partial is None:
                 raise  # nothing finished: OUTDIR is left as it was
-            why = _interrupted_message(exc, partial)
-            summary = write_run_outputs(partial, folder.staging, cfg, source, interrupted=why)
+            why = _interrupted_message(exc, say)
+            summary = write_run_outputs(partial, folder.staging, cfg, source, interrupted=why,
+                                        seconds=say.elapsed())
             folder.commit(success=False)
             n = sum(len(o.G) for o in (partial.outcomes if isinstance(partial, RunComparison) else [partial]))
             raise type(exc)(f"the {n} finished amplitude(s) are in {args.outdir} "

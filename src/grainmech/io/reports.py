@@ -115,7 +115,7 @@ MODEL_STYLE = {"affine": ("ko", "affine (seed: every contact follows the mean st
 
 
 def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
-                      interrupted: str | None = None) -> dict:
+                      interrupted: str | None = None, seconds: float | None = None) -> dict:
     """Write the files of ``grainmech run``.
 
     Files of ``grainmech run``: a CSV per amplitude (``cycles_gamma_<amplitude>.csv``)
@@ -130,7 +130,9 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
     ``interrupted`` (a message, e.g. "terminated (SIGTERM) after 2 of 3 amplitudes")
     marks a run stopped by a signal whose finished amplitudes ``out`` holds:
     ``summary.json`` then says ``"success": false``, ``"interrupted": true`` and the
-    message; every summary has ``"interrupted"``.
+    message; every summary has ``"interrupted"``. ``seconds`` (the run's real elapsed time)
+    replaces the models' own time in the summary and the page (an interrupted run's models
+    only count their finished amplitudes).
     """
     d = ensure_dir(outdir)
     outs = list(out.outcomes) if isinstance(out, RunComparison) else [out]
@@ -139,7 +141,7 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
                                "success": out.success and interrupted is None,
                                "interrupted": interrupted is not None,
                                "message": out.message if interrupted is None else interrupted,
-                               "seconds": out.seconds,
+                               "seconds": out.seconds if seconds is None else float(seconds),
                                "initial_pressure_Pa": out.pressure, "files": [],
                                "methods": [o.method for o in outs]}
     models = {}
@@ -151,6 +153,8 @@ def write_run_outputs(out: Any, outdir: str | Path, cfg: dict, source: str,
         summary.update(models[outs[0].method])
     if interrupted is not None:  # the run's state, not the last model's
         summary.update(success=False, message=interrupted)
+    if seconds is not None:  # the run's real elapsed time, not the one model's finished amplitudes
+        summary["seconds"] = float(seconds)
     summary["warnings"] = list(out.warnings)
     cyclic = [(o, models[o.method]) for o in outs if "G_max_Pa" in models[o.method]]
     rec = out.recommended if isinstance(out, RunComparison) else None

@@ -96,6 +96,9 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None]) ->
             say(f"[{method} {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
                 f"({len(path)} steps, {model.size})")
 
+        handed = getattr(say, "handed_over", None)
+        if handed is not None and method == "dem" and spec.dem_handed:
+            handed(*spec.dem_handed)  # kept for the message of a run interrupted from here on
         t0 = time.perf_counter()
         mr = model.series(amps, n_cycles=spec.n_cycles,
                           steps_per_cycle=spec.dem_steps_per_cycle if method == "dem" else spec.steps_per_cycle,
@@ -105,7 +108,11 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None]) ->
         seconds = time.perf_counter() - t0
         if model.finish is not None:
             model.finish(list(mr.results))
-        return _cyclic_outcome(spec, method, mr, seconds, model.point, model.void_ratio, model.details)
+        out = _cyclic_outcome(spec, method, mr, seconds, model.point, model.void_ratio, model.details)
+        done = getattr(say, "amplitudes_done", None)
+        if done is not None:  # the model's own end (its stop reasons), for a run interrupted after it
+            done(out)
+        return out
     say(f"[{method}] path: {len(spec.path)} steps, {model.size}")
     t0 = time.perf_counter()
     r = model.path(spec.path)
@@ -156,8 +163,10 @@ def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ra
     If the progress callback ``say`` has a method ``amplitudes_done(outcome)``, it
     receives after each completed amplitude the :class:`CyclicOutcome` of the amplitudes
     done so far (``success`` False and ``message`` "interrupted after k of n amplitudes"
-    until the last): what a caller can still write if the run is interrupted. ``None``
-    (no hook) otherwise.
+    until the last), and the model's final outcome when its series ends (its own message:
+    why it stopped): what a caller can still write if the run is interrupted. A
+    ``handed_over(amplitudes, why)`` method of ``say`` hears, when the DEM model starts,
+    which amplitudes the packing model handed to it and why. ``None`` (no hook) otherwise.
     """
     done = getattr(say, "amplitudes_done", None)
     if done is None:
@@ -171,6 +180,10 @@ def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ra
         det = dict(details or {})
         if method == "packing":
             det["max_residual"] = _max_residual(mr.results)
+        if method == "dem" and spec.dem_handed:  # the hand-over note the finished outcome gets (jobs.dem)
+            note = f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over from the " \
+                   f"packing model: {spec.dem_handed[1]}"
+            det["notes"] = [*det.get("notes", []), *([note] if note not in det.get("notes", []) else [])]
         done(_cyclic_outcome(spec, method, mr, time.perf_counter() - t0, point, void_ratio, det or None))
 
     return each
