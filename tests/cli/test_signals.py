@@ -115,7 +115,6 @@ def _leftovers(out):
 def test_signal_after_an_amplitude_writes_it_as_an_interrupted_run(tmp_path, sig, status, word):
     import json
     import signal
-
     import time
 
     p = _run_until_waiting(tmp_path, 2)  # amplitude 1 finished, amplitude 2 running
@@ -167,8 +166,8 @@ def test_sigterm_before_any_amplitude_keeps_the_previous_run(tmp_path):
 
 
 def test_terminated_is_handled_like_ctrl_c_in_process(monkeypatch, capsys):
-    from grainmech.errors import Terminated
     import grainmech.cli.stiffness as st
+    from grainmech.errors import Terminated
 
     def boom(args):
         raise Terminated

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-__all__ = ["PACKING_PROGRESS_EVERY"]
+__all__ = ["PACKING_PROGRESS_EVERY", "StepClock", "Heartbeat"]
 
 
 #: seconds between two progress lines of a long packing run (at most; a batch job's log
@@ -49,3 +49,72 @@ def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None 
             say(line)
 
     return on_step
+
+
+class StepClock:
+    """The time left of a run of amplitudes, each a path of steps, from the steps done so far.
+
+    ``begin(n)`` starts an amplitude of ``n`` steps, ``step(k, n)`` records that its step
+    ``k`` is done (a ``k`` not above the previous one also starts the next amplitude), and
+    :meth:`left` estimates the seconds left in the current amplitude: the seconds per step
+    of this amplitude so far times its steps left (None before its first step: no
+    estimate yet). ``clock`` is the time source (``time.perf_counter``; tests pass their own).
+    """
+
+    def __init__(self, clock: Callable[[], float] = time.perf_counter) -> None:
+        self.clock = clock
+        self.t0 = clock()
+        self.k, self.n = 0, 0
+
+    def begin(self, n: int) -> None:
+        """An amplitude of ``n`` steps starts now."""
+        self.t0, self.k, self.n = self.clock(), 0, int(n)
+
+    def step(self, k: int, n: int) -> None:
+        """Step ``k`` of ``n`` is done."""
+        if k <= self.k:  # the next amplitude's first step: it began when the last one ended
+            self.k = 0
+        self.k, self.n = int(k), int(n)
+
+    def left(self) -> float | None:
+        """Seconds left in the current amplitude (None: no step done yet)."""
+        if self.k <= 0 or self.n <= 0:
+            return None
+        return (self.clock() - self.t0) / self.k * max(self.n - self.k, 0)
+
+    def text(self) -> str:
+        """``", about 40 s left in this amplitude"`` once an estimate is possible, else ``""``."""
+        s = self.left()
+        return "" if s is None else f", about {s:.0f} s left in this amplitude"
+
+
+class Heartbeat:
+    """A line at least every ``every`` seconds while a long step runs (a context manager).
+
+    A daemon thread calls ``say(line())`` every ``every`` seconds between ``__enter__``
+    and ``__exit__``; ``line()`` returns the text (None or "": nothing said this time).
+    The work itself stays in the calling thread, so a signal (Ctrl-C, SIGTERM) stops it as
+    before; the thread only reads what the work records.
+    """
+
+    def __init__(self, say: Callable[[str], None], line: Callable[[], str | None],
+                 every: float = PACKING_PROGRESS_EVERY) -> None:
+        import threading
+
+        self.say, self.line, self.every = say, line, float(every)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._beat, name="grainmech-progress", daemon=True)
+
+    def _beat(self) -> None:
+        while not self._stop.wait(self.every):
+            text = self.line()
+            if text:
+                self.say(text)
+
+    def __enter__(self) -> Heartbeat:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join(timeout=1.0)

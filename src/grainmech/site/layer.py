@@ -28,6 +28,7 @@ import dataclasses
 import hashlib
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -188,8 +189,12 @@ def layer_facts(layer: Layer) -> dict:
             "sigma_h_eff_Pa": layer.sigma_h_eff, "p_eff_Pa": layer.p_eff, "vs_measured_m_s": layer.vs}
 
 
-def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
+def run_task(task: tuple[Layer, str | None, dict | None],
+             progress: Callable[[str], None] | None = None) -> dict:
     """Worker function: run one layer; return its record (JSON-ready dict).
+
+    ``progress(message)`` receives the model's progress lines (which amplitude, which step,
+    time left when known; :func:`grainmech.jobs.execute_run`), for the site's own lines.
 
     ``status`` is ``"ok"`` when every amplitude completed, ``"stopped"`` when the model
     stopped (the record keeps the amplitudes done and the model's message).
@@ -201,7 +206,7 @@ def run_task(task: tuple[Layer, str | None, dict | None]) -> dict:
     t0 = time.perf_counter()
     modulus = anchor["grain_modulus_anchored_Pa"] if anchor else None
     spec = prepare_layer(layer, base_dir, modulus)
-    out = jobs.execute_run(spec)
+    out = jobs.execute_run(spec, progress)
     if not isinstance(out, CyclicOutcome):  # read_profile allows one method and cyclic simple shear
         raise GrainmechError(f"{layer.label}: expected one cyclic-simple-shear outcome, got {type(out).__name__}")
     law = spec.packing_law if spec.packing_law is not None else spec.law

@@ -28,12 +28,16 @@ from grainmech.io.motion import read_motion
 from grainmech.io.outdir import output_folder
 from grainmech.io.results import ensure_dir
 from grainmech.io.site_profile import read_layer_record, write_layer_record
+from grainmech.jobs.progress import Heartbeat
 from grainmech.parallel import map_completed, open_client
 from grainmech.site.layer import anchor_task, check_anchor, failed_record, layer_key, prepare_layer, run_task
 from grainmech.site.outputs import write_outputs
 from grainmech.site.profile import SiteProfile
 
-__all__ = ["run_site"]
+__all__ = ["run_site", "LayerWatch", "SITE_PROGRESS_EVERY"]
+
+#: seconds between two progress lines while a layer runs (at most)
+SITE_PROGRESS_EVERY = 10.0
 
 
 def _say(quiet: bool) -> Callable[[str], None]:
@@ -43,18 +47,75 @@ def _say(quiet: bool) -> Callable[[str], None]:
     return say
 
 
+def _in_process(client: Any, scheduler: str | None, workers: int | None) -> bool:
+    """Whether the layers run one after the other in this process (no cluster)."""
+    return client is None and scheduler is None and (workers is None or workers == 1)
+
+
+class LayerWatch:
+    """What the site's progress line says while layers run (read by a :class:`Heartbeat`).
+
+    ``start(label)`` (a layer starts in this process), ``note(message)`` (the model's own
+    progress lines: amplitude, step, its time left), ``done(seconds)`` (a layer finished).
+    :meth:`line` says which layer runs and for how long, the model's latest line, and the
+    time left of the profile once a layer has finished in this run (the mean seconds of the
+    layers finished times the layers left, less what the running one has had). On a
+    cluster the layers run elsewhere: the line counts them and gives the elapsed time.
+    """
+
+    def __init__(self, total: int, todo: int, in_process: bool, clock: Callable[[], float] = time.perf_counter):
+        self.total, self.todo, self.in_process, self.clock = total, todo, in_process, clock
+        self.t0 = self.t_layer = clock()
+        self.label, self.index, self.latest, self.t_latest = "", 0, "", 0.0
+        self.seconds: list[float] = []
+
+    def start(self, label: str) -> None:
+        """A layer starts in this process."""
+        self.label, self.latest = label, ""
+        self.index += 1
+        self.t_layer = self.clock()
+
+    def note(self, message: str) -> None:
+        """The model's latest progress line."""
+        self.latest, self.t_latest = message, self.clock()
+
+    def done(self, seconds: float | None) -> None:
+        """A layer finished after ``seconds`` (None: not known)."""
+        if seconds is not None:
+            self.seconds.append(float(seconds))
+
+    def line(self) -> str:
+        """The progress line now."""
+        now = self.clock()
+        if not self.in_process:
+            text = (f"[site] {len(self.seconds)}/{self.todo} layer(s) of this run finished on the cluster, "
+                    f"{now - self.t0:.0f} s")
+        else:
+            text = f"[site] layer {self.index}/{self.todo} {self.label}: running {now - self.t_layer:.0f} s"
+            if self.latest:
+                age = now - self.t_latest
+                text += f"; {self.latest}" + (f" ({age:.0f} s ago)" if age >= 1 else "")
+        if self.seconds:
+            left_layers = self.todo - len(self.seconds)
+            mean = sum(self.seconds) / len(self.seconds)
+            running = (now - self.t_layer) if self.in_process else 0.0
+            text += f"; profile: about {max(mean * left_layers - running, 0.0):.0f} s left"
+        return text
+
+
 def _parallel(fn: Callable[[Any], Any], items: list, client: Any, scheduler: str | None,
-              workers: int | None) -> Any:
+              workers: int | None, local: Callable[[Any], Any] | None = None) -> Any:
     """``(index, value, ok)`` of ``fn`` over ``items`` in completion order.
 
     On a Dask cluster (:func:`grainmech.parallel.map_completed`) when a client, a
     scheduler or more than one worker is given; in this process, one item after the other,
-    otherwise (what one in-process Dask worker would do, without starting a cluster).
+    otherwise (what one in-process Dask worker would do, without starting a cluster), with
+    ``local`` instead of ``fn`` when given (it may hold what cannot travel to a worker).
     """
-    if client is None and scheduler is None and (workers is None or workers == 1):
+    if _in_process(client, scheduler, workers):
         for i, item in enumerate(items):
             try:
-                value, ok = fn(item), True
+                value, ok = (local or fn)(item), True
             except Exception as exc:  # noqa: BLE001 (reported as the item's failure, as on Dask)
                 value, ok = exc, False
             yield i, value, ok
@@ -155,14 +216,24 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
     todo = [la for la in todo if la.index not in records]
     if todo:  # 3. the layers, each saved as it finishes
         tasks = [(la, base, anchors.get(la.index)) for la in todo]
-        for i, value, ok in _parallel(run_task, tasks, *cluster):
-            la = todo[i]
-            rec = value if ok else failed_record(la, value)
-            write_layer_record(ldir / f"{la.slug}.json", rec)
-            records[la.index] = rec
-            say(f"[{len(records)}/{len(profile.layers)}] {la.label}: {rec['status']}"
-                + ("" if rec["status"] == "ok" else f": {rec['message']}")
-                + (f" ({rec['seconds']:.1f} s)" if rec.get("seconds") is not None else ""))
+        watch = LayerWatch(len(profile.layers), len(todo), _in_process(cluster[0], cluster[1], cluster[2]))
+
+        def local(task: tuple) -> dict:
+            watch.start(task[0].label)
+            return run_task(task, watch.note)
+
+        # a line at least every 10 s while a layer runs (which layer, the model's amplitude and step, time left)
+        with Heartbeat(say, watch.line, SITE_PROGRESS_EVERY):
+            client, scheduler, workers = cluster
+            for i, value, ok in _parallel(run_task, tasks, client, scheduler, workers, local=local):
+                la = todo[i]
+                rec = value if ok else failed_record(la, value)
+                write_layer_record(ldir / f"{la.slug}.json", rec)
+                records[la.index] = rec
+                watch.done(rec.get("seconds"))
+                say(f"[{len(records)}/{len(profile.layers)}] {la.label}: {rec['status']}"
+                    + ("" if rec["status"] == "ok" else f": {rec['message']}")
+                    + (f" ({rec['seconds']:.1f} s)" if rec.get("seconds") is not None else ""))
     ordered = [records[la.index] for la in profile.layers]
 
     return write_outputs(folder.staging, profile, ordered, reused=reused, ran=ran, response=response,
