@@ -31,9 +31,10 @@ from grainmech.packing.prepare import (
                                        packing_summary,
                                        prepare_packing,
 )
-from grainmech.packing.shipped import PACKINGS, load_packing, packing_info
+from grainmech.packing.shipped import PACKINGS, SAND_PACKINGS, load_packing, packing_info, packing_limits
 
 __all__ = ["SieveCurve", "D50Cu", "UniformRadius", "Sample", "MeasuredGrading", "measured_grading",
            "GrainMaterial", "QUARTZ", "GLASS",
            "MATERIALS", "PackSettings", "PackResult", "PreparationError", "prepare_packing", "packing_summary",
-           "unbalanced_ratio", "PACKINGS", "load_packing", "packing_info"]
+           "unbalanced_ratio", "PACKINGS", "SAND_PACKINGS", "load_packing", "packing_info",
+           "packing_limits"]

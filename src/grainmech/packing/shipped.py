@@ -1,8 +1,18 @@
 """Packings shipped with grainmech (``grainmech/data/packings``), loadable without LAMMPS.
 
-Three packings of 2000 quartz grains (``D50 = 0.3 mm``, ``Cu = 1.3``, sizes cut to a
-ratio of 2.5) at an isotropic 100 kPa, made by ``grainmech pack`` with the configs
-``NAME.toml`` next to them (``scripts/make_packings.py`` remakes them):
+Five packings of 2000 quartz grains at an isotropic 100 kPa, made by ``grainmech pack``
+with the configs ``NAME.toml`` next to them (``scripts/make_packings.py`` remakes them).
+
+Sand packings: the grading of Nevada sand (``D50 = 0.15 mm``, ``Cu = 1.7``, sizes cut to a
+ratio of 4), grains with rolling resistance ``mu_r = 0.25`` (``docs/contact-laws.md``), at
+two relative densities against the void-ratio limits ``grainmech pack`` measures for the
+same grains (``nevada-limits.json``):
+
+* ``"nevada-medium"`` - preparation friction 0.5, preparation rolling friction 0.03;
+* ``"nevada-loose"`` - preparation friction 0.5 and rolling friction 0.25 (the grains').
+
+Smooth-sphere packings (``D50 = 0.3 mm``, ``Cu = 1.3``, sizes cut to a ratio of 2.5, no
+rolling resistance: glass-bead-like grains, kept for comparison):
 
 * ``"dense"`` - preparation friction 0;
 * ``"medium"`` - preparation friction 0.15;
@@ -21,10 +31,12 @@ from grainmech.errors import GrainmechError
 from grainmech.io.dem import read_table
 from grainmech.network import ContactNetwork
 
-__all__ = ["PACKINGS", "load_packing", "packing_info"]
+__all__ = ["PACKINGS", "SAND_PACKINGS", "load_packing", "packing_info", "packing_limits"]
 
 #: names of the shipped packings
-PACKINGS = ("dense", "medium", "loose")
+PACKINGS = ("dense", "medium", "loose", "nevada-medium", "nevada-loose")
+#: the sand packings among them (grains with rolling resistance)
+SAND_PACKINGS = ("nevada-medium", "nevada-loose")
 
 
 def _check(name: str) -> None:
@@ -59,3 +71,17 @@ def packing_info(name: str) -> dict:
     _check(name)
     f = resources.files("grainmech.data").joinpath("packings").joinpath(f"{name}-summary.json")
     return json.loads(f.read_text())
+
+
+def packing_limits(name: str) -> dict | None:
+    """The void-ratio limits ``e_min``/``e_max`` measured for the grains of the shipped packing ``name``.
+
+    ``grainmech pack`` with the two procedures of ``<set>-emin.toml`` (densest: compression
+    without friction) and ``<set>-emax.toml`` (loosest: compression with high friction and
+    rolling resistance), written by ``scripts/make_packings.py limits``; None where they
+    were not measured.
+    """
+    _check(name)
+    stem = "nevada" if name.startswith("nevada") else "smooth"
+    f = resources.files("grainmech.data").joinpath("packings").joinpath(f"{stem}-limits.json")
+    return json.loads(f.read_text()) if f.is_file() else None
