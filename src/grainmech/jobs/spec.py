@@ -88,6 +88,10 @@ class RunSpec:
     dem_settings: Any = None
     dem_workers: int = 1
     dem_handed: tuple | None = None
+    #: one amplitude list for the packing model and a DEM model after it: each amplitude is
+    #: run by one model (the packing model from the smallest up to the first it stops on or
+    #: flags, the DEM model from there; :func:`grainmech.jobs.dem._read_dem_keys`)
+    one_list: bool = False
     dem_series: Any = None
     rolling: Any = None
 
