@@ -283,7 +283,7 @@ def test_kinetic_damping_and_drags_record_the_same_states_on_dense() -> None:
 
 @needs_lammps
 def test_drained_triaxial_path_holds_the_lateral_stress(tmp_path, capsys) -> None:
-    """A DEM path: 0.2 % axial compression of 'dense' in 2 steps with the lateral and shear
+    """A DEM path: 0.2 % axial compression of the example's sand packing in 2 steps with the lateral and shear
     stresses held by the servo (``SSESSS``). Every recorded state holds sigma_xx and
     sigma_yy within the servo tolerance (5 % of the step's stress change, at least 1e-3 of
     p, DemSettings.stress_tol); the deviator grows; the strength summary is written."""
