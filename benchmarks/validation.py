@@ -201,6 +201,13 @@ def _reading(cache: dict, names: list[str]) -> list[str]:
                         f"at its D_r and the angle at 15 % {st['critical_friction_angle_deg'] - b.phi_cs:+.1f}° from "
                         "the critical-state angle of quartz sands" + ("" if st["critical"] else
                                                                       " (the volume still changes there)"))
+        ru = cache.get("ru", {}).get(n) or {}
+        if "0.0001" in ru and "0.001" in ru:
+            hi = ru["0.001"]
+            at3 = (f"{hi['r_u']:.2f} at 1e-3 after 2 cycles" if hi["success"] else
+                   f"liquefies at 1e-3 ({hi['message'].split(':')[0]} of 32)")
+            bits.append(f"constant-volume cycles build r_u = {ru['0.0001']['r_u']:.3f} at 1e-4 (Dobry et al.: no "
+                        f"appreciable pore pressure below about 1e-4) and {at3}")
         if bits:
             out.append(f"* {n}: " + "; ".join(bits) + ".")
     out += ["", "Known reasons where they differ: the smooth-sphere packings (no rolling resistance) are glass-bead-like "
@@ -292,7 +299,9 @@ def write_page(cache: dict, page: Path) -> None:
         if not r or "error" in r:
             lines.append(f"| {n} | {r.get('error', '—') if r else '—'} | |")
             continue
-        cells = [f"{r[a]['r_u']:.3f}" + ("" if r[a]["success"] else f" ({r[a]['message'][:60]})")
+        cells = [f"{r[a]['r_u']:.3f}" if r[a]["success"] else
+                 (f"liquefied ({r[a]['message'].split(':')[0]}: r_u reached 0.95; {r[a]['r_u']:.2f} at the state "
+                  "before)" if "liquefied" in r[a]["message"] else f"stopped: {r[a]['message'][:80]}")
                  for a in ("0.0001", "0.001")]
         lines.append(f"| {n} | {cells[0]} | {cells[1]} |")
     page.write_text("\n".join(lines) + "\n")
