@@ -176,8 +176,11 @@ def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float
 
 def _not_run(spec: RunSpec, packing: CyclicOutcome) -> list[float]:
     """The packing model's amplitudes it did not complete: those it stopped on and those it left unrun."""
-    done = {float(a) for a in packing.amplitudes}
-    return [float(a) for a in spec.amplitudes_of("packing") if float(a) not in done]
+    amps = spec.amplitudes_of("packing")
+    # the completed amplitudes (an outcome without its amplitude column: the first len(G) of its list)
+    done = {float(a) for a in (packing.amplitudes if len(packing.amplitudes) == len(packing.G)
+                               else amps[:len(packing.G)])}
+    return [float(a) for a in amps if float(a) not in done]
 
 
 def _listed(amps: Any) -> list[float]:
