@@ -149,3 +149,23 @@ def test_open_contacts_carry_no_moment_and_vectorised_equals_one_by_one():
         one = rolling_update(CONSTS, n[c:c + 1], Rs[c:c + 1], N[c:c + 1], m0[c:c + 1], w[c:c + 1])
         np.testing.assert_array_equal(one.moment[0], r.moment[c])
         np.testing.assert_array_equal(one.tangent[0], r.tangent[c])
+
+
+def test_moment_energy_is_the_springs_energy():
+    """|M_r|^2 / (2 k_roll R*^2) + M_t^2 / (2 k_twist): the work of loading the springs elastically from zero."""
+    from grainmech.contact.rolling import moment_energy
+
+    rng = np.random.default_rng(5)
+    C = 20
+    n = _frame(C, rng)
+    Rs = rng.uniform(4e-5, 9e-5, C)
+    N = np.full(C, 2.0)
+    w = 1e-6 * rng.normal(size=(C, 3))  # well below the caps
+    steps = 200
+    m = np.zeros((C, 3))
+    work = np.zeros(C)
+    for _ in range(steps):
+        r = rolling_update(CONSTS, n, Rs, N, m, w / steps)
+        work += np.einsum("ci,ci->c", 0.5 * (m + r.moment), w / steps)
+        m = r.moment
+    np.testing.assert_allclose(moment_energy(CONSTS, m, n, Rs), work, rtol=1e-10)

@@ -35,7 +35,7 @@ resistance is inert there.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -44,7 +44,7 @@ from grainmech.contact.geometry import hertz_contact_radius_from_force, mindlin_
 from grainmech.errors import GrainmechError, ParameterError
 
 __all__ = ["RollingResistance", "RollingConstants", "RollingResponse", "rolling_constants", "rolling_update",
-           "rolling_elastic_stiffness"]
+           "rolling_elastic_stiffness", "moment_energy"]
 
 
 def _coefficient(name: str, value: Any) -> float:
@@ -187,8 +187,6 @@ def rolling_constants(rolling: RollingResistance, params: Any, normal_force: np.
 
 def _with_radius(params: Any, radius: float) -> Any:
     """``params`` of two equal spheres whose effective radius is ``radius``."""
-    from dataclasses import replace
-
     return replace(params, radius1=2.0 * radius, radius2=None)
 
 
@@ -208,6 +206,26 @@ def rolling_elastic_stiffness(consts: RollingConstants, n: np.ndarray, effective
     if closed is not None:
         K = np.where(np.asarray(closed, bool)[:, None, None], K, 0.0)
     return K
+
+
+def moment_energy(consts: RollingConstants, moment: np.ndarray, n: np.ndarray,
+                  effective_radius: np.ndarray) -> np.ndarray:
+    """Elastic energy (C,) [energy] held by the moment springs of :func:`rolling_update`.
+
+    ``|M_r|^2 / (2 k_roll R*^2) + M_t^2 / (2 k_twist)`` with ``M_t = M . n`` and
+    ``M_r = M - M_t n``; a part whose resistance is off (``mu_roll = 0``, no twisting cap)
+    holds none.
+    """
+    M = np.asarray(moment, float)
+    n = np.asarray(n, float)
+    Rs = np.asarray(effective_radius, float)
+    mt = np.einsum("ci,ci->c", M, n)
+    e = np.zeros(len(mt))
+    if consts.mu_roll > 0:
+        e += np.maximum(np.einsum("ci,ci->c", M, M) - mt * mt, 0.0) / (2.0 * consts.k_roll * Rs * Rs)
+    if consts.twist_cap > 0:
+        e += mt * mt / (2.0 * consts.k_twist)
+    return e
 
 
 @dataclass(frozen=True)

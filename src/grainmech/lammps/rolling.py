@@ -91,5 +91,5 @@ def rolling_for_stress(rolling: RollingResistance, mat: Any, radii: np.ndarray,
 def rolling_of_network(rolling: RollingResistance, mat: Any, net: ContactNetwork) -> RollingConstants:
     """Rolling constants of the packing ``net`` (its contacts' normal forces and effective radii)."""
     R = net.require_radii("rolling resistance")
-    Rs = R[net.i] * R[net.j] / (R[net.i] + R[net.j])
-    return rolling_constants(rolling, grain_law(mat, float(np.median(R))), net.normal_force, Rs)
+    return rolling_constants(rolling, grain_law(mat, float(np.median(R))), net.normal_force,
+                             net.effective_radii("rolling resistance"))

@@ -231,6 +231,14 @@ class ContactNetwork:
         """Void ratio ``e = V / V_s - 1`` of the cell, ``V_s`` the volume of every sphere (rattlers included)."""
         return void_ratio(self.volume, solid_volume(self.require_radii("the void ratio")))
 
+    def effective_radii(self, what: str) -> np.ndarray:
+        """``R* = R_A R_B / (R_A + R_B)`` of every contact (C,) [length] (seed Eq. 3.3).
+
+        ``what`` names the computation for the error of a network without radii.
+        """
+        R = self.require_radii(what)
+        return R[self.i] * R[self.j] / (R[self.i] + R[self.j])
+
     def require_radii(self, what: str) -> np.ndarray:
         """Particle radii (P,) [length], or an error saying that ``what`` needs them.
 

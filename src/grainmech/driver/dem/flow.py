@@ -36,7 +36,7 @@ import numpy as np
 
 from grainmech.lammps.session import VOIGT_DEFORM, add_affine_velocity
 
-__all__ = ["FlowState", "flow_increment", "inertial_number", "shear_rate", "stop", "virial_stress"]
+__all__ = ["FlowState", "flow_increment", "inertial_number", "shear_rate", "virial_stress"]
 
 #: LAMMPS ``compute pressure`` order (pxx pyy pzz pxy pxz pyz) -> grainmech Voigt (xx yy zz yz xz xy)
 _PRESS_TO_VOIGT = (0, 1, 2, 5, 4, 3)
@@ -101,11 +101,6 @@ def _set_rate(s, flow: FlowState, rate: np.ndarray) -> None:
     if parts:
         lmp.command("fix flow all deform 1 " + " ".join(parts) + " remap v")
     flow.rate = np.asarray(rate, float).copy()
-
-
-def stop(s, flow: FlowState) -> None:
-    """Hold the cell: stop the deformation and take the affine velocity field off the grains."""
-    _set_rate(s, flow, np.zeros(6))
 
 
 def flow_increment(s, flow: FlowState, d_e: np.ndarray, sc: np.ndarray, start: np.ndarray, target: np.ndarray,

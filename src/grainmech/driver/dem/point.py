@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.contact.rolling import RollingConstants, RollingResistance, rolling_constants
+from grainmech.contact.rolling import RollingConstants, RollingResistance, moment_energy, rolling_constants
 from grainmech.driver.base import Status, StepFailure
 from grainmech.driver.dem.flow import FlowState, flow_increment, inertial_number, shear_rate
 from grainmech.driver.dem.mpi import Tick
@@ -402,9 +402,7 @@ def dem_rolling(rolling: RollingResistance | None, law: Any, net: ContactNetwork
     """
     if rolling is None or not rolling.active:
         return None
-    R = net.require_radii("rolling resistance")
-    Rs = R[net.i] * R[net.j] / (R[net.i] + R[net.j])
-    return rolling_constants(rolling, law, net.normal_force, Rs)
+    return rolling_constants(rolling, law, net.normal_force, net.effective_radii("rolling resistance"))
 
 
 def rolling_note(consts: RollingConstants) -> str:
@@ -418,23 +416,14 @@ def rolling_note(consts: RollingConstants) -> str:
 
 
 def rolling_energy(consts: RollingConstants, net: ContactNetwork) -> np.ndarray:
-    """Elastic energy in the contacts' moment springs (C,) [energy].
+    """Elastic energy in the contacts' moment springs of ``net`` (C,) [energy].
 
-    ``|M_r|^2 / (2 k_roll R*^2) + M_t^2 / (2 k_twist)`` with ``M_t = M . n`` and
-    ``M_r = M - M_t n`` (the springs of :func:`~grainmech.contact.rolling.rolling_update`).
+    :func:`~grainmech.contact.rolling.moment_energy` with the network's moments, normals and
+    effective radii.
     """
-    M = np.asarray(net.moment, float)
-    n = np.asarray(net.normals, float)
-    R = net.require_radii("rolling energy")
-    Rs = R[net.i] * R[net.j] / (R[net.i] + R[net.j])
-    mt = np.einsum("ci,ci->c", M, n)
-    mr2 = np.maximum(np.einsum("ci,ci->c", M, M) - mt * mt, 0.0)
-    e = np.zeros(len(mt))
-    if consts.mu_roll > 0:
-        e += mr2 / (2.0 * consts.k_roll * Rs * Rs)
-    if consts.twist_cap > 0:
-        e += mt * mt / (2.0 * consts.k_twist)
-    return e
+    if net.moment is None:
+        raise GrainmechError(f"{net.source or 'network'}: rolling energy needs the contact moments")
+    return moment_energy(consts, net.moment, net.normals, net.effective_radii("rolling energy"))
 
 
 def _liquefied(p: float, p0: float, how: str) -> str:

@@ -28,6 +28,7 @@ from grainmech.contact.rolling import (
     RollingConstants,
     RollingResistance,
     RollingResponse,
+    moment_energy,
     rolling_constants,
     rolling_elastic_stiffness,
     rolling_update,
@@ -504,13 +505,9 @@ class PackingPoint:
         else:
             en = 0.4 * r.normal_force * np.maximum(st.approach, 0.0) / self.scale
         em = 0.0
-        if self.moments is not None and self.rolling is not None:  # moment springs M_r^2/(2 k_r) + M_t^2/(2 k_t)
-            kin, c = self.kinematics, self.rolling
-            mt = np.einsum("ci,ci->c", self.moments, kin.n)
-            mr2 = np.einsum("ci,ci->c", self.moments, self.moments) - mt * mt
-            kr = c.k_roll * kin.Rs * kin.Rs
-            em = float(np.sum(np.where(closed, mr2 / (2 * kr) + (mt * mt / (2 * c.k_twist) if c.k_twist > 0 else 0.0),
-                                       0.0)))
+        if self.moments is not None and self.rolling is not None:  # the moment springs
+            em = float(np.sum(np.where(closed, moment_energy(self.rolling, self.moments, self.kinematics.n,
+                                                             self.kinematics.Rs), 0.0)))
         return float((np.sum(np.where(closed, en, 0.0) + et) + em) / self.volume)
 
     def fractions(self) -> tuple[float, float]:
