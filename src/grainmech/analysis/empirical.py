@@ -33,7 +33,8 @@ from grainmech.errors import ParameterError
 __all__ = ["P_ATM", "DARENDELI_PHI", "hardin_drnevich", "HardinDrnevichReference",
            "hardin_drnevich_reference", "darendeli", "DarendeliCurves", "menq_curve", "MenqCurves",
            "MENQ_D50_MAX",
-           "masing_damping_hyperbolic", "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
+           "masing_damping_hyperbolic", "masing_damping_modified", "masing_damping_peak",
+           "hardin_richart", "HardinRichart", "mohr_coulomb_ratio",
            "SAND_PEAK_FRICTION_DEG", "bolton", "Bolton", "BOLTON_PHI_CS_DEG", "DOBRY_THRESHOLD_STRAIN",
            "relative_density"]
 
@@ -156,6 +157,26 @@ def masing_damping_hyperbolic(gamma: Any, gamma_r: float) -> np.ndarray:
     """
     g = _strain(gamma)
     return (4.0 * (g - gamma_r * np.log1p(g / gamma_r)) * (g + gamma_r) / g ** 2 - 2.0) / np.pi
+
+
+def masing_damping_modified(gamma: Any, gamma_r: float, curvature: float) -> np.ndarray:
+    """Masing damping ratio of the modified hyperbola ``G/Gmax = 1/(1 + (gamma/gamma_r)^a)``.
+
+    Darendeli's (2001, Eq. 9.4) polynomial in the Masing damping of the hyperbola
+    (:func:`masing_damping_hyperbolic`), with ``a = curvature``; strains and the result
+    as ratios (not percent).
+    """
+    g = _strain(gamma)
+    return _masing_modified_pct(100.0 * g, 100.0 * float(gamma_r), float(curvature)) / 100.0
+
+
+def masing_damping_peak(curvature: float) -> float:
+    """``gamma / gamma_r`` where ``(G/Gmax)^0.1 D_Masing`` of the modified hyperbola is largest.
+
+    Beyond it Menq's (2003) damping, and pystrata's running maximum, hold the peak value
+    (:func:`menq_curve`).
+    """
+    return _menq_masing_peak(float(curvature))
 
 
 @dataclass(frozen=True)
