@@ -194,3 +194,43 @@ def test_loosest_preparation_with_rolling_resistance():
     assert s["material"]["rolling_friction"] == 0.3
     assert res.network.moment is not None
     assert unbalanced_ratio(res.network) < 1e-5
+
+
+def test_pack_config_grain_rolling_key():
+    """``[preparation] grain_rolling``: "relaxation" (default) or "after"; anything else, or
+    "after" for grains without rolling resistance, is refused naming the key."""
+    from grainmech.io.schema import build_pack_config
+
+    cfg = {"grains": {"count": 100, "distribution": "uniform", "radius": "0.15 mm"},
+           "material": {"rolling_friction": 0.25},
+           "preparation": {"stress": "100 kPa", "friction": 0.1}}
+    assert build_pack_config(cfg).settings.grain_rolling == "relaxation"
+    cfg["preparation"]["grain_rolling"] = "after"
+    assert build_pack_config(cfg).settings.grain_rolling == "after"
+    bad = json.loads(json.dumps(cfg))
+    bad["preparation"]["grain_rolling"] = "later"
+    with pytest.raises(ConfigError, match=r"preparation\.grain_rolling = 'later': must be one of"):
+        build_pack_config(bad)
+    del bad["material"]
+    bad["preparation"]["grain_rolling"] = "after"
+    with pytest.raises(ConfigError, match=r"preparation\.grain_rolling = 'after': needs \[material\] rolling"):
+        build_pack_config(bad)
+
+
+@pytest.mark.slow
+def test_preparation_with_grain_rolling_after():
+    """120 grains compressed with low friction, the grains' rolling resistance not in the
+    preparation (``grain_rolling = "after"``): no contact moments, in force equilibrium, and
+    the summary says the rolling springs start unloaded."""
+    from grainmech.jobs.pack import pack_job
+
+    cfg = {"grains": {"count": 120, "distribution": "uniform", "radius": "0.15 mm", "spread": 0.1, "seed": 2},
+           "material": {"rolling_friction": 0.25},
+           "preparation": {"stress": "100 kPa", "friction": 0.1, "grain_rolling": "after", "threads": 1}}
+    res = pack_job(cfg)
+    s = res.summary
+    assert set(s["rolling"]) == {"grains"} and "start unloaded" in s["rolling"]["grains"]
+    assert s["material"]["rolling_friction"] == 0.25
+    m = res.network.moment
+    assert m is None or not np.any(m)
+    assert unbalanced_ratio(res.network) < 1e-5

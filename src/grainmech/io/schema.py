@@ -660,6 +660,7 @@ def build_pack_config(cfg: dict) -> PackConfig:
     """
     # imported on use: keeps grainmech.packing (about 0.1 s) out of `grainmech --help`
     from grainmech.packing import MATERIALS, D50Cu, PackSettings, SieveCurve, UniformRadius
+    from grainmech.packing.prepare import GRAIN_ROLLING
 
     root = Section(cfg, "")
     g = root.section("grains")
@@ -741,6 +742,16 @@ def build_pack_config(cfg: dict) -> PackConfig:
     kw["prep_friction"] = pr.number("friction", None, 0.0, min=0, max=10)
     if pr.has("rolling_friction"):
         kw["prep_rolling"] = _dimensionless(pr, "rolling_friction")
+    if pr.has("grain_rolling"):
+        gr = pr.raw("grain_rolling")
+        if gr not in GRAIN_ROLLING:
+            raise ConfigError(pr.key("grain_rolling"), gr, f"must be one of {', '.join(map(repr, GRAIN_ROLLING))} "
+                              "(when the grains' own rolling resistance acts: in the relaxation, or after the "
+                              "preparation with the springs unloaded)")
+        if mat.rolling is None:
+            raise ConfigError(pr.key("grain_rolling"), gr, "needs [material] rolling_friction (the grains have no "
+                              "rolling resistance)")
+        kw["grain_rolling"] = gr
     if pr.has("unbalanced_tol"):
         kw["unbalanced_tol"] = pr.number("unbalanced_tol", None, min=0, max=1, min_inclusive=False,
                                          max_inclusive=False)
