@@ -31,7 +31,7 @@ from _yardstick import dgemm_seconds
 
 def _write_big_dump(path: Path, ppath: Path, n_contacts: int) -> None:
     """A LIGGGHTS local dump with n_contacts rows, written in blocks (bounded memory)."""
-    from grainmech.io.dem import _box_header
+    from grainmech.io._dem_write import _box_header
     from grainmech.network import random_network
 
     base = random_network(20000, seed=0)

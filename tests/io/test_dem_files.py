@@ -10,8 +10,11 @@ import pytest
 from grainmech.errors import GrainmechError
 from grainmech.io import _dem_blocks as blocks  # the block parser: what these tests patch
 from grainmech.io import dem as demio
+from grainmech.io._dem_dump import _read_particles_dump
+from grainmech.io._dem_write import _box_header
 from grainmech.io.dem import read_liggghts, read_network, write_liggghts, write_table
 from grainmech.network import Box, lattice_network, network_stress, random_network
+from grainmech.network.tables import lookup_rows
 
 TRICLINIC = np.array([[10.0, 0, 0], [2.0, 9.0, 0], [1.0, -1.5, 11.0]])
 
@@ -148,7 +151,7 @@ def test_lammps_local_dump(tmp_path):
 
 def test_triclinic_box_and_scaled_coordinates(tmp_path):
     box = Box(np.array([1.0, -2.0, 0.5]), TRICLINIC, np.array([True, True, True]))
-    lines = demio._box_header(box)
+    lines = _box_header(box)
     assert lines[0] == "ITEM: BOX BOUNDS xy xz yz pp pp pp"
     # LAMMPS: xlo_bound = xlo + min(0, xy, xz, xy+xz), xhi_bound = xhi + max(...)
     np.testing.assert_allclose([float(v) for v in lines[1].split()], [1.0, 14.0, 2.0])
@@ -158,7 +161,7 @@ def test_triclinic_box_and_scaled_coordinates(tmp_path):
     p.write_text("ITEM: TIMESTEP\n0\nITEM: NUMBER OF ATOMS\n2\n" + "\n".join(lines) + "\n"
                  "ITEM: ATOMS id xs ys zs diameter\n" + "\n".join(f"{k + 1} {a} {b} {c} 2.0" for k, (a, b, c)
                                                                  in enumerate(s)) + "\n")
-    parts = demio._read_particles_dump(p)
+    parts = _read_particles_dump(p)
     np.testing.assert_allclose(parts.pos, box.origin + s @ TRICLINIC)
     np.testing.assert_allclose(parts.radii, [1.0, 1.0])
     np.testing.assert_allclose(parts.box.cell, TRICLINIC, atol=1e-14)
@@ -298,17 +301,17 @@ def test_unknown_particle_id_with_both_lookups(tmp_path, pids, bad):
 
 
 def test_lookup_table_and_binary_search_agree():
-    """The two look-ups of _lookup give the rows a dict gives, unknown ids rejected."""
+    """The two look-ups of lookup_rows give the rows a dict gives, unknown ids rejected."""
     rng = np.random.default_rng(7)
     for ids in (rng.permutation(np.arange(1, 5001)), rng.choice(10**12, 5000, replace=False)):
         order = np.argsort(ids, kind="stable")
         rows = {int(v): r for r, v in enumerate(ids)}
         q = ids[rng.integers(0, len(ids), 200_000)]
-        got = demio._lookup(ids[order], order, q.copy(), Path("c"), 1, "id1", Path("p"))
+        got = lookup_rows(ids[order], order, q.copy(), Path("c"), 1, "id1", Path("p"))
         assert got.tolist() == [rows[int(v)] for v in q]
         q[150_000] = ids.max() + 1
         with pytest.raises(GrainmechError, match=rf"c:150001: particle id {ids.max() + 1} \(column id1\)"):
-            demio._lookup(ids[order], order, q, Path("c"), 1, "id1", Path("p"))
+            lookup_rows(ids[order], order, q, Path("c"), 1, "id1", Path("p"))
 
 
 def test_chunked_reading_matches(tmp_path, monkeypatch):
@@ -340,7 +343,7 @@ def test_pieces_of_the_data_block_are_whole_lines_up_to_the_next_item():
     for text, want in ((block, block), (block + b"ITEM: TIMESTEP\n5\n1 2\n", block),
                        (block[:-1], block[:-1]), (b"ITEM: TIMESTEP\n", b"")):
         for size in (7, 64, 113, 4096, 1 << 20):
-            pieces = list(demio._windows(io.BytesIO(text), size, b"ITEM:"))
+            pieces = list(blocks._windows(io.BytesIO(text), size, b"ITEM:"))
             assert b"".join(pieces) == want
             assert all(x.endswith(b"\n") for x in pieces[:-1]) and all(pieces)
             if size >= 200:  # a piece is at most its size plus the line carried over
@@ -349,8 +352,8 @@ def test_pieces_of_the_data_block_are_whole_lines_up_to_the_next_item():
     lines = [b"%d 2\n" % k for k in range(10)]
     text = b"".join(lines[:5]) + b"ITEM: X\n" + b"".join(lines[5:])
     for size in range(1, 40):
-        assert b"".join(demio._windows(io.BytesIO(text), size, b"ITEM:")) == b"".join(lines[:5])
-    assert b"".join(demio._windows(io.BytesIO(text), 16, None)) == text
+        assert b"".join(blocks._windows(io.BytesIO(text), size, b"ITEM:")) == b"".join(lines[:5])
+    assert b"".join(blocks._windows(io.BytesIO(text), 16, None)) == text
 
 
 def test_a_read_reports_its_progress_and_later_pieces_name_their_lines(tmp_path, monkeypatch, reader):
@@ -488,9 +491,9 @@ def test_reader_threads_follow_pyarrows_cpu_count(reader):
     before = pa.cpu_count()
     try:
         pa.set_cpu_count(1)
-        assert demio._reader_threads() == 1
+        assert blocks._reader_threads() == 1
         pa.set_cpu_count(64)
-        assert 1 <= demio._reader_threads() <= 8
+        assert 1 <= blocks._reader_threads() <= 8
     finally:
         pa.set_cpu_count(before)
 

@@ -1,11 +1,12 @@
-"""Data blocks of DEM files to arrays, and arrays to a contact network (:mod:`grainmech.io.dem`).
+"""Data blocks of DEM files to arrays (:mod:`grainmech.io.dem`).
 
-The parts every reader of :mod:`grainmech.io.dem` shares: the chunked line reader, the
-data-block parsers (pyarrow's CSV reader on every core when pyarrow is installed, else a
-NumPy line parser in chunks of :data:`CHUNK_LINES` lines; both keep only the needed
-columns), the column aliases, the particle table and the assembly of the contact arrays
-into a :class:`~grainmech.network.ContactNetwork` (``_build``). Error messages name the
-file, the line, the column and the value.
+The parts every reader of :mod:`grainmech.io.dem` shares: the chunked line reader
+(:class:`LineReader`), the data-block parser (:func:`read_block`: pyarrow's CSV reader on
+every core when pyarrow is installed, else a NumPy line parser in chunks of
+:data:`CHUNK_LINES` lines; both keep only the needed columns), the column aliases
+(:data:`CONTACT_ALIASES`) and the particle table's columns (:func:`particle_columns`).
+The columns become a contact network in :mod:`grainmech.network.tables`. Error messages
+name the file, the line, the column and the value.
 """
 
 from __future__ import annotations
@@ -16,20 +17,18 @@ import itertools
 import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from grainmech.errors import GrainmechError
-from grainmech.network import Box, ContactNetwork
 
 CHUNK_LINES = 1 << 16
 
 
-# aliases of descriptive column names -> canonical names
-_ALIASES = {
+#: aliases of descriptive contact column names -> canonical names
+CONTACT_ALIASES = {
     "id1": "id1", "id2": "id2", "i": "id1", "j": "id2", "patom1": "id1", "patom2": "id2",
     "batom1": "id1", "batom2": "id2",
     "fx": "fx", "fy": "fy", "fz": "fz", "force_x": "fx", "force_y": "fy", "force_z": "fz",
@@ -75,7 +74,7 @@ def open_text(path: str | os.PathLike, errors: str = "strict") -> io.TextIOWrapp
         raise GrainmechError(f"{path}: file not found") from None
 
 
-class _LineReader:
+class LineReader:
     """Text file (plain, or gzip-compressed when its name ends in ``.gz``) with line numbers (1-based)."""
 
     def __init__(self, path: Path) -> None:
@@ -111,7 +110,7 @@ class _LineReader:
     def close(self) -> None:
         self.fh.close()
 
-    def __enter__(self) -> _LineReader:
+    def __enter__(self) -> LineReader:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -169,7 +168,7 @@ _VECTOR_COLUMNS = (("fx", "fy", "fz"), ("cpx", "cpy", "cpz"), ("x1", "y1", "z1")
 def _allocate(keys: Sequence[str], ints: set, count: int) -> dict[str, np.ndarray]:
     """Output arrays of a block.
 
-    int64 ids, (n, 3) arrays for vector columns (each column a view, see :func:`_vector`),
+    int64 ids, (n, 3) arrays for vector columns (each column a view of the (n, 3) array the network keeps),
     float64 otherwise.
     """
     out: dict[str, np.ndarray] = {}
@@ -182,18 +181,6 @@ def _allocate(keys: Sequence[str], ints: set, count: int) -> dict[str, np.ndarra
         if k not in out:
             out[k] = np.empty(count, dtype=np.int64 if k in ints else float)
     return out
-
-
-def _vector(cols: dict[str, np.ndarray], group: Sequence[str]) -> np.ndarray:
-    """The (n, 3) array of three columns: the array they are views of, else a stack."""
-    a = [cols[k] for k in group]
-    base = a[0].base
-    if (isinstance(base, np.ndarray) and base.ndim == 2 and base.shape[1] == 3 and base.flags.c_contiguous
-            and all(x.base is base for x in a) and all(x.shape[0] == base.shape[0] for x in a)
-            and [x.__array_interface__["data"][0] - base.__array_interface__["data"][0] for x in a]
-            == [0, 8, 16]):
-        return base
-    return np.stack(a, axis=1)
 
 
 def _as_ids(a: np.ndarray, name: str, path: Path, first: int) -> np.ndarray:
@@ -404,10 +391,10 @@ def _read_block_arrow(path: Path, skip_lines: int, names: Sequence[str], want: d
     return {k: (np.concatenate([a for p in parts for a in p[k]]) if parts else np.zeros(0)) for k in keys}
 
 
-def _read_block(rd: _LineReader, names: Sequence[str], want: dict[str, int], count: int | None,
-                delimiter: str | None = None, stop_prefix: str | None = None,
-                int_cols: Iterable[str] = (),
-                progress: Callable[[int, int], None] | None = None) -> tuple[dict[str, np.ndarray], int]:
+def read_block(rd: LineReader, names: Sequence[str], want: dict[str, int], count: int | None,
+               delimiter: str | None = None, stop_prefix: str | None = None,
+               int_cols: Iterable[str] = (),
+               progress: Callable[[int, int], None] | None = None) -> tuple[dict[str, np.ndarray], int]:
     """Read ``count`` data rows (or to EOF / a line starting with ``stop_prefix``).
 
     Returns the wanted columns (by canonical name -> column index) and the line number of
@@ -514,17 +501,12 @@ def _append_chunk(lines, names, cols, keys, parts, delimiter, path, line0) -> No
 
 # --------------------------------------------------------------------------- particles
 
-@dataclass
-class _Particles:
-    ids: np.ndarray
-    pos: np.ndarray
-    radii: np.ndarray | None
-    box: Box | None
-    path: Path
-    first_line: int
+def particle_columns(names: list[str], path: Path, line: int) -> dict[str, int]:
+    """Canonical particle column -> index in ``names`` (``id``, ``x y z`` or scaled ``xs ys zs``, radius or diameter).
 
-
-def _particle_columns(names: list[str], path: Path, line: int) -> dict[str, int]:
+    Raises :class:`~grainmech.errors.GrainmechError` naming the file and the header line
+    where ``id`` or the coordinates are missing.
+    """
     canon = [_PARTICLE_ALIASES.get(n.lower(), n.lower()) for n in names]
     want: dict[str, int] = {}
     for k, c in enumerate(canon):
@@ -541,141 +523,3 @@ def _particle_columns(names: list[str], path: Path, line: int) -> dict[str, int]
         for c in ("xs", "ys", "zs"):
             want.pop(c, None)
     return want
-
-
-def _finish_particles(cols: dict[str, np.ndarray], box: Box | None, path: Path, first: int) -> _Particles:
-    ids = cols["id"]
-    if "x" in cols:
-        pos = np.stack([cols["x"], cols["y"], cols["z"]], axis=1)
-    else:
-        if box is None:
-            raise GrainmechError(f"{path}: scaled coordinates (xs ys zs) need a box")
-        pos = box.origin + np.stack([cols["xs"], cols["ys"], cols["zs"]], axis=1) @ box.cell
-    radii = None
-    if "radius" in cols:
-        radii = cols["radius"]
-    elif "diameter" in cols:
-        radii = 0.5 * cols["diameter"]
-    if radii is not None and radii.size and not np.all(radii > 0):
-        k = int(np.flatnonzero(~(radii > 0))[0])
-        raise GrainmechError(f"{path}:{first + k}: particle {int(ids[k])}: radius must be > 0, got {float(radii[k])!r}")
-    order = np.argsort(ids, kind="stable")
-    sid = ids[order]
-    dup = np.flatnonzero(sid[1:] == sid[:-1])
-    if dup.size:
-        k = int(order[dup[0] + 1])
-        raise GrainmechError(f"{path}:{first + k}: particle id {ids[k]} appears twice")
-    return _Particles(ids, pos, radii, box, path, first)
-
-
-# --------------------------------------------------------------------------- assembling
-
-#: rows per block of the index look-up and branch vectors (bounded temporaries)
-_BUILD_BLOCK = 1 << 16
-
-
-def _lookup(ids_sorted: np.ndarray, order: np.ndarray, q: np.ndarray, path: Path, first: int,
-            col: str, ppath: Path) -> np.ndarray:
-    """Row of each id of ``q`` in the particle table (blockwise: temporaries stay small).
-
-    Written over ``q`` itself (an int64 array the reader owns: no second array of the
-    contacts' size); nothing is overwritten from the first unknown id on, so the message
-    names the id as read. Ids spanning at most ``4 P + 65536`` values (DEM codes number
-    their particles 1..P) are looked up in a table indexed by id, else by binary search
-    (``searchsorted``, ~10x slower).
-    """
-    out = q if q.dtype == np.int64 and q.flags.writeable else np.empty(len(q), dtype=np.int64)
-    P = len(ids_sorted)
-    table = None
-    if P:
-        lo = int(ids_sorted[0])
-        span = int(ids_sorted[-1]) - lo + 1
-        if span <= 4 * P + 65536:
-            table = np.full(span, -1, dtype=np.int64)
-            table[ids_sorted - lo] = order
-    nbad = 0
-    kbad = -1
-    for a in range(0, len(q), _BUILD_BLOCK):
-        qq = q[a:a + _BUILD_BLOCK]
-        if table is not None:
-            k = qq - lo
-            outside = (k < 0) | (k >= span)
-            np.clip(k, 0, span - 1, out=k)
-            rows = table[k]
-            bad = np.flatnonzero(outside | (rows < 0))
-        else:
-            pos = np.searchsorted(ids_sorted, qq)
-            np.minimum(pos, P - 1, out=pos)
-            bad = np.flatnonzero(ids_sorted[pos] != qq) if P else np.arange(len(qq))
-            rows = order[pos] if P else pos
-        if bad.size:
-            nbad += bad.size
-            kbad = a + int(bad[0]) if kbad < 0 else kbad
-        elif kbad < 0:
-            out[a:a + _BUILD_BLOCK] = rows
-    if nbad:
-        raise GrainmechError(f"{path}:{first + kbad}: particle id {int(q[kbad])} (column {col}) is not listed in "
-                             f"{ppath} ({nbad} contact(s) reference unlisted particles)")
-    return out
-
-
-def _build(cols: dict[str, np.ndarray], path: Path, first: int, parts: _Particles | None,
-           box: Box | None, force_on: str, source: str) -> ContactNetwork:
-    for c in ("id1", "id2", "fx", "fy", "fz"):
-        if c not in cols:
-            raise GrainmechError(f"{path}: contact data has no {c!r} column")
-    if force_on not in ("id1", "id2"):
-        raise GrainmechError(f"force_on must be 'id1' or 'id2', got {force_on!r}")
-    id1, id2 = cols["id1"], cols["id2"]
-    same = np.flatnonzero(id1 == id2)
-    if same.size:
-        k = int(same[0])
-        raise GrainmechError(f"{path}:{first + k}: contact of particle {id1[k]} with itself")
-    f = _vector(cols, ("fx", "fy", "fz"))
-    if force_on == "id1":
-        np.negative(f, out=f)  # force on A (by B) -> force by A on B
-    has_pos = all(c in cols for c in ("x1", "y1", "z1", "x2", "y2", "z2"))
-    if parts is None:
-        if not has_pos:
-            raise GrainmechError(f"{path}: the contacts carry no positions (pos keyword / x1..z2 columns); "
-                                 "give the particle file (--particles)")
-        allid = np.concatenate([id1, id2])
-        allpos = np.concatenate([_vector(cols, ("x1", "y1", "z1")), _vector(cols, ("x2", "y2", "z2"))])
-        uid, idx = np.unique(allid, return_index=True)
-        parts = _Particles(uid, allpos[idx], None, None, path, first)
-        del allid, allpos
-    box = box if box is not None else parts.box
-    if box is None:
-        r = parts.radii if parts.radii is not None else np.zeros(len(parts.ids))
-        lo = (parts.pos - r[:, None]).min(axis=0)
-        hi = (parts.pos + r[:, None]).max(axis=0)
-        box = Box.orthogonal(lo, hi, False)
-        source += " (no box in the files: volume of the particles' bounding box, not periodic)"
-    order = np.argsort(parts.ids, kind="stable")
-    sid = parts.ids[order]
-    # the id columns become the index columns in place (the reader's own int64 arrays)
-    ia = _lookup(sid, order, id1, path, first, "id1", parts.path)
-    ib = _lookup(sid, order, id2, path, first, "id2", parts.path)
-    del id1, id2, cols["id1"], cols["id2"]
-    l_ = np.empty((len(ia), parts.pos.shape[1]))
-    for a in range(0, len(ia), _BUILD_BLOCK):
-        blk = slice(a, a + _BUILD_BLOCK)
-        l_[blk] = box.minimum_image(parts.pos[ib[blk]] - parts.pos[ia[blk]])
-        zero = np.flatnonzero(np.einsum("ij,ij->i", l_[blk], l_[blk]) <= 0)
-        if zero.size:
-            k = a + int(zero[0])
-            raise GrainmechError(f"{path}:{first + k}: particles {parts.ids[ia[k]]} and {parts.ids[ib[k]]} "
-                                 "have the same centre")
-    overlap = cols.get("delta")
-    cp = _vector(cols, ("cpx", "cpy", "cpz")) if all(c in cols for c in ("cpx", "cpy", "cpz")) else None
-    kn = cols.get("kn")
-    ks = cols.get("ks")
-    m = _vector(cols, ("mx", "my", "mz")) if all(c in cols for c in ("mx", "my", "mz")) else None
-    if m is not None and force_on == "id1":
-        np.negative(m, out=m)  # the moment on A (by B) -> the moment by A on B, as the force
-    return ContactNetwork(parts.ids, parts.pos, parts.radii, box, ia, ib, f, l_, overlap, cp, kn, ks, source,
-                          moment=m)
-
-
-_CONTACT_WANT = ("id1", "id2", "fx", "fy", "fz", "x1", "y1", "z1", "x2", "y2", "z2", "cpx", "cpy", "cpz",
-                 "delta", "kn", "ks", "mx", "my", "mz")

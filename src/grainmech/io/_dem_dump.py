@@ -16,17 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from grainmech.errors import GrainmechError
-from grainmech.io._dem_blocks import (
-    _ALIASES,
-    _CONTACT_WANT,
-    _build,
-    _finish_particles,
-    _LineReader,
-    _particle_columns,
-    _Particles,
-    _read_block,
-)
-from grainmech.network import Box, ContactNetwork
+from grainmech.io._dem_blocks import CONTACT_ALIASES, LineReader, particle_columns, read_block
+from grainmech.network.data import Box, ContactNetwork
+from grainmech.network.tables import CONTACT_COLUMNS, ParticleTable, network_from_columns, particle_table
 
 #: Output columns of LIGGGHTS ``compute pair/gran/local`` per keyword, in the compute's fixed
 #: output order (LIGGGHTS-PUBLIC 3.8 ``ComputePairGranLocal::post_force_pp``; the order in
@@ -70,7 +62,7 @@ class _Dump:
     timestep: int | None
 
 
-def _parse_box(rd: _LineReader, item: str) -> Box:
+def _parse_box(rd: LineReader, item: str) -> Box:
     """Box from a ``ITEM: BOX BOUNDS [xy xz yz] bx by bz`` header (LAMMPS dump format)."""
     words = item.split()[3:]
     tilt = words[:3] == ["xy", "xz", "yz"]
@@ -102,7 +94,7 @@ def _parse_box(rd: _LineReader, item: str) -> Box:
     return Box(np.array([xlo, ylo, zlb]), cell, np.array(periodic))
 
 
-def _read_dump_header(rd: _LineReader, data_item: str) -> _Dump:
+def _read_dump_header(rd: LineReader, data_item: str) -> _Dump:
     """Read ITEM sections up to the data header ``ITEM: <data_item> names...``."""
     box = None
     count = None
@@ -154,10 +146,10 @@ def _liggghts_names(names: list[str], keywords: Sequence[str] | None, columns: S
         if len(cols) != len(names):
             raise GrainmechError(f"{path}:{line}: --columns names {len(cols)} columns but the file has "
                                  f"{len(names)} ({' '.join(names)})")
-        return [_ALIASES.get(c, c) for c in cols]
+        return [CONTACT_ALIASES.get(c, c) for c in cols]
     low = [n.lower() for n in names]
-    if all(n in _ALIASES for n in low):
-        return [_ALIASES[n] for n in low]
+    if all(n in CONTACT_ALIASES for n in low):
+        return [CONTACT_ALIASES[n] for n in low]
     body = [n for n in low if n != "index"]
     prefix = ["index"] * (len(low) - len(body))
     if keywords is not None:
@@ -200,12 +192,12 @@ def _liggghts_names(names: list[str], keywords: Sequence[str] | None, columns: S
     return prefix + out
 
 
-def _read_particles_dump(path: Path) -> _Particles:
-    with _LineReader(path) as rd:
+def _read_particles_dump(path: Path) -> ParticleTable:
+    with LineReader(path) as rd:
         hd = _read_dump_header(rd, "ATOMS")
-        want = _particle_columns(hd.names, path, rd.line)
-        cols, first = _read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id",))
-    return _finish_particles(cols, hd.box, path, first)
+        want = particle_columns(hd.names, path, rd.line)
+        cols, first = read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id",))
+    return particle_table(cols, hd.box, path, first)
 
 
 def read_liggghts(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
@@ -246,20 +238,20 @@ def read_liggghts(contacts: str | os.PathLike, particles: str | os.PathLike | No
     cpath = Path(contacts)
     ppath = Path(particles) if particles is not None else None
     parts = _read_particles_dump(ppath) if ppath is not None else None
-    with _LineReader(cpath) as rd:
+    with LineReader(cpath) as rd:
         hd = _read_dump_header(rd, "ENTRIES")
         canon = _liggghts_names(hd.names, keywords, columns, cpath, rd.line, lammps=lammps)
         skip = ("x1", "y1", "z1", "x2", "y2", "z2") if parts is not None else ()
-        want = {c: k for k, c in enumerate(canon) if c in _CONTACT_WANT and c not in skip}
+        want = {c: k for k, c in enumerate(canon) if c in CONTACT_COLUMNS and c not in skip}
         for c in ("id1", "id2", "fx", "fy", "fz"):
             if c not in want:
                 raise GrainmechError(f"{cpath}:{rd.line}: the contact dump has no {c!r} column "
                                      f"(columns: {' '.join(hd.names)} read as {' '.join(canon)})")
-        cols, first = _read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id1", "id2"),
+        cols, first = read_block(rd, hd.names, want, hd.count, stop_prefix="ITEM:", int_cols=("id1", "id2"),
                                   progress=progress)
     box = hd.box if hd.box is not None else (parts.box if parts else None)
     src = f"{'LAMMPS' if lammps else 'LIGGGHTS'} {cpath}" + (f" + {ppath}" if ppath else "")
-    return _build(cols, cpath, first, parts, box, force_on, src)
+    return network_from_columns(cols, cpath, first, parts, box, force_on, src)
 
 
 def read_lammps(contacts: str | os.PathLike, particles: str | os.PathLike, *,

@@ -3,30 +3,23 @@
 One contact per row with descriptive column names (aliases accepted), the particles in a
 second table, the box and the force convention in ``# key = value`` comment lines (CSV)
 or arrays (NPZ); the force is the one on ``id2`` unless the file or the caller says
-otherwise. The data blocks are read by :mod:`grainmech.io._dem_blocks`.
+otherwise. The data blocks are read by :mod:`grainmech.io._dem_blocks`, the NPZ arrays by
+:mod:`grainmech.network.tables`.
 """
 
 from __future__ import annotations
 
 import os
 import re
-import zipfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from grainmech.errors import GrainmechError
-from grainmech.io._dem_blocks import (
-    _ALIASES,
-    _CONTACT_WANT,
-    _build,
-    _finish_particles,
-    _LineReader,
-    _particle_columns,
-    _read_block,
-)
-from grainmech.network import Box, ContactNetwork
+from grainmech.io._dem_blocks import CONTACT_ALIASES, LineReader, particle_columns, read_block
+from grainmech.network.data import Box, ContactNetwork
+from grainmech.network.tables import CONTACT_COLUMNS, network_from_columns, npz_contacts, npz_particles, particle_table
 
 
 def _table_box(meta: dict[str, str], path: Path) -> Box | None:
@@ -50,7 +43,7 @@ def _table_box(meta: dict[str, str], path: Path) -> Box | None:
     return None
 
 
-def _csv_header(rd: _LineReader) -> tuple[list[str], dict[str, str], str | None]:
+def _csv_header(rd: LineReader) -> tuple[list[str], dict[str, str], str | None]:
     meta: dict[str, str] = {}
     while True:
         s = rd.readline()
@@ -67,60 +60,6 @@ def _csv_header(rd: _LineReader) -> tuple[list[str], dict[str, str], str | None]
         delim = "," if "," in st else None
         names = [x.strip() for x in (st.split(",") if delim else st.split())]
         return names, meta, delim
-
-
-def _read_npz(path: Path) -> dict[str, np.ndarray]:
-    if path.is_file() and path.stat().st_size == 0:
-        raise GrainmechError(f"{path}: the file is empty (0 bytes), not a .npz file")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: np.asarray(z[k]) for k in z.files}
-    except FileNotFoundError:
-        raise
-    # EOFError: a truncated file; zipfile.BadZipFile: not a zip archive
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise GrainmechError(f"{path}: not a readable .npz file ({type(exc).__name__}: {exc})") from None
-
-
-def _npz_cols(z: dict[str, np.ndarray], path: Path, names: Iterable[str], int_cols: Iterable[str]) -> dict:
-    out = {}
-    n = None
-    for k in names:
-        if k not in z:
-            continue
-        a = z[k]
-        if a.ndim != 1:
-            raise GrainmechError(f"{path}: array {k!r} must be one-dimensional, got shape {a.shape}")
-        if n is not None and a.shape[0] != n:
-            raise GrainmechError(f"{path}: array {k!r} has {a.shape[0]} rows, others {n}")
-        n = a.shape[0]
-        if k in set(int_cols):
-            if not np.issubdtype(a.dtype, np.integer):
-                af = a.astype(float)
-                if not np.all(np.isfinite(af)) or np.any(np.rint(af) != af):
-                    bad = int(np.flatnonzero(~np.isfinite(af) | (np.rint(af) != af))[0])
-                    raise GrainmechError(f"{path}: array {k!r} row {bad}: {a[bad].item()!r} is not an integer id")
-            out[k] = a.astype(np.int64)
-        else:
-            af = a.astype(float)
-            nonfinite = np.flatnonzero(~np.isfinite(af))
-            if nonfinite.size:
-                raise GrainmechError(f"{path}: array {k!r} row {int(nonfinite[0])}: value "
-                                     f"{float(af[nonfinite[0]])!r} is not finite")
-            out[k] = af
-    return out
-
-
-def _npz_box(z: dict[str, np.ndarray], path: Path) -> Box | None:
-    if "cell" not in z:
-        return None
-    o = z.get("origin", np.zeros(3))
-    per = z.get("periodic", np.ones(3, bool))
-    try:
-        return Box(np.asarray(o, float).reshape(3), np.asarray(z["cell"], float).reshape(3, 3),
-                   np.asarray(per).astype(bool).reshape(3))
-    except ValueError:
-        raise GrainmechError(f"{path}: 'cell' must be 3x3, 'origin' and 'periodic' 3 values") from None
 
 
 def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
@@ -146,44 +85,32 @@ def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None 
     meta_force = None
     if ppath is not None:
         if ppath.suffix.lower() == ".npz":
-            z = _read_npz(ppath)
-            cols = _npz_cols(z, ppath, ("id", "x", "y", "z", "radius", "diameter"), ("id",))
-            for c in ("id", "x", "y", "z"):
-                if c not in cols:
-                    raise GrainmechError(f"{ppath}: particle table has no {c!r} array (arrays: {', '.join(z)})")
-            pbox = _npz_box(z, ppath)
-            parts = _finish_particles(cols, pbox, ppath, 0)
+            parts = npz_particles(ppath)
         else:
-            with _LineReader(ppath) as rd:
+            with LineReader(ppath) as rd:
                 names, meta, delim = _csv_header(rd)
-                want = _particle_columns(names, ppath, rd.line)
-                pcols, first = _read_block(rd, names, want, None, delimiter=delim, int_cols=("id",))
+                want = particle_columns(names, ppath, rd.line)
+                pcols, first = read_block(rd, names, want, None, delimiter=delim, int_cols=("id",))
             pbox = _table_box(meta, ppath)
-            parts = _finish_particles(pcols, pbox, ppath, first)
+            parts = particle_table(pcols, pbox, ppath, first)
         box = parts.box
     if cpath.suffix.lower() == ".npz":
-        z = _read_npz(cpath)
-        cols = _npz_cols(z, cpath, _CONTACT_WANT, ("id1", "id2"))
-        for c in ("id1", "id2", "fx", "fy", "fz"):
-            if c not in cols:
-                raise GrainmechError(f"{cpath}: contact table has no {c!r} array (arrays: {', '.join(z)})")
+        cols, cbox, meta_force = npz_contacts(cpath)
         first = 0
-        box = _npz_box(z, cpath) or box
-        if "force_on" in z:
-            meta_force = str(z["force_on"])
+        box = cbox or box
     else:
-        with _LineReader(cpath) as rd:
+        with LineReader(cpath) as rd:
             names, meta, delim = _csv_header(rd)
-            canon = [_ALIASES.get(n.lower(), n.lower()) for n in names]
-            want = {c: k for k, c in enumerate(canon) if c in _CONTACT_WANT}
+            canon = [CONTACT_ALIASES.get(n.lower(), n.lower()) for n in names]
+            want = {c: k for k, c in enumerate(canon) if c in CONTACT_COLUMNS}
             for c in ("id1", "id2", "fx", "fy", "fz"):
                 if c not in want:
                     raise GrainmechError(f"{cpath}:{rd.line}: contact table has no {c!r} column "
                                          f"(columns: {', '.join(names)})")
-            cols, first = _read_block(rd, names, want, None, delimiter=delim, int_cols=("id1", "id2"),
+            cols, first = read_block(rd, names, want, None, delimiter=delim, int_cols=("id1", "id2"),
                                       progress=progress)
         box = _table_box(meta, cpath) or box
         meta_force = meta.get("force_on")
     fo = force_on or meta_force or "id2"
     src = f"table {cpath}" + (f" + {ppath}" if ppath else "")
-    return _build(cols, cpath, first, parts, box, fo, src)
+    return network_from_columns(cols, cpath, first, parts, box, fo, src)

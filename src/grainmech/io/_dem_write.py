@@ -3,7 +3,7 @@
 The inverse of the readers of :mod:`grainmech.io.dem`, in their sign conventions (the
 LIGGGHTS dump holds the force on the first particle, the table the force on ``id2``);
 files are written atomically (:func:`grainmech.io.results.atomic_write`), in chunks of
-:data:`grainmech.io._dem_blocks._dem_blocks.CHUNK_LINES` lines.
+:data:`grainmech.io._dem_blocks.CHUNK_LINES` lines.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 
 from grainmech.errors import GrainmechError
 from grainmech.io import _dem_blocks
-from grainmech.io._dem_dump import _KEYWORD_ORDER
+from grainmech.io._dem_dump import LIGGGHTS_KEYWORD_COLUMNS
 from grainmech.io.results import atomic_write, write_npz
 from grainmech.network import Box, ContactNetwork
 
@@ -57,7 +57,7 @@ def write_liggghts(net: ContactNetwork, contacts: str | os.PathLike, particles: 
     C = net.n_contacts
     blocks = []
     x1 = net.positions[net.i]
-    for w in [k for k in _KEYWORD_ORDER if k in keywords]:
+    for w in [k for k in LIGGGHTS_KEYWORD_COLUMNS if k in keywords]:
         if w == "pos":  # both centres as stored (LIGGGHTS remaps them into the box)
             blocks.append(np.hstack([x1, net.positions[net.j]]))
         elif w == "id":

@@ -25,9 +25,11 @@ lines, missing columns, NaN/inf values, duplicate or unknown particle ids raise
 value.
 
 The readers live per format -- :mod:`grainmech.io._dem_dump` (LIGGGHTS, LAMMPS),
-:mod:`grainmech.io._dem_table` (CSV, NPZ) --, the shared block parser and network assembly
-in :mod:`grainmech.io._dem_blocks`, the writers in :mod:`grainmech.io._dem_write`; this
-module dispatches (:func:`detect_format`, :func:`read_network`) and re-exports their names.
+:mod:`grainmech.io._dem_table` (CSV, NPZ) --, the shared block parser in
+:mod:`grainmech.io._dem_blocks`, the assembly of the columns into a network in
+:mod:`grainmech.network.tables`, the writers in :mod:`grainmech.io._dem_write`; this
+module dispatches (:func:`detect_format`, :func:`read_network`) and is where their public
+names are imported from.
 """
 
 from __future__ import annotations
@@ -37,50 +39,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from grainmech.errors import GrainmechError
-from grainmech.io._dem_blocks import (  # noqa: F401 (re-exported: the names this module always had)
-    _ALIASES,
-    _BUILD_BLOCK,
-    _CONTACT_WANT,
-    _PARTICLE_ALIASES,
-    _VECTOR_COLUMNS,
-    ARROW_BLOCK,
-    ARROW_WINDOW,
-    ARROW_WINDOW_MIN,
-    CHUNK_LINES,
-    _allocate,
-    _append_chunk,
-    _arrow_csv,
-    _as_ids,
-    _build,
-    _check_block,
-    _diagnose,
-    _finish_particles,
-    _int_columns,
-    _LineReader,
-    _lookup,
-    _particle_columns,
-    _Particles,
-    _read_block,
-    _read_block_arrow,
-    _reader_threads,
-    _vector,
-    _windows,
-    open_text,
-)
-from grainmech.io._dem_dump import (  # noqa: F401
-    _AUTO_KEYWORDS,
-    _KEYWORD_ORDER,
-    LIGGGHTS_KEYWORD_COLUMNS,
-    _Dump,
-    _liggghts_names,
-    _parse_box,
-    _read_dump_header,
-    _read_particles_dump,
-    read_lammps,
-    read_liggghts,
-)
-from grainmech.io._dem_table import _csv_header, _npz_box, _npz_cols, _read_npz, _table_box, read_table  # noqa: F401
-from grainmech.io._dem_write import _atomic_write_text, _box_header, write_liggghts, write_table  # noqa: F401
+from grainmech.io._dem_blocks import open_text
+from grainmech.io._dem_dump import LIGGGHTS_KEYWORD_COLUMNS, read_lammps, read_liggghts
+from grainmech.io._dem_table import read_table
+from grainmech.io._dem_write import write_liggghts, write_table
 from grainmech.network import ContactNetwork
 
 __all__ = [

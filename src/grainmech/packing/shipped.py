@@ -28,8 +28,8 @@ import json
 from importlib import resources
 
 from grainmech.errors import GrainmechError
-from grainmech.io.dem import read_table
 from grainmech.network import ContactNetwork
+from grainmech.network.tables import read_npz_network
 
 __all__ = ["PACKINGS", "SAND_PACKINGS", "load_packing", "packing_info", "packing_limits"]
 
@@ -56,7 +56,7 @@ def load_packing(name: str) -> ContactNetwork:
     base = resources.files("grainmech.data").joinpath("packings")
     with resources.as_file(base.joinpath(f"{name}-contacts.npz")) as c, \
             resources.as_file(base.joinpath(f"{name}-particles.npz")) as p:
-        net = read_table(c, p)
+        net = read_npz_network(c, p)
     return ContactNetwork(net.ids, net.positions, net.radii, net.box, net.i, net.j, net.force, net.branch,
                           net.overlap, source=f"shipped packing {name!r} (grainmech pack, LAMMPS)",
                           moment=net.moment)
