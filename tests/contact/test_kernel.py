@@ -184,7 +184,7 @@ def test_a_cycle_back_to_a_remembered_level_closes_its_loop(monkeypatch):
     """Load to +a, back to -a, up to +a again in sub-steps (300 contacts, random 3D
     directions and amplitudes, constant N): the branch ends on the reversal point it heads
     for up to rounding, and Masing's rule closes the loop there for every contact, with both
-    backends alike (hysteresis._TIE_TOL). Decided by rounding alone, 143 of the 300 kept
+    backends alike (hysteresis.TIE_TOL). Decided by rounding alone, 143 of the 300 kept
     the loop open (NumPy law), and the backends could differ."""
     import grainmech.contact.hysteresis as hyst
 
@@ -206,7 +206,7 @@ def test_a_cycle_back_to_a_remembered_level_closes_its_loop(monkeypatch):
         return state
 
     assert np.all(cycle(True).depth == 0)
-    monkeypatch.setattr(hyst, "_TIE_TOL", 0.0)
+    monkeypatch.setattr(hyst, "TIE_TOL", 0.0)
     assert np.count_nonzero(cycle(False).depth) > 50  # without the rule: rounding decides
 
 
@@ -214,7 +214,7 @@ def test_a_rounding_size_component_along_the_slip_axis_is_no_motion_along_it(mon
     """A contact with a memory axis along x (loaded along x, then partly back: one
     reversal remembered) is moved along y; the increment's component along x is of
     rounding size, +-1e-20 of it, or exactly 0. All three give the same state and force,
-    with both backends (hysteresis._PAR_TOL): no reversal is decided by the sign of a
+    with both backends (hysteresis.PAR_TOL): no reversal is decided by the sign of a
     rounding error. Without the rule the +sign continues the branch and the -sign reverses
     it (the NumPy law: another depth and branch direction)."""
     import grainmech.contact.hysteresis as hyst
@@ -245,7 +245,7 @@ def test_a_rounding_size_component_along_the_slip_axis_is_no_motion_along_it(mon
         np.testing.assert_allclose(st.tangential_force, ref.tangential_force, rtol=0,
                                    atol=1e-15 * np.abs(ref.tangential_force).max())
         np.testing.assert_allclose(r.ks, rref.ks, rtol=1e-15)
-    monkeypatch.setattr(hyst, "_PAR_TOL", 0.0)
+    monkeypatch.setattr(hyst, "PAR_TOL", 0.0)
     plus, _ = move(1e-20, "numpy")
     minus, _ = move(-1e-20, "numpy")
     assert not np.array_equal(plus.depth, minus.depth) or not np.array_equal(plus.direction, minus.direction)

@@ -29,7 +29,7 @@ from grainmech.contact import (
     state_from_normal_force,
     update,
 )
-from grainmech.contact.hysteresis import _REV_TOL
+from grainmech.contact.hysteresis import REV_TOL
 
 MD = MindlinDeresiewicz(29e9, 0.2, 1e-3, 1.5e-3, friction=0.4, max_reversals=64)
 LAWS = {
@@ -110,11 +110,11 @@ def test_closed_cycle_at_constant_n_returns_to_its_forces(law, history, amp, leg
     s3 = leg(s2, A)
     s4 = leg(s3, -A)
     f = lambda s: s.tangential_force[0, 0]
-    # plus the law's documented wiggle rule (contact/hysteresis.py, _REV_TOL): a reversal
+    # plus the law's documented wiggle rule (contact/hysteresis.py, REV_TOL): a reversal
     # that ends within 1e-6 x 2 mu N of where its branch started pops instead of pushing,
     # which moves the force by at most that much (seen: history [-1, 6e-8], a 6e-14
     # wiggle after a 1e-6 leg, closes 1.6e-7 off, 4e-8 mu N)
-    wiggle = 2 * _REV_TOL * p.friction * N if math.isfinite(p.friction) else 0.0
+    wiggle = 2 * REV_TOL * p.friction * N if math.isfinite(p.friction) else 0.0
     tol = 1e-9 * max(abs(f(s1)), abs(f(s2)), 1e-12) + wiggle
     assert f(s3) == pytest.approx(f(s1), abs=tol)
     assert f(s4) == pytest.approx(f(s2), abs=tol)

@@ -363,8 +363,8 @@ def test_compiled_loop_matches_reference_when_the_shear_turns_and_cycles_return(
     shear in xz at constant volume (194 directions): the xz motion is at right angles to
     the slip axes the xy shear left, and the cycles come back to remembered levels. The
     compiled loop and the NumPy reference agree to 1e-10 in stress and tangent, with the
-    same iterations. Before the two rounding rules of the law (hysteresis._PAR_TOL,
-    _TIE_TOL), the sign of a rounding-size displacement along an axis decided a reversal
+    same iterations. Before the two rounding rules of the law (hysteresis.PAR_TOL,
+    TIE_TOL), the sign of a rounding-size displacement along an axis decided a reversal
     and a return to a remembered level closed the loop or not by rounding: the two parted
     by 5e-4 in stress and 3e-3 in tangent (folded and unfolded runs by up to 2.5e-5)."""
     from grainmech.driver.paths import Control, concatenate, cyclic_triaxial
@@ -412,7 +412,7 @@ def test_compiled_loop_matches_reference_on_random_turning_paths():
     directions, cycles back to remembered levels, sigma_zz held or constant volume, 194
     directions): the compiled loop (folded) and the NumPy reference agree to 1e-9 in
     stress and 1e-8 in tangent with the same iterations. The same twelve paths on commit
-    145c694, before the law's rounding rules (hysteresis._PAR_TOL, _TIE_TOL): two parted
+    145c694, before the law's rounding rules (hysteresis.PAR_TOL, TIE_TOL): two parted
     (tangents by 4.4e-4 and 8.2e-4); of 25 such paths six (stress up to 1.2e-4, tangent
     up to 3.6e-3); after: none, the largest difference 8.4e-14 in stress."""
     rng = np.random.default_rng(2)

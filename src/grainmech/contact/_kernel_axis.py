@@ -16,52 +16,53 @@ import numpy as np
 from numba import njit
 
 from grainmech.contact._kernel_types import (
-    _FALL_FIELDS,
-    _FALL_SEGMENTS,
-    _JIT_INNER,
-    _JIT_NO_NRT,
+    FALL_FIELDS,
+    FALL_SEGMENTS,
     FLAG_MEMORY_FLAT,
     FLAG_MEMORY_RISING,
     FLAG_NO_TERMINATION,
+    JIT_INNER,
+    JIT_NO_NRT,
 )
 from grainmech.contact.geometry import hertz_kn, hertz_radius, mindlin_kt0
 
 # the tolerances of the reference law (values, so that the compiled code is self-contained)
-from grainmech.contact.hysteresis import _MERGE_TOL, _REV_TOL, _TIE_TOL
+from grainmech.contact.hysteresis import MERGE_TOL, REV_TOL, TIE_TOL
 
 __all__ = ["fall_dissipation"]
 
-# the branch integration of :func:`_md_axis`, a phase of it: inlined into it by LLVM, so
-# that the law's code stays one function (as in the copies that inline _md_axis itself)
-_JIT_BRANCH: dict = {**_JIT_NO_NRT, "forceinline": True}
+# the branch integration of :func:`md_axis`, a phase of it: inlined into it by LLVM, so
+# that the law's code stays one function (as in the copies that inline md_axis itself)
+_JIT_BRANCH: dict = {**JIT_NO_NRT, "forceinline": True}
 
 
 # ---------------------------------------------------------------------------------------
 # Closed forms of the normal law and of the no-slip tangential stiffness
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT_INNER)
-def _clip01(x):
+@njit(**JIT_INNER)
+def clip01(x):
+    """``x`` clipped to ``[0, 1]``."""
     return min(max(x, 0.0), 1.0)
 
 
-@njit(**_JIT_INNER)
-def _kn(N, linear, E, R, kn_lin):
+@njit(**JIT_INNER)
+def normal_stiffness(N, linear, E, R, kn_lin):
     """Tangent normal stiffness: Hertz ``2 E* a`` (seed Eq. 3.7) or ``kn``; 0 when open."""
     if linear:
         return kn_lin if N > 0.0 else 0.0
     return hertz_kn(hertz_radius(N, E, R), E)
 
 
-@njit(**_JIT_INNER)
-def _kt0(N, linear, E, R, Gs, ks_lin):
+@njit(**JIT_INNER)
+def noslip_stiffness(N, linear, E, R, Gs, ks_lin):
     """No-slip tangential stiffness ``8 G* a`` (seed Eq. 3.11 with theta = 1, Eq. 3.12) or ``ks``."""
     if linear:
         return ks_lin if N > 0.0 else 0.0
     return mindlin_kt0(hertz_radius(N, E, R), Gs)
 
 
-@njit(**_JIT_INNER)
-def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
+@njit(**JIT_INNER)
+def secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
     """Mean no-slip tangential stiffness along a straight step [N/m].
 
     Mean no-slip stiffness along a straight step, ``dN / (r d alpha)`` (``kt0 = kn / r``);
@@ -82,7 +83,7 @@ def _secant_kt(N0, N1, a0, a1, linear, r, ks_lin, kt1):
 # z sqrt(z), y**(1/3) = cbrt(y) -- the same values to a few ulp, several times cheaper
 # than the general power (which dominated the kernel's time).
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _pow_q(y, q, sph):
     """``y**q`` with ``q = 1 - p``."""
     if sph:
@@ -91,7 +92,7 @@ def _pow_q(y, q, sph):
     return y ** q
 
 
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _pow_m(z, m, sph):
     """``z**m`` with ``m = 1/(1 - p)``."""
     if sph:
@@ -99,8 +100,8 @@ def _pow_m(z, m, sph):
     return z ** m
 
 
-@njit(**_JIT_INNER)
-def _pow_p(y, p, sph):
+@njit(**JIT_INNER)
+def pow_p(y, p, sph):
     """``y**p`` (theta, seed Eq. 3.13-3.15)."""
     if sph:
         return np.cbrt(y)
@@ -109,7 +110,7 @@ def _pow_p(y, p, sph):
 # ---------------------------------------------------------------------------------------
 # Energy functions of the Iwan representation (module notes of grainmech.contact.law)
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _H(z, m, hcoef, sph):
     """``H(z) = int_z^1 g`` of the Mindlin-Deresiewicz branch integral.
 
@@ -119,7 +120,7 @@ def _H(z, m, hcoef, sph):
     ``sph`` (spheres, ``p = 1/3``, ``m = 3/2``): ``z^m = z sqrt(z)``, the same value to a
     few ulp as the general power (the law's decisions never depend on ``H``).
     """
-    z = _clip01(z)
+    z = clip01(z)
     eps = 1.0 - z
     if eps < 0.05:
         ser = 0.0
@@ -136,7 +137,7 @@ def _H(z, m, hcoef, sph):
     return G1 - (z + (m - 1.0) * zm1 / (m + 1.0) - zm)
 
 
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _g_of_y(y, p, m, gcoef, theta, sph):
     """Fraction of ``mu N`` carried by slipping elements, ``1 - y - (y^p - y)/(1-p)`` (>= 0).
 
@@ -144,7 +145,7 @@ def _g_of_y(y, p, m, gcoef, theta, sph):
     quadrature only, which agrees with the reference to rounding); ``theta``: ``y**p`` if
     already known (``< 0``: compute it).
     """
-    y = _clip01(y)
+    y = clip01(y)
     eps = 1.0 - y
     if eps < 0.02:
         ser = 0.0
@@ -152,7 +153,7 @@ def _g_of_y(y, p, m, gcoef, theta, sph):
             ser = ser * eps + gcoef[j]
         v = ser * eps ** 2
     else:
-        th = theta if theta >= 0.0 else _pow_p(y, p, sph)
+        th = theta if theta >= 0.0 else pow_p(y, p, sph)
         v = 1.0 - y - (th - y) * m
     return max(v, 0.0)
 
@@ -160,8 +161,8 @@ def _g_of_y(y, p, m, gcoef, theta, sph):
 # ---------------------------------------------------------------------------------------
 # Mindlin–Deresiewicz law along the memory axis (one contact)
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT_NO_NRT)
-def _top(P, row, k, back):
+@njit(**JIT_NO_NRT)
+def reversal_at(P, row, k, back):
     """``P[row, k - back]`` if ``k - back >= 0`` else 0."""
     col = k - back
     if col >= 0:
@@ -169,7 +170,7 @@ def _top(P, row, k, back):
     return 0.0
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def _branch(P, row, k):
     """The current branch of a memory of depth ``k``: ``(c, P_top, Q_target)``.
 
@@ -178,9 +179,9 @@ def _branch(P, row, k):
     reversal before the last, or ``P_top`` on the first loop; 0 on the virgin branch).
     """
     c = 2.0 if k > 0 else 1.0
-    Pt = _top(P, row, k, 1)
+    Pt = reversal_at(P, row, k, 1)
     if k >= 2:
-        Qt = _top(P, row, k, 2)
+        Qt = reversal_at(P, row, k, 2)
     elif k == 1:
         Qt = Pt
     else:
@@ -188,11 +189,11 @@ def _branch(P, row, k):
     return c, Pt, Qt
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def _merge_closest_loop(P, row, k, Q, muN):
     """Full memory: forget the loop that came closest to closing (law._merge_closest_loop)."""
     best = -1
-    gmin = _MERGE_TOL * 2.0 * muN
+    gmin = MERGE_TOL * 2.0 * muN
     for j in range(k - 1):
         nxt = P[row, j + 2] if j + 2 < k else Q
         g = abs(P[row, j] - nxt)
@@ -206,7 +207,7 @@ def _merge_closest_loop(P, row, k, Q, muN):
     return k - 2
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def _reverse(Q, k, muN, P, row, maxrev):
     """Start a branch in the opposite direction at force level ``muN``.
 
@@ -216,13 +217,13 @@ def _reverse(Q, k, muN, P, row, maxrev):
     """
     if k > 0:
         # Masing's rule at a tie: the loop closed within rounding of its target (law.py)
-        Qt = _top(P, row, k, 2) if k >= 2 else _top(P, row, k, 1)
-        if Q - Qt <= _REV_TOL * 2.0 * muN:
+        Qt = reversal_at(P, row, k, 2) if k >= 2 else reversal_at(P, row, k, 1)
+        if Q - Qt <= REV_TOL * 2.0 * muN:
             Q = min(Q, Qt)
             k = max(k - 2, 0)
-    Pt = _top(P, row, k, 1)
-    skeleton_zero = (k == 0) and (Q >= muN * (1.0 - _REV_TOL))
-    fresh = (k > 0) and (Q + Pt >= 2.0 * muN * (1.0 - _REV_TOL))
+    Pt = reversal_at(P, row, k, 1)
+    skeleton_zero = (k == 0) and (Q >= muN * (1.0 - REV_TOL))
+    fresh = (k > 0) and (Q + Pt >= 2.0 * muN * (1.0 - REV_TOL))
     if not skeleton_zero and not fresh:
         if k >= maxrev:
             k = _merge_closest_loop(P, row, k, Q, muN)
@@ -235,16 +236,16 @@ def _reverse(Q, k, muN, P, row, maxrev):
     return 2.0 * muN - Q, k, False, not skeleton_zero and not fresh
 
 
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _z_of_n(Nv, na, z0, c, q, sph=False):
     """Falling N at fixed displacement: ``z - 1/c = (z0 - 1/c) (na/N)**(1-p)`` (exact)."""
     ratio = _pow_q(na / max(Nv, 1e-300), q, sph)
-    return _clip01(1.0 / c + (z0 - 1.0 / c) * ratio)
+    return clip01(1.0 / c + (z0 - 1.0 / c) * ratio)
 
 
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _fall_quadrature(ta, tb, na, c, z0, sliding_now, kc):
-    """Dissipation of one segment of a fall of ``N`` (:func:`_falling_n`), ``na -> tb**3``.
+    """Dissipation of one segment of a fall of ``N`` (:func:`falling_n`), ``na -> tb**3``.
 
     12-point Gauss–Legendre in ``t = N^(1/3)`` of the rate ``mu N g(y) (-mu dN) / kt0``
     (Thornton & Randall, seed Eq. 3.11 with ``d delta = 0``; ``g`` the slipping fraction
@@ -272,7 +273,7 @@ def _fall_quadrature(ta, tb, na, c, z0, sliding_now, kc):
                 th = 0.0
             else:
                 rt = ta / tg
-                zg = _clip01(ic + (z0 - ic) * (rt * rt))
+                zg = clip01(ic + (z0 - ic) * (rt * rt))
                 th = math.sqrt(zg)
             om = 1.0 - th
             gg = om * om * (1.0 + 0.5 * th)
@@ -285,7 +286,7 @@ def _fall_quadrature(ta, tb, na, c, z0, sliding_now, kc):
             else:
                 yg = _pow_m(_z_of_n(Ng, na, z0, c, q, sph), m_exp, sph)
             gg = _g_of_y(yg, p, m_exp, gcoef, -1.0, sph)
-            kt = _kt0(Ng, linear, E, R, Gs, ks_lin)
+            kt = noslip_stiffness(Ng, linear, E, R, Gs, ks_lin)
             f = mu * mu * Ng * gg / kt if kt > 0.0 else 0.0
             acc += glw[g] * f * 3.0 * tg * tg
     if k8 > 0.0:
@@ -293,23 +294,23 @@ def _fall_quadrature(ta, tb, na, c, z0, sliding_now, kc):
     return half * acc
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def fall_dissipation(i, fall, kc):
     """The falling-``N`` dissipation :func:`rows` left out of contact ``i`` (``defer``: :func:`law_function`).
 
     The quadratures of the segments recorded in ``fall[i]`` (``KernelScratch.fall``),
-    as :func:`_falling_n` computes them otherwise; 0 when none.
+    as :func:`falling_n` computes them otherwise; 0 when none.
     """
     d = 0.0
     for j in range(int(fall[i, 0])):
-        b = 1 + _FALL_FIELDS * j
+        b = 1 + FALL_FIELDS * j
         d += _fall_quadrature(fall[i, b], fall[i, b + 1], fall[i, b + 2], fall[i, b + 3], fall[i, b + 4],
                               fall[i, b + 5] != 0.0, kc)
     return d
 
 
-@njit(**_JIT_NO_NRT)
-def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
+@njit(**JIT_NO_NRT)
+def falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
     """Exact integration of a fall of ``N`` (``N0 -> N1``) at fixed tangential displacement.
 
     Thornton & Randall's rate law (seed Eq. 3.11 with ``d delta = 0``,
@@ -318,7 +319,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
     virgin branch, erasure of the last reversal, Masing closure (bisection). Dissipation
     by 12-point Gauss–Legendre in ``N^(1/3)``; ``cb0``, ``cb1``: ``N0^(1/3)``, ``N1^(1/3)``
     if the caller knows them (spheres: ``kt0 / k8``, seed Eq. 3.2, 3.11), else negative.
-    ``defer``: the quadratures of the first :data:`_FALL_SEGMENTS` segments are not
+    ``defer``: the quadratures of the first :data:`FALL_SEGMENTS` segments are not
     computed but recorded in ``fall[row]`` (:func:`fall_dissipation`), whose count
     ``fall[row, 0]`` the caller has zeroed. Returns ``(Q, s, k, dissipation, ok)``.
     """
@@ -337,18 +338,18 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
         na = Na
         nb = Nb
         muNa = mu * na
-        y0 = _clip01((Q + Pt) / (c * muNa))
+        y0 = clip01((Q + Pt) / (c * muNa))
         z0 = _pow_q(y0, q, sph)
 
         sliding_now = (k == 0) and (z0 <= 0.0)
         n_slide = 0.0
         if k == 0 and z0 < 1.0:
-            n_slide = na * _pow_m(_clip01(1.0 - z0), m_exp, sph)
+            n_slide = na * _pow_m(clip01(1.0 - z0), m_exp, sph)
         if sliding_now:
             n_slide = na
         n_erase = 0.0
         if k > 0 and z0 > 0.5:
-            n_erase = na * _pow_m(_clip01(2.0 * z0 - 1.0), m_exp, sph)
+            n_erase = na * _pow_m(clip01(2.0 * z0 - 1.0), m_exp, sph)
 
         # Masing target reached while N falls (Q decreases monotonically with N)
         n_target = 0.0
@@ -373,9 +374,9 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
         # dissipation on [n_stop, na]: rate mu N g(y) w / kt0 with w = -mu dN
         ta = cb0 if (na == N0 and cb0 >= 0.0) else np.cbrt(na)
         tb = cb1 if (n_stop == N1 and cb1 >= 0.0) else np.cbrt(n_stop)
-        if defer and nrec < _FALL_SEGMENTS:
+        if defer and nrec < FALL_SEGMENTS:
             # the mixed-control driver: only the accepted iterate needs it (fall_dissipation)
-            base = 1 + _FALL_FIELDS * nrec
+            base = 1 + FALL_FIELDS * nrec
             fall[row, base] = ta
             fall[row, base + 1] = tb
             fall[row, base + 2] = na
@@ -416,7 +417,7 @@ def _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall):
 
 @njit(**_JIT_BRANCH)
 def _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc):
-    """Displacement ``u >= 0`` along the branch at constant ``N1``, integrated exactly in ``z`` (:func:`_md_axis`).
+    """Displacement ``u >= 0`` along the branch at constant ``N1``, integrated exactly in ``z`` (:func:`md_axis`).
 
     Seed Eq. 3.11 at constant ``N``: ``z = y**(1-p)`` is linear in the displacement;
     events within the step: Masing closure of the current loop (pop two reversals, one on
@@ -434,8 +435,8 @@ def _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc):
             return Q, k, diss, False
         c, Pt, Qt = _branch(P, row, k)
         muN = muN1
-        y = _clip01((Q + Pt) / (c * muN))
-        yt = _clip01((Qt + Pt) / (c * muN))
+        y = clip01((Q + Pt) / (c * muN))
+        yt = clip01((Qt + Pt) / (c * muN))
         z = _pow_q(y, q, sph)
         zt = _pow_q(yt, q, sph)
         lam = q * kt1 / (c * muN)
@@ -444,9 +445,9 @@ def _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc):
         Qend = 0.0
         if not hit:
             Qend = c * muN * _pow_m(zend, m_exp, sph) - Pt
-            # Masing's rule at a tie (hysteresis._TIE_TOL): a branch that ends within
+            # Masing's rule at a tie (hysteresis.TIE_TOL): a branch that ends within
             # rounding of the reversal point it heads for has closed its loop
-            hit = k > 0 and Qend - Qt <= _TIE_TOL * 2.0 * muN
+            hit = k > 0 and Qend - Qt <= TIE_TOL * 2.0 * muN
         zstop = zt if hit else zend
         pref = c * muN * muN / (q * kt1)
         if hit:
@@ -469,8 +470,8 @@ def _constant_n_branch(Q, k, u, P, row, N1, muN1, kt1, diss, kc):
     return Q, k, diss, True
 
 
-@njit(**_JIT_NO_NRT)
-def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falling, kc, defer, fall):
+@njit(**JIT_NO_NRT)
+def md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falling, kc, defer, fall):
     """Scalar Mindlin–Deresiewicz / Thornton–Randall law along the memory axis.
 
     Seed Eq. 3.11, ``d tau = 8 G* a theta d delta + s mu dN (1 - theta)``, with theta from
@@ -520,17 +521,17 @@ def _md_axis(tau, s, k, P, row, N0, N1, a0, a1, kbar, kt0, kt1, d, rising, falli
         else:
             cb0 = -1.0
             cb1 = -1.0
-        Q, s, k, dd, ok = _falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall)
+        Q, s, k, dd, ok = falling_n(Q, s, k, P, row, N0, N1, cb0, cb1, kc, defer, fall)
         if not ok:
             return tau, s, k, diss, False, FLAG_NO_TERMINATION, 0.0, -1
         diss += dd
     if (not rising) and (d != 0.0) and (N1 > 0.0):
         if dsign != s:
             # the invariant pushed here, P = Q(N1), moves with N1 like Q on the branch
-            # before: dP/dN1 = mu theta (Thornton-Randall, see _falling_n); for the step tangent
+            # before: dP/dN1 = mu theta (Thornton-Randall, see falling_n); for the step tangent
             cpre = 2.0 if k > 0 else 1.0
-            ypre = _clip01((Q + _top(P, row, k, 1)) / (cpre * muN1))
-            th_pre = _pow_p(ypre, p, sph)
+            ypre = clip01((Q + reversal_at(P, row, k, 1)) / (cpre * muN1))
+            th_pre = pow_p(ypre, p, sph)
             Q, k, full, pushed = _reverse(Q, k, muN1, P, row, maxrev)
             if full:
                 return tau, s, k, diss, False, FLAG_MEMORY_FLAT, 0.0, -1

@@ -20,20 +20,20 @@ import numpy as np
 from numba import njit
 
 from grainmech.contact._kernel_axis import (
-    _clip01,
-    _kn,
-    _kt0,
-    _md_axis,
-    _pow_p,
-    _secant_kt,
-    _top,
+    clip01,
     fall_dissipation,
+    md_axis,
+    normal_stiffness,
+    noslip_stiffness,
+    pow_p,
+    reversal_at,
+    secant_kt,
 )
-from grainmech.contact._kernel_types import _EPS, _JIT_NO_NRT, LAW_FRICTIONLESS, LAW_JENKINS
+from grainmech.contact._kernel_types import EPS, JIT_NO_NRT, LAW_FRICTIONLESS, LAW_JENKINS
 from grainmech.contact.geometry import hertz_kn, mindlin_kt0
 
 # the tolerance of the reference law (a value, so that the compiled code is self-contained)
-from grainmech.contact.hysteresis import _PAR_TOL
+from grainmech.contact.hysteresis import PAR_TOL
 
 __all__ = ["rows"]
 
@@ -53,7 +53,7 @@ _DIM = 0
 # the phases of :func:`rows` (one contact's step): inlined into it by LLVM (``forceinline``,
 # not numba's IR inlining, which multiplies the compile time), so that the code a copy
 # of ``rows`` runs is the one function it was before the split
-_JIT_PHASE: dict = {**_JIT_NO_NRT, "forceinline": True}
+_JIT_PHASE: dict = {**JIT_NO_NRT, "forceinline": True}
 
 
 
@@ -61,7 +61,7 @@ _JIT_PHASE: dict = {**_JIT_NO_NRT, "forceinline": True}
 # ---------------------------------------------------------------------------------------
 # One contact: 3D treatment, Coulomb cap, tangents
 # ---------------------------------------------------------------------------------------
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def _dot_rows(A, i, B, j, dim):
     """``A[i, :dim] . B[j, :dim]`` (``dim`` a compile-time constant in a specialised copy of :func:`rows`)."""
     out = A[i, 0] * B[j, 0]
@@ -70,7 +70,7 @@ def _dot_rows(A, i, B, j, dim):
     return out
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp, dim):
     """Step tangent of the form ``ks e e + ks_perp (I - e e)``, ``dT/d alpha = ktn e``."""
     for c in range(dim):
@@ -79,7 +79,7 @@ def _axis_tangent(i, e, ks, ksp, ktn, tdel, talp, dim):
             tdel[i, c, c2] = (ks - ksp) * e[i, c] * e[i, c2] + (ksp if c == c2 else 0.0)
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def _cap_tangent(i, T, tn, muN1, mukn, tdel, talp, dim):
     """Step derivatives through the radial return ``T = mu N1 t/|t|`` of the trial ``t = T[i]``.
 
@@ -148,8 +148,8 @@ def _start_row(i, kc, state, inc, out, scratch, defer, lin, dim):
     N1o[i] = N1
     open_o[i] = not (a1 > 0.0)
     if lin:
-        kn = _kn(N1, linear, E, R, kn_lin)
-        kt01 = _kt0(N1, linear, E, R, Gs, ks_lin)
+        kn = normal_stiffness(N1, linear, E, R, kn_lin)
+        kt01 = noslip_stiffness(N1, linear, E, R, Gs, ks_lin)
     else:
         # contact radius (seed Eq. 3.2, by the caller) for kn = 2 E* a (Eq. 3.7) and
         # kt0 = 8 G* a (Eq. 3.11 with theta = 1)
@@ -159,11 +159,11 @@ def _start_row(i, kc, state, inc, out, scratch, defer, lin, dim):
     kn_o[i] = kn
     closed1 = N1 > 0.0
     if lin:
-        kt00 = _kt0(N0, linear, E, R, Gs, ks_lin)
+        kt00 = noslip_stiffness(N0, linear, E, R, Gs, ks_lin)
     else:
         kt00 = mindlin_kt0(rad0[i], Gs)
     rising = N1 > N0
-    kbar = _secant_kt(N0, N1, a0e, a1, linear, r, ks_lin, kt01) if rising else kt01
+    kbar = secant_kt(N0, N1, a0e, a1, linear, r, ks_lin, kt01) if rising else kt01
     if (kt00 > 0.0) and (kt01 < kt00):
         rho = kt01 / kt00
     else:
@@ -242,7 +242,7 @@ def _md_split(i, state, out, scratch, virgin, dim):
     increment along the axis.
     """
     _a0, _N0, _T0, e0s, dir0, depth0, _P0, _d0 = state
-    _a, _n, T1, e1, _s, _k, _P, _sl, _di, _ks, _ksp, _ktn, _kn, _op, _td, _ta = out
+    _a, _n, T1, e1, _s, _k, _P, _sl, _di, _ks, _ksp, _ktn, normal_stiffness, _op, _td, _ta = out
     tp, dp = scratch.tp, scratch.dp
     s = 1 if virgin else int(dir0[i])
     k = 0 if virgin else int(depth0[i])
@@ -260,7 +260,7 @@ def _md_split(i, state, out, scratch, virgin, dim):
         s = 1
     tau = _dot_rows(T1, i, e1, i, dim)
     d_par = _dot_rows(dp, i, e1, i, dim)
-    if abs(d_par) <= _PAR_TOL * dtn:  # rounding only: at right angles to the axis (law.py)
+    if abs(d_par) <= PAR_TOL * dtn:  # rounding only: at right angles to the axis (law.py)
         d_par = 0.0
     for c in range(dim):
         tp[i, c] = T1[i, c] - tau * e1[i, c]
@@ -320,7 +320,7 @@ def _md_trial_tangent(i, kc, out, scratch, tau, s, k, elastic, dPn, kpush, muN1,
     while ``tau``, ``s``, ``k`` hold.
     """
     mu, p = kc.mu, kc.p
-    _a, _n, _T1, e1, _s, _k, P1, _sl, _di, _ks, _ksp, _ktn, _kn, _op, tdel, talp = out
+    _a, _n, _T1, e1, _s, _k, P1, _sl, _di, _ks, _ksp, _ktn, normal_stiffness, _op, tdel, talp = out
     tp, dp = scratch.tp, scratch.dp
     tha_ok = False
     tha = 0.0
@@ -331,13 +331,13 @@ def _md_trial_tangent(i, kc, out, scratch, tau, s, k, elastic, dPn, kpush, muN1,
         else:
             tha_ok = True
             Qa = muN1 - s * tau
-            Pa = _top(P1, i, k, 1)
+            Pa = reversal_at(P1, i, k, 1)
             ca = 2.0 if k > 0 else 1.0
-            ya = _clip01((Qa + Pa) / (ca * muN1)) if muN1 > 0.0 else 0.0
-            if (k == 0) and (Qa <= _EPS * muN1):
+            ya = clip01((Qa + Pa) / (ca * muN1)) if muN1 > 0.0 else 0.0
+            if (k == 0) and (Qa <= EPS * muN1):
                 tha = 0.0
             else:
-                tha = _pow_p(ya, p, kc.sph)
+                tha = pow_p(ya, p, kc.sph)
             a_e = kt01 * tha
             a_n = s * mu * (1.0 - tha) * kn
             if k == kpush:
@@ -366,7 +366,7 @@ def _md_cap(i, out, scratch, tau, s, k, diss, tha_ok, closed1, mu, muN1, kn, kt0
     remembered, the virgin branch's direction pointing away from zero force, an opened
     contact losing force and memory. Returns ``(tau, s, k, dissipation, tha_ok)``.
     """
-    _a, _n, T1, e1, _s, _k, _P, _sl, _di, _ks, _ksp, _ktn, _kn, _op, tdel, talp = out
+    _a, _n, T1, e1, _s, _k, _P, _sl, _di, _ks, _ksp, _ktn, normal_stiffness, _op, tdel, talp = out
     tp = scratch.tp
     for c in range(dim):
         T1[i, c] = tau * e1[i, c] + tp[i, c]
@@ -433,13 +433,13 @@ def _md_end(i, kc, out, tau, s, k, diss, closed1, elastic, tha_ok, tha, muN1, kn
     of the current branch (Eq. 3.13-3.15); an open contact's step tangents are zero.
     """
     mu, p = kc.mu, kc.p
-    _a, _n, _T1, _e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, _kn, _op, tdel, talp = out
-    Ptop = _top(P1, i, k, 1)
+    _a, _n, _T1, _e1, s1o, k1o, P1, slide_o, diss_o, ks_o, ksp_o, ktn_o, normal_stiffness, _op, tdel, talp = out
+    Ptop = reversal_at(P1, i, k, 1)
     c2 = 2.0 if k > 0 else 1.0
     Q = muN1 - s * tau
     y = (Q + Ptop) / (c2 * muN1) if muN1 > 0.0 else 0.0
-    y = _clip01(y)
-    slide = closed1 and (((k == 0) and (Q <= _EPS * muN1)) or (mu == 0.0))
+    y = clip01(y)
+    slide = closed1 and (((k == 0) and (Q <= EPS * muN1)) or (mu == 0.0))
     if slide:
         theta = 0.0
     elif elastic:
@@ -447,7 +447,7 @@ def _md_end(i, kc, out, tau, s, k, diss, closed1, elastic, tha_ok, tha, muN1, kn
     elif tha_ok:
         theta = tha
     else:
-        theta = _pow_p(y, p, kc.sph)
+        theta = pow_p(y, p, kc.sph)
     s1o[i] = s
     k1o[i] = k
     slide_o[i] = slide
@@ -462,7 +462,7 @@ def _md_end(i, kc, out, tau, s, k, diss, closed1, elastic, tha_ok, tha, muN1, kn
                 tdel[i, c, c2] = 0.0
 
 
-@njit(**_JIT_NO_NRT)
+@njit(**JIT_NO_NRT)
 def rows(lo, hi, kc, state, inc, out, scratch):
     """Advance contacts ``lo <= i < hi`` by one increment (the per-contact law).
 
@@ -490,7 +490,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
     law, stiffnesses), then the law -- frictionless (:func:`_frictionless_row`), elastic
     spring with a Coulomb cap (:func:`_spring_row`), or hysteretic (seed Eq. 3.9-3.16):
     the split along and across the memory axis (:func:`_md_split`, :func:`_md_across`),
-    the law along the axis (:func:`_md_axis`), the trial step tangent
+    the law along the axis (:func:`md_axis`), the trial step tangent
     (:func:`_md_trial_tangent`), the Coulomb cap and the axis rules (:func:`_md_cap`) and
     the end state's tangents (:func:`_md_end`).
     """
@@ -527,7 +527,7 @@ def rows(lo, hi, kc, state, inc, out, scratch):
         dPn = 0.0
         kpush = -1
         if mu > 0.0:
-            tau, s, k, d_diss, elastic, flag, dPn, kpush = _md_axis(
+            tau, s, k, d_diss, elastic, flag, dPn, kpush = md_axis(
                 tau, s, k, out.reversals, i, N0, N1, a0e, a1, kbar, kt00, kt01, d_par, rising, falling, kc,
                 defer, fall)
             if flag != 0:

@@ -17,7 +17,7 @@ import numpy as np
 
 from grainmech.contact.forms import law_forms
 from grainmech.contact.geometry import hertz_radius, mindlin_kt0
-from grainmech.contact.hysteresis import _GL_W, _GL_X, _g_series, _h_series
+from grainmech.contact.hysteresis import GL_W, GL_X, g_series, h_series
 from grainmech.contact.params import ContactParams, Hertz, LinearSpring, MindlinDeresiewicz
 from grainmech.contact.state import law_kind, max_reversals
 
@@ -39,22 +39,28 @@ FLAG_MEMORY_RISING = 1   # reversal memory full in the rising-N reversal (checke
 FLAG_MEMORY_FLAT = 2     # reversal memory full in the constant/falling-N reversal
 FLAG_NO_TERMINATION = 3  # branch integration did not terminate (never observed)
 
-_EPS = 1e-12
+#: relative size (of ``mu N``) below which a distance from the friction limit counts as
+#: zero (the reference law's value, :mod:`grainmech.contact.hysteresis`)
+EPS = 1e-12
 #: falling-N segments whose quadrature a deferring copy records per contact (more are
 #: integrated at once), and the values recorded per segment (KernelScratch.fall)
-_FALL_SEGMENTS = 2
-_FALL_FIELDS = 6
-FALL_COLUMNS = 1 + _FALL_SEGMENTS * _FALL_FIELDS
-_CHUNK = 256   # contacts per call of the row loop (and per parallel work item)
-_JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False}
+FALL_SEGMENTS = 2
+FALL_FIELDS = 6
+FALL_COLUMNS = 1 + FALL_SEGMENTS * FALL_FIELDS
+#: contacts per call of the row loop (and per parallel work item)
+CHUNK = 256
+#: numba's options for every compiled function of the kernel (cached, NumPy's error model)
+JIT: dict[str, Any] = {"cache": True, "error_model": "numpy", "fastmath": False}
 # the per-contact law allocates nothing: compiled without numba's reference counting (the
 # atomic increments and decrements of the arrays passed between its functions took ~12 %
 # of the mixed-control driver's time)
 # Functions only called from compiled code are compiled without the wrappers that make
 # them callable from Python and from C (generating and optimising those took ~15 % of the
 # first run's compilation: the law's arguments are tuples of many arrays).
-_JIT_NO_NRT: dict[str, Any] = {**_JIT, "_nrt": False, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
-_JIT_INNER: dict[str, Any] = {**_JIT, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+#: options of the law's functions (no reference counting, callable from compiled code only)
+JIT_NO_NRT: dict[str, Any] = {**JIT, "_nrt": False, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+#: options of the small helpers called from compiled code only (with reference counting)
+JIT_INNER: dict[str, Any] = {**JIT, "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 
 
 # ---------------------------------------------------------------------------------------
@@ -219,8 +225,8 @@ def constants(params: ContactParams) -> KernelConstants:
         int(max_reversals(params)),
         # series and quadrature tables as tuples: values, not arrays (no reference counting
         # in the compiled per-contact loop)
-        tuple(map(float, _h_series(m_exp))), tuple(map(float, _g_series(p))),
-        tuple(map(float, _GL_X)), tuple(map(float, _GL_W)),
+        tuple(map(float, h_series(m_exp))), tuple(map(float, g_series(p))),
+        tuple(map(float, GL_X)), tuple(map(float, GL_W)),
         (not linear) and p == 1.0 / 3.0,
         # kt0(N) = 8 G* a(N) = k8 N^(1/3) (seed Eq. 3.2, 3.11)
         0.0 if linear else float(mindlin_kt0(hertz_radius(1.0, E, R), Gs)))

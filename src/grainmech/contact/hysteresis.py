@@ -16,7 +16,7 @@ import numpy as np
 from grainmech.contact._errors import ReversalMemoryError
 from grainmech.contact.forms import law_forms
 from grainmech.contact.params import ContactParams, Cylinder, LinearSpring, MindlinDeresiewicz
-from grainmech.contact.state import ContactState, _dot, _norm, max_reversals
+from grainmech.contact.state import ContactState, max_reversals, row_dot, row_norm
 
 _EPS = 1e-12
 #: Relative size (of ``2 mu N``) below which two tangential force levels of the hysteretic
@@ -30,7 +30,7 @@ _EPS = 1e-12
 #: close changes the tangential force by at most ``1e-6 * 2 mu N``, far below any
 #: resolution of contact forces or stresses, and changes the loop area by a relative
 #: amount of the same order.
-_REV_TOL = 1e-6
+REV_TOL = 1e-6
 #: A tangential increment whose component along the memory axis is at most this fraction
 #: of the increment is taken as perpendicular to the axis (no displacement along it). Motion
 #: at right angles to the axis (e.g. simple shear in xz after shear in xy) leaves a
@@ -41,7 +41,7 @@ _REV_TOL = 1e-6
 #: on a 194-direction path, compiled loop against the NumPy reference; docs/driver.md).
 #: Dropping a component of 1e-12 of the increment changes the force by at most that
 #: fraction of ``kt0 |d_t|``.
-_PAR_TOL = 1e-12
+PAR_TOL = 1e-12
 #: A branch that ends a step within this fraction of ``2 mu N`` (in ``Q``) short of the
 #: reversal point it heads for has reached it: Masing's rule closes the loop there. A
 #: cycle back to a remembered level lands on it exactly up to rounding (~1e-15), and
@@ -49,7 +49,7 @@ _PAR_TOL = 1e-12
 #: not was decided by that rounding; the two states then answer the next increment
 #: differently in 3D (the split along and across the axis). Far below the force
 #: resolution: the force moves by at most ``1e-12 * 2 mu N``.
-_TIE_TOL = 1e-12
+TIE_TOL = 1e-12
 #: When the reversal memory is full, the remembered loop that came closest to closing is
 #: forgotten if its shortfall is at most this fraction of ``2 mu N`` (see
 #: :func:`_merge_closest_loop`); a deeper, genuinely nested history stops the law with
@@ -60,16 +60,16 @@ _TIE_TOL = 1e-12
 #: and without this rule 50 cycles at gamma = 1e-4 and constant sigma_zz (5810 directions)
 #: exhaust 16 levels after about 9 cycles. Forgetting a loop moves every later force by at
 #: most its shortfall, i.e. by at most 0.1 % of the friction limit ``2 mu N`` of the loop.
-_MERGE_TOL = 1e-3
+MERGE_TOL = 1e-3
 #: Gauss–Legendre rule for the dissipation while N falls (integrand smooth, >= 0)
-_GL_X, _GL_W = np.polynomial.legendre.leggauss(12)
+GL_X, GL_W = np.polynomial.legendre.leggauss(12)
 
 #: what a tangential law returns: (T1, e1, s1, k1, P1, sliding, dissipation, ks, ks_perp, ktn/kn
 #: [, t_delta, t_alpha])
-_LawOut = tuple
+LawOut = tuple
 
 
-def _secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
+def secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
                a1: np.ndarray) -> np.ndarray:
     """Mean no-slip stiffness along a straight step: ``int kt0 dalpha / dalpha = dN / (r dalpha)``.
 
@@ -113,7 +113,7 @@ def _merge_closest_loop(stack: _Stack, row: int, k: int, Q: float, muN: float) -
     reversal ``j + 1`` stopped short of closing the loop ``(j, j + 1)`` (Masing's rule
     erases a loop whose branch reaches its start). The pair with the smallest shortfall is
     erased as if it had closed, which moves later forces by at most that shortfall. Done
-    only when it is at most :data:`_MERGE_TOL` ``* 2 mu N``; otherwise the depth is
+    only when it is at most :data:`MERGE_TOL` ``* 2 mu N``; otherwise the depth is
     returned unchanged and the caller reports the exhausted memory.
     """
     if k < 2:
@@ -121,7 +121,7 @@ def _merge_closest_loop(stack: _Stack, row: int, k: int, Q: float, muN: float) -
     levels = np.append(stack.P[row, :k], Q)
     gaps = np.abs(levels[:-2] - levels[2:])
     j = int(np.argmin(gaps))
-    if gaps[j] > _MERGE_TOL * 2.0 * muN:
+    if gaps[j] > MERGE_TOL * 2.0 * muN:
         return k
     keep = np.r_[stack.P[row, :j], stack.P[row, j + 2:k]]
     if not stack.copied:
@@ -151,7 +151,7 @@ def _binom(a: float, k: int) -> float:
 _SERIES_TERMS = 12
 
 
-def _h_series(m: float) -> np.ndarray:
+def h_series(m: float) -> np.ndarray:
     """Coefficients of ``H(z) = int_z^1 g = sum_k c_k eps^(k+1)``, ``eps = 1 - z``."""
     c = np.zeros(_SERIES_TERMS + 1)
     for k in range(2, _SERIES_TERMS + 1):
@@ -160,7 +160,7 @@ def _h_series(m: float) -> np.ndarray:
     return c
 
 
-def _g_series(p: float) -> np.ndarray:
+def g_series(p: float) -> np.ndarray:
     """Coefficients of ``g(y) = sum_k b_k eps^k``, ``eps = 1 - y`` (starts at k = 2: g ~ p eps^2/2)."""
     b = np.zeros(_SERIES_TERMS + 1)
     for k in range(2, _SERIES_TERMS + 1):
@@ -179,7 +179,7 @@ def _H(z: np.ndarray, m: float) -> np.ndarray:
     eps = 1.0 - z
     G1 = 1.0 + (m - 1.0) / (m + 1.0) - 1.0
     direct = G1 - (z + (m - 1.0) * z ** (m + 1.0) / (m + 1.0) - z ** m)
-    coef = _h_series(m)
+    coef = h_series(m)
     # sum_k c_k eps^(k+1)
     ser = np.zeros_like(eps)
     for k in range(len(coef) - 1, 1, -1):
@@ -193,7 +193,7 @@ def _g_of_y(y: np.ndarray, p: float) -> np.ndarray:
     y = np.clip(y, 0.0, 1.0)
     eps = 1.0 - y
     direct = 1.0 - y - (y ** p - y) / (1.0 - p)
-    b = _g_series(p)
+    b = g_series(p)
     ser = np.zeros_like(eps)
     for k in range(len(b) - 1, 1, -1):
         ser = ser * eps + b[k]
@@ -201,9 +201,9 @@ def _g_of_y(y: np.ndarray, p: float) -> np.ndarray:
     return np.maximum(np.where(eps < 0.02, ser, direct), 0.0)
 
 
-def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray,
+def md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray,
                N0: np.ndarray, N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
-               virgin_reset: np.ndarray) -> _LawOut:
+               virgin_reset: np.ndarray) -> LawOut:
     """Hysteretic law in 3D: scalar law along the memory axis, elastic across (module notes)."""
     n, dim = T0.shape
     mu = float(params.friction)
@@ -218,30 +218,30 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
     diss = np.zeros(n)
 
     # ---- memory axis: a contact with no force and no memory takes the direction of motion
-    tn0 = _norm(T0)
-    dtn = _norm(dt)
+    tn0 = row_norm(T0)
+    dtn = row_norm(dt)
     fresh = (k == 0) & (tn0 == 0.0) & (dtn > 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         e = np.where(fresh[:, None], dt / np.where(dtn > 0, dtn, 1.0)[:, None], e0)
     s = np.where(fresh, 1, s).astype(np.int8)
     e = np.where(virgin_reset[:, None] & ~fresh[:, None], 0.0, e)
 
-    tau = _dot(T0, e)
+    tau = row_dot(T0, e)
     tperp = T0 - tau[:, None] * e
-    d_par = _dot(dt, e)
-    d_par = np.where(np.abs(d_par) <= _PAR_TOL * dtn, 0.0, d_par)  # rounding only: at right angles
+    d_par = row_dot(dt, e)
+    d_par = np.where(np.abs(d_par) <= PAR_TOL * dtn, 0.0, d_par)  # rounding only: at right angles
     d_perp = dt - d_par[:, None] * e
 
     kt0_0 = law_forms(params).kt0(N0)
     kt0_1 = law_forms(params).kt0(N1)
     rising = N1 > N0
     falling = N1 < N0
-    kbar = np.where(rising, _secant_kt(params, N0, N1, a0, a1), kt0_1)
+    kbar = np.where(rising, secant_kt(params, N0, N1, a0, a1), kt0_1)
 
     # ---- across the axis: elastic (no-slip) with rescaling when the area shrinks
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.where((kt0_0 > 0) & (kt0_1 < kt0_0), kt0_1 / np.where(kt0_0 > 0, kt0_0, 1.0), 1.0)
-        tp2 = _dot(tperp, tperp)
+        tp2 = row_dot(tperp, tperp)
         diss += np.where(kt0_0 > 0, (1.0 - rho) * tp2 / (2.0 * np.where(kt0_0 > 0, kt0_0, 1.0)), 0.0)
     tperp = rho[:, None] * tperp + kbar[:, None] * d_perp
     # derivatives of kbar and rho with respect to the approach a1 (Hertz: kt0 = kn / r,
@@ -281,7 +281,7 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
 
     # ---- recombine, Coulomb cap on the total force (only the perpendicular part can break it)
     T1 = tau[:, None] * e + tperp
-    t1n = _norm(T1)
+    t1n = row_norm(T1)
     over = closed1 & (t1n > muN1 * (1.0 + 1e-12))
     if np.any(over):
         t_delta, t_alpha = cap_tangent(T1, t1n, muN1, mu * kn1, t_delta, t_alpha, over)
@@ -290,7 +290,7 @@ def _md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: n
             slip = np.where(over & (kt0_1 > 0), (t1n - muN1) / np.where(kt0_1 > 0, kt0_1, 1.0), 0.0)
         diss += np.where(over, muN1 * slip, 0.0)
         T1 = T1 * scale[:, None]
-        t1n = _norm(T1)
+        t1n = row_norm(T1)
         with np.errstate(divide="ignore", invalid="ignore"):
             e = np.where(over[:, None], T1 / np.where(t1n > 0, t1n, 1.0)[:, None], e)
         tau = np.where(over, t1n, tau)
@@ -378,7 +378,7 @@ def _tidy_axis(T1: np.ndarray, e: np.ndarray, s: np.ndarray, k: np.ndarray, tau:
     # ---- a force below the resolution of the law (1e-14 mu N, where Q = mu N - s tau
     # cannot resolve it) with no memory is a virgin contact: its axis is then reset, so
     # that a rounding residue never defines a memory axis
-    t1n = _norm(T1)
+    t1n = row_norm(T1)
     negligible = closed1 & (k == 0) & (t1n <= 1e-14 * muN1)
     if np.any(negligible):
         T1 = np.where(negligible[:, None], 0.0, T1)
@@ -388,10 +388,10 @@ def _tidy_axis(T1: np.ndarray, e: np.ndarray, s: np.ndarray, k: np.ndarray, tau:
         s = np.where(negligible, 1, s).astype(np.int8)
 
     # ---- no reversal remembered: the memory axis follows the force
-    realign = closed1 & (k == 0) & (_dot(tperp, tperp) > 0.0)
+    realign = closed1 & (k == 0) & (row_dot(tperp, tperp) > 0.0)
     if np.any(realign):
-        t1n = _norm(T1)
-        sg = np.where(_dot(T1, e) < 0.0, -1.0, 1.0)
+        t1n = row_norm(T1)
+        sg = np.where(row_dot(T1, e) < 0.0, -1.0, 1.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             e_new = sg[:, None] * T1 / np.where(t1n > 0, t1n, 1.0)[:, None]
         e = np.where(realign[:, None], e_new, e)
@@ -468,12 +468,12 @@ def _md_axis(params: ContactParams, mu: float, p: float, m_exp: float, r: float,
         # Masing's rule at a tie: a branch that stopped within rounding of the reversal
         # point it was heading for has closed its loop; erase that loop before turning
         Qt = np.where(kk >= 2, _top(stack.P, idx, kk, 2), _top(stack.P, idx, kk, 1))
-        closing = (kk > 0) & (Qi - Qt <= _REV_TOL * 2.0 * muNi)
+        closing = (kk > 0) & (Qi - Qt <= REV_TOL * 2.0 * muNi)
         Qi = np.where(closing, np.minimum(Qi, Qt), Qi)
         kk = np.where(closing, np.maximum(kk - 2, 0), kk)
         Pt = _top(stack.P, idx, kk, 1)
-        skeleton_zero = (kk == 0) & (Qi >= muNi * (1.0 - _REV_TOL))      # virgin at T ~ 0
-        fresh = (kk > 0) & (Qi + Pt >= 2.0 * muNi * (1.0 - _REV_TOL))     # at the reversal point
+        skeleton_zero = (kk == 0) & (Qi >= muNi * (1.0 - REV_TOL))      # virgin at T ~ 0
+        fresh = (kk > 0) & (Qi + Pt >= 2.0 * muNi * (1.0 - REV_TOL))     # at the reversal point
         push = ~skeleton_zero & ~fresh
         full = push & (kk >= maxrev)
         if np.any(full):
@@ -574,10 +574,10 @@ def _integrate_branches(stack: _Stack, Q: np.ndarray, k: np.ndarray, u: np.ndarr
         with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
             lam = (1.0 - p) * K / (c * muN)
             zend = z - lam * ui
-            # Masing's rule at a tie: a branch that ends within rounding (_TIE_TOL) of the
+            # Masing's rule at a tie: a branch that ends within rounding (TIE_TOL) of the
             # reversal point it heads for has closed its loop
             Qend = c * muN * np.where(zend > 0.0, zend, 0.0) ** m_exp - Pt
-            hit = ~(zend > zt) | ((kk > 0) & (Qend - Qt <= _TIE_TOL * 2.0 * muN))
+            hit = ~(zend > zt) | ((kk > 0) & (Qend - Qt <= TIE_TOL * 2.0 * muN))
             zstop = np.where(hit, zt, zend)
             pref = c * muN * muN / ((1.0 - p) * K)
             used = np.where(hit, np.where(np.isfinite(lam), (z - zt) / lam, 0.0), ui)
@@ -671,7 +671,7 @@ def _falling_n(params: ContactParams, mu: float, p: float, m_exp: float, stack: 
         half = 0.5 * (ta - tb)
         mid = 0.5 * (ta + tb)
         acc = np.zeros_like(na)
-        for xg, wg in zip(_GL_X, _GL_W):
+        for xg, wg in zip(GL_X, GL_W):
             tg = mid + half * xg
             Ng = tg * tg * tg
             yg = np.where(sliding_now, 0.0, zfun(Ng) ** m_exp)

@@ -58,7 +58,7 @@ functions allocate nothing and are compiled without numba's reference counting (
 increments of the arrays passed between them), and none is inlined at numba-IR level:
 that made the first run compile the law for ~16 s instead of ~5 s, and LLVM inlines the
 small helpers anyway. The phases of ``rows`` (one contact's step) and the branch
-integration of ``_md_axis`` are separate functions marked for LLVM inlining
+integration of ``md_axis`` are separate functions marked for LLVM inlining
 (``forceinline``), so that the code compiled is the one function they were written as.
 The mixed-control driver calls the law through :func:`law_function`: a copy of ``rows``
 specialised to one law, compiled once and called through its address rather than linked
@@ -85,42 +85,19 @@ import numpy as np
 from numba import get_num_threads, njit, prange, typeof, types
 from numba.core.types.function_type import CompileResultWAP
 
-# the pieces of the kernel (re-exported: the names users and tests import from here)
-from grainmech.contact._kernel_axis import (  # noqa: F401
-    _H,
-    _clip01,
-    _fall_quadrature,
-    _falling_n,
-    _g_of_y,
-    _kn,
-    _kt0,
-    _md_axis,
-    _merge_closest_loop,
-    _pow_m,
-    _pow_p,
-    _pow_q,
-    _reverse,
-    _secant_kt,
-    _top,
-    _z_of_n,
-    fall_dissipation,
-)
-from grainmech.contact._kernel_rows import _DEFER, _DIM, _LAW, _LINEAR, _axis_tangent, _cap_tangent, _dot_rows, rows  # noqa: F401
-from grainmech.contact._kernel_types import (  # noqa: F401
-    _CHUNK,
-    _CONSTANTS,
-    _EPS,
-    _FALL_FIELDS,
-    _FALL_SEGMENTS,
-    _JIT,
-    _JIT_INNER,
-    _JIT_NO_NRT,
+from grainmech.contact._kernel_axis import fall_dissipation, falling_n, md_axis
+from grainmech.contact._kernel_rows import rows
+from grainmech.contact._kernel_types import (  # noqa: F401 (the kernel's argument types, codes and constants)
     BAD_DNORMAL,
     BAD_DTANGENTIAL,
+    CHUNK,
     FALL_COLUMNS,
     FLAG_MEMORY_FLAT,
     FLAG_MEMORY_RISING,
     FLAG_NO_TERMINATION,
+    JIT,
+    JIT_INNER,
+    JIT_NO_NRT,
     LAW_FRICTIONLESS,
     LAW_JENKINS,
     LAW_MD,
@@ -134,7 +111,6 @@ from grainmech.contact._kernel_types import (  # noqa: F401
     new_output,
     new_scratch,
 )
-from grainmech.contact.hysteresis import _MERGE_TOL, _PAR_TOL, _REV_TOL, _TIE_TOL  # noqa: F401
 
 __all__ = ["update_kernel", "rows", "law_function", "fall_dissipation", "FALL_COLUMNS", "law_signature", "law_key",
            "compile_law", "law_compiled",
@@ -159,7 +135,7 @@ def _copy(fn: Any, name: str, extra: dict, **options: Any) -> Any:
 
 
 def _inlined_axis_law() -> Any:
-    """:func:`_md_axis` (with :func:`_falling_n`) marked for inlining into the law copies (made once).
+    """:func:`md_axis` (with :func:`falling_n`) marked for inlining into the law copies (made once).
 
     Called, they took the constants ``kc`` (~60 values, the series and quadrature tables)
     by value at every contact; inlined, the law of the mixed-control driver took ~15 %
@@ -168,8 +144,8 @@ def _inlined_axis_law() -> Any:
     """
     md = _LAW_FUNCTIONS.get("md_axis")
     if md is None:
-        fall = _copy(_falling_n, "_falling_n_inlined", {}, **_JIT_NO_NRT, forceinline=True)
-        md = _copy(_md_axis, "_md_axis_inlined", {"_falling_n": fall}, **_JIT_NO_NRT, forceinline=True)
+        fall = _copy(falling_n, "_falling_n_inlined", {}, **JIT_NO_NRT, forceinline=True)
+        md = _copy(md_axis, "_md_axis_inlined", {"falling_n": fall}, **JIT_NO_NRT, forceinline=True)
         _LAW_FUNCTIONS["md_axis"] = md
     return md
 
@@ -181,7 +157,7 @@ def _law_dispatcher(key: tuple[int, bool, bool, int]) -> Any:
         f = rows.py_func
         g = dict(f.__globals__)
         g.update(_LAW=int(key[0]), _LINEAR=int(key[1]), _DEFER=int(key[2]), _DIM=int(key[3]),
-                 _md_axis=_inlined_axis_law())
+                 md_axis=_inlined_axis_law())
         name = (f"rows_law{int(key[0])}_linear{int(key[1])}" + ("_defer" if key[2] else "")
                 + (f"_dim{int(key[3])}" if key[3] else ""))
         fc = pytypes.FunctionType(f.__code__, g, name, f.__defaults__, f.__closure__)
@@ -189,7 +165,7 @@ def _law_dispatcher(key: tuple[int, bool, bool, int]) -> Any:
         fc.__module__ = f.__module__
         fc.__doc__ = f.__doc__
         # with the C-callable wrapper: its address is what the callers call
-        disp = njit(**{**_JIT_NO_NRT, "no_cfunc_wrapper": False})(fc)
+        disp = njit(**{**JIT_NO_NRT, "no_cfunc_wrapper": False})(fc)
         _LAW_FUNCTIONS[key] = disp
     return disp
 
@@ -230,7 +206,7 @@ def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, 
     measurable. Its type is ``numba.types.FunctionType(numba.types.none(*law_signature(...)))``.
 
     ``defer``: the copy leaves the dissipation of a fall of ``N`` at fixed displacement
-    (the 12-point quadrature of :func:`_falling_n`, the only costly part of the
+    (the 12-point quadrature of :func:`falling_n`, the only costly part of the
     dissipation) out of ``out.dissipation`` and records its segments in ``scratch.fall``
     (shape (n, :data:`FALL_COLUMNS`)); for the iterate it accepts, the caller calls it
     once more with ``lo = -1`` (:func:`rows`), which adds that dissipation. The
@@ -244,7 +220,7 @@ def law_function(kc: KernelConstants, state: KernelState, inc: KernelIncrement, 
     return CompileResultWAP(_law_dispatcher(key).overloads[sig])
 
 
-@njit(**_JIT_INNER)
+@njit(**JIT_INNER)
 def _finite(a):
     """All entries finite."""
     for v in a.ravel():
@@ -254,7 +230,7 @@ def _finite(a):
 
 
 def _make_kernel(parallel, with_law=False):
-    """The kernel, serial or parallel (``prange`` over chunks of ``_CHUNK`` contacts).
+    """The kernel, serial or parallel (``prange`` over chunks of ``CHUNK`` contacts).
 
     Each contact's result depends only on its own inputs, so both give identical bits.
     ``with_law``: the kernel takes the law as its last argument, a first-class function
@@ -269,14 +245,14 @@ def _make_kernel(parallel, with_law=False):
             return BAD_DNORMAL
         if not _finite(inc.d_tangential):
             return BAD_DTANGENTIAL
-        nch = (n + _CHUNK - 1) // _CHUNK
+        nch = (n + CHUNK - 1) // CHUNK
         # the constants enter the (parallel) loop as plain values: a parfor cannot take a
         # named tuple holding tuples, so it is rebuilt inside
         (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
          glx, glw, sph, k8) = kc
         for ch in rng(nch):
-            lo = ch * _CHUNK
-            hi = min(n, lo + _CHUNK)
+            lo = ch * CHUNK
+            hi = min(n, lo + CHUNK)
             rows(lo, hi, KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p,
                                          m_exp, maxrev, hcoef, gcoef, glx, glw, sph, k8),
                  state, inc, out, scratch)
@@ -288,12 +264,12 @@ def _make_kernel(parallel, with_law=False):
             return BAD_DNORMAL
         if not _finite(inc.d_tangential):
             return BAD_DTANGENTIAL
-        nch = (n + _CHUNK - 1) // _CHUNK
+        nch = (n + CHUNK - 1) // CHUNK
         (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
          glx, glw, sph, k8) = kc
         for ch in rng(nch):
-            lo = ch * _CHUNK
-            hi = min(n, lo + _CHUNK)
+            lo = ch * CHUNK
+            hi = min(n, lo + CHUNK)
             law_fn(lo, hi, KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p,
                                            m_exp, maxrev, hcoef, gcoef, glx, glw, sph, k8),
                    state, inc, out, scratch)
@@ -301,7 +277,7 @@ def _make_kernel(parallel, with_law=False):
 
     fn = kernel_law if with_law else kernel
     fn.__doc__ = """Advance ``n`` contacts by one increment (see :func:`update_kernel`)."""
-    return njit(parallel=parallel, no_cfunc_wrapper=True, **_JIT)(fn)  # called from Python only
+    return njit(parallel=parallel, no_cfunc_wrapper=True, **JIT)(fn)  # called from Python only
 
 
 _kernel_serial = _make_kernel(False)

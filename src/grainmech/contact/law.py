@@ -104,32 +104,17 @@ __all__ = [
     "max_reversals",
     "compiled_kernel",
 ]
-from grainmech.contact.hysteresis import (  # noqa: F401
-    _EPS,
-    _GL_W,
-    _GL_X,
-    _MERGE_TOL,
-    _PAR_TOL,
-    _REV_TOL,
-    _TIE_TOL,
-    _g_series,
-    _h_series,
-    _LawOut,
-    _md_update,
-    _secant_kt,
-    axis_tangent,
-)
+from grainmech.contact.hysteresis import LawOut, axis_tangent, md_update, secant_kt
 from grainmech.contact.params import ContactParams, Cylinder, Hertz, MindlinDeresiewicz
 from grainmech.contact.state import (  # noqa: F401
     ContactResponse,
     ContactState,
-    _dot,
-    _empty_state,
-    _norm,
     initial_state,
     law_kind,
     max_reversals,
     reversal_forces,
+    row_dot,
+    row_norm,
     state_from_approach,
     state_from_forces,
     state_from_normal_force,
@@ -170,14 +155,14 @@ def _reproject(T: np.ndarray, e: np.ndarray, normals: ArrayLike | None) -> tuple
     nrm = np.asarray(normals, dtype=float)
     if nrm.shape != T.shape:
         raise ValueError(f"normals must have shape {T.shape}, got {nrm.shape}")
-    ln = _norm(nrm)
+    ln = row_norm(nrm)
     if np.any(ln <= 0) or not np.all(np.isfinite(ln)):
         raise ValueError("normals must be finite non-zero vectors")
     nrm = nrm / ln[:, None]
 
     def proj(v: np.ndarray) -> np.ndarray:
-        vp = v - _dot(v, nrm)[:, None] * nrm
-        a, b = _norm(v), _norm(vp)
+        vp = v - row_dot(v, nrm)[:, None] * nrm
+        a, b = row_norm(v), row_norm(vp)
         scale = np.where(b > 0, a / np.where(b > 0, b, 1.0), 0.0)
         return vp * scale[:, None]
 
@@ -258,7 +243,7 @@ def update(params: ContactParams, state: ContactState, d_normal: ArrayLike, d_ta
 
     if kind == "md":
         md = cast("MindlinDeresiewicz | Cylinder", params)  # the laws of kind "md" (law_forms)
-        out = _md_update(md, state, T0, e0, N0_eff, N1, a0_eff, alpha1, dt_eff, virgin_reset)
+        out = md_update(md, state, T0, e0, N0_eff, N1, a0_eff, alpha1, dt_eff, virgin_reset)
     elif kind == "jenkins":
         out = _jenkins_update(params, T0, N0_eff, N1, a0_eff, alpha1, dt_eff)
     else:
@@ -451,7 +436,7 @@ def _update_compiled(kernel: ModuleType, params: ContactParams, state: ContactSt
 # ---------------------------------------------------------------------------------------
 
 
-def _frictionless_update(params: ContactParams, T0: np.ndarray, N1: np.ndarray) -> _LawOut:
+def _frictionless_update(params: ContactParams, T0: np.ndarray, N1: np.ndarray) -> LawOut:
     n, dim = T0.shape
     z = np.zeros(n)
     return (np.zeros((n, dim)), np.zeros((n, dim)), np.ones(n, dtype=np.int8),
@@ -460,7 +445,7 @@ def _frictionless_update(params: ContactParams, T0: np.ndarray, N1: np.ndarray) 
 
 
 def _jenkins_update(params: ContactParams, T0: np.ndarray, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
-                    a1: np.ndarray, dt: np.ndarray) -> _LawOut:
+                    a1: np.ndarray, dt: np.ndarray) -> LawOut:
     """Elastic tangential spring with Coulomb cap and radial return.
 
     ``T_trial = rho T_old + kbar d_delta``; ``rho = kt(N1)/kt(N0) < 1`` when the contact
@@ -474,13 +459,13 @@ def _jenkins_update(params: ContactParams, T0: np.ndarray, N0: np.ndarray, N1: n
     kt1 = law_forms(params).kt0(N1)
     closed1 = N1 > 0.0
     rising = N1 > N0
-    kbar = np.where(rising, _secant_kt(params, N0, N1, a0, a1), kt1)
+    kbar = np.where(rising, secant_kt(params, N0, N1, a0, a1), kt1)
     with np.errstate(divide="ignore", invalid="ignore"):
         rho = np.where((kt0 > 0) & (kt1 < kt0), kt1 / np.where(kt0 > 0, kt0, 1.0), 1.0)
-        Tn0 = _norm(T0)
+        Tn0 = row_norm(T0)
         diss = np.where(kt0 > 0, (1.0 - rho) * Tn0 ** 2 / (2.0 * np.where(kt0 > 0, kt0, 1.0)), 0.0)
     trial = rho[:, None] * T0 + kbar[:, None] * dt
-    tn = _norm(trial)
+    tn = row_norm(trial)
     cap = mu * N1 if math.isfinite(mu) else np.full(n, np.inf)
     cap = np.where(closed1, cap, 0.0)
     over = tn > cap
@@ -491,7 +476,7 @@ def _jenkins_update(params: ContactParams, T0: np.ndarray, N0: np.ndarray, N1: n
     T1 = trial * scale[:, None]
     # energy of a spring that loses contact (stiffness -> 0 or cap -> 0) is dissipated
     T1 = np.where(closed1[:, None], T1, 0.0)
-    t1n = _norm(T1)
+    t1n = row_norm(T1)
     with np.errstate(divide="ignore", invalid="ignore"):
         e1 = np.where((t1n > 0)[:, None], T1 / np.where(t1n > 0, t1n, 1.0)[:, None], 0.0)
     # "sliding" = at the Coulomb limit after the step (as for the hysteretic law)

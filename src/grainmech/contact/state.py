@@ -144,7 +144,7 @@ def max_reversals(params: ContactParams) -> int:
 # ---------------------------------------------------------------------------------------
 # Helpers
 # ---------------------------------------------------------------------------------------
-def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def row_dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Row-wise dot product, summed in a fixed order (results independent of n)."""
     out = u[:, 0] * v[:, 0]
     for j in range(1, u.shape[1]):
@@ -152,8 +152,9 @@ def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
-def _norm(v: np.ndarray) -> np.ndarray:
-    return np.sqrt(_dot(v, v))
+def row_norm(v: np.ndarray) -> np.ndarray:
+    """Row-wise Euclidean norm, from :func:`row_dot` (results independent of n)."""
+    return np.sqrt(row_dot(v, v))
 
 
 # ---------------------------------------------------------------------------------------
@@ -260,7 +261,7 @@ def state_from_forces(params: ContactParams, normal_force: ArrayLike, tangential
         raise ValueError(f"tangential_force must have shape {st.tangential_force.shape}, got {T.shape}")
     if not np.all(np.isfinite(T)):
         raise ValueError("tangential_force must be finite")
-    mag = _norm(T)
+    mag = row_norm(T)
     muN = float(params.friction) * st.normal_force if law_kind(params) != "frictionless" \
         else np.zeros_like(mag)
     bad = mag > muN * (1.0 + 1e-12)

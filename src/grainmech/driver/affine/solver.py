@@ -63,7 +63,7 @@ class SolverOptions:
         A step whose Newton iterations stall (no longer contract) with every residual at
         most ``rtol_accept`` times the stress scale is accepted, and counted in the
         result's message. The Mindlin-Deresiewicz memory ignores load reversals below
-        ``1e-6`` of ``2 mu N`` (round-off ties, :data:`grainmech.contact.hysteresis._REV_TOL`), so
+        ``1e-6`` of ``2 mu N`` (round-off ties, :data:`grainmech.contact.hysteresis.REV_TOL`), so
         the stress of a contact set is a continuous function of the strain only to about
         that resolution; below it Newton can cycle between two sides of such a tie.
     compiled : bool
