@@ -23,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 DATA = Path(__file__).resolve().parents[1] / "src" / "grainmech" / "data" / "packings"
-SHIPPED = ("dense", "medium", "loose", "nevada-medium", "nevada-loose")
+SHIPPED = ("dense", "medium", "loose", "nevada-medium", "nevada-loose", "nevada-dense")
 
 
 def _pack(cfg: Path, out: Path) -> int:

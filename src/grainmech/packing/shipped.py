@@ -1,15 +1,18 @@
 """Packings shipped with grainmech (``grainmech/data/packings``), loadable without LAMMPS.
 
-Five packings of 2000 quartz grains at an isotropic 100 kPa, made by ``grainmech pack``
+Six packings of 2000 quartz grains at an isotropic 100 kPa, made by ``grainmech pack``
 with the configs ``NAME.toml`` next to them (``scripts/make_packings.py`` remakes them).
 
 Sand packings: the grading of Nevada sand (``D50 = 0.15 mm``, ``Cu = 1.7``, sizes cut to a
 ratio of 4), grains with rolling resistance ``mu_r = 0.25`` (``docs/contact-laws.md``), at
-two relative densities against the void-ratio limits ``grainmech pack`` measures for the
+three relative densities against the void-ratio limits ``grainmech pack`` measures for the
 same grains (``nevada-limits.json``):
 
 * ``"nevada-medium"`` - preparation friction 0.5, preparation rolling friction 0.03;
-* ``"nevada-loose"`` - preparation friction 0.5 and rolling friction 0.25 (the grains').
+* ``"nevada-loose"`` - preparation friction 0.5 and rolling friction 0.25 (the grains');
+* ``"nevada-dense"`` - preparation friction 0.09, no preparation rolling friction; the
+  grains' rolling resistance starts unloaded at the prepared state (``grain_rolling =
+  "after"``, ``docs/packing.md``), so its contact moments are zero.
 
 Smooth-sphere packings (``D50 = 0.3 mm``, ``Cu = 1.3``, sizes cut to a ratio of 2.5, no
 rolling resistance: glass-bead-like grains, kept for comparison):
@@ -34,9 +37,9 @@ from grainmech.network.tables import read_npz_network
 __all__ = ["PACKINGS", "SAND_PACKINGS", "load_packing", "packing_info", "packing_limits"]
 
 #: names of the shipped packings
-PACKINGS = ("dense", "medium", "loose", "nevada-medium", "nevada-loose")
+PACKINGS = ("dense", "medium", "loose", "nevada-dense", "nevada-medium", "nevada-loose")
 #: the sand packings among them (grains with rolling resistance)
-SAND_PACKINGS = ("nevada-medium", "nevada-loose")
+SAND_PACKINGS = ("nevada-dense", "nevada-medium", "nevada-loose")
 
 
 def _check(name: str) -> None:
