@@ -1,7 +1,8 @@
-"""`grainmech site`: stresses of a profile, Vs anchoring, outputs, resume, bad input (issue 31).
+"""`grainmech site`: stresses of a profile, Vs anchoring, outputs, resume, bad input.
 
-The affine model throughout (seconds); the packing model is exercised by
-examples/site_sand_column.toml (docs/site-profile.md gives its measured time).
+The affine model throughout (seconds); the packing and DEM models are exercised by
+examples/site_sand_column.toml (docs/site-profile.md gives its measured time) and the
+packing model at small amplitudes in test_site_curves.py.
 """
 
 from __future__ import annotations
@@ -89,8 +90,9 @@ def test_example_profile_reads_and_its_stated_stresses_hold():
     stresses its header states (61, 112, 176 kPa)."""
     prof = load_profile(EX / "site_sand_column.toml")
     assert prof.depth == 30.0 and len(prof.layers) == 3 and prof.water_table == 5.0
-    assert prof.method == "packing" and prof.motion is not None and prof.bedrock is not None
-    assert [round(la.p_eff / 1e3) for la in prof.layers] == [61, 112, 176]
+    assert prof.methods == ("packing", "dem") and prof.motion is not None and prof.bedrock is not None
+    assert [round(la.p_eff / 1e3, 1) for la in prof.layers] == [60.5, 112.2, 176.1]
+    assert [la.packing_choice["packing"] for la in prof.layers] == ["nevada-loose", "nevada-medium", "nevada-medium"]
     assert prof.layers[0].k0 == pytest.approx(1 - math.sin(math.radians(33)))
 
 
@@ -164,8 +166,11 @@ def site_run(tmp_path_factory):
 
 def test_outputs_and_anchoring(site_run):
     """Files of the run; the anchored layer's Gmax equals rho vs^2 (exact for the affine
-    model: forces fixed by the stress, stiffness ~ G^(2/3)); curves at p' in site-response format."""
+    model: forces fixed by the stress, stiffness ~ G^(2/3)); the fitted curve at p' in
+    site-response format, the points beside."""
+    from grainmech.analysis.hyperbola import modified_hyperbola
     from grainmech.io.site_response import read_curves
+    from grainmech.site.curve import SITE_STRAINS
 
     rc, out, _ = site_run
     assert rc == 0
@@ -182,14 +187,27 @@ def test_outputs_and_anchoring(site_run):
     assert abs(a["mismatch"]) < 1e-9 and deep["G_max_Pa"] == pytest.approx(a["G_target_Pa"], rel=1e-9)
     assert deep["vs_model_m_s"] == pytest.approx(200.0, rel=1e-9)
     c = read_curves(out / "curves/02-deep.csv")
-    # 1e-3 leaves the envelope of sands (affine model): left out of the curve file, as in grainmech run
+    # 1e-3 leaves the envelope of sands (affine model): left out of the fit, as of grainmech run's curve file
     assert deep["amplitudes"] == [1e-6, 1e-5, 1e-4, 1e-3] and deep["beyond_envelope"] == [False] * 3 + [True]
-    assert c.g_max == pytest.approx(deep["G_max_Pa"]) and list(c.strain) == [1e-6, 1e-5, 1e-4]
-    assert "beyond the envelope of sands left out: [0.001]" in c.comment
+    assert deep["models"] == ["affine"] * 4 and deep["site_curve"]["left_out"] == [1e-3]
+    assert c.g_max == pytest.approx(deep["G_max_Pa"]) and c.strain == pytest.approx(SITE_STRAINS, rel=1e-9)
+    assert "amplitudes left out of the fit: [0.001]" in c.comment and "modified hyperbola" in c.comment
+    fit = deep["fit"]
+    assert fit["strain_range"] == [1e-6, 1e-4] and fit["n_points"] == 3
+    assert c.g_ratio == pytest.approx(modified_hyperbola(SITE_STRAINS, fit["gamma_r"], fit["curvature"]), rel=1e-8)
     assert c.g_ratio[0] > 0.99 and np.all(np.diff(c.g_ratio) < 0)
+    pts = list(csv.DictReader((out / "curves/02-deep-points.csv").open()))
+    assert [float(p["G/Gmax"]) for p in pts] == pytest.approx(deep["G_ratio"], rel=1e-9)
+    assert pts[-1]["flags"] == "beyond_envelope"
     rows = list(csv.DictReader((out / "layers.csv").open()))
     assert [r["status"] for r in rows] == ["ok", "ok"]
     assert float(rows[1]["grain modulus scale"]) == pytest.approx(a["scale"])
+    assert float(rows[1]["fit gamma_r"]) == pytest.approx(fit["gamma_r"])
+    assert float(rows[1]["fit G/Gmax rms residual"]) == pytest.approx(fit["g_residual_rms"])
+    # 44 GPa x 0.0987 = 4.3 GPa: outside 10-100 GPa, said in the row and on the page
+    assert "packing does not match the site's stiffness" in rows[1]["anchoring warning"]
+    assert "times stiffer than the site" in rows[1]["anchoring warning"] and rows[0]["anchoring warning"] == ""
+    assert "grain modulus outside 10-100 GPa" in (out / "index.html").read_text()
 
 
 def test_hertz_two_thirds_rule_independently():
@@ -243,10 +261,10 @@ def test_menq_beside_at_the_layer_mean_stress_and_grading(site_run):
     assert "curves/02-deep-menq.csv" in s["files"]
 
 
-def test_resume_on_dask_reuses_finished_layers_and_reruns_changed_ones(site_run, tmp_path, cli):
-    """On a Dask client (as `--workers N` / `--scheduler`): a rerun on the same folder
-    reuses every finished layer (its record untouched); a layer whose record is gone
-    (killed before it finished) or whose inputs changed runs again, with the same result."""
+def test_resume_on_dask_skips_every_saved_amplitude_and_reruns_changed_ones(site_run, tmp_path):
+    """On a Dask client (as `--workers N` / `--scheduler`), with resume: a rerun on the same
+    folder skips every saved amplitude; amplitudes whose files are gone (killed before they
+    finished) run again, with the same result; a changed layer runs all of its amplitudes."""
     import shutil
 
     from grainmech.parallel import open_client
@@ -255,19 +273,21 @@ def test_resume_on_dask_reuses_finished_layers_and_reruns_changed_ones(site_run,
     _, out, prof = site_run
     d = tmp_path / "out"
     shutil.copytree(out, d)
-    top = (d / "layers/01-top.json").read_text()
     deep = json.loads((d / "layers/02-deep.json").read_text())
-    (d / "layers/02-deep.json").unlink()  # as if killed while this layer ran
+    saved = sorted((d / "layers/02-deep").glob("affine-*.json"))
+    assert len(saved) == 4 and (d / "layers/02-deep").glob("anchor-*.json")
+    for f in saved[2:]:
+        f.unlink()  # as if killed after two amplitudes of this layer
     with open_client() as client:
         s = run_site(load_profile(prof), d, client=client)
-        assert (s["reused"], s["ran"], s["succeeded"]) == (1, 1, 2)
-        assert (d / "layers/01-top.json").read_text() == top
+        assert (s["amplitudes_reused"], s["amplitudes_run"], s["succeeded"]) == (6, 2, 2)
         again = json.loads((d / "layers/02-deep.json").read_text())
-        assert again["G_ratio"] == deep["G_ratio"] and again["anchor"]["scale"] == deep["anchor"]["scale"]
+        assert again["G_ratio"] == pytest.approx(deep["G_ratio"], rel=1e-12)
+        assert again["anchor"]["scale"] == deep["anchor"]["scale"]
         p2 = tmp_path / "p2.toml"
         p2.write_text(PROFILE.replace('void_ratio = 0.7', 'void_ratio = 0.72'))
         s = run_site(load_profile(p2), d, client=client)
-    assert (s["reused"], s["ran"]) == (1, 1) and (d / "layers/01-top.json").read_text() != top
+    assert (s["amplitudes_reused"], s["amplitudes_run"], s["reused"]) == (4, 4, 1)
 
 
 def test_stopped_layer_is_reported_others_complete_exit_1(tmp_path, cli, monkeypatch):
@@ -281,11 +301,11 @@ def test_stopped_layer_is_reported_others_complete_exit_1(tmp_path, cli, monkeyp
     real = jobs.execute_run
 
     def stopping(spec, progress=None):
-        out = real(spec, progress)
-        if spec.pressure < 30e3:
-            return dataclasses.replace(out, success=False, message="amplitude 1e-05: step 3 failed (test)",
-                                       amplitudes=out.amplitudes[:1], G=out.G[:1], damping=out.damping[:1])
-        return out
+        if spec.pressure >= 30e3:
+            return real(spec, progress)
+        out = real(spec)  # the site's hook hears only the stopped outcome
+        return dataclasses.replace(out, success=False, message="amplitude 1e-05: step 3 failed (test)",
+                                   amplitudes=out.amplitudes[:1], G=out.G[:1], damping=out.damping[:1])
 
     monkeypatch.setattr(jobs, "execute_run", stopping)  # the in-process Dask worker sees it
     res = cli("site", _write(tmp_path), "-o", tmp_path / "o", "--quiet")
@@ -296,10 +316,14 @@ def test_stopped_layer_is_reported_others_complete_exit_1(tmp_path, cli, monkeyp
     assert "1 stopped" in res.out
 
 
-def test_read_profile_rejects_two_methods():
+def test_read_profile_takes_packing_and_dem_and_rejects_other_pairs():
     cfg = tomllib.loads(PROFILE.replace('method = "affine"', 'method = ["affine", "packing"]'))
     with pytest.raises(ConfigError, match="model.method"):
         read_profile(cfg)
+    cfg = tomllib.loads(PROFILE.replace('method = "affine"\n', '').replace("void_ratio", "relative_density")
+                        .replace("0.7", "0.3").replace("0.6", "0.5"))
+    prof = read_profile(cfg)  # the default: the packing model, the DEM model beyond
+    assert prof.methods == ("packing", "dem") and prof.layers[0].run_config["model"]["packing"] == "nevada-loose"
 
 
 def test_anchoring_that_fails_in_the_model_stops_that_layer_only(tmp_path, cli, monkeypatch):

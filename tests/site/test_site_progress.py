@@ -60,7 +60,7 @@ def test_site_run_prints_progress_lines_while_a_layer_runs(monkeypatch, capsys):
     def slow_layer(task, progress=None):
         progress("[packing 1/2] cyclic simple shear, amplitude 1e-05 (64 steps, 400 grains)")
         assert seen.wait(5.0)
-        return {"status": "ok", "seconds": 0.3}
+        return {"status": "ok", "seconds": 0.3, "amplitudes_run": 2, "amplitudes_reused": 0}
 
     monkeypatch.setattr(runner, "run_task", slow_layer)
 
@@ -71,7 +71,7 @@ def test_site_run_prints_progress_lines_while_a_layer_runs(monkeypatch, capsys):
         def __init__(self, path):
             self.path = self.staging = path
 
-    monkeypatch.setattr(runner, "read_layer_record", lambda *a: None)
+    monkeypatch.setattr(runner, "read_anchor", lambda *a: None)
     monkeypatch.setattr(runner, "write_layer_record", lambda *a: None)
     monkeypatch.setattr(runner, "layer_key", lambda la: "k")
     monkeypatch.setattr(runner, "write_outputs", lambda *a, **k: {"lines": list(lines)})
@@ -86,4 +86,4 @@ def test_site_run_prints_progress_lines_while_a_layer_runs(monkeypatch, capsys):
         out = runner._run_in(Folder(pathlib.Path(tmp)), Profile(), tmp, say, (None, None, None), False, None, 0.0)
     beat = [s for s in out["lines"] if s.startswith("[site] layer 1/1")]
     assert beat and "amplitude 1e-05" in beat[0]
-    assert out["lines"][-1].startswith("[1/1] layer 1 'sand': ok (0.3 s)")
+    assert out["lines"][-1].startswith("[1/1] layer 1 'sand': ok (2 amplitude(s) run, 0 reused, 0.3 s)")

@@ -128,6 +128,11 @@ def _read_two_column(path: Path, text: str, units: str) -> Motion:
         i = int(np.flatnonzero(~np.isfinite(tt))[0])
         raise _bad(path, f"line {lineno[i]}: time {t[i]!r} is not finite")
     d = np.diff(tt)
+    back = np.flatnonzero(d <= 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise _bad(path, f"line {lineno[i]}: time {float(tt[i]):.10g} s does not increase (the previous sample is at "
+                   f"{float(tt[i - 1]):.10g} s): times must increase monotonically")
     dt = float(d[0])
     if not dt > 0:
         raise _bad(path, f"line {lineno[1]}: time {float(tt[1]):.10g} s does not increase")

@@ -1,11 +1,15 @@
 """One layer of a profile: its run config, the anchoring to a measured Vs, the run, its record.
 
-Every layer is one ``grainmech run`` (cyclic simple shear) at the layer's mean effective
+Every layer is a ``grainmech run`` (cyclic simple shear) at the layer's mean effective
 stress, prepared and executed by :func:`grainmech.jobs.prepare_run` and
-:func:`grainmech.jobs.execute_run` -- the packing model brings its packing to that
-stress with :meth:`grainmech.driver.packing.PackingPoint.at_stress` there, the affine
-model takes the pressure directly. The functions called in worker processes
-(:func:`anchor_task`, :func:`run_task`) take and return plain picklable values.
+:func:`grainmech.jobs.execute_run` -- by default the packing model over its range and the
+DEM model beyond it, one amplitude list, each amplitude by one model; the packing model
+brings its packing to that stress with :meth:`grainmech.driver.packing.PackingPoint.at_stress`,
+the DEM model re-settles it there, the affine model takes the pressure directly. Every
+finished amplitude is saved at once (:mod:`grainmech.site.amplitudes`); the layer's curve
+and its fitted hyperbola come from the saved amplitudes (:mod:`grainmech.site.curve`).
+The functions called in worker processes (:func:`anchor_task`, :func:`run_task`) take and
+return plain picklable values.
 
 Anchoring to a measured shear-wave velocity. The target is
 ``G_target = rho vs^2``. For Hertz-type contacts at fixed contact forces the contact
@@ -39,11 +43,15 @@ from grainmech.analysis import condensed_modulus, darendeli, menq_curve
 from grainmech.contact.forms import normal_law
 from grainmech.driver import MaterialPoint
 from grainmech.errors import ConfigError, GrainmechError
-from grainmech.jobs import CyclicOutcome, cyclic_control, packing_gmax, prepare_run
-from grainmech.site.profile import GRAIN_MODULUS_RANGE, Layer
+from grainmech.io.site_profile import read_amplitude_entry, write_amplitude_entry
+from grainmech.jobs import cyclic_control, packing_gmax, prepare_run
+from grainmech.site.amplitudes import Recorder, amp_id, amplitude_key, plan_runs
+from grainmech.site.curve import layer_curve
+from grainmech.site.profile import GRAIN_MODULUS_PLAUSIBLE, GRAIN_MODULUS_RANGE, Layer
 
-__all__ = ["layer_config", "prepare_layer", "model_gmax", "anchor_task", "check_anchor", "run_task",
-           "layer_key", "DARENDELI_STRAINS", "MENQ_STRAINS", "ANCHOR_TOLERANCE"]
+__all__ = ["layer_config", "prepare_layer", "model_gmax", "anchor_task", "check_anchor", "anchor_warning",
+           "run_task", "read_entries", "entry_key", "layer_key", "failed_record", "DARENDELI_STRAINS",
+           "MENQ_STRAINS", "ANCHOR_TOLERANCE"]
 
 #: strains [decimal] of the Darendeli (2001) curves written beside the model's
 #: (pystrata's default grid of ``DarendeliSoilType``: 1e-6 ... 10^-1.5, 20 points)
@@ -55,15 +63,24 @@ MENQ_STRAINS = DARENDELI_STRAINS
 ANCHOR_TOLERANCE = 0.01
 
 
-def layer_config(layer: Layer, grain_modulus: float | None = None) -> dict:
+def layer_config(layer: Layer, grain_modulus: float | None = None, methods: tuple[str, ...] | None = None,
+                 amplitudes: list[float] | None = None) -> dict:
     """The ``grainmech run`` config of ``layer``: its tables, ``[initial] pressure = p'``.
 
-    ``grain_modulus`` [Pa] replaces ``contacts.shear_modulus`` (the anchored value).
+    ``grain_modulus`` [Pa] replaces ``contacts.shear_modulus`` (the anchored value);
+    ``methods`` and ``amplitudes`` replace ``[model] method`` and ``[test] amplitudes``
+    (the models and amplitudes left to run).
     """
     cfg = copy.deepcopy(layer.run_config)
     cfg["initial"] = {"pressure": float(layer.p_eff)}
     if grain_modulus is not None:
         cfg.setdefault("contacts", {})["shear_modulus"] = float(grain_modulus)
+    if methods is not None:
+        cfg.setdefault("model", {})["method"] = list(methods) if len(methods) > 1 else methods[0]
+        if "dem" not in methods:
+            cfg["model"].pop("dem", None)
+    if amplitudes is not None:
+        cfg.setdefault("test", {})["amplitudes"] = [float(a) for a in amplitudes]
     return cfg
 
 
@@ -81,10 +98,11 @@ def _layer_error(layer: Layer, exc: ConfigError) -> ConfigError:
     return ConfigError(key, exc.value, exc.problem)
 
 
-def prepare_layer(layer: Layer, base_dir: str | Path | None, grain_modulus: float | None = None) -> Any:
+def prepare_layer(layer: Layer, base_dir: str | Path | None, grain_modulus: float | None = None,
+                  methods: tuple[str, ...] | None = None, amplitudes: list[float] | None = None) -> Any:
     """The :class:`grainmech.jobs.RunSpec` of ``layer`` (config errors name the layer and key)."""
     try:
-        return prepare_run(layer_config(layer, grain_modulus), base_dir)
+        return prepare_run(layer_config(layer, grain_modulus, methods, amplitudes), base_dir)
     except ConfigError as exc:
         raise _layer_error(layer, exc) from None
 
@@ -99,8 +117,7 @@ def model_gmax(spec: Any) -> float:
     :func:`grainmech.jobs.packing_gmax` (elastic tangent of the packing brought to the
     layer's stress).
     """
-    method = spec.methods[0]
-    if method == "affine":
+    if not spec.models[0].needs_grains:  # the affine model, on the analytical microstructure
         point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
         return float(condensed_modulus(point.tangent, 4, [bool(b) for b in cyclic_control(spec.constant)]))
     pg = packing_gmax(dataclasses.replace(spec, gmax_grains=spec.grains), lambda msg: None)
@@ -186,60 +203,153 @@ def layer_facts(layer: Layer) -> dict:
             "bottom_m": layer.bottom, "mid_m": layer.mid, "thickness_m": layer.thickness,
             "unit_weight_N_m3": layer.unit_weight, "density_kg_m3": layer.density, "k0": layer.k0,
             "sigma_v_Pa": layer.sigma_v, "u_Pa": layer.u, "sigma_v_eff_Pa": layer.sigma_v_eff,
-            "sigma_h_eff_Pa": layer.sigma_h_eff, "p_eff_Pa": layer.p_eff, "vs_measured_m_s": layer.vs}
+            "sigma_h_eff_Pa": layer.sigma_h_eff, "p_eff_Pa": layer.p_eff, "vs_measured_m_s": layer.vs,
+            "density_choice": layer.packing_choice}
 
 
-def run_task(task: tuple[Layer, str | None, dict | None],
-             progress: Callable[[str], None] | None = None) -> dict:
-    """Worker function: run one layer; return its record (JSON-ready dict).
+def anchor_warning(anchor: dict) -> str | None:
+    """The warning of an anchoring whose grain shear modulus leaves 10-100 GPa (None inside).
 
-    ``progress(message)`` receives the model's progress lines (which amplitude, which step,
-    time left when known; :func:`grainmech.jobs.execute_run`), for the site's own lines.
-
-    ``status`` is ``"ok"`` when every amplitude completed, ``"stopped"`` when the model
-    stopped (the record keeps the amplitudes done and the model's message).
-    ``site_curve`` holds the curves for site response: the completed amplitudes except
-    those beyond the envelope of sands (unless ``[model] keep_beyond_envelope``), the rule
-    of ``grainmech run``'s ``site_response_curves.csv``.
+    The grains of a real sand have a shear modulus of 10-100 GPa (quartz 29-44 GPa); a
+    Vs-anchored modulus outside it means the packing at the layer's stress is stiffer or
+    softer than the site by the factor ``G_target / G_model`` -- its density or fabric do
+    not match the site's -- and the rescaled grains make up for it.
     """
-    layer, base_dir, anchor = task
+    lo, hi = GRAIN_MODULUS_PLAUSIBLE
+    g = anchor["grain_modulus_anchored_Pa"]
+    if lo <= g <= hi:
+        return None
+    ratio = anchor["G_target_Pa"] / anchor["G_model_Pa"]
+    times = f"{1 / ratio:.3g} times stiffer" if ratio < 1 else f"{ratio:.3g} times softer"
+    return (f"anchoring to the measured Vs {anchor['vs_measured_m_s']:g} m/s needs a grain shear modulus of "
+            f"{g / 1e9:.3g} GPa, outside the {lo / 1e9:g}-{hi / 1e9:g} GPa of real grains (quartz 29-44 GPa): the "
+            f"packing does not match the site's stiffness (its density or fabric): at the grains' own "
+            f"{anchor['grain_modulus_Pa'] / 1e9:.3g} GPa its Gmax is {anchor['G_model_Pa'] / 1e6:.4g} MPa against "
+            f"rho vs^2 = {anchor['G_target_Pa'] / 1e6:.4g} MPa: {times} than the site (its Vs "
+            f"{100 * (np.sqrt(1 / ratio) - 1):+.0f} % from the measured)")
+
+
+def entry_key(layer: Layer, modulus: float | None) -> Callable[[str, float], str]:
+    """``key(method, amplitude)``: :func:`grainmech.site.amplitudes.amplitude_key` of ``layer``."""
+    cfg = layer_config(layer, modulus)
+    return lambda method, amplitude: amplitude_key(cfg, layer.density, method, amplitude)
+
+
+def read_entries(layer: Layer, modulus: float | None, folder: Path, methods: tuple[str, ...],
+                 amplitudes: list[float]) -> dict[tuple[str, float], dict]:
+    """The saved amplitude entries of ``layer`` whose hash matches the present inputs."""
+    key = entry_key(layer, modulus)
+    found: dict[tuple[str, float], dict] = {}
+    for m in methods:
+        for a in amplitudes:
+            e = read_amplitude_entry(folder, m, a, key(m, a))
+            if e is not None:
+                found[(m, amp_id(a))] = e
+    return found
+
+
+def run_task(task: tuple, progress: Callable[[str], None] | None = None) -> dict:
+    """Worker function: run the amplitudes of one layer not yet saved; return its record (JSON-ready dict).
+
+    ``task`` is ``(layer, base_dir, anchor, folder, resume)``: ``folder`` the layer's
+    amplitude folder (``OUTDIR/layers/<NN-name>``, :mod:`grainmech.site.amplitudes`; None:
+    nothing saved), ``resume`` whether the amplitudes saved there are skipped (else every
+    amplitude runs and is saved again). ``progress(message)`` receives the model's
+    progress lines.
+
+    The runs (:func:`grainmech.site.amplitudes.plan_runs`) go through
+    :func:`grainmech.jobs.execute_run` with the layer's run config restricted to the
+    models and amplitudes left; each amplitude is saved as it finishes. The record holds
+    the curve (:func:`grainmech.site.curve.layer_curve`: the models' points, the fitted
+    hyperbola and the curve for site response), Darendeli's and Menq's curves at the
+    layer's stress, the packing chosen by the layer's density and the anchoring.
+
+    ``status`` is ``"ok"`` when every amplitude has a point, ``"stopped"`` otherwise (the
+    message says which and why).
+    """
+    layer, base_dir, anchor, folder, resume = task
     t0 = time.perf_counter()
     modulus = anchor["grain_modulus_anchored_Pa"] if anchor else None
     spec = prepare_layer(layer, base_dir, modulus)
-    out = jobs.execute_run(spec, progress)
-    if not isinstance(out, CyclicOutcome):  # read_profile allows one method and cyclic simple shear
-        raise GrainmechError(f"{layer.label}: expected one cyclic-simple-shear outcome, got {type(out).__name__}")
+    methods = tuple(spec.methods)
+    amps = sorted(float(a) for a in spec.amplitudes)
+    have = read_entries(layer, modulus, Path(folder), methods, amps) if folder is not None and resume else {}
+    reused = len(have)
+
+    def write(entry: dict) -> None:
+        if folder is not None:
+            write_amplitude_entry(Path(folder), entry)
+
+    rec_hook = Recorder(progress, entry_key(layer, modulus), write, have)
+    messages: list[str] = []
+    tried: set[tuple[tuple[str, ...], float]] = set()
+    while True:  # a run, then (rarely) the DEM model alone on what the packing model handed over
+        # an amplitude a run was given and left without an entry is not given to the same models again here
+        plan = [(m, [a for a in aa if (m, amp_id(a)) not in tried])
+                for m, aa in plan_runs(methods, amps, rec_hook.have)]
+        plan = [(m, aa) for m, aa in plan if aa]
+        if not plan:
+            break
+        run_methods, run_amps = plan[0]
+        tried.update((run_methods, amp_id(a)) for a in run_amps)
+        sub = prepare_layer(layer, base_dir, modulus, methods=run_methods, amplitudes=run_amps)
+        out = jobs.execute_run(sub, rec_hook)
+        for o in getattr(out, "outcomes", [out]):  # each model's final outcome (its stop reasons)
+            rec_hook.amplitudes_done(o)
+            if not o.success:
+                messages.append(f"{o.method}: {o.message}")
+        rec_hook.finished(out, run_amps)
+    entries = list(rec_hook.have.values())
+    curve = layer_curve(methods, entries, float(layer.p_eff), spec.kind, spec.keep_beyond_envelope)
     law = spec.packing_law if spec.packing_law is not None else spec.law
-    amps = np.asarray(out.amplitudes, dtype=float)
-    order = np.argsort(amps, kind="stable")
-    g_max = float(out.G_max)
+    g_max = curve["G_max_Pa"]
+    done = {amp_id(a) for a in curve["amplitudes"]}
+    missing = [a for a in amps if amp_id(a) not in done]
+    stops = sorted({f"{e['method']} at {e['amplitude']:.3g}: {e.get('message', '')}" for e in entries
+                    if e["status"] == "stopped"})
+    warnings: list[str] = []
+    for e in sorted(entries, key=lambda e: (e["method"], e["amplitude"])):
+        for w in e.get("warnings", []):
+            if w not in warnings:
+                warnings.append(w)
+    if curve["fit_error"]:
+        warnings.append(f"no fitted curve: {curve['fit_error']}")
+    if curve["fit_warning"]:
+        warnings.append(f"fitted curve: {curve['fit_warning']}")
+    choice = layer.packing_choice
+    if choice and choice["flag"]:
+        warnings.append(f"the packing {choice['packing']!r} has D_r {choice['packing_relative_density']:.2f}, "
+                        f"{abs(choice['difference']):.2f} from the asked {choice['asked_relative_density']:.2f} "
+                        f"({choice['asked']} = {choice['asked_value']:g}): no shipped sand packing is nearer")
+    pk_entries = [e for e in entries if e["method"] == "packing" and e.get("empirical_G_max")]
+    sample: dict = next((e for e in entries if e.get("details")), {})
     rec: dict[str, Any] = layer_facts(layer)
-    rec.update(key=layer_key(layer), method=spec.methods[0],
+    rec.update(key=layer_key(layer), method="+".join(methods),
                grains=(spec.grains.label if spec.grains is not None else
                        f"analytical fabric, void ratio {spec.void_ratio}"),
                contact_law=type(law).__name__, grain_shear_modulus_Pa=float(getattr(law, "shear_modulus", np.nan)),
-               status="ok" if out.success else "stopped", message=str(out.message),
-               G_max_Pa=g_max, vs_model_m_s=float(np.sqrt(g_max / layer.density)) if g_max > 0 else None,
-               amplitudes=amps[order].tolist(), G_ratio=np.asarray(out.G_ratio)[order].tolist(),
-               damping=np.asarray(out.damping)[order].tolist(),
-               darendeli=_darendeli(spec, layer, amps[order]), menq=_menq(spec, layer, amps[order]),
-               empirical_G_max=out.empirical_G_max,
-               warnings=list(out.warnings), details={k: v for k, v in out.details.items() if k != "notes"},
+               status="ok" if not missing else "stopped",
+               message=("" if not missing else f"no point at {[float(f'{a:.3g}') for a in missing]}"
+                        + (f" ({'; '.join(stops or messages)})" if stops or messages else "")),
+               G_max_Pa=g_max if np.isfinite(g_max) else None,
+               vs_model_m_s=float(np.sqrt(g_max / layer.density)) if np.isfinite(g_max) and g_max > 0 else None,
+               darendeli=_darendeli(spec, layer, np.asarray(curve["amplitudes"])),
+               menq=_menq(spec, layer, np.asarray(curve["amplitudes"])),
+               empirical_G_max=pk_entries[0]["empirical_G_max"] if pk_entries else None,
+               details=sample.get("details", {}), warnings=warnings,
+               amplitudes_asked=amps, amplitudes_reused=reused, amplitudes_run=len(rec_hook.new),
                config=layer_config(layer, modulus))
-    # the curves for site response: as grainmech run's site_response_curves.csv, an
-    # amplitude beyond the envelope of sands only with [model] keep_beyond_envelope, one whose
-    # G/Gmax or damping a site-response program does not take never (its warning says which)
-    keep = out.site_response_keep[order]
-    rec["beyond_envelope"] = out.beyond_envelope[order].tolist()
-    rec["site_curve"] = {"strain": amps[order][keep].tolist(),
-                         "G_ratio": np.asarray(out.G_ratio)[order][keep].tolist(),
-                         "damping": np.asarray(out.damping)[order][keep].tolist(),
-                         "left_out": amps[order][~keep].tolist()}
+    rec.update({k: curve[k] for k in ("amplitudes", "G_ratio", "damping", "models", "flags", "G_max_model",
+                                      "G_max_reason", "choices", "by_model", "fit", "fit_error", "site_curve")})
+    rec["beyond_envelope"] = ["beyond_envelope" in f for f in curve["flags"]]
     if anchor:
         a = dict(anchor)
         a["G_checked_Pa"] = g_max
         a["mismatch"] = g_max / a["G_target_Pa"] - 1.0 if np.isfinite(g_max) else None
         a["flag"] = bool(a["mismatch"] is None or abs(a["mismatch"]) > ANCHOR_TOLERANCE)
+        a["warning"] = anchor_warning(a)
+        if a["warning"]:
+            rec["warnings"].append(a["warning"])
         rec["anchor"] = a
     rec["seconds"] = time.perf_counter() - t0
     return rec
@@ -249,6 +359,7 @@ def failed_record(layer: Layer, error: BaseException) -> dict:
     """The record of a layer whose task raised (``status = "failed"``)."""
     rec = layer_facts(layer)
     rec.update(key=layer_key(layer), status="failed", message=f"{type(error).__name__}: {error}",
-               amplitudes=[], G_ratio=[], damping=[], G_max_Pa=None, vs_model_m_s=None, warnings=[],
-               site_curve={"strain": [], "G_ratio": [], "damping": [], "left_out": []})
+               amplitudes=[], G_ratio=[], damping=[], models=[], flags=[], G_max_Pa=None, vs_model_m_s=None,
+               warnings=[], fit=None, site_curve={"strain": [], "G_ratio": [], "damping": [], "left_out": [],
+                                                   "model_range": []})
     return rec

@@ -7,14 +7,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from grainmech.io.results import ensure_dir, write_json
-from grainmech.io.site_profile import (
-    write_layer_curves,
-    write_layers_table,
-    write_profile_figure,
-    write_response,
-    write_site_page,
-)
+from grainmech.io.results import ensure_dir, write_figure, write_json
+from grainmech.io.site_profile import write_layer_curves, write_layers_table, write_response, write_site_page
 from grainmech.site import strata
 from grainmech.site.profile import SiteProfile
 
@@ -29,8 +23,9 @@ def response_note(profile: SiteProfile, response: dict | None, reason: str | Non
                 f"({', '.join(f'{v:.0f}' for v in response['vs_m_s'])} m/s; measured where given, else the "
                 f"model's) and half-space, input motion {m['file']} ({m['points']} points, dt = "
                 f"{m['time_step_s']:g} s, PGA {m['pga_g']:.3g} g, {m['location']}): surface response spectra "
-                "(5 % damping), maximum shear strain and PGA against depth, with grainmech's curves, with "
-                "pystrata's DarendeliSoilType and with its MenqSoilType (Cu and D50 of each layer's grains or "
+                "(5 % damping), maximum shear strain and PGA against depth, with three sets of curves: the "
+                "grains' (the modified hyperbola fitted to each layer's packing and DEM points, curves/), "
+                "pystrata's DarendeliSoilType and its MenqSoilType (Cu and D50 of each layer's grains or "
                 "[reference]). " + " ".join(response["warnings"]))
     if profile.motion is None:
         return ("No [motion] in the profile: the curve files in curves/ are what a site-response program reads "
@@ -51,7 +46,9 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
     write_layers_table(stage / "layers.csv", records)
     files = ["layers.csv"] + [f"curves/{f}" for f in curve_files]
     try:
-        write_profile_figure(stage / "profile.png", records, profile.water_table)
+        from grainmech.site.plotting import profile_figure  # matplotlib on use
+
+        write_figure(stage / "profile.png", profile_figure(records, profile.water_table))
         files.append("profile.png")
     except ImportError as exc:  # pragma: no cover (matplotlib is in every install with the CLI)
         say(f"grainmech site: profile.png not drawn: {exc}")
@@ -66,8 +63,10 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
                       "before the first amplitude; a measured vs in the layer gives one)")
         if reason is None and motion is not None and profile.bedrock is not None:
             say("grainmech site: pystrata equivalent-linear runs (grainmech's curves, Darendeli's, Menq's)")
+            from grainmech.site.plotting import response_figure  # matplotlib on use
+
             res = strata.site_response(records, profile.bedrock, profile.water_table, motion, profile.motion.location)
-            files += write_response(stage, res)
+            files += write_response(stage, res, response_figure(res))
             warnings += res["warnings"]
         elif reason is not None:
             say(f"grainmech site: {reason}")
@@ -85,6 +84,8 @@ def write_outputs(stage: Path, profile: SiteProfile, records: list[dict], *, reu
         "k0_rule": profile.k0_rule, "n_layers": len(records),
         "succeeded": len(records) - len(stopped) - len(failed), "stopped": len(stopped), "failed": len(failed),
         "stopped_layers": stopped, "failed_layers": failed, "reused": reused, "ran": ran,
+        "amplitudes_reused": sum(int(r.get("amplitudes_reused") or 0) for r in records),
+        "amplitudes_run": sum(int(r.get("amplitudes_run") or 0) for r in records),
         "seconds": seconds, "curve_files": curve_files, "warnings": warnings,
         "site_response": res if res is not None else {"run": False, "reason": response_note(profile, None, reason)},
         "layers": [{k: v for k, v in r.items() if k != "config"} for r in records],

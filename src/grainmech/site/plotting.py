@@ -33,9 +33,10 @@ def profile_figure(records: list[dict], water_table: float) -> Any:
 
     Top row: Vs of the model (and the measured Vs where given) [m/s]; the effective
     vertical and mean stress at mid-depth [kPa]; Gmax of the model [MPa]. Bottom row:
-    G/Gmax and damping of every layer (solid, markers: the model; dashed: Darendeli 2001;
-    dotted: Menq 2003; both at the layer's mean effective stress), coloured by the depth of
-    the layer's middle.
+    G/Gmax and damping of every layer (markers: the models' points, circles the packing
+    model's, squares the DEM model's, triangles the affine model's; solid: the modified
+    hyperbola fitted to them; dashed: Darendeli 2001; dotted: Menq 2003; both at the
+    layer's mean effective stress), coloured by the depth of the layer's middle.
     """
     import matplotlib.cm
     import matplotlib.colors
@@ -70,9 +71,17 @@ def profile_figure(records: list[dict], water_table: float) -> Any:
     cmap = matplotlib.colormaps["viridis_r"]
     for r in records:
         c = cmap(norm(r["mid_m"]))
-        if r.get("amplitudes"):
-            bottom[0].semilogx(r["amplitudes"], r["G_ratio"], "o-", color=c, label=f"{r['name']} ({r['mid_m']:g} m)")
-            bottom[1].semilogx(r["amplitudes"], np.asarray(r["damping"]) * 100, "o-", color=c)
+        amps = np.asarray(r.get("amplitudes") or [], dtype=float)
+        models = np.asarray(r.get("models") or ["?"] * len(amps))
+        for m, mk in (("packing", "o"), ("dem", "s"), ("affine", "^")):
+            k = models == m
+            if k.any():
+                bottom[0].semilogx(amps[k], np.asarray(r["G_ratio"])[k], mk, color=c, ms=5)
+                bottom[1].semilogx(amps[k], np.asarray(r["damping"])[k] * 100, mk, color=c, ms=5)
+        sc = r.get("site_curve") or {}
+        if sc.get("strain"):
+            bottom[0].semilogx(sc["strain"], sc["G_ratio"], "-", color=c, label=f"{r['name']} ({r['mid_m']:g} m)")
+            bottom[1].semilogx(sc["strain"], np.asarray(sc["damping"]) * 100, "-", color=c)
         d = r.get("darendeli")
         if d:
             bottom[0].semilogx(d["strain"], d["G_ratio"], "--", color=c, lw=1)
@@ -86,8 +95,10 @@ def profile_figure(records: list[dict], water_table: float) -> Any:
     for ax in bottom:
         ax.set_xlabel("shear strain amplitude [decimal]")
         ax.grid(alpha=0.3, which="both")
-    bottom[0].legend(fontsize=8, title="model (solid); Darendeli 2001 (dashed); Menq 2003 (dotted)",
-                     title_fontsize=8)
+    for ax in bottom:
+        ax.set_xlim(1e-7, 1e-1)
+    bottom[0].legend(fontsize=8, title="points: packing o, DEM s; fitted hyperbola (solid);\n"
+                     "Darendeli 2001 (dashed); Menq 2003 (dotted)", title_fontsize=8)
     fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=list(bottom), label="depth of layer middle [m]")
     fig.suptitle("Soil profile: stresses, Gmax and curves of every layer")
     return fig
@@ -97,7 +108,7 @@ def response_figure(response: dict) -> Any:
     """Site response of both runs on one page.
 
     Surface response spectra (5 % damping) [g], maximum shear strain [%] and PGA [g]
-    against depth, for grainmech's curves, Darendeli's and Menq's (``response`` from
+    against depth, for the grains' curves (the fitted hyperbolae), Darendeli's and Menq's (``response`` from
     :func:`grainmech.site.strata.site_response`).
     """
     fig, ax = plots.subplots(1, 3, figsize=(14.0, 5.0))
@@ -123,6 +134,6 @@ def response_figure(response: dict) -> Any:
         a.grid(alpha=0.3, which="both")
         a.legend(fontsize=8)
     fig.suptitle(f"Equivalent-linear site response (pystrata {response.get('pystrata_version', '')}): "
-                 "grainmech's curves vs Darendeli's and Menq's")
+                 "the grains' curves vs Darendeli's and Menq's")
     fig.tight_layout()
     return fig

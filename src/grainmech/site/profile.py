@@ -32,9 +32,11 @@ from grainmech.errors import ConfigError
 from grainmech.io.config import Section
 from grainmech.io.motion import MOTION_UNITS
 from grainmech.jobs import RUN_TEST_KINDS
+from grainmech.site.density import choose_packing, named_packing
 
 __all__ = ["SiteProfile", "Layer", "Bedrock", "MotionSpec", "read_profile", "jaky_k0", "layer_stresses",
-           "GRAVITY", "GAMMA_WATER", "GRAIN_MODULUS_RANGE"]
+           "GRAVITY", "GAMMA_WATER", "GRAIN_MODULUS_RANGE", "GRAIN_MODULUS_PLAUSIBLE", "SITE_METHODS",
+           "DEFAULT_AMPLITUDES"]
 
 #: standard gravity [m/s^2] (mass density = unit weight / g)
 GRAVITY = 9.80665
@@ -42,6 +44,12 @@ GRAVITY = 9.80665
 GAMMA_WATER = 9.81e3
 #: grain shear moduli [Pa] a ``vs`` anchoring may ask for (1-1000 GPa)
 GRAIN_MODULUS_RANGE = (1e9, 1e12)
+#: grain shear moduli [Pa] of real minerals (quartz 29-44 GPa, feldspars ~25-40, calcite ~32):
+#: an anchoring outside it is run, with a warning that the packing does not match the site's stiffness
+GRAIN_MODULUS_PLAUSIBLE = (10e9, 100e9)
+#: strain amplitudes of every layer when the profile gives no ``[test] amplitudes``:
+#: 1e-6 ... 1e-2, three per decade (1, 2, 5)
+DEFAULT_AMPLITUDES = [m * 10.0 ** k for k in range(-6, -2) for m in (1.0, 2.0, 5.0)] + [1e-2]
 #: tables of a run config that a layer may override (copied into the layer's run config)
 RUN_TABLES = ("model", "contacts", "fabric", "packing", "quadrature", "test", "reference")
 #: layer keys naming its grains, and where they go in the layer's run config
@@ -49,8 +57,11 @@ GRAIN_KEYS = {"packing": ("model", "packing"), "network": ("model", "network"),
               "particles": ("model", "particles"), "format": ("model", "format"),
               "void_ratio": ("packing", "void_ratio"), "coordination": ("packing", "coordination"),
               "radius": ("packing", "radius")}
-#: the kinematic models a profile can run (one per profile)
-SITE_METHODS = ("affine", "packing", "dem")
+#: the kinematic models a profile can run (``[model] method``): one model, or the packing
+#: model over its range and the DEM model beyond it (the default)
+SITE_METHODS = (("packing", "dem"), ("packing",), ("dem",), ("affine",))
+#: the models that run on a packing of grains
+_GRAIN_MODELS = ("packing", "dem")
 
 
 @dataclass(frozen=True)
@@ -77,6 +88,9 @@ class Layer:
         The ``grainmech run`` config of the layer (before ``[initial] pressure``).
     key_map : dict
         Run-config key -> profile key, to name the profile's key in an error.
+    packing_choice : dict or None
+        The packing chosen by the layer's ``relative_density`` or ``void_ratio``
+        (:func:`grainmech.site.density.choose_packing`), or the named one against them.
     """
 
     index: int
@@ -93,6 +107,7 @@ class Layer:
     p_eff: float
     run_config: dict = field(default_factory=dict)
     key_map: dict = field(default_factory=dict)
+    packing_choice: dict | None = None
 
     @property
     def mid(self) -> float:
@@ -177,7 +192,8 @@ class SiteProfile:
     k0_rule : str
         ``"given"`` or ``"jaky"``.
     method : str
-        The kinematic model of every layer (:data:`SITE_METHODS`).
+        The kinematic model(s) of every layer, ``"packing+dem"`` for the two
+        (:data:`SITE_METHODS`; :attr:`methods` as a tuple).
     layers : list of Layer
     bedrock : Bedrock or None
     motion : MotionSpec or None
@@ -195,6 +211,11 @@ class SiteProfile:
     bedrock: Bedrock | None
     motion: MotionSpec | None
     raw: dict
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        """The kinematic models of every layer, in the order they run."""
+        return tuple(self.method.split("+"))
 
     @property
     def depth(self) -> float:
@@ -239,12 +260,49 @@ def layer_stresses(top: float, thickness: float, gamma: float, sigma_above: floa
     return sigma_v, u, sv, sh, (sv + 2.0 * sh) / 3.0
 
 
-def _grains(item: Section, run: dict, key_map: dict, label: str) -> None:
-    """The layer's grain keys (:data:`GRAIN_KEYS`) and override tables into its run config."""
+def _density(item: Section, run: dict, key_map: dict, label: str, grain_models: bool) -> dict | None:
+    """The packing a layer's ``relative_density`` / ``void_ratio`` chooses (module :mod:`grainmech.site.density`).
+
+    ``relative_density`` always chooses a shipped sand packing (or is compared with the
+    one the layer names); ``void_ratio`` does so where the layer runs on grains (the
+    packing or DEM model), and is the analytical ``[packing] void_ratio`` of the affine
+    model otherwise.
+    """
+    if item.has("relative_density") and item.has("void_ratio"):
+        raise ConfigError(item.key("void_ratio"), item.raw("void_ratio"),
+                          f"{label}: give relative_density or void_ratio, not both")
+    key = "relative_density" if item.has("relative_density") else "void_ratio" if item.has("void_ratio") else None
+    if key is None or (key == "void_ratio" and not grain_models):
+        return None
+    value = item.number(key, None)
+    where = item.key(key)
+    own = item.raw("packing") if item.has("packing") else None
+    if own is not None:
+        return named_packing(str(own), key, value, where, label)
+    if any(item.has(k) for k in ("network", "particles")):
+        raise ConfigError(where, value, f"{label}: a layer's density chooses a shipped sand packing; this layer "
+                          "gives its own network file")
+    choice = choose_packing(key, value, where, label)
+    for k in ("packing", "network", "particles", "format"):  # the chosen packing replaces the profile's grains
+        run.get("model", {}).pop(k, None)
+    run.setdefault("model", {})["packing"] = choice["packing"]
+    run.get("packing", {}).pop("void_ratio", None)
+    key_map["model.packing"] = where
+    return choice
+
+
+def _grains(item: Section, run: dict, key_map: dict, label: str, grain_models: bool) -> dict | None:
+    """The layer's grain keys (:data:`GRAIN_KEYS`) and override tables into its run config.
+
+    Returns the packing chosen by the layer's density (:func:`_density`), if any.
+    """
     if any(item.has(k) for k in ("packing", "network", "particles", "format")):
         for k in ("packing", "network", "particles", "format"):  # the layer's grains replace the profile's
             run.get("model", {}).pop(k, None)
+    density = _density(item, run, key_map, label, grain_models)
     for k, (table, key) in GRAIN_KEYS.items():
+        if k == "void_ratio" and grain_models:
+            continue
         if item.has(k):
             run.setdefault(table, {})[key] = item.raw(k)
             key_map[f"{table}.{key}"] = item.key(k)
@@ -256,10 +314,11 @@ def _grains(item: Section, run: dict, key_map: dict, label: str) -> None:
             run[t] = copy.deepcopy(tab)
             for k in tab:
                 key_map[f"{t}.{k}"] = f"{item.key(t)}.{k}"
+    return density
 
 
 def _read_layers(root: Section, run_base: dict, water_table: float, gamma_w: float,
-                 k0_given: float | None) -> list[Layer]:
+                 k0_given: float | None, grain_models: bool) -> list[Layer]:
     raw = root.raw("layers")
     if not isinstance(raw, list) or not raw or not all(isinstance(x, dict) for x in raw):
         raise ConfigError("layers", raw, "must be a non-empty array of tables [[layers]]")
@@ -301,12 +360,12 @@ def _read_layers(root: Section, run_base: dict, water_table: float, gamma_w: flo
         # profile does not have: a stress out of range is the layer's depth and thickness
         key_map: dict[str, str] = {"initial.pressure": f"{item.key('thickness')} (the mean effective stress at "
                                                        "mid-depth)"}
-        _grains(item, run, key_map, label)
+        density = _grains(item, run, key_map, label, grain_models)
         item.finish()
         sv, u, sve, she, p = layer_stresses(top, h, gamma, sigma, water_table, gamma_w, k0)
         layers.append(Layer(index=i, name=name, thickness=h, top=top, unit_weight=gamma, vs=vs, k0=k0,
                             sigma_v=sv, u=u, sigma_v_eff=sve, sigma_h_eff=she, p_eff=p,
-                            run_config=run, key_map=key_map))
+                            run_config=run, key_map=key_map, packing_choice=density))
         top += h
         sigma += gamma * h
     return layers
@@ -376,15 +435,20 @@ def read_profile(cfg: dict, base_dir: str | Path | None = None, source: str = "p
                 raise ConfigError(t, tab, "must be a table")
             run_base[t] = copy.deepcopy(tab)
     model = run_base.setdefault("model", {})
-    method = model.get("method", "affine")
-    if method not in SITE_METHODS:
-        raise ConfigError("model.method", method, f"a profile runs one model: one of {list(SITE_METHODS)}")
+    raw_method = model.get("method", list(SITE_METHODS[0]))
+    methods = tuple(raw_method) if isinstance(raw_method, list) else (raw_method,)
+    if methods not in SITE_METHODS:
+        raise ConfigError("model.method", raw_method, "a profile runs the packing model and the DEM model beyond "
+                          "its range (['packing', 'dem'], the default) or one model: 'packing', 'dem' or 'affine'")
+    model["method"] = list(methods) if len(methods) > 1 else methods[0]
+    method = "+".join(methods)
     test = run_base.setdefault("test", {})
+    test.setdefault("amplitudes", list(DEFAULT_AMPLITUDES))
     cyclic = RUN_TEST_KINDS[0]  # cyclic simple shear, the test of every layer
     if test.get("kind", cyclic) != cyclic:
         raise ConfigError("test.kind", test.get("kind"), f"a profile runs {cyclic!r}")
     test["kind"] = cyclic
-    layers = _read_layers(root, run_base, wt, gamma_w, k0_given)
+    layers = _read_layers(root, run_base, wt, gamma_w, k0_given, any(m in _GRAIN_MODELS for m in methods))
     bottom = layers[-1].bottom
     if wt > bottom and math.isfinite(wt):
         raise ConfigError("site.water_table", site.raw("water_table"),

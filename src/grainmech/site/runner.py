@@ -4,13 +4,17 @@ Order of work (``docs/site-profile.md``):
 
 1. every layer's run config is checked (:func:`grainmech.site.layer.prepare_layer`) --
    a bad layer stops everything with one line naming it, before anything is written;
-2. the layers with a measured ``vs`` that have no record yet are anchored
+2. the layers with a measured ``vs`` whose anchoring is not saved are anchored
    (:func:`grainmech.site.layer.anchor_task`, in parallel); a ``vs`` that needs a grain
-   modulus outside 1-1000 GPa is a bad input (nothing written);
-3. the layers without a record run (:func:`grainmech.site.layer.run_task`, in
-   parallel on the workers of :func:`grainmech.parallel.open_client`, as
-   ``grainmech sweep`` does); each record is written to ``OUTDIR/layers/`` as soon as it
-   arrives, so a killed run restarted on the same folder reruns only the unfinished ones;
+   modulus outside 1-1000 GPa is a bad input (nothing written); each anchoring is saved
+   in ``OUTDIR/layers/<NN-name>/``;
+3. every layer runs the amplitudes it has not saved (:func:`grainmech.site.layer.run_task`,
+   in parallel on the workers of :func:`grainmech.parallel.open_client`, as ``grainmech
+   sweep`` does, or one after the other here); each amplitude is saved in
+   ``OUTDIR/layers/<NN-name>/`` the moment it finishes, so a killed run restarted on the
+   same folder skips every finished amplitude (:mod:`grainmech.site.amplitudes`; a layer
+   with every amplitude saved only rebuilds its curve); the layer's record is written to
+   ``OUTDIR/layers/<NN-name>.json`` when it is done;
 4. curve files, ``layers.csv``, ``profile.png``, the site response (with ``[motion]``
    and pystrata), ``summary.json`` and ``index.html``.
 """
@@ -27,7 +31,7 @@ from grainmech.errors import ConfigError
 from grainmech.io.motion import read_motion
 from grainmech.io.outdir import output_folder
 from grainmech.io.results import ensure_dir
-from grainmech.io.site_profile import read_layer_record, write_layer_record
+from grainmech.io.site_profile import read_anchor, write_anchor, write_layer_record
 from grainmech.jobs.progress import Heartbeat
 from grainmech.parallel import map_completed, open_client
 from grainmech.site.layer import anchor_task, check_anchor, failed_record, layer_key, prepare_layer, run_task
@@ -129,7 +133,7 @@ def _parallel(fn: Callable[[Any], Any], items: list, client: Any, scheduler: str
 
 
 def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, scheduler: str | None = None,
-             workers: int | None = None, quiet: bool = True, response: bool = True) -> dict:
+             workers: int | None = None, quiet: bool = True, response: bool = True, resume: bool = True) -> dict:
     """Run every layer of ``profile`` not yet recorded in ``outdir``; write every output.
 
     Parameters
@@ -137,8 +141,7 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
     profile : SiteProfile
         From :func:`grainmech.site.read_profile` / :func:`grainmech.site.load_profile`.
     outdir : path
-        Output folder; records of finished layers in ``outdir/layers`` are reused when
-        their inputs are unchanged.
+        Output folder; every finished amplitude is saved in ``outdir/layers/<NN-name>/``.
     client, scheduler, workers
         As :func:`grainmech.sweep.run_sweep`: a Dask client, or a scheduler address, or a
         number of local workers; default (none of them, or ``workers = 1``): the layers
@@ -148,6 +151,9 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
     response : bool
         Run the site-response calculation when ``[motion]`` is given and pystrata is
         installed.
+    resume : bool
+        Skip every amplitude (and anchoring) saved in ``outdir`` by an earlier run with the
+        same inputs (``grainmech site --resume``); False: run everything again.
 
     Returns
     -------
@@ -170,27 +176,26 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
 
         motion = read_motion(profile.motion.path, profile.motion.format, profile.motion.units)
     with output_folder(outdir, "site") as folder:
-        summary = _run_in(folder, profile, base, say, (client, scheduler, workers), response, motion, t0)
+        summary = _run_in(folder, profile, base, say, (client, scheduler, workers), response, motion, t0, resume)
         folder.commit(success=summary["stopped"] == 0 and summary["failed"] == 0)
     return summary
 
 
 def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], None], cluster: tuple,
-            response: bool, motion: Any, t0: float) -> dict:
+            response: bool, motion: Any, t0: float, resume: bool = True) -> dict:
     ldir = folder.path / "layers"
     records: dict[int, dict] = {}
-    for layer in profile.layers:
-        rec = read_layer_record(ldir / f"{layer.slug}.json", layer_key(layer))
-        if rec is not None:
-            records[layer.index] = rec
-    todo = [la for la in profile.layers if la.index not in records]
-    reused = len(records)
-    ran = len(todo)
-    say(f"grainmech site: {profile.source}: {len(profile.layers)} layers ({profile.method} model), "
-        f"{reused} reused, {len(todo)} to run")
     anchors: dict[int, dict] = {}
+    for layer in profile.layers:
+        if layer.vs is not None and resume:
+            a = read_anchor(ldir / layer.slug, layer_key(layer))
+            if a is not None:
+                anchors[layer.index] = a
+    say(f"grainmech site: {profile.source}: {len(profile.layers)} layers ({profile.method.replace('+', ' + ')} "
+        "model); " + ("finished amplitudes saved in the output folder are skipped" if resume else
+                      "every amplitude runs (--resume skips those saved in the output folder)"))
     errors: dict[int, BaseException] = {}
-    need = [la for la in todo if la.vs is not None]
+    need = [la for la in profile.layers if la.vs is not None and la.index not in anchors]
     if need:  # 2. anchoring: a bad vs is an input error, raised before anything is written
         say(f"anchoring {len(need)} layer(s) to their measured Vs")
         for i, value, ok in _parallel(anchor_task, [(la, base) for la in need], *cluster):
@@ -204,8 +209,10 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
                 raise err
             if err is None:
                 check_anchor(la, anchors[la.index])
-    if todo:
-        ensure_dir(ldir)
+    ensure_dir(ldir)
+    for la in need:
+        if la.index in anchors:
+            write_anchor(ldir / la.slug, layer_key(la), anchors[la.index])
     for la in need:  # a model that cannot give its Gmax at the layer's stress: the layer stops there
         if la.index in errors:
             rec = failed_record(la, errors[la.index])
@@ -213,9 +220,9 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
             write_layer_record(ldir / f"{la.slug}.json", rec)
             records[la.index] = rec
             say(f"{la.label}: stopped: {rec['message']}")
-    todo = [la for la in todo if la.index not in records]
-    if todo:  # 3. the layers, each saved as it finishes
-        tasks = [(la, base, anchors.get(la.index)) for la in todo]
+    todo = [la for la in profile.layers if la.index not in records]
+    if todo:  # 3. the layers, every amplitude saved as it finishes
+        tasks = [(la, base, anchors.get(la.index), str(ldir / la.slug), resume) for la in todo]
         watch = LayerWatch(len(profile.layers), len(todo), _in_process(cluster[0], cluster[1], cluster[2]))
 
         def local(task: tuple) -> dict:
@@ -233,8 +240,10 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
                 watch.done(rec.get("seconds"))
                 say(f"[{len(records)}/{len(profile.layers)}] {la.label}: {rec['status']}"
                     + ("" if rec["status"] == "ok" else f": {rec['message']}")
-                    + (f" ({rec['seconds']:.1f} s)" if rec.get("seconds") is not None else ""))
+                    + (f" ({rec.get('amplitudes_run', 0)} amplitude(s) run, {rec.get('amplitudes_reused', 0)} "
+                       "reused" if "amplitudes_run" in rec else " (")
+                    + (f", {rec['seconds']:.1f} s)" if rec.get("seconds") is not None else ")"))
     ordered = [records[la.index] for la in profile.layers]
-
-    return write_outputs(folder.staging, profile, ordered, reused=reused, ran=ran, response=response,
-                         say=say, seconds=time.perf_counter() - t0, motion=motion)
+    reused = sum(1 for r in ordered if r.get("amplitudes_reused") and not r.get("amplitudes_run"))
+    return write_outputs(folder.staging, profile, ordered, reused=reused, ran=len(ordered) - reused,
+                         response=response, say=say, seconds=time.perf_counter() - t0, motion=motion)

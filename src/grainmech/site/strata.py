@@ -4,9 +4,10 @@ Three runs of pystrata's ``EquivalentLinearCalculator`` on the same profile (thi
 unit weights, shear-wave velocities, half-space) and the same input motion, differing
 only in the layers' nonlinear curves:
 
-* ``"grainmech"``: every layer's G/Gmax and damping from its grainmech run
-  (``pystrata.site.SoilType`` with two ``NonlinearProperty`` curves; pystrata
-  interpolates them linearly in log strain and holds the end values beyond them);
+* ``"grainmech"``: every layer's G/Gmax and damping from its grains: the modified
+  hyperbola fitted to the packing and DEM models' points (:mod:`grainmech.site.curve`),
+  on 1e-7 ... 1e-1 (``pystrata.site.SoilType`` with two ``NonlinearProperty`` curves;
+  pystrata interpolates them linearly in log strain);
 * ``"darendeli"``: pystrata's own ``DarendeliSoilType`` (Darendeli 2001) at the layer's
   mean effective stress (kPa), plasticity index, OCR, frequency and number of cycles;
 * ``"menq"``: pystrata's own ``MenqSoilType`` (Menq 2003, clean sands and gravels) at
@@ -120,26 +121,26 @@ def run_column(profile: Any, motion: Any, location: str = "outcrop") -> dict:
 
 
 def _strain_warnings(records: list[dict], run: dict) -> list[str]:
-    """Layers whose strains in the run left the range of their grainmech curves."""
+    """Layers whose strains in the run left the strains their fitted curve was fitted on."""
     z = np.asarray(run["strain_depth_m"])
     s = np.asarray(run["max_strain"])
     out = []
     for r in records:
         inside = (z >= r["top_m"]) & (z <= r["bottom_m"])
-        last = max(r["site_curve"]["strain"], default=None)
-        if not inside.any() or last is None:
+        rng = r["site_curve"].get("model_range") or []
+        if not inside.any() or not rng:
             continue
         peak = float(s[inside].max())
-        if peak > last:
-            out.append(f"site response with grainmech's curves, layer {r['name']!r}: strains up to {peak:.3g}, beyond "
-                       f"the last amplitude of its curves ({last:.3g}); pystrata holds G/Gmax and "
-                       "damping at their last values there, so the response of this layer is not the model's")
+        if peak > rng[1]:
+            out.append(f"site response with the grains' curves, layer {r['name']!r}: strains up to {peak:.3g}, beyond "
+                       f"the largest amplitude its hyperbola was fitted on ({rng[1]:.3g}); there the curve is the "
+                       "fitted hyperbola's extrapolation")
     return out
 
 
 def site_response(records: list[dict], bedrock: Any, water_table: float, motion: Any,
                   location: str = "outcrop") -> dict:
-    """Both pystrata runs (module docstring) of the layer records under ``motion``.
+    """The three pystrata runs (module docstring) of the layer records under ``motion``.
 
     Returns a JSON-ready dict: ``pystrata_version``, ``motion`` (file, time step, points,
     PGA), ``vs_m_s`` (per layer), ``runs`` (``"grainmech"`` when every layer has curves,
@@ -153,12 +154,12 @@ def site_response(records: list[dict], bedrock: Any, water_table: float, motion:
                            "vs_m_s": [site_vs(r) for r in records], "runs": {}, "warnings": []}
     missing = [r["name"] for r in records if not r["site_curve"]["strain"]]
     if missing:
-        res["warnings"].append(f"no site response with grainmech's curves: layer(s) {missing} have no curve "
-                               "(their model stopped before the first amplitude, or every amplitude left the "
-                               "envelope of sands)")
+        res["warnings"].append(f"no site response with the grains' curves: layer(s) {missing} have no fitted "
+                               "curve (fewer than two usable points: their models stopped, or the amplitudes "
+                               "left the envelope of sands)")
     else:
         run = run_column(build_profile(records, bedrock, water_table, "grainmech"), motion, location)
-        run["label"] = "grainmech curves"
+        run["label"] = "the grains' curves (fitted hyperbolae)"
         res["runs"]["grainmech"] = run
         res["warnings"] += _strain_warnings(records, run)
     run = run_column(build_profile(records, bedrock, water_table, "darendeli"), motion, location)
