@@ -31,13 +31,14 @@ import grainmech
 from grainmech.assembly import ContactSet
 from grainmech.contact import MindlinDeresiewicz, kernel
 from grainmech.contact.kernel import KernelIncrement, KernelScratch, KernelState
-from grainmech.driver import MaterialPoint, _mixed, cyclic_simple_shear, run
+from grainmech.driver import MaterialPoint, cyclic_simple_shear, run
+from grainmech.driver.affine import _mixed, _mixed_pass, _mixed_rows
 from grainmech.fabric import sphere_rule
 
 
 @njit
 def _passes(k, f, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp):
-    _mixed._start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
+    _mixed_rows.start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for _ in range(k):
         f(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
 
@@ -56,7 +57,7 @@ def _commits(k, f, law_fn, kc, normals, branch, weights, de, sc, st, out, scratc
         for i in range(nfall.shape[0]):  # the falls recorded by the pass (the commit consumes them)
             scratch.fall[i, 0] = nfall[i]
         f(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, True)
-        _mixed._commit_sums(part, cflat)
+        _mixed_pass.commit_sums(part, cflat)
 
 
 def main() -> None:
@@ -89,7 +90,7 @@ def main() -> None:
     scratch = KernelScratch(np.empty((n, 3)), np.empty((n, 3)), np.zeros(n, dtype=np.int8),
                             np.zeros((n, kernel.FALL_COLUMNS)))
     inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))
-    part = np.zeros((_mixed.chunk_count(n), _mixed._NP))
+    part = np.zeros((_mixed.chunk_count(n), _mixed_rows.PARTIAL_SUMS))
     sc = np.array([False, False, True, False, False, False])
     nrm, br, wt = c(cs.normals), c(cs.branch), c(cs.weights)
     law_fn = kernel.law_function(kc, st, inc, out, scratch, defer=True)

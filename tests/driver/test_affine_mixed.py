@@ -169,23 +169,23 @@ def test_small_dense_solve_and_condition_match_lapack(n: int) -> None:
     are what the NumPy reference step loop (``solver._solve``) uses; matrices with
     condition numbers from 1 to ~1e10, and exactly singular ones.
     """
-    from grainmech.driver.affine._mixed import _cond2, _solve_small
+    from grainmech.driver.affine._mixed import cond2, solve_small
 
     rng = np.random.default_rng(n)
     for _ in range(40):
         A = rng.normal(size=(n, n)) @ np.diag(10.0 ** rng.uniform(-5, 0, n)) @ rng.normal(size=(n, n))
         b = rng.normal(size=n)
         c = np.linalg.cond(A)
-        assert _cond2(A) == pytest.approx(c, rel=1e-8)
-        x, ok = _solve_small(A.copy(), b.copy())
+        assert cond2(A) == pytest.approx(c, rel=1e-8)
+        x, ok = solve_small(A.copy(), b.copy())
         assert ok
         np.testing.assert_allclose(x, np.linalg.solve(A, b), rtol=1e-13 * c, atol=1e-13 * c * np.abs(x).max())
     S = np.ones((n, n))  # rank one (zero matrix for n = 1 below)
     if n == 1:
         S[0, 0] = 0.0
-    assert not np.isfinite(_cond2(S)) or _cond2(S) > 1e13
+    assert not np.isfinite(cond2(S)) or cond2(S) > 1e13
     assert n == 1 or np.linalg.cond(S) > 1e13
-    _, ok = _solve_small(np.zeros((n, n)), np.ones(n))
+    _, ok = solve_small(np.zeros((n, n)), np.ones(n))
     assert not ok
 
 

@@ -25,6 +25,8 @@ from grainmech.driver.packing import (  # noqa: E402
     run_packing,
 )
 from grainmech.driver.packing import _kernels as K  # noqa: E402
+from grainmech.driver.packing import _iterations as IT  # noqa: E402
+from grainmech.driver.packing import _trial as TR  # noqa: E402
 from grainmech.driver.packing import step as PS  # noqa: E402
 from grainmech.driver.packing._operators import voigt_of  # noqa: E402
 
@@ -86,7 +88,7 @@ def test_kinematics_and_balance_equal_the_numpy_reference(point):
     forces N n + T, G^T f and V sigma: the same bits as Kinematics.delta/normal_part/balance
     and voigt_of."""
     kin = point.kinematics
-    glue = PS._compiled_glue(point)
+    glue = TR.compiled_glue(point)
     assert glue is not None
     rng = np.random.default_rng(5)
     dq = rng.standard_normal(kin.n_free) * 1e-6
@@ -117,10 +119,10 @@ def test_kinematics_and_balance_equal_the_numpy_reference(point):
 
 
 def test_trust_limit_equals_the_numpy_reference(point):
-    """clip_moves / affine_move / closing_cap give _clip / _trust / _closing_cap's bits,
+    """clip_moves / affine_move / closing_cap give clip_grain_moves / trust_ratio / stop_closing's bits,
     also when the update closes open contacts beyond the cap (both grains scaled)."""
     kin = point.kinematics
-    glue = PS._compiled_glue(point)
+    glue = TR.compiled_glue(point)
     rng = np.random.default_rng(7)
     R = point.radii
     S = np.array([False, False, True, False, False, False])
@@ -132,9 +134,9 @@ def test_trust_limit_equals_the_numpy_reference(point):
         dxq = rng.standard_normal(kin.n_free) * scale
         dxe = rng.standard_normal(1) * scale
         for app in (approach, opened):
-            ref_q = PS._clip(kin, dxq, R, 0.01)
-            ref_e = dxe / PS._trust(kin, None, dxe, S, 0.01)
-            ref_q = PS._closing_cap(kin, ref_q, ref_e, S, app, cap)
+            ref_q = IT.clip_grain_moves(kin, dxq, R, 0.01)
+            ref_e = dxe / IT.trust_ratio(kin, None, dxe, S, 0.01)
+            ref_q = IT.stop_closing(kin, ref_q, ref_e, S, app, cap)
             got_q, got_e = glue.limit(dxq, dxe, S, R, 0.01, app, cap)
             np.testing.assert_array_equal(got_q, ref_q)
             np.testing.assert_array_equal(got_e, ref_e)
@@ -153,7 +155,7 @@ def test_a_run_takes_the_same_path_with_either_glue(point, monkeypatch):
     path = cyclic_simple_shear(1e-4, 1, 8, constant="stress")
     opts = PackingOptions(law_backend="auto", tangent="none")
     fast = run_packing(point, path, opts)
-    monkeypatch.setattr(PS, "_compiled_glue", lambda pt: None)
+    monkeypatch.setattr(PS, "compiled_glue", lambda pt: None)
     ref = run_packing(point, path, opts)
     assert fast.success and ref.success
     np.testing.assert_array_equal(fast.iterations, ref.iterations)
@@ -164,4 +166,4 @@ def test_a_run_takes_the_same_path_with_either_glue(point, monkeypatch):
 def test_numpy_law_backend_keeps_the_numpy_glue(point):
     from dataclasses import replace
 
-    assert PS._compiled_glue(replace(point, law_backend="numpy")) is None
+    assert TR.compiled_glue(replace(point, law_backend="numpy")) is None

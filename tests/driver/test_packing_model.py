@@ -388,14 +388,14 @@ def test_input_imbalance_held_or_relaxed(packing):
 
 def test_held_load_drops_what_no_contact_resists(packing):
     """The held input imbalance of a grain is kept only where its closed contacts resist
-    (``driver/packing/step._held_load``): the part dropped lies in the grain's mechanisms
+    (``driver/packing/_iterations.held_load``): the part dropped lies in the grain's mechanisms
     (null space of its columns of ``G`` over its closed contacts, by SVD of the assembled
     kinematic matrix: an independent computation), and the part kept does no work on them.
     Grains held by 0, 1, 2 and 3+ closed contacts are made by opening contacts."""
     from dataclasses import replace
     from types import SimpleNamespace
 
-    from grainmech.driver.packing.step import _held_load
+    from grainmech.driver.packing._iterations import held_load
 
     pt = PackingPoint.from_network(packing, MD)
     kin = pt.kinematics
@@ -406,7 +406,7 @@ def test_held_load_drops_what_no_contact_resists(packing):
     for g, keep in ((5, 2), (9, 1), (20, 0)):
         cs = np.flatnonzero((kin.a == g) | (kin.b == g))
         opened[cs[keep:]] = True
-    kept = kin.full(_held_load(pt, SimpleNamespace(open=opened)))
+    kept = kin.full(held_load(pt, SimpleNamespace(open=opened)))
     load = kin.full(pt.load)
     G = kin.G.toarray()
     seen = set()
@@ -431,9 +431,9 @@ def test_held_load_drops_what_no_contact_resists(packing):
 
 def test_trust_clip_is_per_grain():
     """Each grain's update is scaled by itself to the trust limit; grains inside it keep
-    their Newton update (``driver/packing/_iterations._clip``)."""
+    their Newton update (``driver/packing/_iterations.clip_grain_moves``)."""
     from grainmech.driver.packing._operators import Kinematics
-    from grainmech.driver.packing.step import _clip
+    from grainmech.driver.packing._iterations import clip_grain_moves
 
     # three grains in a row, two contacts along x
     a, b = np.array([0, 1]), np.array([1, 2])
@@ -444,7 +444,7 @@ def test_trust_clip_is_per_grain():
     dq[1, :3] = [0.3, 0.0, 0.0]         # inside the limit 1.0
     dq[2, :3] = [3.0, 4.0, 0.0]         # translation 5 -> scaled by 1/5
     dq[2, 3:] = [0.0, 0.0, 2.0]         # rotation scaled with it
-    out = kin.full(_clip(kin, dq.reshape(-1)[kin.free], R, 1.0))
+    out = kin.full(clip_grain_moves(kin, dq.reshape(-1)[kin.free], R, 1.0))
     np.testing.assert_allclose(out[1], dq[1])
     np.testing.assert_allclose(out[2], dq[2] / 5.0)
     assert np.linalg.norm(out[2, :3]) == pytest.approx(1.0)
@@ -485,11 +485,11 @@ def test_elastic_tangent_from_the_factorisation_equals_gmres(packing):
     """``elastic_tangent`` from the factorised elastic operator (``(A0 - B0^T H0^-1 B0)/V``,
     no further solve) equals the GMRES condensation of the same operator to 1e-7, and the
     packing's relaxed C55 from ``relaxed_stiffness`` (independent assembly) to 1e-6."""
-    from grainmech.driver.packing.tangent import _relaxed_tangent
+    from grainmech.driver.packing.tangent import relaxed_tangent
 
     pt = PackingPoint.from_network(packing, MD)
     C = pt.elastic_tangent
-    Cg = _relaxed_tangent(pt, pt.preconditioner(), 60, elastic=True, direct=False)
+    Cg = relaxed_tangent(pt, pt.preconditioner(), 60, elastic=True, direct=False)
     assert np.abs(C - Cg).max() <= 1e-7 * np.abs(Cg).max()
     kn, ks, _ = contact_stiffnesses(packing, shear_modulus=G_GRAIN, poisson=NU, source="overlap")
     assert C[4, 4] == pytest.approx(relaxed_stiffness(packing, kn, ks).C_relaxed[4, 4], rel=1e-6)
@@ -512,23 +512,23 @@ def test_named_factorisation_not_installed_says_how_to_install(monkeypatch):
 
 
 def test_updates_leave_the_mechanisms_of_grains_alone(packing):
-    """The rule for grains that lose contacts (``driver/packing/_iterations._hold_mechanisms``): an
+    """The rule for grains that lose contacts (``driver/packing/_iterations.hold_mechanisms``): an
     update keeps no part along a grain's mechanisms (null space of its columns of ``G`` over
     its closed contacts, by SVD of the assembled kinematic matrix: an independent
     computation) and the rest of it whole; a grain with no closed contact does not move at
     all; once its contacts close again the update is untouched. Grains held by 0, 1, 2
     closed contacts are made by opening contacts of the 103-grain packing."""
-    from grainmech.driver.packing._iterations import _hold_mechanisms
+    from grainmech.driver.packing._iterations import hold_mechanisms
 
     pt = PackingPoint.from_network(packing, MD)
     kin = pt.kinematics
     x = np.random.default_rng(3).standard_normal(kin.n_free)
     closed = np.ones(kin.n_contacts, bool)
-    np.testing.assert_array_equal(_hold_mechanisms(kin, x, pt.radii, closed), x)  # 12 contacts each
+    np.testing.assert_array_equal(hold_mechanisms(kin, x, pt.radii, closed), x)  # 12 contacts each
     for g, keep in ((5, 2), (9, 1), (20, 0)):
         cs = np.flatnonzero((kin.a == g) | (kin.b == g))
         closed[cs[keep:]] = False
-    out, full = kin.full(_hold_mechanisms(kin, x, pt.radii, closed)), kin.full(x)
+    out, full = kin.full(hold_mechanisms(kin, x, pt.radii, closed)), kin.full(x)
     np.testing.assert_array_equal(out[20], 0.0)
     G = kin.G.toarray()
     dims = set()
@@ -583,14 +583,14 @@ def test_rest_acceptance_is_bounded_by_the_step_stress_change(point):
     moments of alternating sign on every grain (mean ratio 5e-5, at rest) against a step
     whose stress change makes that uncertainty 0.5 % (accepted) or 5 % (refused, but
     accepted with rest_step = inf) of it."""
-    from grainmech.driver.packing.options import _Context
+    from grainmech.driver.packing.options import RunContext
     from grainmech.driver.packing.step import _StepSolve
 
     kin, R = point.kinematics, point.radii
     S, de, target = np.zeros(6, bool), np.zeros(6), np.zeros(6)
     opts = PackingOptions(rtol_accept=1e-8)  # the stress-scale test out of the way
     prec = point.preconditioner()
-    probe = _StepSolve(point, S, de, target, _Context(prec=prec, opts=opts), [0.0] * 5, 1.0, False)
+    probe = _StepSolve(point, S, de, target, RunContext(prec=prec, opts=opts), [0.0] * 5, 1.0, False)
     g = np.zeros((point.n_grains, 6))
     g[:, 3] = 5e-5 * probe.fref * R * np.where(np.arange(point.n_grains) % 2 == 0, 1.0, -1.0)
     rq = g.reshape(-1)[kin.free]
@@ -598,23 +598,23 @@ def test_rest_acceptance_is_bounded_by_the_step_stress_change(point):
     for share, inf_too, expected in ((0.005, False, True), (0.05, False, False), (0.05, True, True)):
         o = PackingOptions(rtol_accept=1e-8, rest_step=float("inf")) if inf_too else opts
         dsig = amb / point.volume / share  # the step's stress change [Pa]
-        s = _StepSolve(point, S, de, target, _Context(prec=prec, opts=o), [0.0] * 5, dsig, False)
+        s = _StepSolve(point, S, de, target, RunContext(prec=prec, opts=o), [0.0] * 5, dsig, False)
         assert amb > s.amb_ok  # not accepted by the stress-uncertainty tests alone
         assert s.accept(rq, np.zeros(0)) is expected, (share, inf_too)
     # not at rest (mean ratio 2e-4 > accept_unbalanced = 1e-4): refused whatever rest_step
-    s = _StepSolve(point, S, de, target, _Context(prec=prec, opts=PackingOptions(rtol_accept=1e-8,
+    s = _StepSolve(point, S, de, target, RunContext(prec=prec, opts=PackingOptions(rtol_accept=1e-8,
                    rest_step=float("inf"))), [0.0] * 5, amb / point.volume / 0.005, False)
     assert not s.accept(4.0 * rq, np.zeros(0))
 
 
 def test_the_pinned_translation_is_the_best_held_grains() -> None:
     """The global translation is removed by pinning one grain's translation; its
-    out-of-balance force is minus the sum of all the others' (``_grain_residuals``), so it
+    out-of-balance force is minus the sum of all the others' (``grain_residuals``), so it
     must be a grain that its contacts hold well. The first row of the shipped 'loose'
     packing is held by two weak contacts; the pinned grain is the one with the most
     force-carrying contacts instead, and that grain's residual equals minus the sum of the
     free grains' (contact forces are internal: they sum to zero)."""
-    from grainmech.driver.packing._iterations import _grain_residuals
+    from grainmech.driver.packing._iterations import grain_residuals
     from grainmech.packing import QUARTZ, load_packing
 
     net = load_packing("loose")
@@ -632,7 +632,7 @@ def test_the_pinned_translation_is_the_best_held_grains() -> None:
     f = pt.forces * 1.0
     c0 = int(np.flatnonzero(kin.a == 0)[0])
     f[c0] += 1e-3 * np.abs(f).max()  # unbalance the pinned grain and a neighbour
-    g = _grain_residuals(kin, kin.balance(f))
+    g = grain_residuals(kin, kin.balance(f))
     mine = np.zeros(3)
     for c in np.flatnonzero((kin.a == 0) | (kin.b == 0)):
         mine += f[c] if kin.a[c] == 0 else -f[c]

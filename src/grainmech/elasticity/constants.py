@@ -14,16 +14,16 @@ from types import MappingProxyType
 import numpy as np
 
 from grainmech.conventions import ORDER_2D, ORDER_3D, voigt_to_mandel
-from grainmech.elasticity.conversions import (
-    _as_voigt,
-    _check_finite_symmetric,
-    _dim,
-    _frame_from_axis,
-    _unit,
-    check_stiffness,
-    compliance,
-    rotate_stiffness,
+from grainmech.elasticity._mandel import (
+    as_voigt,
+    check_finite_symmetric,
+    dimension,
+    frame_from_axis,
+    isotropic_moduli,
+    isotropic_projection,
+    unit_vectors,
 )
+from grainmech.elasticity.conversions import check_stiffness, compliance, rotate_stiffness
 from grainmech.errors import GrainmechError
 
 
@@ -159,7 +159,7 @@ def engineering_constants(C: np.ndarray, coupling_tol: float = 1e-10
     ``nu_xy`` for its transversely isotropic packing (axis z); these equalities hold in
     this convention (and in the transposed one).
     """
-    M, _ = _as_voigt(C)
+    M, _ = as_voigt(C)
     S = compliance(M)
     cpl = MappingProxyType(_couplings(S, ORDER_3D if M.shape[0] == 6 else ORDER_2D,
                                       coupling_tol))
@@ -208,7 +208,7 @@ def bulk_modulus(C: np.ndarray, method: str = "hill") -> float:
     Hill = arithmetic mean of the two.  For an isotropic ``C`` all three coincide.
     """
     m = _method(method)
-    M, _ = _as_voigt(C)
+    M, _ = as_voigt(C)
     if M.shape[0] == 6:
         kv = (np.trace(M[:3, :3]) + 2 * (M[0, 1] + M[0, 2] + M[1, 2])) / 9.0
     else:
@@ -244,7 +244,7 @@ def shear_modulus(C: np.ndarray, method: str = "hill") -> float:
     isotropic invariants ``C_iijj`` and ``C_ijij``).
     """
     m = _method(method)
-    M, _ = _as_voigt(C)
+    M, _ = as_voigt(C)
     if M.shape[0] == 6:
         gv = (np.trace(M[:3, :3]) - (M[0, 1] + M[0, 2] + M[1, 2])
               + 3 * np.trace(M[3:, 3:])) / 15.0
@@ -294,28 +294,6 @@ def _from_KG(K: float, G: float, dim: int) -> IsotropicConstants:
                               lam=K - G, dim=2)
 
 
-def _iso_projectors(dim: int) -> tuple[np.ndarray, np.ndarray]:
-    """Mandel matrices of the spherical (J) and deviatoric (Kd) projectors."""
-    m = np.zeros(6 if dim == 3 else 3)
-    m[:dim] = 1.0
-    J = np.outer(m, m) / dim
-    return J, np.eye(m.size) - J
-
-
-def _iso_KG(Mm: np.ndarray, dim: int) -> tuple[float, float]:
-    """Bulk and shear moduli of the isotropic projection of a Mandel matrix."""
-    J, Kd = _iso_projectors(dim)
-    ndev = Kd.shape[0] - 1
-    # P(C) = dim*K J + 2 G Kd  (3D: 3K J + 2G Kd; 2D: 2K J + 2G Kd)
-    return float(np.sum(J * Mm)) / dim, float(np.sum(Kd * Mm)) / (2.0 * ndev)
-
-
-def _iso_project(Mm: np.ndarray, dim: int) -> np.ndarray:
-    J, Kd = _iso_projectors(dim)
-    K, G = _iso_KG(Mm, dim)
-    return dim * K * J + 2 * G * Kd
-
-
 def isotropic_constants(C: np.ndarray, tol: float = 1e-6) -> IsotropicConstants:
     """Exact isotropic constants of an isotropic stiffness.
 
@@ -338,17 +316,17 @@ def isotropic_constants(C: np.ndarray, tol: float = 1e-6) -> IsotropicConstants:
         If ``C`` is not isotropic within ``tol`` (gives the relative distance) or is not
         symmetric/finite.
     """
-    M, _ = _as_voigt(C)
-    _check_finite_symmetric(M, 1e-10)
-    dim = _dim(M)
+    M, _ = as_voigt(C)
+    check_finite_symmetric(M, 1e-10)
+    dim = dimension(M)
     Mm = voigt_to_mandel(M)
-    P = _iso_project(Mm, dim)
+    P = isotropic_projection(Mm, dim)
     r = np.linalg.norm(Mm - P) / np.linalg.norm(Mm)
     if r > tol:
         raise GrainmechError(
             f"C is not isotropic: relative distance to its isotropic projection is "
             f"{r:.3g} > tol = {tol:g}")
-    K, G = _iso_KG(Mm, dim)
+    K, G = isotropic_moduli(Mm, dim)
     return _from_KG(K, G, dim)
 
 
@@ -536,5 +514,5 @@ def transversely_isotropic_stiffness(E_p: float, nu_p: float, E_a: float, nu_ap:
     nu_pa = nu_ap * E_p / E_a  # nu_xz from reciprocity
     C = orthotropic_stiffness(E_p, E_p, E_a, nu_p, nu_pa, nu_pa, G_a, G_a,
                               E_p / (2 * (1 + nu_p)))
-    a = _unit(axis, 3, "axis")
-    return rotate_stiffness(C, _frame_from_axis(a).T)
+    a = unit_vectors(axis, 3, "axis")
+    return rotate_stiffness(C, frame_from_axis(a).T)

@@ -6,60 +6,25 @@ Stiffness input handling, checks, compliance, Kelvin moduli and rotations
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import (
-    ORDER_2D,
-    ORDER_3D,
     mandel_to_voigt,
     matrix_to_tensor4,
-    tensor4_to_matrix,
     voigt_to_mandel,
 )
+from grainmech.elasticity._mandel import (
+    as_given,
+    as_voigt,
+    check_finite_symmetric,
+    check_orthogonal,
+    dimension,
+    mandel_rotation,
+    unit_vectors,
+)
 from grainmech.errors import GrainmechError
-
-_SQ2 = float(np.sqrt(2.0))
-
-
-def _as_voigt(C: np.ndarray, name: str = "C") -> tuple[np.ndarray, bool]:
-    """Return ``(voigt_matrix, was_tensor4)``; shape errors name the argument."""
-    arr = np.asarray(C, dtype=float)
-    if arr.shape in ((3, 3, 3, 3), (2, 2, 2, 2)):
-        return tensor4_to_matrix(arr), True
-    if arr.shape in ((6, 6), (3, 3)):
-        return arr.copy(), False
-    raise GrainmechError(
-        f"{name} must be a 6x6 (3D) or 3x3 (2D) Voigt matrix or a (3,3,3,3)/(2,2,2,2) "
-        f"tensor; got shape {arr.shape}")
-
-
-def _dim(M: np.ndarray) -> int:
-    return 3 if M.shape[0] == 6 else 2
-
-
-def _output(M: np.ndarray, tensor4: bool) -> np.ndarray:
-    return matrix_to_tensor4(M) if tensor4 else M
-
-
-def _check_finite_symmetric(M: np.ndarray, tol: float, name: str = "C") -> None:
-    if not np.all(np.isfinite(M)):
-        bad = np.argwhere(~np.isfinite(M))[0]
-        raise GrainmechError(
-            f"{name} has a non-finite entry {name}[{bad[0]}, {bad[1]}] = {M[tuple(bad)]!r}")
-    scale = float(np.max(np.abs(M)))
-    if scale == 0.0:
-        raise GrainmechError(f"{name} is identically zero")
-    asym = np.abs(M - M.T)
-    i, j = np.unravel_index(np.argmax(asym), asym.shape)
-    if asym[i, j] > tol * scale:
-        raise GrainmechError(
-            f"{name} is not symmetric: {name}[{i}, {j}] = {M[i, j]:.6g} but "
-            f"{name}[{j}, {i}] = {M[j, i]:.6g} (relative difference "
-            f"{asym[i, j] / scale:.3g} > tol = {tol:g})")
 
 
 def kelvin_moduli(C: np.ndarray) -> np.ndarray:
@@ -79,7 +44,7 @@ def kelvin_moduli(C: np.ndarray) -> np.ndarray:
         isotropic (1, 5), cubic (1, 2, 3), transversely isotropic at least two double
         eigenvalues.
     """
-    M, _ = _as_voigt(C)
+    M, _ = as_voigt(C)
     Mm = voigt_to_mandel(M)
     return np.linalg.eigvalsh(0.5 * (Mm + Mm.T))
 
@@ -108,8 +73,8 @@ def check_stiffness(C: np.ndarray, tol: float = 1e-10, name: str = "C") -> np.nd
         Wrong shape, non-finite entries, asymmetry, or not positive definite (the message
         gives the smallest and largest Kelvin moduli).
     """
-    M, _ = _as_voigt(C, name)
-    _check_finite_symmetric(M, tol, name)
+    M, _ = as_voigt(C, name)
+    check_finite_symmetric(M, tol, name)
     lam = kelvin_moduli(0.5 * (M + M.T))
     if not lam[0] > tol * abs(lam[-1]):
         raise GrainmechError(
@@ -142,7 +107,7 @@ def compliance(C: np.ndarray, tol: float = 1e-10) -> np.ndarray:
     GrainmechError
         If ``C`` is singular or not positive definite (naming the smallest eigenvalue).
     """
-    M, t4 = _as_voigt(C)
+    M, t4 = as_voigt(C)
     check_stiffness(M, tol)
     M = 0.5 * (M + M.T)
     if t4:
@@ -165,78 +130,15 @@ def contracted_tensors(C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         Dilatational ``d_ij = C_ijkk`` and Voigt ``v_ij = C_ikjk`` tensors.  The normal of
         every symmetry plane of ``C`` is an eigenvector of both.
     """
-    M, _ = _as_voigt(C)
+    M, _ = as_voigt(C)
     T = matrix_to_tensor4(M)
     return np.einsum("ijkk->ij", T), np.einsum("ikjk->ij", T)
 
 
-def _unit(vec: ArrayLike, dim: int, name: str) -> np.ndarray:
-    v = np.asarray(vec, dtype=float)
-    if v.shape[-1:] != (dim,):
-        raise GrainmechError(f"{name} must have trailing dimension {dim}; got shape {v.shape}")
-    nrm = np.linalg.norm(v, axis=-1, keepdims=True)
-    if np.any(~np.isfinite(nrm)) or np.any(nrm == 0):
-        raise GrainmechError(f"{name} contains a zero or non-finite vector")
-    return v / nrm
-
-
-def _frame_from_axis(a: np.ndarray, ref: np.ndarray | None = None) -> np.ndarray:
-    """Right-handed frame whose third axis is ``a``.
-
-    Right-handed frame (rows x', y', a) with x' the projection of ``ref`` (default e_x,
-    else e_y) onto the plane normal to ``a``.
-    """
-    a = a / np.linalg.norm(a)
-    cands = [ref] if ref is not None else []
-    cands += [np.array([1.0, 0, 0]), np.array([0, 1.0, 0])]
-    for r in cands:
-        t = r - np.dot(r, a) * a
-        if np.linalg.norm(t) > 1e-3:
-            break
-    t = t / np.linalg.norm(t)
-    return np.array([t, np.cross(a, t), a])
-
-
 def rotation_about(axis: ArrayLike, angle: float) -> np.ndarray:
     """Proper rotation matrix by ``angle`` (radians, right-handed) about ``axis``."""
-    a = _unit(axis, 3, "axis")
+    a = unit_vectors(axis, 3, "axis")
     return Rotation.from_rotvec(a * float(angle)).as_matrix()
-
-
-@lru_cache(maxsize=2)
-def _mandel_index(dim: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Index pairs (i, j) of the Mandel components and their weights (1 or sqrt 2)."""
-    order = ORDER_3D if dim == 3 else ORDER_2D
-    i = np.array(["xyz".index(lab[0]) for lab in order])
-    j = np.array(["xyz".index(lab[1]) for lab in order])
-    w = np.where(i == j, 1.0, _SQ2)
-    return i, j, w
-
-
-def _mandel_rot(R: np.ndarray) -> np.ndarray:
-    """Orthogonal Mandel map ``K`` with ``M' = K M K^T`` for ``C'_ijkl = R_ia R_jb R_kc R_ld C_abcd``.
-
-    ``R`` has shape (..., d, d); returns (..., m, m).  With ``(i, j)`` the index pair of
-    Mandel component ``a`` and ``(k, l)`` that of ``b``,
-    ``K_ab = w_a w_b (R_ik R_jl + R_il R_jk) / 2`` (``w = 1`` normal, ``sqrt 2`` shear),
-    i.e. ``K_ab = B_a : (R B_b R^T)`` for the orthonormal Mandel basis ``B``.
-    """
-    R = np.asarray(R, dtype=float)
-    i, j, w = _mandel_index(R.shape[-1])
-    I, J = i[:, None], j[:, None]
-    Kk, L = i[None, :], j[None, :]
-    return (w[:, None] * w[None, :] / 2.0) * (R[..., I, Kk] * R[..., J, L] + R[..., I, L] * R[..., J, Kk])
-
-
-def _check_orthogonal(R: np.ndarray, dim: int, atol: float = 1e-8) -> np.ndarray:
-    R = np.asarray(R, dtype=float)
-    if R.shape[-2:] != (dim, dim):
-        raise GrainmechError(f"R must have shape (..., {dim}, {dim}) for this stiffness; "
-                             f"got {R.shape}")
-    err = np.max(np.abs(np.einsum("...ki,...kj->...ij", R, R) - np.eye(dim)))
-    if not err <= atol:
-        raise GrainmechError(f"R is not orthogonal: max |R^T R - I| = {err:.3g}")
-    return R
 
 
 def rotate_stiffness(C: np.ndarray, R: np.ndarray) -> np.ndarray:
@@ -254,14 +156,14 @@ def rotate_stiffness(C: np.ndarray, R: np.ndarray) -> np.ndarray:
     -------
     array, shape (..., 6, 6) etc., in the same form (Voigt or tensor) as ``C``.
     """
-    M, t4 = _as_voigt(C)
-    dim = _dim(M)
-    R = _check_orthogonal(R, dim)
-    K = _mandel_rot(R)
+    M, t4 = as_voigt(C)
+    dim = dimension(M)
+    R = check_orthogonal(R, dim)
+    K = mandel_rotation(R)
     Mm = voigt_to_mandel(M)
     out = K @ Mm @ np.swapaxes(K, -1, -2)
     if out.ndim == 2:
-        return _output(mandel_to_voigt(out), t4)
+        return as_given(mandel_to_voigt(out), t4)
     flat = out.reshape(-1, *out.shape[-2:])
-    res = np.stack([_output(mandel_to_voigt(x), t4) for x in flat])
+    res = np.stack([as_given(mandel_to_voigt(x), t4) for x in flat])
     return res.reshape(out.shape[:-2] + res.shape[1:])

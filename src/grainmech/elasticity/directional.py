@@ -5,15 +5,16 @@ from __future__ import annotations
 import numpy as np
 
 from grainmech.conventions import stress_to_vector, voigt_to_mandel
-from grainmech.elasticity.conversions import _as_voigt, _dim, _unit, check_stiffness
+from grainmech.elasticity._mandel import as_voigt, dimension, unit_vectors
+from grainmech.elasticity.conversions import check_stiffness
 from grainmech.errors import GrainmechError
 
 
 def _mandel_compliance(C: np.ndarray) -> tuple[np.ndarray, int]:
-    M, _ = _as_voigt(C)
+    M, _ = as_voigt(C)
     check_stiffness(M)
     Sm = np.linalg.inv(voigt_to_mandel(0.5 * (M + M.T)))
-    return 0.5 * (Sm + Sm.T), _dim(M)
+    return 0.5 * (Sm + Sm.T), dimension(M)
 
 
 def directional_young(C: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -32,7 +33,7 @@ def directional_young(C: np.ndarray, d: np.ndarray) -> np.ndarray:
         Units of ``C``.  Equals ``E_xx`` for ``d = (1, 0, 0)`` etc.
     """
     Sm, dim = _mandel_compliance(C)
-    n = _unit(d, dim, "d")
+    n = unit_vectors(d, dim, "d")
     a = stress_to_vector(n[..., :, None] * n[..., None, :], mandel=True)
     return 1.0 / np.einsum("...a,ab,...b->...", a, Sm, a)
 
@@ -58,8 +59,8 @@ def directional_poisson(C: np.ndarray, d: np.ndarray, m: np.ndarray,
         Dimensionless.  ``directional_poisson(C, ex, ey) == engineering_constants(C).nu_xy``.
     """
     Sm, dim = _mandel_compliance(C)
-    n = _unit(d, dim, "d")
-    t = _unit(m, dim, "m")
+    n = unit_vectors(d, dim, "d")
+    t = unit_vectors(m, dim, "m")
     dot = np.abs(np.sum(n * t, axis=-1))
     if np.any(dot > atol):
         raise GrainmechError(f"m must be orthogonal to d; max |d . m| = {np.max(dot):.3g}")
@@ -86,8 +87,8 @@ def directional_shear(C: np.ndarray, d: np.ndarray, m: np.ndarray,
     array, shape (...), units of ``C``.  ``G(ey, ez) = G_yz``.
     """
     Sm, dim = _mandel_compliance(C)
-    n = _unit(d, dim, "d")
-    t = _unit(m, dim, "m")
+    n = unit_vectors(d, dim, "d")
+    t = unit_vectors(m, dim, "m")
     dot = np.abs(np.sum(n * t, axis=-1))
     if np.any(dot > atol):
         raise GrainmechError(f"m must be orthogonal to d; max |d . m| = {np.max(dot):.3g}")

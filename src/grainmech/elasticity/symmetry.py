@@ -17,19 +17,19 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from grainmech.conventions import mandel_to_voigt, matrix_to_tensor4, voigt_to_mandel
-from grainmech.elasticity.constants import _iso_project, _iso_projectors
-from grainmech.elasticity.conversions import (
-    _as_voigt,
-    _check_finite_symmetric,
-    _check_orthogonal,
-    _dim,
-    _frame_from_axis,
-    _mandel_rot,
-    _output,
-    _unit,
-    contracted_tensors,
-    rotation_about,
+from grainmech.elasticity._mandel import (
+    as_given,
+    as_voigt,
+    check_finite_symmetric,
+    check_orthogonal,
+    dimension,
+    frame_from_axis,
+    isotropic_projection,
+    isotropic_projectors,
+    mandel_rotation,
+    unit_vectors,
 )
+from grainmech.elasticity.conversions import contracted_tensors, rotation_about
 from grainmech.errors import GrainmechError
 
 #: Names of the eight elastic symmetry classes (Forte & Vianello 1996), highest first.
@@ -102,10 +102,10 @@ def _group_mats(cls: str) -> np.ndarray:
 def _projector(cls: str, dim: int) -> np.ndarray:
     """(m^2, m^2) matrix of the orthogonal projection onto ``cls``-invariant tensors."""
     if cls == "isotropic":
-        J, Kd = _iso_projectors(dim)
+        J, Kd = isotropic_projectors(dim)
         return np.outer(J.ravel(), J.ravel()) + np.outer(Kd.ravel(), Kd.ravel()) / np.trace(Kd)
     key = "orthotropic2d" if (dim == 2 and cls == "orthotropic") else cls
-    P = _kron_avg(_mandel_rot(_group_mats(key)))
+    P = _kron_avg(mandel_rotation(_group_mats(key)))
     P.setflags(write=False)
     return P
 
@@ -113,7 +113,7 @@ def _projector(cls: str, dim: int) -> np.ndarray:
 def _natural_residual(Mn: np.ndarray, R: np.ndarray, cls: str) -> np.ndarray:
     """Residual vector (I - P) vec(K M K^T) for frame(s) R; ``Mn`` is normalised."""
     dim = R.shape[-1]
-    K = _mandel_rot(R)
+    K = mandel_rotation(R)
     Mp = K @ Mn @ np.swapaxes(K, -1, -2)
     v = Mp.reshape(Mp.shape[:-2] + (-1,))
     P = _projector(cls, dim)
@@ -139,7 +139,7 @@ def _sphere_grid(n: int = 1200, k: int = 8) -> tuple[np.ndarray, np.ndarray, np.
     tree = cKDTree(np.vstack([P, -P]))
     _, idx = tree.query(P, k=k + 1)
     nb = idx[:, 1:] % n
-    frames = np.array([_frame_from_axis(p) for p in P])
+    frames = np.array([frame_from_axis(p) for p in P])
     for arr in (P, nb, frames):
         arr.setflags(write=False)
     return P, nb, frames
@@ -195,7 +195,7 @@ class _Search3D:
         (ld, Vd), (lv, Vv) = np.linalg.eigh(d), np.linalg.eigh(v)
         self.contracted_eigs = (ld, lv)
         seeds = np.hstack([Vd, Vv]).T
-        self.seed_frames = np.array([_frame_from_axis(_canon_axis(s)) for s in seeds])
+        self.seed_frames = np.array([frame_from_axis(_canon_axis(s)) for s in seeds])
         # the eigenvector frames of d and v (rows, made proper): orthotropic / cubic seeds
         self.eigen_frames = np.array([V.T * (np.sign(np.linalg.det(V)) or 1.0) for V in (Vd, Vv)])
         self._grid: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -206,7 +206,7 @@ class _Search3D:
         """Hemisphere grid, neighbours, frames and the rotated matrices (computed once)."""
         if self._grid is None:
             P, nb, frames = _sphere_grid()
-            K = _mandel_rot(frames)
+            K = mandel_rotation(frames)
             Mgrid = (K @ self.Mn @ np.swapaxes(K, -1, -2)).reshape(len(P), -1)
             self._grid = (P, nb, frames, Mgrid)
         return self._grid
@@ -286,7 +286,7 @@ class _Search3D:
         if cls in self.best:
             return self.best[cls]
         if cls == "isotropic":
-            P = _iso_project(self.Mn, 3)
+            P = isotropic_projection(self.Mn, 3)
             res: tuple[float, np.ndarray | None] = (float(np.linalg.norm(self.Mn - P)), np.eye(3))
         elif cls == "triclinic":
             res = (0.0, None)
@@ -350,7 +350,7 @@ def _in_plane_twofold(Mn: np.ndarray, F: np.ndarray, n_fold: int) -> np.ndarray:
     # 2-fold about x' of the frame: move x' to z and test C2 about z
     to_x = np.array([[0, 1.0, 0], [0, 0, 1.0], [1.0, 0, 0]])  # rows (y', a, x'): x' -> z
     test = to_x @ frames
-    K = _mandel_rot(test)
+    K = mandel_rotation(test)
     Mp = (K @ Mn @ np.swapaxes(K, -1, -2)).reshape(len(phis), -1)
     r = np.linalg.norm(Mp - Mp @ M2.T, axis=1)
     i = int(np.argmin(r))
@@ -492,8 +492,8 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
     2D: isotropic (projection), square (4-fold rotation, orientation-free), orthotropic
     (mirror line found on a 1-degree grid and polished), anisotropic.
     """
-    M, _ = _as_voigt(C)
-    _check_finite_symmetric(M, 1e-10)
+    M, _ = as_voigt(C)
+    check_finite_symmetric(M, 1e-10)
     M = 0.5 * (M + M.T)
     Mm = voigt_to_mandel(M)
     peak = float(np.abs(Mm).max())
@@ -520,7 +520,7 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
     if F is not None:
         if name in _AXIS_CLASSES:
             axis = _canon_axis(F[2])
-            F = _frame_from_axis(axis)
+            F = frame_from_axis(axis)
             if name == "tetragonal":
                 F = _in_plane_twofold(Mn, F, 4)
             elif name == "trigonal":
@@ -539,7 +539,7 @@ def symmetry_class(C: np.ndarray, tol: float = 1e-6) -> SymmetryClass:
         if aligned and name != "isotropic":
             # snap to the exact coordinate frame when that is as good
             Fs = np.round(F) if name not in ("transversely isotropic", "monoclinic") \
-                else _frame_from_axis(np.round(np.asarray(axis)))
+                else frame_from_axis(np.round(np.asarray(axis)))
             rs = float(np.linalg.norm(_natural_residual(Mn, Fs, name)))
             if name in ("tetragonal", "trigonal"):
                 # the class residual ignores the in-plane angle: the snapped frame must also
@@ -568,7 +568,7 @@ def _rot2(phi: np.ndarray | float) -> np.ndarray:
 
 def _symmetry_class_2d(Mn: np.ndarray, tol: float, kel: np.ndarray) -> SymmetryClass:
     residuals: dict[str, float] = {}
-    r_iso = float(np.linalg.norm(Mn - _iso_project(Mn, 2)))
+    r_iso = float(np.linalg.norm(Mn - isotropic_projection(Mn, 2)))
     residuals["isotropic"] = r_iso
     if r_iso <= tol:
         return SymmetryClass("isotropic", None, None, np.eye(2), r_iso,
@@ -631,13 +631,13 @@ def symmetric_projection(C: np.ndarray, cls: str, axes: np.ndarray | None = None
         (tetragonal) or ``C15`` (trigonal) term in the given frame; it is still of that
         class (in a frame rotated about the axis the term vanishes).
     """
-    M, t4 = _as_voigt(C)
-    dim = _dim(M)
+    M, t4 = as_voigt(C)
+    dim = dimension(M)
     valid = SYMMETRY_CLASSES_3D if dim == 3 else SYMMETRY_CLASSES_2D
     if cls not in valid:
         raise GrainmechError(f"cls must be one of {valid} for a {dim}D stiffness; got {cls!r}")
     if cls in ("triclinic", "anisotropic"):
-        return _output(M.copy(), t4)
+        return as_given(M.copy(), t4)
     if axes is None:
         F = np.eye(dim)
     else:
@@ -645,15 +645,15 @@ def symmetric_projection(C: np.ndarray, cls: str, axes: np.ndarray | None = None
         if dim == 3 and A.shape == (3,):
             if cls not in _AXIS_CLASSES:
                 raise GrainmechError(f"axes for class {cls!r} must be a 3x3 frame; got a vector")
-            F = _frame_from_axis(_unit(A, 3, "axes"))
+            F = frame_from_axis(unit_vectors(A, 3, "axes"))
         else:
-            F = _check_orthogonal(A, dim)
+            F = check_orthogonal(A, dim)
     Mm = voigt_to_mandel(M)
     if cls == "isotropic":
-        P = _iso_project(Mm, dim)
+        P = isotropic_projection(Mm, dim)
     else:
-        K = _mandel_rot(F)
+        K = mandel_rotation(F)
         Mnat = K @ Mm @ K.T
         Pnat = (_projector(cls, dim) @ Mnat.ravel()).reshape(Mnat.shape)
         P = K.T @ Pnat @ K
-    return _output(mandel_to_voigt(0.5 * (P + P.T)), t4)
+    return as_given(mandel_to_voigt(0.5 * (P + P.T)), t4)

@@ -54,7 +54,7 @@ class RelaxedResult:
     residual: float
 
 
-def _cross_matrix(r: np.ndarray) -> np.ndarray:
+def cross_matrix(r: np.ndarray) -> np.ndarray:
     """[r]_x with [r]_x v = r x v, shape (C, 3, 3)."""
     X = np.zeros(r.shape[:-1] + (3, 3))
     X[..., 0, 1] = -r[..., 2]
@@ -140,8 +140,8 @@ def _assemble(P: int, ci: np.ndarray, cj: np.ndarray, n: np.ndarray, l_: np.ndar
     GB[:, :, :d] = -np.eye(d)
     if rotations:
         if d == 3:
-            GA[:, :, 3:] = -_cross_matrix(rA)
-            GB[:, :, 3:] = _cross_matrix(rB)
+            GA[:, :, 3:] = -cross_matrix(rA)
+            GB[:, :, 3:] = cross_matrix(rB)
         else:  # theta e_z x r = theta (-r_y, r_x)
             GA[:, 0, 2], GA[:, 1, 2] = -rA[:, 1], rA[:, 0]
             GB[:, 0, 2], GB[:, 1, 2] = rB[:, 1], -rB[:, 0]

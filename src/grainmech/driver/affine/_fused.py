@@ -48,16 +48,21 @@ from grainmech.contact.kernel import (
 from grainmech.contact.law import ContactResponse, ContactState
 from grainmech.driver.affine._fold import fold as fold_rows
 from grainmech.driver.affine._fold import path_mirrors, unfold
-from grainmech.driver.affine._mixed import add_step_jacobian, contact_increment, love_weber_terms, stored_energy_term
-from grainmech.driver.affine._mixed_rows import _INNER
+from grainmech.driver.affine._mixed_rows import (
+    INNER,
+    add_step_jacobian,
+    contact_increment,
+    love_weber_terms,
+    stored_energy_term,
+)
 
 __all__ = ["strain_path"]
 
-_CH = 128  # contacts per chunk (work item of the prange)
+CHUNK = 128  # contacts per chunk (work item of the prange)
 # the phases of the pass (one chunk's path, a step's sums, the accepted step): inlined by
 # LLVM into the pass (``forceinline``), so that its code is the one loop nest it was
 # written as (called instead, the constant-volume benchmark took 7-10 % longer)
-_PHASE = {**_INNER, "forceinline": True}
+_PHASE = {**INNER, "forceinline": True}
 
 
 @njit(**_PHASE)
@@ -243,14 +248,14 @@ def _make(parallel: bool):
         # the state arrays (alpha ... energy) are advanced in place; f_* receive the
         # response of the last step
         n = alpha.shape[0]
-        nch = (n + _CH - 1) // _CH
+        nch = (n + CHUNK - 1) // CHUNK
         r2 = math.sqrt(2.0) / 2.0
         # plain values into the (parallel) loop; the named tuple is rebuilt inside
         (law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp, maxrev, hcoef, gcoef,
          glx, glw, sph, k8) = kc
         for ch in rng(nch):
-            lo = ch * _CH
-            hi = min(n, lo + _CH)
+            lo = ch * CHUNK
+            hi = min(n, lo + CHUNK)
             kcc = KernelConstants(law, linear, E, R, Gs, kn_lin, ks_lin, mu, mu_finite, r, p, m_exp,
                                   maxrev, hcoef, gcoef, glx, glw, sph, k8)
             _chunk_path(ch, lo, hi, kcc, normals, branch, weights, dstrain, jrows,
@@ -296,7 +301,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
     jacobian_rows : (6,) bool, optional
         Rows of the consistent (non-symmetric) tangent ``sum w B^T K B`` to assemble at
         each step, ``K`` the law's step tangent (``ContactResponse.t_delta``,
-        ``t_alpha``; :func:`grainmech.driver.affine._mixed.add_step_jacobian`) (for Newton).
+        ``t_alpha``; :func:`grainmech.driver.affine._mixed_rows.add_step_jacobian`) (for Newton).
     fold : bool
         Evaluate one row per orbit of the symmetries of the contact set, the state and the
         path (the antipodal map, mirrors through coordinate planes whose odd shear
@@ -320,7 +325,7 @@ def strain_path(point, d_strain: np.ndarray, jacobian_rows: np.ndarray | None = 
                                                          path_mirrors(np.zeros(6, dtype=bool), d_strain))
     n = normals.shape[0]
     m = d_strain.shape[0]
-    nch = (n + _CH - 1) // _CH
+    nch = (n + CHUNK - 1) // CHUNK
 
     def c(x, dtype=float):
         x = np.ascontiguousarray(x, dtype=dtype)

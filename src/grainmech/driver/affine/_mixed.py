@@ -7,7 +7,7 @@ same predictor, same acceptance rules (``rtol``; ``rtol_accept`` on a two-cycle 
 after ``max_iter``), same subdivision, same failure causes -- for every step of a
 segment of constant control mask inside one compiled function, so that no Python runs
 between law evaluations. Per evaluation, one pass over the contacts (chunks of
-``_CH``, a ``prange`` from :data:`PARALLEL_ROWS` rows):
+``CHUNK``, a ``prange`` from :data:`PARALLEL_ROWS` rows):
 
 * kinematics, seed Eq. 2.13 (``delta = d eps . l``) and the normal law at the step's
   end (seed Eq. 3.6, 3.2), exactly as :mod:`grainmech.driver.affine._fused`;
@@ -35,7 +35,7 @@ iterations.
 Modules: the per-contact pieces, compile options and failure codes are in
 :mod:`grainmech.driver.affine._mixed_rows`, the evaluation pass in
 :mod:`grainmech.driver.affine._mixed_pass`; this module holds the segment loop (``_segment``),
-its compilation and :func:`mixed_segment`, and re-exports their names.
+its compilation and :func:`mixed_segment`.
 """
 
 from __future__ import annotations
@@ -57,48 +57,29 @@ from grainmech.contact.kernel import (
 )
 from grainmech.contact.law import ContactResponse, ContactState
 from grainmech.driver.affine._fold import fold, path_mirrors, unfold
-from grainmech.driver.affine._mixed_pass import (  # noqa: F401 (re-exported: the names this module always had)
-    _commit_rows,
-    _commit_sums,
-    _evaluate_parallel,
-    _evaluate_serial,
-    _make,
-)
-from grainmech.driver.affine._mixed_rows import (  # noqa: F401
-    _CH,
-    _CH_GROUP,
-    _FIRST_CLASS,
-    _INNER,
-    _NO_NRT,
-    _NP,
-    _PY_ONLY,
+from grainmech.driver.affine._mixed_pass import commit_sums, evaluate_parallel, evaluate_serial
+from grainmech.driver.affine._mixed_rows import (
+    CHUNK,
+    CHUNK_GROUP,
     FAIL_LAW,
     FAIL_NO_CONVERGENCE,
     FAIL_NOT_FINITE,
     FAIL_SINGULAR,
+    INNER,
     PARALLEL_ROWS,
-    _add_jacobian_sub,
-    _bcol,
-    _cond2,
-    _copy_state,
-    _increment_end,
-    _pick,
-    _reduce,
-    _solve_small,
-    _start_radii,
-    _step_tangent3,
-    add_step_jacobian,
-    contact_increment,
-    love_weber_terms,
-    start_radius,
-    stored_energy_term,
+    PARTIAL_SUMS,
+    PY_ONLY,
+    cond2,
+    copy_state,
+    reduce_chunks,
+    solve_small,
+    start_radii,
 )
 
-__all__ = ["mixed_segment", "add_step_jacobian", "contact_increment", "love_weber_terms", "stored_energy_term",
-           "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
+__all__ = ["mixed_segment", "FAIL_SINGULAR", "FAIL_NOT_FINITE", "FAIL_NO_CONVERGENCE", "FAIL_LAW"]
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _split_mask(sc):
     """The stress-controlled components ``idx`` and the strain-controlled ones ``jdx`` of the mask ``sc`` (6,)."""
     ns = 0
@@ -119,7 +100,7 @@ def _split_mask(sc):
     return idx, jdx
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _start_step(k, sc, incs, t_stress, t_strain, stress, strain, sk_d, sk_t0, sk_t1, sk_dep):
     """Step ``k``'s targets (``solver.run``: no drift) and the substep stack holding the whole step.
 
@@ -139,7 +120,7 @@ def _start_step(k, sc, incs, t_stress, t_strain, stress, strain, sk_d, sk_t0, sk
     return new_ts, new_te
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _predictor(de, d_strain, sc, stress, target, C, idx, jdx, rtol, rtol_accept):
     """``solver._solve``'s tolerances and predictor of a (sub)step: ``de`` from the tangent ``C``.
 
@@ -180,7 +161,7 @@ def _predictor(de, d_strain, sc, stress, target, C, idx, jdx, rtol, rtol_accept)
             rhs[a] = acc
             for b in range(ns):
                 A[a, b] = C[idx[a], idx[b]]
-        x, ok = _solve_small(A, rhs)  # singular predictor: start from zero
+        x, ok = solve_small(A, rhs)  # singular predictor: start from zero
         for a in range(ns):
             de[idx[a]] = x[a] if ok else 0.0
         fin = True
@@ -193,7 +174,7 @@ def _predictor(de, d_strain, sc, stress, target, C, idx, jdx, rtol, rtol_accept)
     return tol, loose
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _newton_update(jac, sig, target, idx, de, finfo):
     """One Newton update of the stress-controlled strains: ``de_idx -= J^-1 (sig - target)_idx``.
 
@@ -212,11 +193,11 @@ def _newton_update(jac, sig, target, idx, de, finfo):
         for b in range(ns):
             if not math.isfinite(J[a, b]):
                 jfin = False
-    cond = _cond2(J) if jfin else np.nan
+    cond = cond2(J) if jfin else np.nan
     if not math.isfinite(cond) or cond > 1e13:
         finfo[0] = cond
         return FAIL_SINGULAR
-    x, _ = _solve_small(J, r)  # not singular (condition checked)
+    x, _ = solve_small(J, r)  # not singular (condition checked)
     fin = True
     for a in range(ns):
         de[idx[a]] = de[idx[a]] - x[a]
@@ -228,7 +209,7 @@ def _newton_update(jac, sig, target, idx, de, finfo):
     return 0
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _newton(eval_fn, law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, sig, jac,
             sym, idx, target, tol, loose, max_iter, hist, best_de, info, finfo):
     """``solver._solve``'s Newton iterations of a (sub)step from the predictor ``de``, and their acceptance.
@@ -260,7 +241,7 @@ def _newton(eval_fn, law_fn, kc, normals, branch, weights, de, sc, st, out, scra
             info[3] = bad
             info[4] = scratch.flags[bad]
             break
-        s_sl, s_op, _s_di = _reduce(part, sig, jac, sym)
+        s_sl, s_op, _s_di = reduce_chunks(part, sig, jac, sym)
         rmax = 0.0
         for a in range(ns):
             rmax = max(rmax, abs(sig[idx[a]] - target[idx[a]]))
@@ -295,11 +276,11 @@ def _newton(eval_fn, law_fn, kc, normals, branch, weights, de, sc, st, out, scra
         for q in range(6):
             de[q] = best_de[q]
         eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, False)
-        s_sl, s_op, _s_di = _reduce(part, sig, jac, sym)
+        s_sl, s_op, _s_di = reduce_chunks(part, sig, jac, sym)
     return cause, it_done, loose_acc, s_sl, s_op
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _subdivide(nsk, dep, d_strain, t0, target, sk_d, sk_t0, sk_t1, sk_dep):
     """``solver._subdivided``: the failed (sub)step's two halves onto the stack, the first on top; the new size."""
     for q in range(6):
@@ -316,7 +297,7 @@ def _subdivide(nsk, dep, d_strain, t0, target, sk_d, sk_t0, sk_t1, sk_dep):
     return nsk + 2
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _record_step(k, sc, new_ts, new_te, t_stress, t_strain, strain, stress, C, rec_strain, rec_stress, rec_tan,
                  rec_scal, rec_int, wsl, wop, diss, work, wst, n_sub, n_it):
     """Record step ``k`` (strain, stress, tangent, fractions, energies, counters) and advance the running targets."""
@@ -365,7 +346,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
     sk_t1 = np.zeros((max_depth + 2, 6))
     sk_dep = np.zeros(max_depth + 2, dtype=np.int64)
     n_loose = 0
-    _start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
+    start_radii(kc.linear, kc.E, kc.R, st.approach, st.normal_force, inc.rad0)
     for k in range(m):
         new_ts, new_te = _start_step(k, sc, incs, t_stress, t_strain, stress, strain, sk_d, sk_t0, sk_t1, sk_dep)
         nsk = 1
@@ -396,14 +377,14 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
                 finfo[3] = s_op / wtot if (wtot > 0.0 and cause != FAIL_LAW) else 0.0
                 if dep >= max_depth:
                     if backed:  # substeps of this step were committed: back to its start
-                        _copy_state(bk_st, bk_resp, st, resp)
+                        copy_state(bk_st, bk_resp, st, resp)
                     info[0] = k
                     info[1] = cause
                     info[2] = dep
                     info[5] = n_loose
                     return k
                 if not backed and n_sub == 0:  # nothing committed in this step yet
-                    _copy_state(st, resp, bk_st, bk_resp)
+                    copy_state(st, resp, bk_st, bk_resp)
                     backed = True
                 # ---- solver._subdivided: two halves, the first on top of the stack
                 nsk = _subdivide(nsk, dep, d_strain, t0, target, sk_d, sk_t0, sk_t1, sk_dep)
@@ -413,7 +394,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
             for q in range(6):
                 new_strain[q] = strain[q] + de[q]
             eval_fn(law_fn, kc, normals, branch, weights, de, sc, st, out, scratch, inc, part, resp, True)
-            wst, wdi = _commit_sums(part, Cflat)
+            wst, wdi = commit_sums(part, Cflat)
             for q in range(36):
                 Cflat[q] *= sym[6 + q]
             n_sub += 1
@@ -442,7 +423,7 @@ def _segment(eval_fn, law_fn, kc, normals, branch, weights, sc, incs, stress0, s
 
 # the pass and the law are arguments (first-class functions), not linked into the loop:
 # one compiled loop serves the serial and the parallel pass
-_segment_compiled = njit(**_PY_ONLY)(_segment)
+_segment_compiled = njit(**PY_ONLY)(_segment)
 
 
 def chunk_count(n: int) -> int:
@@ -455,7 +436,7 @@ def chunk_count(n: int) -> int:
     chunking does not depend on the thread count, so the serial and the threaded pass
     sum in the same order (the same bits).
     """
-    return _CH_GROUP * max(1, -(-int(n) // (_CH_GROUP * _CH)))
+    return CHUNK_GROUP * max(1, -(-int(n) // (CHUNK_GROUP * CHUNK)))
 
 
 def pass_signature(law_sig: tuple, args: tuple) -> tuple:
@@ -470,12 +451,12 @@ def pass_signature(law_sig: tuple, args: tuple) -> tuple:
 
 def compile_pass(parallel: bool, sig: tuple) -> None:
     """Compile (or load from numba's cache) the serial or parallel evaluation pass for ``sig``."""
-    (_evaluate_parallel if parallel else _evaluate_serial).compile(sig)
+    (evaluate_parallel if parallel else evaluate_serial).compile(sig)
 
 
 def pass_function(parallel: bool, sig: tuple) -> Any:
     """The evaluation pass as a first-class function value (compiled or loaded first)."""
-    fn = _evaluate_parallel if parallel else _evaluate_serial
+    fn = evaluate_parallel if parallel else evaluate_serial
     fn.compile(sig)
     return CompileResultWAP(fn.overloads[sig])
 
@@ -515,7 +496,7 @@ def _compile(args: tuple, key: tuple, law_sig: tuple, parallel: bool, pass_sig: 
 
     def start() -> Any:
         done = kernel.law_compiled(key, law_sig) and pass_sig in (
-            _evaluate_parallel if parallel else _evaluate_serial).overloads
+            evaluate_parallel if parallel else evaluate_serial).overloads
         return None if done else _start_worker((key, law_sig, parallel, pass_sig))
 
     with _workers.on_first_compile(start):
@@ -578,7 +559,7 @@ def mixed_segment(point, sc: np.ndarray, increments: np.ndarray, t_stress: np.nd
     inc = KernelIncrement(np.empty(n), np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n))
     resp = tuple(c(x) for x in (r0.kn, r0.ks, r0.ks_perp, r0.ktn, r0.dissipation, r0.sliding, r0.open))
     bk_resp = tuple(np.empty(n) for _ in resp)
-    part = np.zeros((nch, _NP))
+    part = np.zeros((nch, PARTIAL_SUMS))
     rec_strain = np.zeros((m, 6))
     rec_stress = np.zeros((m, 6))
     rec_tan = np.zeros((m, 6, 6))

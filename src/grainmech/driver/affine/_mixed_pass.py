@@ -4,8 +4,8 @@ One pass over the contacts in chunks (serial, or a ``prange`` over chunks): the 
 update from the last converged state, the Love-Weber stress, the weighted sliding and
 open fractions, the dissipation and the Newton Jacobian of the stress-controlled
 components; with ``commit``, the committed state, the reported tangent (seed Eq. 2.26)
-and the stored energy (``_commit_rows``, ``_commit_sums``). ``_evaluate_serial`` and
-``_evaluate_parallel`` are the two compiled passes.
+and the stored energy (``_commit_rows``, ``commit_sums``). ``evaluate_serial`` and
+``evaluate_parallel`` are the two compiled passes.
 """
 
 from __future__ import annotations
@@ -21,14 +21,14 @@ from grainmech.contact.kernel import (
     KernelState,
 )
 from grainmech.driver.affine._mixed_rows import (
-    _FIRST_CLASS,
-    _INNER,
-    _NP,
-    _add_jacobian_sub,
-    _bcol,
-    _increment_end,
-    _pick,
+    FIRST_CLASS,
+    INNER,
+    PARTIAL_SUMS,
+    add_jacobian_sub,
+    bcol,
+    increment_end,
     love_weber_terms,
+    pick,
     stored_energy_term,
 )
 
@@ -41,7 +41,7 @@ def _make(parallel: bool):
         # trial update of every contact from the converged state ``st`` by the strain
         # increment ``de``; per-chunk sums into ``part``; returns the first contact the
         # law could not advance (-1: none). With ``commit``: accept the last trial
-        # instead (_commit_rows, per chunk; _commit_sums adds the chunks' sums)
+        # instead (_commit_rows, per chunk; commit_sums adds the chunks' sums)
         n = normals.shape[0]
         nch = part.shape[0]          # chunk_count(n)
         size = (n + nch - 1) // nch  # rows per chunk (the last ones may be shorter or empty)
@@ -85,10 +85,10 @@ def _make(parallel: bool):
                 _commit_rows(lo, hi, law_fn, kcc, normals, branch, weights, st_c, out_c,
                              (r_kn, r_ks, r_ksp, r_ktn, r_di, r_sl, r_op), inc_c, scr_c, prow)
                 continue
-            # (i_rad0, the start radius, is that of the converged state: _start_radii, _commit_rows)
+            # (i_rad0, the start radius, is that of the converged state: start_radii, _commit_rows)
             for i in range(lo, hi):
                 (i_dn[i], i_dt[i, 0], i_dt[i, 1], i_dt[i, 2], i_N1[i],
-                 i_rad1[i]) = _increment_end(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
+                 i_rad1[i]) = increment_end(exx, eyy, ezz, eyz, exz, exy, normals[i, 0], normals[i, 1],
                                              normals[i, 2], branch[i, 0], branch[i, 1], branch[i, 2],
                                              s_a[i], linear, kn_lin, E, R)
                 c_fl[i] = 0
@@ -96,7 +96,7 @@ def _make(parallel: bool):
             for i in range(lo, hi):
                 if c_fl[i] != 0 and bad_c[ch] < 0:
                     bad_c[ch] = i
-            for q in range(_NP):
+            for q in range(PARTIAL_SUMS):
                 part[ch, q] = 0.0
             if bad_c[ch] < 0:
                 prow = part[ch]
@@ -114,17 +114,17 @@ def _make(parallel: bool):
                         prow[43] += w
                     prow[44] += w * o_di[i]
                     # Jacobian rows/columns sc: B^T K B with the law's step tangent
-                    _add_jacobian_sub(prow, 6, sidx, ns, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
+                    add_jacobian_sub(prow, 6, sidx, ns, w, o_kn[i], o_ta, o_td, i, nx, ny, nz, lx, ly, lz)
         for ch in range(nch):
             if bad_c[ch] >= 0:
                 return bad_c[ch]
         return -1  # (a commit never sets bad_c)
 
     # called by the segment loop through its C-callable wrapper (a first-class function)
-    return njit(parallel=parallel, **_FIRST_CLASS)(_evaluate)
+    return njit(parallel=parallel, **FIRST_CLASS)(_evaluate)
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def _commit_rows(lo, hi, law_fn, kc, normals, branch, weights, st, out, resp, inc, scratch, prow):
     # accept the trial state of rows lo <= i < hi: out -> st (dissipated energy
     # accumulated, with the falling-N dissipation the law deferred to here added first:
@@ -174,11 +174,11 @@ def _commit_rows(lo, hi, law_fn, kc, normals, branch, weights, st, out, resp, in
         cn = w * (kn - ks)
         cs = w * ks
         for q in range(6):
-            uq = _pick(q, u0, u1, u2, u3, u4, u5)
-            bq0, bq1, bq2 = _bcol(q, lx, ly, lz)
+            uq = pick(q, u0, u1, u2, u3, u4, u5)
+            bq0, bq1, bq2 = bcol(q, lx, ly, lz)
             for q2 in range(q, 6):
-                uq2 = _pick(q2, u0, u1, u2, u3, u4, u5)
-                c0, c1, c2 = _bcol(q2, lx, ly, lz)
+                uq2 = pick(q2, u0, u1, u2, u3, u4, u5)
+                c0, c1, c2 = bcol(q2, lx, ly, lz)
                 btb = bq0 * c0 + bq1 * c1 + bq2 * c2
                 prow[6 * q + q2] += cs * btb + cn * uq * uq2
         prow[36] += w * stored_energy_term(out.normal_force[i], out.approach[i], out.tangential_force[i, 0],
@@ -186,8 +186,8 @@ def _commit_rows(lo, hi, law_fn, kc, normals, branch, weights, st, out, resp, in
                                            ks_lin, R, Gs)
 
 
-@njit(**_INNER)
-def _commit_sums(part, Cout):
+@njit(**INNER)
+def commit_sums(part, Cout):
     """Sum the commit's per-chunk sums, in chunk order.
 
     The reported tangent into ``Cout`` (36,), its lower triangle mirrored; returns
@@ -209,5 +209,5 @@ def _commit_sums(part, Cout):
     return wst, wdi
 
 
-_evaluate_serial = _make(False)
-_evaluate_parallel = _make(True)
+evaluate_serial = _make(False)
+evaluate_parallel = _make(True)

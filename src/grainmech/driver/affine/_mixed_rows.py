@@ -24,8 +24,8 @@ from grainmech.contact.geometry import (
     spring_energy,
 )
 
-_CH = 128  # at most this many contacts per chunk (work item of the prange)
-_CH_GROUP = 8  # the number of chunks is a multiple of this (see chunk_count)
+CHUNK = 128  # at most this many contacts per chunk (work item of the prange)
+CHUNK_GROUP = 8  # the number of chunks is a multiple of this (see chunk_count)
 #: rows from which the evaluation pass runs on numba's threads (with more than one): on
 #: 2 cores the threaded run took the serial one's time at 128 rows and was 1.35-1.84x
 #: faster from 256 to 1475 rows (random sets, 2 cycles of simple shear with sigma_zz
@@ -33,15 +33,15 @@ _CH_GROUP = 8  # the number of chunks is a multiple of this (see chunk_count)
 PARALLEL_ROWS = 256
 # functions that allocate nothing: compiled without numba's reference counting (atomic
 # increments of the arrays they are passed, per contact)
-_NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
+NO_NRT: dict[str, Any] = {"cache": True, "error_model": "numpy", "_nrt": False, "no_cpython_wrapper": True,
                            "no_cfunc_wrapper": True}
 # functions called only from compiled code: no Python or C wrapper
-_INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+INNER: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True, "no_cfunc_wrapper": True}
 # functions passed to compiled code as first-class functions: only the C wrapper
-_FIRST_CLASS: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True}
+FIRST_CLASS: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cpython_wrapper": True}
 # functions called from Python only: no C wrapper
-_PY_ONLY: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cfunc_wrapper": True}
-_NP = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
+PY_ONLY: dict[str, Any] = {"cache": True, "error_model": "numpy", "no_cfunc_wrapper": True}
+PARTIAL_SUMS = 6 + 36 + 3  # per-chunk partial sums: stress, Jacobian, (sliding, open, dissipation) weights
 
 #: failure causes reported by the compiled loop (``info[1]``)
 FAIL_SINGULAR = 1        # Newton Jacobian singular (condition number in finfo[0])
@@ -50,8 +50,8 @@ FAIL_NO_CONVERGENCE = 3  # max_iter iterations, no iterate within rtol_accept
 FAIL_LAW = 4             # the law could not advance a contact (index in info[3], flag in info[4])
 
 
-@njit(**_INNER)
-def _pick(q, u0, u1, u2, u3, u4, u5):
+@njit(**INNER)
+def pick(q, u0, u1, u2, u3, u4, u5):
     """The ``q``-th of six scalars (a register-held 6-vector)."""
     if q == 0:
         return u0
@@ -66,8 +66,8 @@ def _pick(q, u0, u1, u2, u3, u4, u5):
     return u5
 
 
-@njit(**_INNER)
-def _bcol(q, lx, ly, lz):
+@njit(**INNER)
+def bcol(q, lx, ly, lz):
     """Column ``q`` of ``B``, ``(B[0, q], B[1, q], B[2, q])``: relative displacement per unit engineering strain ``q``.
 
     Seed Eq. 2.13, ``delta_i = eps_ij l_j``, library order xx, yy, zz, yz, xz, xy. (One
@@ -87,7 +87,7 @@ def _bcol(q, lx, ly, lz):
     return 0.5 * ly, 0.5 * lx, 0.0
 
 
-@njit(**_NO_NRT)
+@njit(**NO_NRT)
 def _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz):
     """Entries (row by row) of ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` of contact ``i``.
 
@@ -111,7 +111,7 @@ def _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz):
     return K00, K01, K02, K10, K11, K12, K20, K21, K22
 
 
-@njit(**_NO_NRT)
+@njit(**NO_NRT)
 def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
     """Add ``w B^T K B`` (rows ``rowmask``, columns ``colmask``) to ``acc[off + 6 q + r]``.
 
@@ -122,18 +122,18 @@ def add_step_jacobian(acc, off, rowmask, colmask, w, kn, t_alpha, t_delta, i, nx
     K00, K01, K02, K10, K11, K12, K20, K21, K22 = _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz)
     for r in range(6):
         if colmask[r]:
-            b0, b1, b2 = _bcol(r, lx, ly, lz)
+            b0, b1, b2 = bcol(r, lx, ly, lz)
             g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
             g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
             g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
             for q in range(6):
                 if rowmask[q]:
-                    c0, c1, c2 = _bcol(q, lx, ly, lz)
+                    c0, c1, c2 = bcol(q, lx, ly, lz)
                     acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
 
 
-@njit(**_NO_NRT)
-def _add_jacobian_sub(acc, off, idx, ns, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
+@njit(**NO_NRT)
+def add_jacobian_sub(acc, off, idx, ns, w, kn, t_alpha, t_delta, i, nx, ny, nz, lx, ly, lz):
     """:func:`add_step_jacobian` with rows = columns = ``idx[:ns]`` (the same values).
 
     The stress-controlled components listed once per pass instead of six mask tests
@@ -142,18 +142,18 @@ def _add_jacobian_sub(acc, off, idx, ns, w, kn, t_alpha, t_delta, i, nx, ny, nz,
     K00, K01, K02, K10, K11, K12, K20, K21, K22 = _step_tangent3(kn, t_alpha, t_delta, i, nx, ny, nz)
     for rr in range(ns):
         r = idx[rr]
-        b0, b1, b2 = _bcol(r, lx, ly, lz)
+        b0, b1, b2 = bcol(r, lx, ly, lz)
         g0 = w * (K00 * b0 + K01 * b1 + K02 * b2)   # w K B[:, r]
         g1 = w * (K10 * b0 + K11 * b1 + K12 * b2)
         g2 = w * (K20 * b0 + K21 * b1 + K22 * b2)
         for qq in range(ns):
             q = idx[qq]
-            c0, c1, c2 = _bcol(q, lx, ly, lz)
+            c0, c1, c2 = bcol(q, lx, ly, lz)
             acc[off + 6 * q + r] += c0 * g0 + c1 * g1 + c2 * g2
 
 
-@njit(**_INNER)
-def _copy_state(src, src_resp, dst, dst_resp):
+@njit(**INNER)
+def copy_state(src, src_resp, dst, dst_resp):
     """Copy the state arrays ``src`` -> ``dst`` (KernelState layout) and the response rows.
 
     Element loops over C-contiguous arrays (a slice assignment compiles numba's
@@ -177,7 +177,7 @@ def _copy_state(src, src_resp, dst, dst_resp):
             dst_resp[f][i] = src_resp[f][i]
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, N0, linear, kn_lin, E, R):
     """One contact's step input from a strain increment.
 
@@ -185,22 +185,22 @@ def contact_increment(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, 
     normal force at the step end (seed Eq. 3.6, or ``kn alpha``) and the Hertz contact
     radii at its start and end (seed Eq. 3.2). Returns ``(d_n, dtx, dty, dtz, N1, rad0, rad1)``.
     """
-    d_n, dtx, dty, dtz, N1, rad1 = _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0,
+    d_n, dtx, dty, dtz, N1, rad1 = increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0,
                                                   linear, kn_lin, E, R)
     if linear:
         return d_n, dtx, dty, dtz, N1, N1, N1
     return d_n, dtx, dty, dtz, N1, start_radius(a0, N0, E, R), rad1
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def start_radius(a0, N0, E, R):
     """Hertz contact radius at the start of a step (seed Eq. 3.2; 0 for an open contact)."""
     Nc = N0 if (a0 > 0.0 and N0 > 0.0) else 0.0
     return hertz_radius(Nc, E, R)
 
 
-@njit(**_INNER)
-def _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, linear, kn_lin, E, R):
+@njit(**INNER)
+def increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, linear, kn_lin, E, R):
     """:func:`contact_increment` without the radius at the step's start: ``(d_n, dtx, dty, dtz, N1, rad1)``.
 
     The mixed-control pass keeps the start radius of the converged state (it changes only
@@ -219,14 +219,14 @@ def _increment_end(exx, eyy, ezz, eyz, exz, exy, nx, ny, nz, lx, ly, lz, a0, lin
     return d_n, dx - d_n * nx, dy - d_n * ny, dz - d_n * nz, N1, hertz_radius(N1, E, R)
 
 
-@njit(**_NO_NRT)
-def _start_radii(linear, E, R, approach, normal_force, rad0):
+@njit(**NO_NRT)
+def start_radii(linear, E, R, approach, normal_force, rad0):
     """``rad0`` of the converged state (:func:`start_radius`; unused for linear springs)."""
     for i in range(approach.shape[0]):
         rad0[i] = 0.0 if linear else start_radius(approach[i], normal_force[i], E, R)
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
     """One contact's Love-Weber stress terms ``w sym(f (x) l)``, ``f = N n + T``.
 
@@ -239,8 +239,8 @@ def love_weber_terms(N, tx, ty, tz, w, nx, ny, nz, lx, ly, lz):
             0.5 * (fx * ly + fy * lx))
 
 
-@njit(**_PY_ONLY)
-def _solve_small(A, b):
+@njit(**PY_ONLY)
+def solve_small(A, b):
     """Solve ``A x = b`` for a small dense (n, n) ``A`` (n <= 6); ``A`` and ``b`` are overwritten.
 
     Gaussian elimination with partial pivoting (the algorithm of LAPACK's ``dgesv``),
@@ -275,8 +275,8 @@ def _solve_small(A, b):
     return b, True
 
 
-@njit(**_PY_ONLY)
-def _cond2(J):
+@njit(**PY_ONLY)
+def cond2(J):
     """2-norm condition number ``s_max / s_min`` of a small finite (n, n) matrix (n <= 6).
 
     As ``np.linalg.cond(J)`` (``inf`` for a singular ``J``), with the singular values by
@@ -323,8 +323,8 @@ def _cond2(J):
     return smax / smin if smin > 0.0 else math.inf
 
 
-@njit(**_INNER)
-def _reduce(part, sig, jac, sym):
+@njit(**INNER)
+def reduce_chunks(part, sig, jac, sym):
     """Sum the per-chunk partial sums.
 
     Stress into ``sig`` (6,), Jacobian into ``jac`` (6, 6), each component times its
@@ -352,7 +352,7 @@ def _reduce(part, sig, jac, sym):
     return s_sl, s_op, s_di
 
 
-@njit(**_INNER)
+@njit(**INNER)
 def stored_energy_term(N, alpha, tx, ty, tz, linear, ks_lin, R, Gs):
     """Elastic energy held by one contact, as :meth:`ContactLaw.stored_energy`.
 

@@ -25,15 +25,13 @@ from grainmech.assembly import ContactSet, static_contact_forces
 from grainmech.contact.interface import coulomb_limit, make_law
 from grainmech.contact.law import ContactResponse
 from grainmech.conventions import stress_to_vector, vector_to_stress
-from grainmech.driver.affine.response import (  # noqa: F401 (names this module had, private ones included)
+from grainmech.driver.affine.response import (  # noqa: F401 (names this module had)
     Evaluation,
-    _fractions,
-    _project,
-    _step_jacobian,
-    _stress,
     consistent_tangent,
+    contact_stress,
     evaluate,
     geometric_stiffness,
+    sliding_open_fractions,
     tangent,
 )
 from grainmech.driver.affine.solver import run
@@ -100,7 +98,7 @@ class MaterialPoint:
 
     def fractions(self) -> tuple[float, float]:
         """(sliding, open) fractions of contacts, weighted by ``w``."""
-        return _fractions(self.contacts, self.response)
+        return sliding_open_fractions(self.contacts, self.response)
 
     def stored_energy(self) -> float:
         """Elastic energy per unit volume held by the contacts (see the law's notes)."""
@@ -121,7 +119,7 @@ class MaterialPoint:
         lw = make_law(law, backend=backend)
         st = lw.initial_state(normal_force, tangential_force)
         resp = lw.response(st)
-        return cls(cs, lw, st, resp, np.zeros(6), _stress(cs, resp))
+        return cls(cs, lw, st, resp, np.zeros(6), contact_stress(cs, resp))
 
     @classmethod
     def isotropic(cls, source: Any, law: Any, pressure: float, *, extra_degree: int = 4,

@@ -32,7 +32,12 @@ class Evaluation:
     stress: np.ndarray  # (6,)
 
 
-def _stress(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+def contact_stress(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
+    """Love-Weber stress (6,) [Pa] of the contact forces of ``resp`` on ``cs`` (seed Eq. 2.6), symmetrised.
+
+    Non-finite forces raise the error of :func:`grainmech.assembly.love_weber_stress`,
+    which names the contact.
+    """
     f = resp.normal_force[:, None] * cs.normals + resp.tangential_force
     if not np.all(np.isfinite(f)):
         return stress_to_vector(love_weber_stress(f, cs.branch, cs.weights).stress)  # raises, naming the contact
@@ -111,7 +116,8 @@ def _step_jacobian(cs: ContactSet, resp: ContactResponse) -> np.ndarray:
     return np.einsum("c,ciq,cij,cjr->qr", cs.weights, B, K, B, optimize=True)
 
 
-def _fractions(cs: ContactSet, resp: ContactResponse) -> tuple[float, float]:
+def sliding_open_fractions(cs: ContactSet, resp: ContactResponse) -> tuple[float, float]:
+    """Weighted fractions of the contacts of ``cs`` that slide and that are open in ``resp`` [-]."""
     w = cs.weights
     tot = float(w.sum())
     if tot <= 0:
@@ -133,7 +139,7 @@ def evaluate(point: Any, d_strain: np.ndarray) -> Evaluation:
     dn = np.einsum("ci,ci->c", delta, cs.normals)
     dt = delta - dn[:, None] * cs.normals
     st, resp = point.law.update(point.state, dn, dt)
-    return Evaluation(st, resp, _stress(cs, resp))
+    return Evaluation(st, resp, contact_stress(cs, resp))
 
 
 def geometric_stiffness(stress: np.ndarray) -> np.ndarray:

@@ -24,7 +24,13 @@ from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact._errors import ReversalMemoryError
 from grainmech.contact.interface import ContactLaw
 from grainmech.contact.law import max_reversals
-from grainmech.driver.affine.response import _fractions, consistent_tangent, evaluate, geometric_stiffness, tangent
+from grainmech.driver.affine.response import (
+    consistent_tangent,
+    evaluate,
+    geometric_stiffness,
+    sliding_open_fractions,
+    tangent,
+)
 from grainmech.driver.base import DriverResult, PointStepping, StepFailure
 from grainmech.driver.loop import cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath
@@ -160,7 +166,7 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
             J = C[np.ix_(sc, sc)]
         cond = np.linalg.cond(J)
         if not np.isfinite(cond) or cond > 1e13:
-            sl, op = _fractions(point.contacts, ev.response)
+            sl, op = sliding_open_fractions(point.contacts, ev.response)
             raise StepFailure(f"tangent singular (condition {cond:.3g}), {100 * sl:.0f}% of contacts "
                                f"sliding, {100 * op:.0f}% open")
         de[sc] = de[sc] - np.linalg.solve(J, r)
@@ -168,7 +174,7 @@ def _solve(point: MaterialPoint, sc: np.ndarray, d_strain: np.ndarray, target: n
             raise StepFailure("Newton update not finite")
     if best is not None:
         return best[1], opts.max_iter, best[2], True
-    sl, op = _fractions(point.contacts, ev.response)
+    sl, op = sliding_open_fractions(point.contacts, ev.response)
     raise StepFailure(f"Newton did not converge in {opts.max_iter} iterations (residual "
                        f"{np.abs(r).max():.3g} > {tol:.3g}), {100 * sl:.0f}% of contacts sliding, "
                        f"{100 * op:.0f}% open")

@@ -48,10 +48,9 @@ from grainmech.driver.packing.options import (  # noqa: F401 (re-exported: the n
     STATUS_FAILED,
     STATUS_SMALL_STRAIN,
     PackingOptions,
-    _check_params,
-    _law_scale,
+    check_law_params,
 )
-from grainmech.driver.packing.point import PackingPoint, PackingResult, _run, run_packing
+from grainmech.driver.packing.point import PackingPoint, PackingResult, run_packing, run_resolved
 from grainmech.driver.packing.tangent import unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import Box, ContactNetwork, lattice_network
@@ -130,7 +129,7 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
         approach. Positions are the reference ones (the fluctuations are small-strain
         corrections); ``overlap`` is therefore not ``R_A + R_B - |l|``.
     """
-    _check_params(params)
+    check_law_params(params)
     if normal_law(params) == "linear":
         prep: Any = LinearSpring(params.kn, 0.0, 0.0)
     else:
@@ -147,7 +146,7 @@ def equilibrate_network(net: ContactNetwork, params: Any, *, pressure: float | N
             raise ParameterError("pressure", pressure, "must be a positive stress (compression positive)")
         path = LoadPath(np.ones((1, 6), bool),
                         (np.array([pressure] * 3 + [0.0] * 3) - pt.stress)[None, :])
-    res = _run(pt, path, opts, energy=True)
+    res = run_resolved(pt, path, opts, energy=True)
     if not res.success:
         raise GrainmechError(f"{net.source or 'network'}: equilibration failed: {res.message}")
     eq = cast(PackingPoint, res.final)

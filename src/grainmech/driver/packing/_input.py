@@ -13,12 +13,12 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from grainmech.contact import ContactState, state_from_approach, state_from_forces
-from grainmech.driver.packing.options import _law_scale
+from grainmech.driver.packing.options import law_scale
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork
 
 
-def _check_network(net: Any, forces: str, gap: float, imbalance: str) -> None:
+def check_network(net: Any, forces: str, gap: float, imbalance: str) -> None:
     """Validate the input of :meth:`PackingPoint.from_network` (one-line errors naming the field)."""
     if not isinstance(net, ContactNetwork):
         raise ParameterError("network", type(net).__name__, "must be a grainmech.network.ContactNetwork")
@@ -39,7 +39,7 @@ def _check_network(net: Any, forces: str, gap: float, imbalance: str) -> None:
         raise ParameterError("network", net.source, "has no contacts")
 
 
-def _input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool,
+def input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool,
                   notes: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Normal (C,) [N] and tangential (C, 3) [N] forces of the input contacts.
 
@@ -48,7 +48,7 @@ def _input_forces(net: ContactNetwork, params: Any, forces: str, frictional: boo
     stored), no tangential force; ``"auto"``: stored when any is non-zero. A frictionless
     law drops tangential forces (a note in ``notes``); non-carrying contacts get ``T = 0``.
     """
-    assert net.radii is not None  # checked by _check_network
+    assert net.radii is not None  # checked by check_network
     n, L = net.normals, net.branch_length
     RA, RB = net.radii[net.i], net.radii[net.j]
     if forces == "auto":
@@ -59,7 +59,7 @@ def _input_forces(net: ContactNetwork, params: Any, forces: str, frictional: boo
     else:
         alpha = net.overlap if net.overlap is not None else RA + RB - L
         Rs = RA * RB / (RA + RB)
-        N = state_from_approach(params, np.maximum(alpha, 0.0) * _law_scale(params, Rs)).normal_force
+        N = state_from_approach(params, np.maximum(alpha, 0.0) * law_scale(params, Rs)).normal_force
         T = np.zeros_like(net.force)
     carrying = N > 0
     if frictional:
@@ -103,7 +103,7 @@ def _cap_small_excess(net: ContactNetwork, N: np.ndarray, T: np.ndarray, frictio
     ``docs/dem.md``, "A packing from LIGGGHTS"). Such forces are capped when (1) every
     excess ``|T| - mu N`` is below :data:`TANGENTIAL_EXCESS_CAP` of the mean normal force
     and (2) capping lowers the grains' mean out-of-balance force; otherwise they are left
-    for :func:`_initial_state` to reject. The capped forces are the input state (what is
+    for :func:`initial_contact_state` to reject. The capped forces are the input state (what is
     left unbalanced is held as grain loads, as for any input).
     """
     carrying = N > 0
@@ -130,12 +130,12 @@ def _cap_small_excess(net: ContactNetwork, N: np.ndarray, T: np.ndarray, frictio
     return capped
 
 
-def _initial_state(params: Any, Nk: np.ndarray, Tk: np.ndarray, rows: np.ndarray, frictional: bool,
+def initial_contact_state(params: Any, Nk: np.ndarray, Tk: np.ndarray, rows: np.ndarray, frictional: bool,
                    Lc: np.ndarray, Ra: np.ndarray, Rb: np.ndarray, s: np.ndarray) -> ContactState:
     """Contact law state (law space): the listed contacts at their forces, the gap pairs open.
 
     ``Nk``, ``Tk``: forces [N] of the ``Nk.size`` listed contacts (first rows); ``Lc``
-    [m], ``Ra``, ``Rb`` [m], ``s`` (displacement scale, :func:`_law_scale`) of every
+    [m], ``Ra``, ``Rb`` [m], ``s`` (displacement scale, :func:`law_scale`) of every
     tracked pair. A tangential force above ``mu N`` (beyond 1e-6 relative) is an error
     naming the contact; one within it is capped to ``mu N``.
     """
@@ -156,12 +156,12 @@ def _initial_state(params: Any, Nk: np.ndarray, Tk: np.ndarray, rows: np.ndarray
     return ContactState(*(np.concatenate([x, y]) for x, y in zip(st_l, st_g)))
 
 
-def _pin_first(grains: np.ndarray, net: ContactNetwork, carrying: np.ndarray, N: np.ndarray) -> np.ndarray:
+def pin_first(grains: np.ndarray, net: ContactNetwork, carrying: np.ndarray, N: np.ndarray) -> np.ndarray:
     """``grains`` (kept rows of ``net``) with the best-held grain first: its translation is pinned.
 
     The global translation of a periodic packing is a zero mode, removed by pinning the
     translation of the first kept grain (:class:`Kinematics`). That grain's out-of-balance
-    force is then minus the sum of all the others' (:func:`_grain_residuals`), and moving
+    force is then minus the sum of all the others' (:func:`grain_residuals`), and moving
     it means moving every other grain against it. Pinned on a grain held by two weak
     contacts (the first row of the shipped 'loose' packing has 2, carrying 0.09 and 0.06 of
     the mean contact force), the coherent part of the other grains' small residuals piles up
@@ -178,7 +178,7 @@ def _pin_first(grains: np.ndarray, net: ContactNetwork, carrying: np.ndarray, N:
     return np.concatenate([[best], grains[grains != best]])
 
 
-def _gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Pairs of non-rattler grains not in contact whose gap is below ``gap`` times their mean radius."""
     pos, R, box = net.positions, net.require_radii("tracking gap pairs"), net.box
     idx = np.flatnonzero(alive)

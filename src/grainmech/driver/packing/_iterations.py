@@ -1,10 +1,10 @@
 """Iteration pieces of the packing step solver (:mod:`grainmech.driver.packing.step`).
 
-Anderson-accelerated elastic iterations (``_anderson``), the Newton-Krylov direction by
-right-preconditioned GMRES (``_direction``), the per-grain trust limits (``_trust``,
-``_clip``, ``_closing_cap``), the step tangent of the contact laws (``_step_tangent``,
-``_slip_rotation``), the held input imbalance (``_held_load``), the stress uncertainty of
-out-of-balance forces (``_stress_ambiguity``) and the solver's trace output. The method
+Anderson-accelerated elastic iterations (``anderson_iterations``), the Newton-Krylov direction by
+right-preconditioned GMRES (``krylov_direction``), the per-grain trust limits (``trust_ratio``,
+``clip_grain_moves``, ``stop_closing``), the step tangent of the contact laws (``step_tangent``,
+``slip_rotation``), the held input imbalance (``held_load``), the stress uncertainty of
+out-of-balance forces (``stress_ambiguity``) and the solver's trace output. The method
 and its sources are in ``docs/packing-driver.md``.
 """
 
@@ -22,19 +22,19 @@ import scipy.sparse.linalg as spla
 from grainmech.driver.packing._operators import (
     Kinematics,
     Preconditioner,
-    _cross_rows,
+    cross_rows,
     voigt_of,
 )
-from grainmech.driver.packing.options import ACCEPT_MAX_FORCE, PackingOptions, _Context, _StepFailure
+from grainmech.driver.packing.options import ACCEPT_MAX_FORCE, PackingOptions, RunContext, SubstepFailure
 
 if TYPE_CHECKING:
     from grainmech.driver.packing.point import PackingPoint
 
 #: backtracking steps of the elastic operator's update after a failed Newton line search
-_STIFF_BACKTRACKS = 4
+STIFF_BACKTRACKS = 4
 
 
-def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
+def anderson_iterations(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
               m: float, residual: Callable, merit: Callable, limit: Callable, converged: Callable, settled: Callable,
               accept: Callable, mem: int, n_iter: int, dbg: Callable | None) -> tuple:
     """Anderson-accelerated elastic iteration of one (sub)step.
@@ -119,14 +119,14 @@ def _anderson(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray
         try:
             trial = residual(xq + sq, xe + se)
             mt = merit(trial)
-        except _StepFailure:
+        except SubstepFailure:
             mt = np.inf
         if not mt <= 3.0 * m:  # restart from a plain elastic update, halved until it does not raise r
             if dbg:
                 dbg(f"   anderson restart (merit {mt:.3g})")
             X, F, dXs, dFs = [], [], [], []
             sq, se = limit(fq, fe, st)
-            for _ in range(_STIFF_BACKTRACKS):
+            for _ in range(STIFF_BACKTRACKS):
                 trial = residual(xq + sq, xe + se)
                 mt = merit(trial)
                 if mt <= m:
@@ -162,8 +162,8 @@ _AA_PATIENCE, _AA_PROGRESS = 8, 0.9
 _AA_RESTARTS = 2
 
 
-def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
-               shift: float, m: float, opts: PackingOptions, ctx: _Context, rtol: float | None = None,
+def krylov_direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
+               shift: float, m: float, opts: PackingOptions, ctx: RunContext, rtol: float | None = None,
                roll: Any = None) -> tuple:
     """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
 
@@ -209,7 +209,7 @@ def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq
     y = psolve(z)
     ctx.krylov += count[0]
     if not np.all(np.isfinite(y)):
-        raise _StepFailure("linear solve not finite")
+        raise SubstepFailure("linear solve not finite")
     dxq, dxe = Dq * y[:nq], De * y[nq:]
     slope = float(np.dot(rq, dxq) + np.dot(re, dxe))
     if ctx.energy and not slope < 0:  # inexact Krylov step not downhill: preconditioned gradient
@@ -219,7 +219,7 @@ def _direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq
     return dxq, dxe, slope, pred, count[0]
 
 
-def _trust(kin: Kinematics, dxq: np.ndarray | None, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
+def trust_ratio(kin: Kinematics, dxq: np.ndarray | None, dxe: np.ndarray, S: np.ndarray, move: float) -> float:
     """Factor (>= 1) by which an update's largest contact displacement exceeds ``move``.
 
     ``move`` [length] is the trust limit; the update is ``(dxq, dxe)`` (``dxq = None``: the
@@ -235,7 +235,7 @@ def _trust(kin: Kinematics, dxq: np.ndarray | None, dxe: np.ndarray, S: np.ndarr
     return max(float(np.max(np.linalg.norm(d, axis=1), initial=0.0)) / move, 1.0)
 
 
-def _step_tangent(n: np.ndarray, resp: Any, r_s: np.ndarray, closed: np.ndarray) -> np.ndarray:
+def step_tangent(n: np.ndarray, resp: Any, r_s: np.ndarray, closed: np.ndarray) -> np.ndarray:
     """Contact tangent (C, 3, 3) from the law's step tangent [force/length].
 
     ``K = (kn n + t_alpha) n^T + t_delta (I - n n)`` with ``t_delta = dT/d d_t`` and
@@ -243,7 +243,7 @@ def _step_tangent(n: np.ndarray, resp: Any, r_s: np.ndarray, closed: np.ndarray)
     integrated from the committed state (:class:`grainmech.contact.ContactResponse`; for
     Mindlin-Deresiewicz exact to about 1e-9 against finite differences, including the
     normal-tangential coupling of seed Eq. 3.11 and the radial return at the Coulomb
-    limit). ``r_s`` converts law-space displacements (:func:`_law_scale`); open contacts
+    limit). ``r_s`` converts law-space displacements (:func:`law_scale`); open contacts
     carry nothing.
     """
     w = np.where(closed, r_s, 0.0)
@@ -253,7 +253,7 @@ def _step_tangent(n: np.ndarray, resp: Any, r_s: np.ndarray, closed: np.ndarray)
     return K * w[:, None, None]
 
 
-def _slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarray, de: np.ndarray) -> np.ndarray:
+def slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarray, de: np.ndarray) -> np.ndarray:
     """Factor (C,) of the across-slip stiffness of a Coulomb-capped spring at the trial.
 
     A sliding contact of a spring with a Coulomb cap (``HertzMindlin``, ``LinearSpring``:
@@ -276,7 +276,7 @@ def _slip_rotation(point: PackingPoint, resp: Any, kin: Kinematics, xq: np.ndarr
     return f
 
 
-def _held_load(point: PackingPoint, resp: Any) -> np.ndarray:
+def held_load(point: PackingPoint, resp: Any) -> np.ndarray:
     """The held input imbalance (``PackingPoint.load``) that the grains' closed contacts can resist.
 
     A grain's closed contacts resist its motions ``q_p`` that change their relative
@@ -353,9 +353,9 @@ def _mechanisms(kin: Kinematics, R: np.ndarray, closed: np.ndarray) -> tuple[np.
     a, b, n = kin.a[closed], kin.b[closed], kin.n[closed]
     W = np.zeros((2, a.size, 3, 6))
     W[0, :, :, :3] = np.eye(3)
-    W[0, :, :, 3:] = -_cross_rows(R[a][:, None] * n) / R[a][:, None, None]
+    W[0, :, :, 3:] = -cross_rows(R[a][:, None] * n) / R[a][:, None, None]
     W[1, :, :, :3] = -np.eye(3)
-    W[1, :, :, 3:] = _cross_rows(-R[b][:, None] * n) / R[b][:, None, None]
+    W[1, :, :, 3:] = cross_rows(-R[b][:, None] * n) / R[b][:, None, None]
     ga = np.einsum("cki,ckj->cij", W[0], W[0]).reshape(-1, 36)
     gb = np.einsum("cki,ckj->cij", W[1], W[1]).reshape(-1, 36)
     if kin.rolling:  # moment springs resist the relative rotation too: rolling (and twisting) mechanisms go
@@ -375,13 +375,13 @@ def _mechanisms(kin: Kinematics, R: np.ndarray, closed: np.ndarray) -> tuple[np.
     return out
 
 
-def _hold_mechanisms(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, closed: np.ndarray) -> np.ndarray:
+def hold_mechanisms(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, closed: np.ndarray) -> np.ndarray:
     """Grain update ``dxq`` without its parts along each grain's mechanisms (:func:`_mechanisms`).
 
     The driver's rule for a grain that loses contacts (``docs/packing-driver.md``,
     "Opening and closing"): a motion along a mechanism changes no contact, so no force
     acts along it (the contacts do no work on it and the held load's share there is
-    dropped, :func:`_held_load`) and equilibrium does not fix it. The grain keeps its
+    dropped, :func:`held_load`) and equilibrium does not fix it. The grain keeps its
     fluctuation along it, i.e. follows the mean strain there: the least-norm solution, as
     ``H^+`` does in the relaxed tensor (Lemaitre & Maloney 2006, Eq. 12). A grain with no
     closed contact thus leaves the unknowns entirely; a grain with one or two keeps the
@@ -401,13 +401,13 @@ def _hold_mechanisms(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, closed: np
     return full.reshape(-1)[kin.free]
 
 
-#: _held_load's results per kinematics (weak: dropped with the run's points)
+#: held_load's results per kinematics (weak: dropped with the run's points)
 _HELD: WeakKeyDictionary = WeakKeyDictionary()
 #: _mechanisms' results per kinematics
 _MECH: WeakKeyDictionary = WeakKeyDictionary()
 
 
-def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, approach: np.ndarray,
+def stop_closing(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarray, approach: np.ndarray,
                  cap: float) -> np.ndarray:
     """Grain update with every contact that it closes stopped at an approach of ``cap``.
 
@@ -432,7 +432,7 @@ def _closing_cap(kin: Kinematics, dxq: np.ndarray, dxe: np.ndarray, S: np.ndarra
     return mv.reshape(-1)[kin.free]
 
 
-def _at_rest(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float, bar: float) -> bool:
+def at_rest(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float, bar: float) -> bool:
     """Whether out-of-balance forces ``rq`` leave the packing at rest by a DEM's measure.
 
     The mean over grains of ``sqrt(|F_p|^2 + (|M_p|/R_p)^2)`` at most ``bar`` times the
@@ -442,51 +442,51 @@ def _at_rest(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float, bar: f
     """
     if fref <= 0.0:
         return False
-    g = _grain_residuals(kin, rq)
+    g = grain_residuals(kin, rq)
     F = np.linalg.norm(g[:, :3], axis=1)
     M = np.linalg.norm(g[:, 3:], axis=1) / R
     return bool(np.mean(np.hypot(F, M)) <= bar * fref and max(F.max(), M.max()) <= ACCEPT_MAX_FORCE * fref)
 
 
-def _grain_residuals(kin: Kinematics, rq: np.ndarray) -> np.ndarray:
+def grain_residuals(kin: Kinematics, rq: np.ndarray) -> np.ndarray:
     """(P, 6) out-of-balance forces and moments of every grain from ``rq`` (n_free,).
 
     The translation of grain 0 is pinned (not an unknown, :class:`Kinematics`); its
     out-of-balance force follows from the others', as the contact forces sum to zero:
     ``F_0 = -sum_(p>0) F_p``. Small residuals of many grains in one direction add up
     there, which is why grain 0 is the best-held grain of the packing
-    (:func:`grainmech.driver.packing._input._pin_first`).
+    (:func:`grainmech.driver.packing._input.pin_first`).
     """
     g = kin.full(rq)
     g[0, :3] = -g[1:, :3].sum(axis=0)
     return g
 
 
-def _largest(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
+def largest_residual(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
     """The largest grain's ``|F_p|`` or ``|M_p|/R_p`` of out-of-balance forces ``rq`` [force].
 
     Over the mean contact force this is :func:`unbalanced_force_ratio` with ``kind="max"``,
     the residual :class:`PackingResult` reports.
     """
-    g = _grain_residuals(kin, rq)
+    g = grain_residuals(kin, rq)
     return float(max(np.linalg.norm(g[:, :3], axis=1).max(initial=0.0),
                      (np.linalg.norm(g[:, 3:], axis=1) / R).max(initial=0.0)))
 
 
-def _unbalanced(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float) -> float:
+def unbalanced_ratio(kin: Kinematics, rq: np.ndarray, R: np.ndarray, fref: float) -> float:
     """Mean unbalanced force ratio of out-of-balance forces ``rq`` (trace output)."""
-    g = _grain_residuals(kin, rq)
+    g = grain_residuals(kin, rq)
     return float(np.mean(np.hypot(np.linalg.norm(g[:, :3], axis=1), np.linalg.norm(g[:, 3:], axis=1) / R))
                  / max(fref, 1e-300))
 
 
-def _stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
+def stress_ambiguity(kin: Kinematics, rq: np.ndarray, R: np.ndarray) -> float:
     """``sum_p (|F_p| R_p + |M_p|)`` [force length] of out-of-balance forces and moments ``rq``."""
-    g = _grain_residuals(kin, rq)
+    g = grain_residuals(kin, rq)
     return float(np.sum(np.linalg.norm(g[:, :3], axis=1) * R + np.linalg.norm(g[:, 3:], axis=1)))
 
 
-def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.ndarray:
+def clip_grain_moves(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.ndarray:
     """Grain update ``dxq`` (n_free,) with each grain's move clipped to ``move`` [length].
 
     A grain's translation and surface rotation ``R |theta|`` are scaled down together.
@@ -497,7 +497,7 @@ def _clip(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, move: float) -> np.nd
     return (mv * c[:, None]).reshape(-1)[kin.free]
 
 
-def _grain_report(kin: Kinematics, rq: np.ndarray, tolq: np.ndarray, resp: Any) -> str:
+def grain_report(kin: Kinematics, rq: np.ndarray, tolq: np.ndarray, resp: Any) -> str:
     """Trace line: grains above the force tolerance, the worst ones with their contacts."""
     g = np.max(kin.full(np.abs(rq) / tolq), axis=1)
     closed = ~np.asarray(resp.open, bool)
@@ -509,7 +509,7 @@ def _grain_report(kin: Kinematics, rq: np.ndarray, tolq: np.ndarray, resp: Any) 
     return f"   grains over tol {int(np.sum(g > 1))} (>100x {int(np.sum(g > 100))}); worst {top}"
 
 
-def _debug() -> Callable[[str], None] | None:
+def trace_printer() -> Callable[[str], None] | None:
     """Trace printer of the step solver when ``GRAINMECH_PACKING_TRACE`` is set."""
     if not os.environ.get("GRAINMECH_PACKING_TRACE"):
         return None

@@ -123,7 +123,7 @@ def clip_moves(x, pos, R, move, out):
     """Each grain's update (translation and surface rotation ``R |theta|`` together) cut to ``move``.
 
     ``x`` (n_free,) free unknowns, written cut into ``out``; ``pos`` (P, 6) index of each
-    grain's unknown in ``x`` (-1: pinned). As :func:`grainmech.driver.packing.step._clip`.
+    grain's unknown in ``x`` (-1: pinned). As :func:`grainmech.driver.packing._iterations.clip_grain_moves`.
     """
     for p in range(pos.shape[0]):
         t2 = 0.0
@@ -157,7 +157,7 @@ def affine_move(l_, de):
 def closing_cap(indptr, indices, data, dxq, l_, n, de, approach, cap, a, b, pos, f, out):
     """Grain update with every contact it closes stopped at an approach of ``cap``.
 
-    As :func:`grainmech.driver.packing.step._closing_cap`: both grains of a contact
+    As :func:`grainmech.driver.packing._iterations.stop_closing`: both grains of a contact
     that is open (``approach <= 0``) and would close beyond ``cap`` are scaled by the
     smallest factor ``(cap - approach)/dn`` (clipped to [0, 1]) over their closing
     contacts. ``f`` (P,) ones on entry (work space). Returns True and the scaled update

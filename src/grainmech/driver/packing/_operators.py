@@ -29,7 +29,7 @@ import scipy.sparse.linalg as spla
 
 from grainmech.errors import GrainmechError
 from grainmech.network._solvers import refine_pcg, shared_pardiso
-from grainmech.network.relaxed import _cross_matrix as _cross_rows  # [r]_x, one home with the relaxed tensor
+from grainmech.network.relaxed import cross_matrix as cross_rows  # [r]_x, one home with the relaxed tensor
 
 __all__: list[str] = []
 
@@ -103,9 +103,9 @@ class Kinematics:
         rB = -RB[:, None] * n
         blk = np.zeros((C, 3, 12))
         blk[:, :, 0:3] = np.eye(3)
-        blk[:, :, 3:6] = -_cross_rows(rA)
+        blk[:, :, 3:6] = -cross_rows(rA)
         blk[:, :, 6:9] = -np.eye(3)
-        blk[:, :, 9:12] = _cross_rows(rB)
+        blk[:, :, 9:12] = cross_rows(rB)
         cols = np.concatenate([6 * a[:, None] + np.arange(6), 6 * b[:, None] + np.arange(6)], axis=1)
         rows = 3 * np.arange(C)[:, None, None] + np.arange(3)[None, :, None]
         G = sp.csr_matrix((blk.ravel(), (np.broadcast_to(rows, blk.shape).ravel(),

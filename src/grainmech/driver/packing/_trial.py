@@ -1,9 +1,9 @@
 """The contact laws at a trial increment of the packing step solver (:mod:`grainmech.driver.packing.step`).
 
 The law call of a point (NumPy reference or compiled, ``_law_step``), the trial state,
-response and contact forces (``_evaluate``), the compiled counterparts of that glue
+response and contact forces (``evaluate_trial``), the compiled counterparts of that glue
 (``_Glue``: :mod:`grainmech.driver.packing._kernels`, used when the point's law runs
-compiled) and the elastic energy of frictionless contacts (``_potential``).
+compiled) and the elastic energy of frictionless contacts (``frictionless_energy``).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from grainmech.contact.law import CompiledUpdate, compiled_kernel
 from grainmech.driver.packing._operators import (
     Kinematics,
 )
-from grainmech.driver.packing.options import _law_kw, _StepFailure
+from grainmech.driver.packing.options import SubstepFailure, law_options
 
 if TYPE_CHECKING:
     from grainmech.driver.packing.point import PackingPoint
@@ -39,7 +39,7 @@ def _law_call(point: PackingPoint) -> Callable[[np.ndarray, np.ndarray], tuple]:
     if hit is not None and hit[0] is point.state and hit[1] == point.law_backend:
         return hit[2]
     kernel = compiled_kernel(point.params, point.law_backend or "auto")
-    params, state, kw = point.params, point.state, _law_kw(point.law_backend)
+    params, state, kw = point.params, point.state, law_options(point.law_backend)
     fn = (CompiledUpdate(kernel, params, state) if kernel is not None
           else lambda dn, dt: update(params, state, dn, dt, **kw))
     point._cache["law"] = (state, point.law_backend, fn)
@@ -51,14 +51,14 @@ def _law_step(point: PackingPoint, dn: np.ndarray, dt: np.ndarray) -> tuple:
     try:
         return _law_call(point)(dn, dt)
     except ValueError as exc:  # GrainmechError (memory, domain) or bad increment
-        raise _StepFailure(f"contact law error: {exc}") from None
+        raise SubstepFailure(f"contact law error: {exc}") from None
 
 
 class _Glue:
     """The compiled counterparts (:mod:`grainmech.driver.packing._kernels`) of one kinematics' iteration glue.
 
-    :meth:`evaluate` is :func:`_evaluate` with ``G^T f`` and ``V sigma``; :meth:`limit`
-    is the trust limit of ``_solve`` (:func:`_clip`, :func:`_trust`, :func:`_closing_cap`).
+    :meth:`evaluate` is :func:`evaluate_trial` with ``G^T f`` and ``V sigma``; :meth:`limit`
+    is the trust limit of ``_solve`` (:func:`clip_grain_moves`, :func:`trust_ratio`, :func:`stop_closing`).
     """
 
     def __init__(self, kin: Kinematics, mod: Any) -> None:
@@ -76,7 +76,7 @@ class _Glue:
         dn, dt = np.empty(C), np.empty((C, 3))
         if not self.k.contact_increments(*self.g, np.ascontiguousarray(dq, dtype=float), self.l, self.n,
                                          np.ascontiguousarray(de, dtype=float), point.scale, dn, dt):
-            raise _StepFailure("Newton update not finite")
+            raise SubstepFailure("Newton update not finite")
         st, resp = _law_step(point, dn, dt)
         f, rq, vs = np.empty((C, 3)), np.empty(self.kin.n_free), np.empty(6)
         self.k.forces_balance(resp.normal_force, resp.tangential_force, self.n, self.l, *self.gt, f.reshape(-1), rq,
@@ -105,7 +105,7 @@ class _Glue:
 _GLUE: WeakKeyDictionary = WeakKeyDictionary()
 
 
-def _compiled_glue(point: PackingPoint) -> _Glue | None:
+def compiled_glue(point: PackingPoint) -> _Glue | None:
     """The compiled iteration glue when the point's law runs compiled and numba imports, else None (NumPy)."""
     if point.law_backend == "numpy" or compiled_kernel(point.params, point.law_backend or "auto") is None:
         return None
@@ -119,20 +119,20 @@ def _compiled_glue(point: PackingPoint) -> _Glue | None:
     return _GLUE[kin]
 
 
-def _evaluate(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
+def evaluate_trial(point: PackingPoint, dq: np.ndarray, de: np.ndarray):
     """Contact law at the trial increment (from the converged ``point``): state, response, forces."""
     kin, s = point.kinematics, point.scale
     D = kin.delta(dq, de)
     dn = kin.normal_part(D)
     dt = D - dn[:, None] * kin.n
     if not (np.all(np.isfinite(dn)) and np.all(np.isfinite(dt))):
-        raise _StepFailure("Newton update not finite")
+        raise SubstepFailure("Newton update not finite")
     st, resp = _law_step(point, dn * s, dt * s[:, None])
     f = resp.normal_force[:, None] * kin.n + resp.tangential_force
     return st, resp, f
 
 
-def _potential(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
+def frictionless_energy(point: PackingPoint, st: ContactState, resp: Any) -> np.ndarray:
     """Elastic energy (C,) of frictionless contacts [energy].
 
     Hertz ``(2/5) N alpha`` (seed Eq. 3.6 integrated), linear springs ``N^2 / (2 kn)``.

@@ -1,8 +1,8 @@
 """Options and shared small types of the packing driver (:mod:`grainmech.driver.packing`).
 
 :class:`PackingOptions` and the status codes of a packing run, the law checks and
-displacement scale of a contact (``_law_scale``), and the step solver's failure and
-per-run state (``_StepFailure``, ``_Context``): the pieces the point, the runner and the
+displacement scale of a contact (``law_scale``), and the step solver's failure and
+per-run state (``SubstepFailure``, ``RunContext``): the pieces the point, the runner and the
 step solver (:mod:`grainmech.driver.packing.step`) all use, so that none of them imports
 another for them.
 """
@@ -231,7 +231,7 @@ class PackingOptions:
             raise ParameterError("max_step_work", self.max_step_work, "must be an integer >= 100")
 
 
-def _law_scale(params: object, Rs: np.ndarray) -> np.ndarray:
+def law_scale(params: object, Rs: np.ndarray) -> np.ndarray:
     """Displacement scale ``s_c = (R*_c / R*_law)^(1/3)`` of a Hertz-type law (1 for springs).
 
     Hertz (seed Eq. 3.6) ``N = (4/3) E* R*^(1/2) alpha^(3/2)`` and Mindlin's
@@ -246,27 +246,31 @@ def _law_scale(params: object, Rs: np.ndarray) -> np.ndarray:
     return np.cbrt(Rs / params.effective_radius)  # type: ignore[attr-defined]
 
 
-def _check_params(params: object) -> None:
+def check_law_params(params: object) -> None:
+    """Raise :class:`~grainmech.errors.ParameterError` unless ``params`` is a sphere law (Hertz-type or linear)."""
     if normal_law(params) not in ("hertz", "linear"):
         raise ParameterError("params", type(params).__name__,
-                          "the packing driver needs a sphere law: Hertz, HertzMindlin, MindlinDeresiewicz "
-                          "or LinearSpring")
+                             "the packing driver needs a sphere law: Hertz, HertzMindlin, MindlinDeresiewicz "
+                             "or LinearSpring")
 
 
-def _law_kw(backend: str | None) -> dict:
+def law_options(backend: str | None) -> dict:
+    """Keyword arguments of :func:`grainmech.contact.update` for the law backend ``backend`` (None: its default)."""
     return {} if backend is None else {"backend": backend}
 
 
 # --------------------------------------------------------------------------- step solver
 
-class _StepFailure(Exception):
+class SubstepFailure(Exception):
+    """A (sub)step that did not converge, with its ``cause``: step halving retries it (``step.subdivided``)."""
+
     def __init__(self, cause: str) -> None:
         super().__init__(cause)
         self.cause = cause
 
 
-class _OutOfBudget(Exception):
-    """A step spent ``PackingOptions.max_step_work`` (not a :class:`_StepFailure`: no halving retries it)."""
+class OutOfBudget(Exception):
+    """A step spent ``PackingOptions.max_step_work`` (not a :class:`SubstepFailure`: no halving retries it)."""
 
     def __init__(self, cause: str) -> None:
         super().__init__(cause)
@@ -274,7 +278,7 @@ class _OutOfBudget(Exception):
 
 
 @dataclass
-class _Context:
+class RunContext:
     """Per-run solver state: preconditioner and counters."""
 
     prec: Preconditioner

@@ -2,7 +2,7 @@
 
 :class:`PackingPoint` (a converged state of a packing of grains: ``from_network``,
 ``at_stress``, tangents, energies), :func:`unbalanced_force_ratio`, the relaxed tangent by
-GMRES per column (``_relaxed_tangent``), and the run: :func:`run_packing` ->
+GMRES per column (``relaxed_tangent``), and the run: :func:`run_packing` ->
 :class:`PackingResult`, whose steps the step solver :mod:`grainmech.driver.packing.step`
 takes. The point's constructors run the driver (to settle the input, to reach a stress),
 so the two live together. The derivation is in ``docs/packing-driver.md``.
@@ -36,7 +36,7 @@ from grainmech.contact.rolling import (
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
 from grainmech.driver.loop import follow_path
-from grainmech.driver.packing._input import _check_network, _gap_pairs, _initial_state, _input_forces, _pin_first
+from grainmech.driver.packing._input import check_network, gap_pairs, initial_contact_state, input_forces, pin_first
 from grainmech.driver.packing._operators import (
     Kinematics,
     Preconditioner,
@@ -47,16 +47,16 @@ from grainmech.driver.packing._operators import (
 )
 from grainmech.driver.packing.consolidate import ENGINES, dem_consolidated, isotropic_pressure
 from grainmech.driver.packing.options import (
+    OutOfBudget,
     PackingOptions,
-    _check_params,
-    _Context,
-    _law_kw,
-    _law_scale,
-    _OutOfBudget,
-    _StepFailure,
+    RunContext,
+    SubstepFailure,
+    check_law_params,
+    law_options,
+    law_scale,
 )
-from grainmech.driver.packing.step import _subdivided
-from grainmech.driver.packing.tangent import _relaxed_tangent, unbalanced_force_ratio
+from grainmech.driver.packing.step import subdivided
+from grainmech.driver.packing.tangent import relaxed_tangent, unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.lammps.engine import lammps_available
 from grainmech.network import ContactNetwork, rattlers
@@ -76,7 +76,7 @@ class PackingPoint:
     network : ContactNetwork
         The input packing (reference geometry).
     params : contact law parameters (material constants and friction; the radius of each
-        contact comes from its grains, see :func:`_law_scale`).
+        contact comes from its grains, see :func:`law_scale`).
     kinematics : private geometry of the tracked contacts (non-rattler grains).
     grains : int array (P,)
         Rows of ``network`` of the grains kept (rattlers excluded).
@@ -195,13 +195,13 @@ class PackingPoint:
         GrainmechError (a ValueError)
             Bad input, naming the field and the value.
         """
-        _check_params(params)
+        check_law_params(params)
         opts = options or PackingOptions()
-        _check_network(net, forces, gap, imbalance)
-        assert net.radii is not None  # checked by _check_network
+        check_network(net, forces, gap, imbalance)
+        assert net.radii is not None  # checked by check_network
         notes: list[str] = []
         frictional = is_frictional(params)
-        N, T = _input_forces(net, params, forces, frictional, notes)
+        N, T = input_forces(net, params, forces, frictional, notes)
         carrying = N > 0
         min_c = 2 if frictional else 4
         ratt = rattlers(net, min_c, carrying)
@@ -214,7 +214,7 @@ class PackingPoint:
                      f"force-carrying contacts, {'frictional' if frictional else 'frictionless'} rule, "
                      "removed iteratively)")
         keep_c = alive[net.i] & alive[net.j]
-        gi, gj, gbr = _gap_pairs(net, gap, alive)
+        gi, gj, gbr = gap_pairs(net, gap, alive)
         if gi.size:
             notes.append(f"{gi.size} pairs with a gap below {gap:g} x mean radius tracked (open)")
         rows = np.concatenate([np.flatnonzero(keep_c), -np.ones(gi.size, dtype=int)])
@@ -225,11 +225,11 @@ class PackingPoint:
         nc = br / Lc[:, None]
         Ra, Rb = net.radii[I], net.radii[J]
         Rs = Ra * Rb / (Ra + Rb)
-        s = _law_scale(params, Rs)
+        s = law_scale(params, Rs)
         Nk, Tk = N[keep_c], T[keep_c]
         # contact law state (law space): listed contacts at their forces, gap pairs open
-        state = _initial_state(params, Nk, Tk, rows, frictional, Lc, Ra, Rb, s)
-        grains = _pin_first(np.flatnonzero(alive), net, keep_c & carrying, N)
+        state = initial_contact_state(params, Nk, Tk, rows, frictional, Lc, Ra, Rb, s)
+        grains = pin_first(np.flatnonzero(alive), net, keep_c & carrying, N)
         newidx = -np.ones(net.n_particles, dtype=int)
         newidx[grains] = np.arange(grains.size)
         consts = _rolling_constants(rolling, params, Nk, Rs[:Nk.size])
@@ -237,7 +237,7 @@ class PackingPoint:
                                twisting=consts is not None and consts.twist_cap > 0)
         V = net.volume
         st0, resp0 = update(params, state, np.zeros(state.n_contacts), np.zeros((state.n_contacts, 3)),
-                            **_law_kw(opts.law_backend))
+                            **law_options(opts.law_backend))
         f = resp0.normal_force[:, None] * nc + resp0.tangential_force
         roll: dict = {}
         if consts is not None:
@@ -435,7 +435,7 @@ class PackingPoint:
         ``K`` of the current state (Lemaitre & Maloney 2006, Eq. 12; with ``K = kn n n +
         ks (I - n n)`` this is :func:`grainmech.network.relaxed_stiffness`).
         """
-        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max)
+        return relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max)
 
     @cached_property
     def elastic_tangent(self) -> np.ndarray:
@@ -453,13 +453,13 @@ class PackingPoint:
         (shifted by ``PackingOptions.regularization``), and the factorisation already
         holds ``(H0 + S)^-1 B0`` (its Schur complement), refined to ``Y = H0^-1 B0`` by CG
         with the factor (``Preconditioner.exact_Y``): the tangent is ``(A0 - B0^T Y) / V``
-        (the condensation of :func:`_relaxed_tangent`) with no further factorisation,
+        (the condensation of :func:`relaxed_tangent`) with no further factorisation,
         when the residual ``|H0 Y - B0|`` of every column is below ``1e-8 |B0|``;
         otherwise GMRES per column as for :attr:`tangent`. On the shipped packings the two agree to 6e-8 (medium),
         2e-10 (dense), 6e-9 (loose); GMRES needed 0.4-4 s there (one iteration per
         near-floppy mode: grains held by two contacts), the direct form 2 ms.
         """
-        return _relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max, elastic=True)
+        return relaxed_tangent(self, self.preconditioner(), PackingOptions().krylov_max, elastic=True)
 
     def fluctuation(self) -> float:
         """Largest displacement fluctuation over its radius (mean translation removed) of a force-carrying grain.
@@ -633,14 +633,14 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
     if kwargs:
         opts = replace(opts, **kwargs)
     with openblas_one_thread():
-        return _run(point, path, opts, on_step=on_step)
+        return run_resolved(point, path, opts, on_step=on_step)
 
 
 @dataclass(frozen=True)
 class _Stepping(PointStepping):
-    """A packing point with its run's solver context: the stepping point :func:`_run` drives through ``follow_path``.
+    """A packing point with its run's solver context: what :func:`run_resolved` drives through ``follow_path``.
 
-    ``step`` is one step of the step solver (:func:`grainmech.driver.packing.step._subdivided`:
+    ``step`` is one step of the step solver (:func:`grainmech.driver.packing.step.subdivided`:
     Newton-Krylov or Anderson, halvings, committed relaxation), within the step's work
     budget, between the range checks of the small-strain model; ``counters`` are the last
     step's substeps, iterations, dissipation, work and relaxation loss, ``krylov`` and
@@ -648,7 +648,7 @@ class _Stepping(PointStepping):
     """
 
     point: PackingPoint
-    ctx: _Context
+    ctx: RunContext
     counters: tuple = (0, 0, 0.0, 0.0, 0.0)
     krylov: int = 0
     spent: int = 0
@@ -668,9 +668,9 @@ class _Stepping(PointStepping):
         kr0, w0 = ctx.krylov, ctx.work
         ctx.budget = w0 + opts.max_step_work
         try:
-            new = _subdivided(point, stress_control, d_strain, np.where(stress_control, point.stress, 0.0), target, 0,
+            new = subdivided(point, stress_control, d_strain, np.where(stress_control, point.stress, 0.0), target, 0,
                               ctx, counters)
-        except (_StepFailure, _OutOfBudget) as exc:
+        except (SubstepFailure, OutOfBudget) as exc:
             raise StepFailure(f"no equilibrium found: {exc.cause}") from exc
         finally:
             ctx.budget = 0
@@ -686,7 +686,7 @@ class _Stepping(PointStepping):
 
 
 def _resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions) -> PackingPoint:
-    """:func:`_run`'s input checked, with the options' law backend, factorisation and factor settings."""
+    """:func:`run_resolved`'s input checked, with the options' law backend, factorisation and factor settings."""
     if not isinstance(path, LoadPath):
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
     if not isinstance(point, PackingPoint):
@@ -699,7 +699,7 @@ def _resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions) -> Pack
         if (opts.law_backend, opts.factorization) != (point.law_backend, point.factorization) else point
 
 
-def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
+def run_resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
          on_step: Callable[[int, int], None] | None = None) -> PackingResult:
     """:func:`run_packing` with its options resolved (``energy``: potential-energy line search).
 
@@ -711,7 +711,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     point = _resolved(point, path, opts)
     m = len(path)
     fresh = "prec" not in point._cache
-    ctx = _Context(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
+    ctx = RunContext(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
     nan66 = np.full((6, 6), np.nan)
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
                                              "stored", "sub", "it", "res", "fl", "cl", "kr", "spent")}
@@ -726,7 +726,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
         if k == 0:
             tangent = nan66 if opts.tangent == "none" else pt.tangent
         elif opts.tangent == "every" or (opts.tangent == "ends" and k == m):
-            tangent = _relaxed_tangent(pt, ctx.prec, opts.krylov_max)
+            tangent = relaxed_tangent(pt, ctx.prec, opts.krylov_max)
         else:
             tangent = nan66
         sl, op = pt.fractions()
@@ -744,7 +744,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
     point = cast(_Stepping, final).point
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
-        arr["tangent"][-1] = _relaxed_tangent(point, ctx.prec, opts.krylov_max)
+        arr["tangent"][-1] = relaxed_tangent(point, ctx.prec, opts.krylov_max)
     return PackingResult(success, int(status), message, arr["strain"], arr["stress"], arr["tangent"], arr["sl"],
                          arr["op"], arr["diss"], arr["work"], arr["stored"], arr["sub"].astype(int),
                          arr["it"].astype(int), cast(Any, point), m, {}, arr["res"], arr["fl"], arr["cl"].astype(int),
@@ -752,7 +752,7 @@ def _run(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool
                          relaxation_loss=arr["loss"], cost=arr["spent"].astype(int))
 
 
-def _run_notes(ctx: _Context, opts: PackingOptions) -> tuple[str, ...]:
+def _run_notes(ctx: RunContext, opts: PackingOptions) -> tuple[str, ...]:
     """The run's notes on how its steps were solved (the counters of ``ctx``)."""
     return (((f"{ctx.accepted} (sub)steps accepted with their stress settled (uncertainty "
               f"below rtol_accept = {opts.rtol_accept:g} of the stress scale or rtol_step "

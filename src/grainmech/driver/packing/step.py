@@ -7,11 +7,10 @@ fails, and step halving. The method and its sources are in ``docs/packing-driver
 
 The (sub)step: :func:`_solve` (predictor, Anderson iterations, Newton-Krylov with line
 search, pseudo-transient continuation, committed relaxation, acceptance) and
-:func:`_subdivided` (step halving). The laws at a trial increment are in
+:func:`subdivided` (step halving). The laws at a trial increment are in
 :mod:`grainmech.driver.packing._trial`, the iteration pieces (Anderson, Krylov
 direction, trust limits, tangents) in :mod:`grainmech.driver.packing._iterations`, options and
-the solver's state in :mod:`grainmech.driver.packing.options`; their names are
-re-exported here.
+the solver's state in :mod:`grainmech.driver.packing.options`.
 """
 
 from __future__ import annotations
@@ -26,27 +25,23 @@ from grainmech.contact import (
 )
 from grainmech.contact.forms import frictional, law_forms
 from grainmech.contact.rolling import rolling_update
-from grainmech.driver.packing._iterations import (  # noqa: F401 (re-exported: the names this module always had)
-    _AA_PATIENCE,
-    _AA_PROGRESS,
-    _AA_RESTARTS,
-    _HELD,
-    _STIFF_BACKTRACKS,
-    _anderson,
-    _at_rest,
-    _clip,
-    _closing_cap,
-    _debug,
-    _direction,
-    _grain_report,
-    _held_load,
-    _hold_mechanisms,
-    _largest,
-    _slip_rotation,
-    _step_tangent,
-    _stress_ambiguity,
-    _trust,
-    _unbalanced,
+from grainmech.driver.packing._iterations import (
+    STIFF_BACKTRACKS,
+    anderson_iterations,
+    at_rest,
+    clip_grain_moves,
+    grain_report,
+    held_load,
+    hold_mechanisms,
+    krylov_direction,
+    largest_residual,
+    slip_rotation,
+    step_tangent,
+    stop_closing,
+    stress_ambiguity,
+    trace_printer,
+    trust_ratio,
+    unbalanced_ratio,
 )
 from grainmech.driver.packing._operators import (
     Preconditioner,
@@ -55,22 +50,17 @@ from grainmech.driver.packing._operators import (
     contact_tangent,
     voigt_of,
 )
-from grainmech.driver.packing._trial import (  # noqa: F401
-    _GLUE,
-    _compiled_glue,
-    _evaluate,
-    _Glue,
-    _law_call,
-    _law_step,
-    _potential,
+from grainmech.driver.packing._trial import (
+    compiled_glue,
+    evaluate_trial,
+    frictionless_energy,
 )
-from grainmech.driver.packing.options import (  # noqa: F401
+from grainmech.driver.packing.options import (
     ACCEPT_MAX_FORCE,
+    OutOfBudget,
     PackingOptions,
-    _Context,
-    _law_kw,
-    _OutOfBudget,
-    _StepFailure,
+    RunContext,
+    SubstepFailure,
 )
 
 if TYPE_CHECKING:
@@ -137,7 +127,7 @@ def _scales(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.nda
 
 
 def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, prec: Preconditioner,
-               ctx: _Context, V: float, nq: int, ms: int) -> tuple:
+               ctx: RunContext, V: float, nq: int, ms: int) -> tuple:
     """Predictor of :func:`_solve`: ``(v, xq, xe, fac)``, the last (sub)step's solution scaled by ``fac``.
 
     ``v`` is this step's loading (strain increment and scaled stress change), the
@@ -155,26 +145,26 @@ def _predictor(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.
     return v, xq, xe, fac
 
 
-def _out_of_budget(kin: Any, rq: np.ndarray, Rg: np.ndarray, fref: float, resp: Any, ctx: _Context) -> None:
-    """Raise :class:`_OutOfBudget` with the out-of-balance measures of the iterate ``rq``."""
+def _out_of_budget(kin: Any, rq: np.ndarray, Rg: np.ndarray, fref: float, resp: Any, ctx: RunContext) -> None:
+    """Raise :class:`OutOfBudget` with the out-of-balance measures of the iterate ``rq``."""
     g = kin.full(rq)
     worst = float(np.max(np.hypot(np.linalg.norm(g[:, :3], axis=1), np.linalg.norm(g[:, 3:], axis=1) / Rg)))
     closed = ~np.asarray(resp.open, bool)
     sliding = int(np.sum(np.asarray(resp.sliding, bool) & closed))
-    raise _OutOfBudget(
+    raise OutOfBudget(
         f"no equilibrium within max_step_work = {ctx.opts.max_step_work} residual evaluations and GMRES "
-        f"iterations (mean unbalanced force ratio {_unbalanced(kin, rq, Rg, fref):.2g}, largest grain "
+        f"iterations (mean unbalanced force ratio {unbalanced_ratio(kin, rq, Rg, fref):.2g}, largest grain "
         f"{worst / max(fref, 1e-300):.2g} of the mean contact force; {sliding} of {int(closed.sum())} closed "
         "contacts sliding): grains that a DEM would let roll and rearrange find no balance in this fixed "
         "geometry")
 
 
-def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+def _solve(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: RunContext,
            counters: list, step_dsig: float, relax: bool = False) -> PackingPoint:
     """Newton-Krylov iterations of one (sub)step with line search; returns the new point.
 
     ``step_dsig``: the stress change of the whole step this (sub)step belongs to
-    (:func:`_subdivided`), the scale of ``PackingOptions.rtol_step``.
+    (:func:`subdivided`), the scale of ``PackingOptions.rtol_step``.
 
     With ``relax`` the (sub)step is solved by committed relaxation instead: pseudo-transient
     updates from the start, each one committed to the contact laws' history (see
@@ -197,7 +187,7 @@ class _StepSolve:
     and its merit ``m``, the continuation shift ``mu`` and ``newton_ok``.
     """
 
-    def __init__(self, point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: _Context,
+    def __init__(self, point: PackingPoint, S: np.ndarray, de_E: np.ndarray, target: np.ndarray, ctx: RunContext,
                  counters: list, step_dsig: float, relax: bool) -> None:
         self.point, self.S, self.de_E, self.target, self.ctx = point, S, de_E, target, ctx
         self.counters, self.relax = counters, relax
@@ -205,8 +195,8 @@ class _StepSolve:
         (self.V, self.nq, self.ms, self.sref, self.Rg, self.abar, self.move, self.tolq, self.tole,
          self.fref) = _scales(point, S, de_E, target, self.prec, self.opts)
         self.Dq, self.De = self.prec.dq, self.prec.de[S]
-        self.fast = _compiled_glue(point)
-        self.w0 = _potential(point, point.state, point.response) if ctx.energy else None
+        self.fast = compiled_glue(point)
+        self.w0 = frictionless_energy(point, point.state, point.response) if ctx.energy else None
         self.amb_ok = max(self.opts.rtol_accept * self.sref, self.opts.rtol_step * step_dsig) * self.V
         self.rest_ok = max(self.opts.rtol_accept * self.sref, self.opts.rest_step * step_dsig) * self.V
         self.newton_ok = ctx.newton_ok
@@ -219,7 +209,7 @@ class _StepSolve:
         de = self.de_E.copy()
         de[S] = xe
         if self.fast is None:
-            st, resp, f = _evaluate(point, xq, de)
+            st, resp, f = evaluate_trial(point, xq, de)
             rq = kin.balance(f)
             vs = voigt_of(f, kin.l)
         else:
@@ -231,7 +221,7 @@ class _StepSolve:
             roll = rolling_update(point.rolling, kin.n, kin.Rs, N, point.moments, kin.omega(xq))
             rq = rq + kin.moment_balance(roll.moment)
         if point.load is not None:
-            rq = rq - _held_load(point, resp)
+            rq = rq - held_load(point, resp)
         re = vs[S] - self.V * self.target[S]
         ctx.evals += 1
         if ctx.budget and ctx.work >= ctx.budget:
@@ -242,24 +232,24 @@ class _StepSolve:
         """The update within the trust limit ``move``, each grain by itself.
 
         A grain on a mechanism (free, rolling or sliding away) must not cut the others'
-        update; every contact the update closes is stopped near touch (:func:`_closing_cap`);
-        no grain moves along its mechanisms in the iterate ``st`` (:func:`_hold_mechanisms`).
+        update; every contact the update closes is stopped near touch (:func:`stop_closing`);
+        no grain moves along its mechanisms in the iterate ``st`` (:func:`hold_mechanisms`).
         """
         kin, S, Rg, move, abar = self.kin, self.S, self.Rg, self.move, self.abar
-        dxq = _hold_mechanisms(kin, dxq, Rg, st.approach > 0.0)
+        dxq = hold_mechanisms(kin, dxq, Rg, st.approach > 0.0)
         if self.fast is not None:
             return self.fast.limit(dxq, dxe, S, Rg, move, st.approach / self.point.scale if abar > 0 else None,
                                    _CLOSE_CAP * abar)
-        dxq = _clip(kin, dxq, Rg, move)
-        dxe = dxe / _trust(kin, None, dxe, S, move)
+        dxq = clip_grain_moves(kin, dxq, Rg, move)
+        dxe = dxe / trust_ratio(kin, None, dxe, S, move)
         if abar > 0:
-            dxq = _closing_cap(kin, dxq, dxe, S, st.approach / self.point.scale, _CLOSE_CAP * abar)
+            dxq = stop_closing(kin, dxq, dxe, S, st.approach / self.point.scale, _CLOSE_CAP * abar)
         return dxq, dxe
 
     def merit(self, cur: tuple) -> float:
         """Scaled residual norm, or with ``ctx.energy`` the potential energy change."""
         if self.ctx.energy:  # potential energy change W - W0 - V t_S . de_S (convex for frictionless laws)
-            return (float(np.sum(_potential(self.point, cur[0], cur[1]) - self.w0))
+            return (float(np.sum(frictionless_energy(self.point, cur[0], cur[1]) - self.w0))
                     - self.V * float(np.dot(self.target[self.S], cur[6][self.S])))
         return self.rnorm(cur)
 
@@ -286,18 +276,19 @@ class _StepSolve:
         """
         kin, Rg = self.kin, self.Rg
         bound = factor * self.amb_ok
-        if (self.ms and not bool(np.all(np.abs(re) <= bound))) or _largest(kin, rq, Rg) > ACCEPT_MAX_FORCE * self.fref:
+        if ((self.ms and not bool(np.all(np.abs(re) <= bound)))
+                or largest_residual(kin, rq, Rg) > ACCEPT_MAX_FORCE * self.fref):
             return False
-        amb = _stress_ambiguity(kin, rq, Rg)
+        amb = stress_ambiguity(kin, rq, Rg)
         if amb <= bound:
             return True
         return bool(factor == 1.0 and self.opts.accept_unbalanced > 0 and amb <= self.rest_ok
-                    and _at_rest(kin, rq, Rg, self.fref, self.opts.accept_unbalanced))
+                    and at_rest(kin, rq, Rg, self.fref, self.opts.accept_unbalanced))
 
     def unsettled(self, rq: np.ndarray, re: np.ndarray) -> str:
         """The stress uncertainty left, against what ``accept`` asks, for a failure message."""
         sV = self.sref * self.V
-        out = f"stress uncertainty {_stress_ambiguity(self.kin, rq, self.Rg) / sV:.3g} of the stress scale"
+        out = f"stress uncertainty {stress_ambiguity(self.kin, rq, self.Rg) / sV:.3g} of the stress scale"
         if self.ms:
             out += f", stress-control residual {float(np.max(np.abs(re))) / sV:.3g}"
         return out + f", each accepted below {self.amb_ok / sV:.3g}"
@@ -355,7 +346,7 @@ class _StepSolve:
         if relax:
             point = self.point
             self.base = point.out_of_balance() - (0.0 if point.load is None
-                                                  else _held_load(point, point.response))
+                                                  else held_load(point, point.response))
         self.newton_ok = ctx.newton_ok
         if self.opts.anderson and not relax and not ctx.energy:
             new = self.anderson()
@@ -365,16 +356,16 @@ class _StepSolve:
         return self.iterate()
 
     def anderson(self) -> PackingPoint | None:
-        """Anderson-accelerated elastic iterations (:func:`_anderson`); None where they stall.
+        """Anderson-accelerated elastic iterations (:func:`anderson_iterations`); None where they stall.
 
         Where they stall (a few grains on a mechanism, all their contacts sliding)
         Newton-Krylov goes on from their best point.
         """
         ctx, opts = self.ctx, self.opts
-        ok, self.xq, self.xe, self.cur, self.m, it = _anderson(
+        ok, self.xq, self.xe, self.cur, self.m, it = anderson_iterations(
             self.prec, self.S, np.concatenate([self.Dq, self.De]), self.xq, self.xe, self.cur, self.m,
             self.residual, self.merit, self.limit, self.converged, self.settled, self.accept, opts.anderson,
-            4 * opts.max_iter, _debug())
+            4 * opts.max_iter, trace_printer())
         ctx.anderson += it
         if not ok:
             return None
@@ -412,7 +403,7 @@ class _StepSolve:
         # the last (sub)step: the same few mechanism grains make them fail again)
         self.newton_ok = ctx.newton_ok
         self.n_iter = opts.relax_iter if relax else opts.max_iter
-        self.dbg = dbg = _debug()
+        self.dbg = dbg = trace_printer()
         self.jenkins = law_forms(self.point.params).kind == "jenkins" and frictional(self.point.params)
         for it in range(1, self.n_iter + 1):
             st, resp, _f, rq, re, _vs, de, _roll = self.cur
@@ -420,9 +411,9 @@ class _StepSolve:
                 sV = self.sref * self.V
                 dbg(f"it {it} merit {self.m:.3g} force {float(np.max(np.abs(rq) / self.tolq)) * opts.rtol:.3g} "
                     f"mu {self.mu:.1e} sliding {int(np.sum(resp.sliding))} open {int(np.sum(resp.open))}")
-                dbg(_grain_report(kin, rq, self.tolq, resp)
-                    + f"; mean unbalanced {_unbalanced(kin, rq, self.Rg, self.fref):.2g}"
-                    + f"; stress ambiguity {_stress_ambiguity(kin, rq, self.Rg) / sV:.2g}"
+                dbg(grain_report(kin, rq, self.tolq, resp)
+                    + f"; mean unbalanced {unbalanced_ratio(kin, rq, self.Rg, self.fref):.2g}"
+                    + f"; stress ambiguity {stress_ambiguity(kin, rq, self.Rg) / sV:.2g}"
                     + (f", stress residual {float(np.max(np.abs(re))) / sV:.2g}" if self.ms else ""))
             if self.converged(rq, re):
                 return self.done(self.cur, it)
@@ -465,11 +456,11 @@ class _StepSolve:
         self.roll_tan = None if roll is None else RollingTangent(
             kin, roll.tangent, roll.dmoment_dnormal, np.where(closed, resp.kn, 0.0) * r_s)
         if getattr(resp, "t_delta", None) is not None and not self.jenkins:
-            K = _step_tangent(kin.n, resp, r_s, closed)
+            K = step_tangent(kin.n, resp, r_s, closed)
         else:
             ksp = np.where(closed, resp.ks_perp, 0.0) * r_s
             if self.jenkins:
-                ksp = ksp * _slip_rotation(point, resp, kin, self.xq, de)
+                ksp = ksp * slip_rotation(point, resp, kin, self.xq, de)
             K = contact_tangent(kin.n, np.where(closed, resp.kn, 0.0) * r_s, np.where(closed, resp.ks, 0.0) * r_s,
                                 ksp, np.where(closed, resp.ktn, 0.0) * r_s, resp.axis)
         return block_diagonal(K)
@@ -485,7 +476,7 @@ class _StepSolve:
         m, cur, xq, xe = self.m, self.cur, self.xq, self.xe
         rq, re = cur[3], cur[4]
         if self.newton_ok:
-            dxq, dxe, slope, pred, kr = _direction(kin, Kb, self.prec, S, rq, re, _MU_FLOOR, m, opts, ctx,
+            dxq, dxe, slope, pred, kr = krylov_direction(kin, Kb, self.prec, S, rq, re, _MU_FLOOR, m, opts, ctx,
                                                    roll=self.roll_tan)
         else:  # Newton failed in this (sub)step: elastic updates (below) until they stall
             dxq, dxe, slope, pred, kr = np.zeros(self.nq), np.zeros(self.ms), 0.0, 0.0, 0
@@ -495,7 +486,7 @@ class _StepSolve:
         if not ctx.energy:
             dxq, dxe = self.limit(dxq, dxe, st)
         else:
-            lam = 1.0 / _trust(kin, dxq, dxe, S, self.move)
+            lam = 1.0 / trust_ratio(kin, dxq, dxe, S, self.move)
         ok = False
         # a Krylov solve that lowered the linear model's residual by less than 10 %
         # gives no useful direction (the Jacobian is near singular on a few mechanism
@@ -522,7 +513,7 @@ class _StepSolve:
             self.newton_ok = False
             dxq, dxe = self.limit(*self.prec.apply(-rq, -re, S), st)
             lam = 1.0
-            for _nb in range(_STIFF_BACKTRACKS):
+            for _nb in range(STIFF_BACKTRACKS):
                 trial = self.residual(xq + lam * dxq, xe + lam * dxe)
                 mt = self.merit(trial)
                 if dbg:
@@ -541,7 +532,7 @@ class _StepSolve:
             return self.accepted(it)
         if ctx.energy:
             sl = float(np.mean(np.asarray(resp.sliding, bool)[closed])) if closed.any() else 0.0
-            raise _StepFailure(f"line search failed at Newton iteration {it} (scaled residual "
+            raise SubstepFailure(f"line search failed at Newton iteration {it} (scaled residual "
                                f"{self.rnorm(cur):.3g}; {100 * sl:.0f}% of closed contacts sliding, "
                                f"{int(closed.sum())} closed)")
         if kr > opts.refactor_after and self.prec is not self.point._cache.get("prec"):
@@ -570,13 +561,13 @@ class _StepSolve:
         rq, re = cur[3], cur[4]
         mu = self.mu
         for _grow in range(_MU_GROWTHS + 1):
-            dxq, dxe, _slope, _pred, kr = _direction(kin, Kb, self.prec, S, rq, re, mu, m, opts, ctx,
+            dxq, dxe, _slope, _pred, kr = krylov_direction(kin, Kb, self.prec, S, rq, re, mu, m, opts, ctx,
                                                      _RELAX_KRYLOV_RTOL if relax else None, roll=self.roll_tan)
             dxq, dxe = self.limit(dxq, dxe, st)
             lam = 1.0
             try:
                 trial = self.residual(xq + dxq, xe + dxe)
-            except _StepFailure:  # the law refuses the update (e.g. its memory is full): shorter
+            except SubstepFailure:  # the law refuses the update (e.g. its memory is full): shorter
                 mu *= _MU_GROW
                 continue
             mt = self.merit(trial)
@@ -593,7 +584,7 @@ class _StepSolve:
                 return self.accepted(it)
             mu *= _MU_GROW
         else:
-            raise _StepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
+            raise SubstepFailure(f"pseudo-transient continuation diverged at iteration {it} (scaled residual "
                                f"{self.rnorm(cur):.3g}, shift {mu:.3g}; "
                                f"{int(np.sum(np.asarray(resp.sliding, bool) & closed))} of "
                                f"{int(closed.sum())} closed contacts sliding; {self.unsettled(rq, re)})")
@@ -604,7 +595,7 @@ class _StepSolve:
             if mt > _PTC_PROGRESS * self.ptc_from[1]:
                 # continuation makes no headway: stop here, so that the substep is
                 # halved or relaxed without spending the rest of max_iter
-                raise _StepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
+                raise SubstepFailure(f"pseudo-transient continuation stalled at iteration {it} (scaled "
                                    f"residual {mt:.3g}, {mt / self.ptc_from[1]:.2f} x that of {_PTC_PATIENCE} "
                                    f"iterations before; {self.unsettled(trial[3], trial[4])})")
             self.ptc_from = (it, mt)
@@ -635,18 +626,18 @@ class _StepSolve:
         self.base = self.cur[3]
 
     def finish(self) -> PackingPoint:
-        """Final acceptance after ``n_iter`` iterations, else :class:`_StepFailure`."""
+        """Final acceptance after ``n_iter`` iterations, else :class:`SubstepFailure`."""
         rq, re = self.cur[3], self.cur[4]
         if self.accept(rq, re):
             return self.accepted(self.n_iter + 1)
         what = "committed relaxation did not converge" if self.relax else "Newton did not converge"
-        raise _StepFailure(f"{what} in {self.n_iter} iterations (largest force residual "
+        raise SubstepFailure(f"{what} in {self.n_iter} iterations (largest force residual "
                            f"{float(np.max(np.abs(rq) / self.tolq)) * self.opts.rtol:.3g} x mean contact force; "
                            f"{self.unsettled(rq, re)})")
 
 
-def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
-                depth: int, ctx: _Context, counters: list, step_dsig: float | None = None) -> PackingPoint:
+def subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
+                depth: int, ctx: RunContext, counters: list, step_dsig: float | None = None) -> PackingPoint:
     """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure.
 
     ``step_dsig`` (set at ``depth = 0``, kept by the halves): the step's stress change,
@@ -658,24 +649,24 @@ def _subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.nda
                         float(np.abs(np.where(S, t1 - point.stress, 0.0)).max()))
     try:
         return _solve(point, S, de_E, t1, ctx, counters, step_dsig)
-    except _StepFailure as exc:
+    except SubstepFailure as exc:
         err = exc
     if depth == 0 and ctx.prec is not point._cache.get("prec"):  # maybe a stale preconditioner: refactor once
         ctx.prec = point.preconditioner()
         ctx.factorizations += 1
         try:
             return _solve(point, S, de_E, t1, ctx, counters, step_dsig)
-        except _StepFailure as exc:
+        except SubstepFailure as exc:
             err = exc
     rd = ctx.opts.relax_depth
     if rd is not None and depth >= min(rd, ctx.opts.max_depth) and not ctx.energy:  # committed relaxation
         ctx.relaxations += 1
         try:
             return _solve(point, S, de_E, t1, ctx, counters, step_dsig, relax=True)
-        except _StepFailure as exc:
+        except SubstepFailure as exc:
             err = exc
     if depth >= ctx.opts.max_depth:
-        raise _StepFailure(f"{err.cause} (after {ctx.opts.max_depth} halvings)")
+        raise SubstepFailure(f"{err.cause} (after {ctx.opts.max_depth} halvings)")
     tm = 0.5 * (t0 + t1)
-    mid = _subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters, step_dsig)
-    return _subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters, step_dsig)
+    mid = subdivided(point, S, 0.5 * de_E, t0, tm, depth + 1, ctx, counters, step_dsig)
+    return subdivided(mid, S, 0.5 * de_E, tm, t1, depth + 1, ctx, counters, step_dsig)

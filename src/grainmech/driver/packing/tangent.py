@@ -2,7 +2,7 @@
 
 :func:`unbalanced_force_ratio` (a DEM's measure of how far a packing is from
 equilibrium, moments included) and the relaxed tangent of a point by GMRES per column or
-from its factorised elastic operator (``_relaxed_tangent``, the condensation of
+from its factorised elastic operator (``relaxed_tangent``, the condensation of
 Lemaitre & Maloney 2006, Eq. 12, with the contacts' moment springs where the grains have
 rolling resistance).
 """
@@ -14,9 +14,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from grainmech.driver.packing._iterations import _grain_residuals
+from grainmech.driver.packing._iterations import grain_residuals, held_load
 from grainmech.driver.packing._operators import Preconditioner, block_diagonal
-from grainmech.driver.packing.step import _held_load
 
 if TYPE_CHECKING:
     from grainmech.driver.packing.point import PackingPoint
@@ -34,7 +33,7 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     Returns 0 for a packing without contact forces.
     """
     b = point.out_of_balance()
-    g = _grain_residuals(point.kinematics, b if point.load is None else b - _held_load(point, point.response))
+    g = grain_residuals(point.kinematics, b if point.load is None else b - held_load(point, point.response))
     fm = np.linalg.norm(point.forces, axis=1)
     fmean = float(fm[fm > 0].mean()) if np.any(fm > 0) else 0.0
     if fmean == 0.0:
@@ -46,7 +45,7 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
     return float(np.mean(np.hypot(F, M)) / fmean)
 
 
-def _relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False,
+def relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False,
                      direct: bool = True) -> np.ndarray:
     """Relaxed tangent (6, 6) of ``point`` by GMRES per column.
 
