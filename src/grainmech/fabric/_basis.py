@@ -44,6 +44,16 @@ def sh_norm(k: int, m: int) -> float:
     return float(np.sqrt((2 * k + 1) / (4 * np.pi) * factorial(k - m) / factorial(k + m)))
 
 
+def seed_factor(k: int, m: int) -> float:
+    """Factor from the orthonormal coefficient ``c_k(+-m)`` to the seed's ``a_km`` (or ``b_km``).
+
+    ``a_km = 4 pi N_km c_km`` for ``m = 0`` and ``4 pi sqrt(2) N_km c_k(+-m)`` otherwise
+    (seed Eq. 4.7 with Rodrigues' ``P_k^m``, Eq. 4.13, no Condon-Shortley phase;
+    :func:`sh_norm`).
+    """
+    return 4.0 * np.pi * sh_norm(k, m) * (np.sqrt(2.0) if m != 0 else 1.0)
+
+
 def real_sh(n: np.ndarray, ks: np.ndarray, ms: np.ndarray) -> np.ndarray:
     """Real orthonormal spherical harmonics at unit normals.
 

@@ -48,9 +48,9 @@ from grainmech.errors import NegativeDensityError, ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric import tensors as _t
 from grainmech.fabric._base import NEGATIVE_TOL, DensityBase, DensityExtremum
-from grainmech.fabric._basis import fourier_index_arrays, real_fourier, real_sh
+from grainmech.fabric._basis import fourier_index_arrays, real_fourier, real_sh, seed_factor
 from grainmech.fabric.fourier import FourierDensity
-from grainmech.fabric.harmonics import SphericalDensity, _seed_factor, sh_degrees_orders
+from grainmech.fabric.harmonics import SphericalDensity, sh_degrees_orders
 
 __all__ = ["fabric_tensor", "fit_density", "DensityFit", "NegativeDensityWarning"]
 
@@ -172,7 +172,7 @@ def _seed_from_vector(v: np.ndarray, order: int, dim: int) -> dict:
         idx = {(int(k), int(m)): i for i, (k, m) in enumerate(zip(ks, ms))}
         for k in range(2, order + 1, 2):
             for m in range(0, k + 1):
-                f = _seed_factor(k, m)
+                f = seed_factor(k, m)
                 a = f * v[idx[(k, m)]]
                 b = f * v[idx[(k, -m)]] if m > 0 else 0.0
                 out[(k, m)] = (float(a), float(b))

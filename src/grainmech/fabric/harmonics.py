@@ -34,7 +34,7 @@ import numpy as np
 from grainmech.errors import ParameterError
 from grainmech.fabric import _checks
 from grainmech.fabric._base import DensityBase
-from grainmech.fabric._basis import real_sh, sh_index_arrays, sh_norm
+from grainmech.fabric._basis import real_sh, seed_factor, sh_index_arrays
 
 __all__ = ["SphericalDensity", "sh_index", "sh_degrees_orders", "n_coefficients_3d"]
 
@@ -58,11 +58,6 @@ def sh_degrees_orders(order: int) -> tuple[np.ndarray, np.ndarray]:
     """Arrays ``(k, m)`` labelling the coefficient vector of an order-``L`` density."""
     L = _checks.as_even_order(order)
     return sh_index_arrays(range(2, L + 1, 2))
-
-
-def _seed_factor(k: int, m: int) -> float:
-    """a_km (or b_km) = factor * c_k(+-m)."""
-    return 4.0 * np.pi * sh_norm(k, m) * (np.sqrt(2.0) if m != 0 else 1.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,7 +219,7 @@ class SphericalDensity(DensityBase):
             raise ParameterError("order", order, f"smaller than the highest degree given ({kmax})")
         c = np.zeros(n_coefficients_3d(L))
         for (k, m), (a, b) in parsed.items():
-            f = _seed_factor(k, m)
+            f = seed_factor(k, m)
             c[sh_index(k, m)] = a / f
             if m > 0:
                 c[sh_index(k, -m)] = b / f
@@ -239,7 +234,7 @@ class SphericalDensity(DensityBase):
         out: dict[tuple[int, int], tuple[float, float]] = {}
         for k in range(2, self.order + 1, 2):
             for m in range(0, k + 1):
-                f = _seed_factor(k, m)
+                f = seed_factor(k, m)
                 a = f * self.coefficients[sh_index(k, m)]
                 b = f * self.coefficients[sh_index(k, -m)] if m > 0 else 0.0
                 out[(k, m)] = (float(a), float(b))

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from grainmech.analysis.loops import ModulusReduction, condensed_modulus
-from grainmech.contact._errors import ReversalMemoryError
+from grainmech.contact import ReversalMemoryError
 from grainmech.contact.interface import ContactLaw
 from grainmech.contact.law import max_reversals
 from grainmech.driver.affine.response import (
