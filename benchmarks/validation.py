@@ -15,13 +15,14 @@ where it stopped:
 * ``cyclic``: the modulus-reduction and damping curve at 100 kPa, the packing model at
   1e-6 ... 1e-4 and the DEM model at 3e-4 ... 1e-2 (step and relax up to 1e-3, continuous
   shearing at I = 1e-3 above: ``docs/dem-model.md``), against Menq (2003) and Darendeli
-  (2001);
+  (2001); ``cyclic50`` and ``cyclic400``: the same at 50 and 400 kPa (the packing model's
+  point brought to that stress, the DEM model's packing re-settled there);
 * ``ru``: constant-volume cycles at 1e-4 and 1e-3 with the DEM model (step and relax), the
   pore-pressure ratio after 2 cycles, against Dobry et al.'s (1982) threshold strain.
 
 Usage::
 
-    python benchmarks/validation.py [--out DIR] [--parts gmax,triaxial,cyclic,ru]
+    python benchmarks/validation.py [--out DIR] [--parts gmax,triaxial,cyclic,ru,cyclic50,cyclic400]
                                     [--packings nevada-loose,nevada-medium,nevada-dense,dense,medium,loose]
                                     [--workers 2] [--page docs/validation.md]
 
@@ -36,7 +37,7 @@ import json
 import math
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -107,7 +108,7 @@ def part_triaxial(name: str) -> dict:
             "strength": s.as_dict(), "time_steps": int(np.sum(r.iterations))}
 
 
-def part_cyclic(name: str) -> dict:
+def part_cyclic(name: str, pressure: float = PRESSURE) -> dict:
     from grainmech.driver.dem import DemSettings, dem_modulus_reduction
     from grainmech.driver.packing import PackingOptions, PackingPoint, packing_modulus_reduction
 
@@ -118,7 +119,7 @@ def part_cyclic(name: str) -> dict:
     out: dict = {}
     t0 = time.perf_counter()
     try:
-        pt = PackingPoint.at_stress(net, md, PRESSURE, options=PackingOptions(law_backend="auto"), rolling=rolling)
+        pt = PackingPoint.at_stress(net, md, pressure, options=PackingOptions(law_backend="auto"), rolling=rolling)
         mr = packing_modulus_reduction(pt, list(CYCLIC_PACKING), raise_on_failure=False)
         out["packing"] = {"amplitude": mr.amplitude.tolist(), "G": mr.G.tolist(), "damping": mr.damping.tolist(),
                           "G_max": float(mr.G_max), "message": mr.message}
@@ -129,7 +130,7 @@ def part_cyclic(name: str) -> dict:
     dem: dict = {"amplitude": [], "G": [], "damping": [], "protocol": [], "message": []}
     for amps, st in (([a for a in CYCLIC_DEM if a <= 1e-3], DemSettings()),
                      ([a for a in CYCLIC_DEM if a > 1e-3], DemSettings(protocol="continuous", inertial_number=1e-3))):
-        mr = dem_modulus_reduction(net, md, amps, settings=st, pressure=PRESSURE, rolling=rolling, workers=1,
+        mr = dem_modulus_reduction(net, md, amps, settings=st, pressure=pressure, rolling=rolling, workers=1,
                                    raise_on_failure=False)
         dem["amplitude"] += mr.amplitude.tolist()
         dem["G"] += mr.G.tolist()
@@ -160,7 +161,11 @@ def part_ru(name: str) -> dict:
     return out
 
 
-PARTS = {"gmax": part_gmax, "triaxial": part_triaxial, "cyclic": part_cyclic, "ru": part_ru}
+#: the mean stresses of the cyclic curves [Pa]: part name -> p
+CYCLIC_PRESSURES = {"cyclic": PRESSURE, "cyclic50": 50e3, "cyclic400": 400e3}
+PARTS = {"gmax": part_gmax, "triaxial": part_triaxial, "cyclic": part_cyclic, "ru": part_ru,
+         "cyclic50": lambda n: part_cyclic(n, CYCLIC_PRESSURES["cyclic50"]),
+         "cyclic400": lambda n: part_cyclic(n, CYCLIC_PRESSURES["cyclic400"])}
 
 
 def _job(args: tuple[str, str]) -> tuple[str, str, dict]:
@@ -276,37 +281,39 @@ def write_page(cache: dict, page: Path) -> None:
                      f"{_fmt(b.dilatancy_rate if b else None, '.2f')} | {t['seconds']:.0f} |")
     lines += _reading(cache, names)
     # cyclic
-    lines += ["", "## Modulus reduction and damping at 100 kPa against Menq (2003) and Darendeli (2001)", "",
+    lines += ["", "## Modulus reduction and damping at 50, 100 and 400 kPa against Menq (2003) and Darendeli (2001)", "",
               "Menq with the grains' own grading (Cu, D50 measured on the packing's grains); Darendeli with PI 0, "
               "OCR 1. Each model's G/Gmax is on its own Gmax (the packing model's: the relaxed small-strain modulus; "
               "the DEM model's: the same of its re-settled start state). The DEM model runs 3e-4 and 1e-3 by step and "
               "relax and 3e-3, 1e-2 by continuous shearing at I = 1e-3 (`docs/dem-model.md`: there the continuous "
               "loops were 6-16 % stiffer than step and relax on 'dense').", "",
-              "| packing | γ | model | G/Gmax | damping % | Menq G/Gmax | Menq damping % | Darendeli G/Gmax | "
-              "Darendeli damping % |", "|---|---|---|---|---|---|---|---|---|"]
+              "| packing | p′ kPa | γ | model | G/Gmax | damping % | Menq G/Gmax | Menq damping % | Darendeli G/Gmax | "
+              "Darendeli damping % |", "|---|---|---|---|---|---|---|---|---|---|"]
     for n in names:
-        c = cache.get("cyclic", {}).get(n)
-        if not c or "error" in c:
-            lines.append(f"| {n} | | {c.get('error', '—') if c else '—'} | | | | | | |")
-            continue
-        from grainmech.packing import load_packing, measured_grading
-
-        gr = measured_grading(load_packing(n).radii)
-        for model in ("packing", "dem"):
-            m = c.get(model, {})
-            if "error" in m or not m.get("amplitude"):
-                lines.append(f"| {n} | | {model}: {m.get('error', m.get('message', '—'))} | | | | | | |")
+        for part, pressure in sorted(CYCLIC_PRESSURES.items(), key=lambda kv: kv[1]):
+            c = cache.get(part, {}).get(n)
+            kpa = f"{pressure / 1e3:g}"
+            if not c or "error" in c:
+                lines.append(f"| {n} | {kpa} | | {c.get('error', '—') if c else '—'} | | | | | | |")
                 continue
-            amps = np.asarray(m["amplitude"])
-            men = menq_curve(amps, PRESSURE, gr.cu, gr.d50)
-            dar = darendeli(amps, PRESSURE)
-            protocols = m.get("protocol") or [""] * len(amps)
-            for k, a in enumerate(amps):
-                label = model + (f" ({'step and relax' if protocols[k] == 'relax' else protocols[k]})"
-                                 if protocols[k] else "")
-                lines.append(f"| {n} | {a:g} | {label} | {m['G'][k] / m['G_max']:.3f} | {100 * m['damping'][k]:.2f} | "
-                             f"{men.G_ratio[k]:.3f} | {100 * men.damping[k]:.2f} | "
-                             f"{dar.G_ratio[k]:.3f} | {100 * dar.damping[k]:.2f} |")
+            from grainmech.packing import load_packing, measured_grading
+
+            gr = measured_grading(load_packing(n).radii)
+            for model in ("packing", "dem"):
+                m = c.get(model, {})
+                if "error" in m or not m.get("amplitude"):
+                    lines.append(f"| {n} | {kpa} | | {model}: {m.get('error', m.get('message', '—'))} | | | | | | |")
+                    continue
+                amps = np.asarray(m["amplitude"])
+                men = menq_curve(amps, pressure, gr.cu, gr.d50)
+                dar = darendeli(amps, pressure)
+                protocols = m.get("protocol") or [""] * len(amps)
+                for k, a in enumerate(amps):
+                    label = model + (f" ({'step and relax' if protocols[k] == 'relax' else protocols[k]})"
+                                     if protocols[k] else "")
+                    lines.append(f"| {n} | {kpa} | {a:g} | {label} | {m['G'][k] / m['G_max']:.3f} | "
+                                 f"{100 * m['damping'][k]:.2f} | {men.G_ratio[k]:.3f} | {100 * men.damping[k]:.2f} | "
+                                 f"{dar.G_ratio[k]:.3f} | {100 * dar.damping[k]:.2f} |")
     # r_u
     lines += ["", "## Pore pressure of constant-volume cycles against Dobry et al. (1982)", "",
               f"Below a threshold strain of about {DOBRY_THRESHOLD_STRAIN:g} strain-controlled cycles build no "
@@ -328,7 +335,7 @@ def write_page(cache: dict, page: Path) -> None:
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="validation-out")
-    ap.add_argument("--parts", default="gmax,triaxial,cyclic,ru")
+    ap.add_argument("--parts", default="gmax,triaxial,cyclic,ru,cyclic50,cyclic400")
     ap.add_argument("--packings", default=",".join((*SAND, *SMOOTH)))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--page", default=str(ROOT / "docs" / "validation.md"))
@@ -344,7 +351,8 @@ def main(argv: list[str]) -> int:
             if n in have and n not in cache.get(p, {})]
     print(f"{len(jobs)} parts to run: {jobs}", flush=True)
     with ProcessPoolExecutor(max_workers=a.workers) as pool:
-        for part, name, res in pool.map(_job, jobs):
+        for fut in as_completed([pool.submit(_job, j) for j in jobs]):
+            part, name, res = fut.result()
             cache.setdefault(part, {})[name] = res
             cache_file.write_text(json.dumps(cache))
             print(f"done {part} {name}: {str(res)[:200]}", flush=True)
