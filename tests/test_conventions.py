@@ -98,3 +98,23 @@ def test_bad_inputs_name_the_problem():
         cv.order_for(3, "abaqus")
     with pytest.raises(ValueError, match="same components"):
         cv.reorder(np.eye(6), to=("xx", "yy", "zz", "yz", "xz", "xx"))
+
+
+def test_von_mises_is_the_deviator_stress_of_soil_mechanics():
+    """q = sigma_1 - sigma_3 on a triaxial state, sqrt(3) tau in pure shear (J2 = tau^2),
+    independent of the frame (an invariant) and of a mean stress added."""
+    from scipy.spatial.transform import Rotation
+
+    from grainmech.conventions import stress_to_vector, vector_to_stress, von_mises
+
+    assert von_mises(np.array([300e3, 100e3, 100e3, 0, 0, 0])) == pytest.approx(200e3, rel=1e-15)
+    assert von_mises(np.array([0, 0, 0, 0, 5e3, 0])) == pytest.approx(np.sqrt(3.0) * 5e3, rel=1e-15)
+    R = Rotation.from_rotvec([0.3, -0.7, 0.4]).as_matrix()
+    sig = np.diag([300e3, 100e3, 100e3])
+    rotated = stress_to_vector(R @ sig @ R.T)
+    both = np.stack([rotated, rotated + np.array([1e5, 1e5, 1e5, 0, 0, 0])])
+    np.testing.assert_allclose(von_mises(both), [200e3, 200e3], rtol=1e-12)
+    assert von_mises(both).shape == (2,)
+    np.testing.assert_allclose(vector_to_stress(rotated), R @ sig @ R.T, atol=1e-9)
+    with pytest.raises(ValueError, match="6 components"):
+        von_mises(np.zeros(3))

@@ -10,6 +10,7 @@ the config table ``[packing]`` keeps its name.
 from __future__ import annotations
 
 import importlib
+import sys
 import tomllib
 import warnings
 
@@ -111,3 +112,21 @@ def test_fabric_coordination_and_its_old_module_name():
     assert old_module.coordination_number is coordination.coordination_number
     assert old_module.contacts_per_volume is coordination.contacts_per_volume
     assert set(old_module.__all__) == set(coordination.__all__)
+
+
+def test_network_figures_and_their_old_names():
+    """The figures of a contact network are grainmech.plots' (matplotlib in one place, and
+    the network package below the plots); the documented old names warn for one release."""
+    import grainmech.network as network
+    from grainmech import plots
+
+    with pytest.warns(DeprecationWarning, match="grainmech.network.plot_rose is deprecated: it is grainmech.plots"):
+        assert network.plot_rose is plots.plot_rose
+    with pytest.warns(DeprecationWarning, match="grainmech.network.plot_normal_density is deprecated"):
+        assert network.plot_normal_density is plots.plot_normal_density
+    sys.modules.pop("grainmech.network.plotting", None)
+    with pytest.warns(DeprecationWarning, match="grainmech.network.plotting is deprecated: it is grainmech.plots"):
+        old_module = importlib.import_module("grainmech.network.plotting")
+    assert old_module is plots
+    with pytest.raises(AttributeError):
+        network.no_such_name  # noqa: B018

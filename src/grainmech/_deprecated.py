@@ -27,6 +27,7 @@ MOVED_MODULES: dict[str, str] = {
     "grainmech.packing.engine": "grainmech.lammps.engine",
     "grainmech.packing.rolling": "grainmech.lammps.rolling",
     "grainmech.packing.reference": "grainmech.lammps.probes",
+    "grainmech.network.plotting": "grainmech.plots",
 }
 
 #: old ``module.name`` -> ``module.name`` it is now (for modules that still exist)
@@ -37,6 +38,8 @@ MOVED_NAMES: dict[str, str] = {
     "grainmech.packing.prepare.critical_time_step": "grainmech.lammps.granular.critical_time_step",
     "grainmech.packing.prepare.network_from_lammps": "grainmech.lammps.network.network_from_lammps",
     "grainmech.packing.prepare.unbalanced_ratio": "grainmech.lammps.network.unbalanced_ratio",
+    "grainmech.network.plot_rose": "grainmech.plots.plot_rose",
+    "grainmech.network.plot_normal_density": "grainmech.plots.plot_normal_density",
 }
 
 

@@ -42,6 +42,7 @@ __all__ = [
     "strain_to_vector",
     "vector_to_stress",
     "vector_to_strain",
+    "von_mises",
     "reorder",
     "seed_normal",
     "seed_angles",
@@ -209,6 +210,34 @@ def vector_to_stress(v: np.ndarray, mandel: bool = False) -> np.ndarray:
 def vector_to_strain(v: np.ndarray, mandel: bool = False) -> np.ndarray:
     """Inverse of :func:`strain_to_vector`."""
     return _vector_to_sym(v, np.sqrt(2.0) if mandel else 2.0)
+
+
+def von_mises(stress: np.ndarray) -> np.ndarray:
+    """Deviator stress ``q = sqrt(3 J2) = sqrt(3/2 s:s)`` (von Mises) of stress vector(s) [Pa].
+
+    ``s`` is the deviatoric part of the stress tensor and ``J2 = s:s / 2``; in the library's
+    order (``xx yy zz yz xz xy``, tensor shear components)
+    ``J2 = (s_xx^2 + s_yy^2 + s_zz^2) / 2 + sigma_yz^2 + sigma_xz^2 + sigma_xy^2``. On a
+    triaxial path (``sigma_2 = sigma_3``) ``q = |sigma_1 - sigma_3|``, the soil-mechanics
+    deviator stress (Wood 1990, *Soil behaviour and critical state soil mechanics*,
+    Sec. 1.3). The same for either sign convention.
+
+    Parameters
+    ----------
+    stress : array, shape (..., 6)
+        Stress vectors in library order [Pa].
+
+    Returns
+    -------
+    ndarray, shape (...)
+    """
+    s = np.asarray(stress, dtype=float)
+    if s.shape[-1:] != (6,):
+        raise ValueError(f"stress must have 6 components (xx yy zz yz xz xy) in its last axis, got shape {s.shape}")
+    p = s[..., :3].mean(axis=-1)
+    dev = s[..., :3] - p[..., None]
+    j2 = 0.5 * np.sum(dev ** 2, axis=-1) + np.sum(s[..., 3:] ** 2, axis=-1)
+    return np.sqrt(3.0 * j2)
 
 
 def reorder(M: np.ndarray, to: Sequence[str], frm: Sequence[str] | None = None) -> np.ndarray:

@@ -296,7 +296,7 @@ def test_packing_loops_whose_mean_stress_drifts_at_constant_volume_are_flagged(t
     docs/packing-driver.md ("Where the fixed geometry holds", Hertz-Mindlin): 'loose' at 3e-5
     (-0.0196; the DEM model's G differs by 6.9 %) and 1e-4 (-0.1177; +20 %) flagged, 'medium'
     at 1e-4 (-0.0028; within 0.2 % of the DEM) and 'dense' at 3e-4 (+0.0017; 1.0 %) not."""
-    from grainmech.analysis.loops import ModulusReduction
+    from grainmech.driver.loop import ModulusReduction
     from grainmech.jobs import REARRANGEMENT_DP, _cyclic_outcome, prepare_run, rearrangement_warnings, rearranging
 
     assert 0.0028 < REARRANGEMENT_DP < 0.0196

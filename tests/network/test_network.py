@@ -365,7 +365,7 @@ def test_equal_area_density_plot_is_normalised():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from grainmech.network import plot_normal_density, plot_rose
+    from grainmech.plots import plot_normal_density, plot_rose
 
     rng = np.random.default_rng(0)
     n = rng.normal(size=(40000, 3))

@@ -1,8 +1,11 @@
 """Analysis of driver results: modulus reduction, damping, directional moduli, references.
 
-See ``docs/analysis.md``. :func:`modulus_reduction` (the affine model's cyclic series) is
-defined with the affine driver (:mod:`grainmech.driver.affine.solver`) and found here on
-first use.
+See ``docs/analysis.md``. The analysis sits above the driver: the names every model's
+cyclic series needs live there and are found here on first use --
+:func:`loop_properties`, :class:`LoopProperties` and :class:`ModulusReduction`
+(:mod:`grainmech.driver.loop`), :func:`modulus_reduction` (the affine model's series,
+:mod:`grainmech.driver.affine.solver`) --; :func:`condensed_modulus` is
+:func:`grainmech.elasticity.condensed_modulus`.
 """
 
 from typing import Any
@@ -25,16 +28,8 @@ from grainmech.analysis.empirical import (
     menq_curve,
     mohr_coulomb_ratio,
 )
-from grainmech.analysis.loops import (
-    LOOP_ASYMMETRY_TOLERANCE,
-    LOOP_CLOSURE_TOLERANCE,
-    LoopProperties,
-    LoopQuality,
-    ModulusReduction,
-    condensed_modulus,
-    loop_properties,
-    loop_quality,
-)
+from grainmech.analysis.loops import LOOP_ASYMMETRY_TOLERANCE, LOOP_CLOSURE_TOLERANCE, LoopQuality, loop_quality
+from grainmech.elasticity import condensed_modulus
 
 __all__ = ["DARENDELI_PHI", "MENQ_D50_MAX", "MenqCurves", "menq_curve",
            "P_ATM", "SAND_PEAK_FRICTION_DEG", "DarendeliCurves", "HardinDrnevichReference",
@@ -46,9 +41,13 @@ __all__ = ["DARENDELI_PHI", "MENQ_D50_MAX", "MenqCurves", "menq_curve",
 
 
 def __getattr__(name: str) -> Any:
-    """``modulus_reduction`` (the affine model's series, :mod:`grainmech.driver.affine.solver`), on first use."""
+    """The driver's names, on first use (``import grainmech.analysis`` does not import the driver)."""
+    if name in ("loop_properties", "LoopProperties", "ModulusReduction"):
+        from grainmech.driver import loop  # noqa: PLC0415 (the driver, on first use)
+
+        return getattr(loop, name)
     if name == "modulus_reduction":
-        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (the driver imports analysis)
+        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (the driver, on first use)
 
         return modulus_reduction
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grainmech.conventions import von_mises
 from grainmech.errors import ParameterError
 
 __all__ = ["StrengthResult", "mobilised_friction_angle", "path_strength"]
@@ -93,8 +94,7 @@ def path_strength(stress: np.ndarray, axial_strain: np.ndarray, volumetric_strai
         raise ParameterError("stress", len(s), "needs at least 3 states with matching strain arrays")
     phi = mobilised_friction_angle(s)
     p = s[:, :3].mean(axis=1)
-    dev = s[:, :3] - p[:, None]
-    q = np.sqrt(1.5 * np.sum(dev ** 2, axis=1) + 3.0 * np.sum(s[:, 3:] ** 2, axis=1))
+    q = von_mises(s)
     qp = q / np.where(p > 0, p, np.nan)
     k = int(np.nanargmax(phi))
     a_end = float(np.abs(ea[-1]))

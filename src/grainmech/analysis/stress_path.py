@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.conventions import ORDER_3D
+from grainmech.conventions import ORDER_3D, von_mises
 
 __all__ = ["soil_path_table"]
 
@@ -15,7 +15,8 @@ def soil_path_table(result: Any) -> tuple[list[str], np.ndarray, str]:
     """The soil-mechanics view of a driver path, one row per step.
 
     Columns: ``p [Pa]`` (mean stress ``tr(sigma)/3``), ``q [Pa]`` (deviator stress
-    ``sqrt(3 J2)``, which is ``sigma_1 - sigma_3`` on a triaxial path), ``q_over_p [-]``,
+    ``sqrt(3 J2)``, :func:`grainmech.conventions.von_mises`, which is ``sigma_1 - sigma_3``
+    on a triaxial path), ``q_over_p [-]``,
     ``axial_strain [-]`` (the normal strain along the loading axis: the normal component
     whose stress changed most along the path, else whose strain did), ``volumetric_strain
     [-]`` (``tr(eps)``, compression positive) and ``deviatoric_strain [-]``
@@ -26,9 +27,7 @@ def soil_path_table(result: Any) -> tuple[list[str], np.ndarray, str]:
     s = np.asarray(result.stress, dtype=float)
     e = np.asarray(result.strain, dtype=float)
     p = s[:, :3].mean(axis=1)
-    dev = s[:, :3] - p[:, None]
-    j2 = 0.5 * np.sum(dev ** 2, axis=1) + np.sum(s[:, 3:] ** 2, axis=1)
-    q = np.sqrt(3.0 * j2)
+    q = von_mises(s)
     de = e - e[0]
     ds = s - s[0]
     score = np.abs(ds[-1, :3]) if np.any(np.abs(ds[-1, :3]) > 0) else np.abs(de[-1, :3])

@@ -10,29 +10,120 @@
   (:func:`grainmech.driver.packing.run_packing`) and the DEM model use it; the affine
   model's compiled whole-path loops (its fast path) keep the same semantics.
 * :func:`cyclic_series` runs strain-controlled cyclic simple shear (``gamma_xz``) at each
-  amplitude with any model's runner and analyses the last cycle
-  (:func:`grainmech.analysis.loop_properties`): the modulus-reduction and damping curve.
-  :func:`grainmech.analysis.modulus_reduction` (affine),
+  amplitude with any model's runner and analyses the last cycle (:func:`loop_properties`:
+  secant modulus and damping ratio of one closed loop): the modulus-reduction and damping
+  curve, a :class:`ModulusReduction`. :func:`grainmech.driver.modulus_reduction` (affine),
   :func:`grainmech.driver.packing.packing_modulus_reduction` and the DEM model all use it.
+
+For one closed stress-strain loop ``(gamma, tau)`` (engineering shear strain):
+
+* amplitude ``gamma_a = (max gamma - min gamma)/2``, ``tau_a`` half the stress range
+  between the two strain extremes;
+* secant modulus ``G = tau_a / gamma_a``;
+* dissipated energy ``dW = |oint tau d gamma|`` (trapezoidal loop area);
+* damping ratio ``D = dW / (4 pi W)`` with ``W = tau_a gamma_a / 2`` (Kramer 1996, Sec. 6.4.2;
+  Darendeli 2001, Ch. 2).
+
+How far a cycle is from a closed, stationary loop is :func:`grainmech.analysis.loop_quality`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from grainmech.analysis.loops import ModulusReduction, loop_properties
 from grainmech.driver.base import DriverResult, Status, StepFailure, SteppingPoint
 from grainmech.driver.paths import LoadPath, PathTargets, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
 
-__all__ = ["follow_path", "cyclic_series", "Recorder"]
+__all__ = ["follow_path", "cyclic_series", "Recorder", "LoopProperties", "loop_properties", "ModulusReduction"]
 
 #: ``record(point, step_index)`` -> None: what a model keeps of each state
 Recorder = Callable[[Any, int], None]
+
+
+@dataclass(frozen=True)
+class LoopProperties:
+    """Properties of one loop (units: strain dimensionless, stress and energy per volume)."""
+
+    gamma_a: float
+    tau_a: float
+    secant_modulus: float
+    dissipated: float
+    stored: float
+    damping: float
+
+
+def loop_properties(gamma: Any, tau: Any) -> LoopProperties:
+    """Secant modulus and damping ratio of one closed loop.
+
+    Parameters
+    ----------
+    gamma, tau : arrays (k,)
+        Engineering shear strain and shear stress along one full cycle (first and last
+        points at the same strain).
+    """
+    g = np.asarray(gamma, dtype=float)
+    t = np.asarray(tau, dtype=float)
+    if g.ndim != 1 or g.shape != t.shape or g.size < 4:
+        raise ParameterError("gamma/tau", (g.shape, t.shape), "must be 1-D arrays of equal length >= 4")
+    if not (np.all(np.isfinite(g)) and np.all(np.isfinite(t))):
+        raise ParameterError("gamma/tau", "non-finite", "must be finite")
+    imax, imin = int(np.argmax(g)), int(np.argmin(g))
+    ga = 0.5 * (g[imax] - g[imin])
+    if ga <= 0:
+        raise ParameterError("gamma", "constant", "the loop has zero strain amplitude")
+    ta = 0.5 * (t[imax] - t[imin])
+    dW = abs(float(np.sum(0.5 * (t[1:] + t[:-1]) * np.diff(g))))
+    W = 0.5 * ta * ga
+    D = dW / (4 * np.pi * W) if W > 0 else 0.0
+    return LoopProperties(float(ga), float(ta), float(ta / ga), dW, float(W), float(D))
+
+
+@dataclass(frozen=True)
+class ModulusReduction:
+    """Modulus reduction and damping against amplitude.
+
+    Attributes
+    ----------
+    amplitude : (k,) engineering shear strain amplitudes
+    G : (k,) secant moduli of the last cycle
+    damping : (k,) damping ratios of the last cycle
+    G_max : float
+        Small-strain modulus from the initial tangent (:func:`condensed_modulus`).
+    results : list of DriverResult
+    success, message
+        Whether every amplitude completed or liquefied, and what stopped the others.
+    run_amplitudes : (len(results),) or None
+        The amplitude of every run in ``results``.
+    liquefied : tuple of str
+        ``"amplitude a: <message>"`` of every amplitude whose run liquefied (the DEM model
+        at constant volume: the test's answer, not a failure; no G or damping).
+    """
+
+    amplitude: np.ndarray
+    G: np.ndarray
+    damping: np.ndarray
+    G_max: float
+    results: list
+    success: bool = True
+    message: str = "done"
+    run_amplitudes: np.ndarray | None = None
+    liquefied: tuple = ()
+
+    @property
+    def completed(self) -> list:
+        """The results of the completed amplitudes (aligned with ``amplitude``, ``G``, ``damping``)."""
+        return [r for r in self.results if r.success][:len(self.G)]
+
+    @property
+    def G_ratio(self) -> np.ndarray:
+        """Secant modulus ratio ``G / G_max`` [-] per amplitude, shape (n_amplitudes,)."""
+        return self.G / self.G_max
 
 
 def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
@@ -110,7 +201,7 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         last path built) [Pa].
     n_cycles, steps_per_cycle, waveform, constant
         As :func:`grainmech.driver.cyclic_simple_shear`; the last cycle is analysed
-        (:func:`grainmech.analysis.loop_properties`: secant modulus, damping
+        (:func:`loop_properties`: secant modulus, damping
         ``D = dW / (4 pi W)``, Kramer 1996 Sec. 6.4.2).
     progress : callable ``(index, amplitude, path)``, optional
         Called before each amplitude.

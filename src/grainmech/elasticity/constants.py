@@ -24,7 +24,7 @@ from grainmech.elasticity._mandel import (
     unit_vectors,
 )
 from grainmech.elasticity.conversions import check_stiffness, compliance, rotate_stiffness
-from grainmech.errors import GrainmechError
+from grainmech.errors import GrainmechError, ParameterError
 
 
 def _couplings(S: np.ndarray, order: Sequence[str], rtol: float) -> dict[str, float]:
@@ -516,3 +516,19 @@ def transversely_isotropic_stiffness(E_p: float, nu_p: float, E_a: float, nu_ap:
                               E_p / (2 * (1 + nu_p)))
     a = unit_vectors(axis, 3, "axis")
     return rotate_stiffness(C, frame_from_axis(a).T)
+
+
+def condensed_modulus(C: np.ndarray, component: int, stress_control: Sequence[bool]) -> float:
+    """Small-strain modulus ``d sigma_k / d eps_k`` with the other components controlled.
+
+    Strain-controlled components are held (zero increment), stress-controlled ones free
+    (zero stress increment): ``C_kk - C_kS C_SS^-1 C_Sk``.
+    """
+    sc = np.asarray(stress_control, dtype=bool)
+    C = np.asarray(C, dtype=float)
+    k = int(component)
+    if sc[k]:
+        raise ParameterError("component", k, "must be strain controlled")
+    if not sc.any():
+        return float(C[k, k])
+    return float(C[k, k] - C[k, sc] @ np.linalg.solve(C[np.ix_(sc, sc)], C[sc, k]))

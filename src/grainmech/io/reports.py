@@ -37,8 +37,8 @@ from grainmech.io.results import (
     write_text,
 )
 from grainmech.io.site_response import write_curves
-from grainmech.network import plot_normal_density, plot_rose
 from grainmech.outcomes import CyclicOutcome, RunComparison, envelope_and_loop_warnings, packing_gmax_line
+from grainmech.plots import plot_normal_density, plot_rose
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
            "write_dem_outputs", "CONTACT_COLUMNS"]

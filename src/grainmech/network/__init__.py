@@ -26,8 +26,12 @@ Modules
 * :mod:`~grainmech.network.report` - :func:`network_report` (a :class:`NetworkReport`
   of arrays; :meth:`NetworkReport.to_json` / :func:`network_report_json` for files) and
   :func:`closed_form_from_fit` (seed Eq. 4.21-4.33 from the fitted fabric).
-* :mod:`~grainmech.network.plotting` - :func:`plot_rose`, :func:`plot_normal_density`
-  (matplotlib; imported only when one of them is used).
+* :mod:`~grainmech.network.tables` - a network from columns of ids, positions and forces
+  (what every reader of :mod:`grainmech.io.dem` ends in), and the NPZ form of the
+  generic tables.
+
+The figures of a network (rose diagrams, normal density) are :func:`grainmech.plots.plot_rose`
+and :func:`grainmech.plots.plot_normal_density`.
 
 Stiffness terms only: the contact stiffness ``K = kn n n + ks (I - n n)`` is used
 unchanged; with ``geometric=True`` the term ``-(N/|l|) (I - n n)`` (the rotation of a
@@ -41,6 +45,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from grainmech._deprecated import moved_attribute
 from grainmech.network.builders import lattice_network, random_network, tile_network
 from grainmech.network.data import Box, ContactNetwork
 
@@ -55,7 +60,6 @@ if TYPE_CHECKING:
         rattler_threshold,
         rattlers,
     )
-    from grainmech.network.plotting import plot_normal_density, plot_rose
     from grainmech.network.relaxed import RelaxedResult, relaxed_stiffness
     from grainmech.network.report import NetworkReport, closed_form_from_fit, network_report, network_report_json
     from grainmech.network.stiffness import affine_stiffness, contact_matrix, effective_ks, strain_map
@@ -84,14 +88,12 @@ __all__ = [
     "network_report_json",
     "NetworkReport",
     "closed_form_from_fit",
-    "plot_rose",
-    "plot_normal_density",
 ]
 
 #: public name -> module that defines it, imported on first use: the measures pull in
 #: grainmech.assembly and with it numba (~66 MB of resident memory, 0.2 s), which a
 #: reader of DEM files (``grainmech.io.dem`` needs only Box and ContactNetwork) does not
-#: need; matplotlib only for the plots
+#: need
 _LAZY: dict[str, str] = {
     **dict.fromkeys(("CoordinationResult", "FabricResult", "contact_stiffnesses", "coordination",
                      "network_fabric", "network_stress", "rattler_threshold", "rattlers"),
@@ -101,14 +103,13 @@ _LAZY: dict[str, str] = {
                     "grainmech.network.report"),
     **dict.fromkeys(("affine_stiffness", "contact_matrix", "effective_ks", "strain_map"),
                     "grainmech.network.stiffness"),
-    **dict.fromkeys(("plot_rose", "plot_normal_density"), "grainmech.network.plotting"),
 }
 
 
 def __getattr__(name: str) -> Any:
     mod = _LAZY.get(name)
     if mod is None:
-        raise AttributeError(f"module 'grainmech.network' has no attribute {name!r}")
+        return moved_attribute(__name__, name)  # the plots moved to grainmech.plots (a warning)
     value = getattr(importlib.import_module(mod), name)
     globals()[name] = value
     return value

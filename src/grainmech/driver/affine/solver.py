@@ -20,7 +20,6 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from numpy.typing import ArrayLike
 
-from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact import ReversalMemoryError
 from grainmech.contact.interface import ContactLaw
 from grainmech.contact.law import max_reversals
@@ -32,9 +31,9 @@ from grainmech.driver.affine.response import (
     tangent,
 )
 from grainmech.driver.base import DriverResult, PointStepping, StepFailure
-from grainmech.driver.loop import cyclic_series, follow_path
+from grainmech.driver.loop import ModulusReduction, cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath
-from grainmech.elasticity import engineering_constants
+from grainmech.elasticity import condensed_modulus, engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
 
 if TYPE_CHECKING:  # the point imports this module (MaterialPoint.at_stress runs a path)

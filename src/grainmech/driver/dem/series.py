@@ -13,14 +13,14 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.analysis.loops import ModulusReduction, condensed_modulus
 from grainmech.contact.rolling import RollingResistance
 from grainmech.driver.base import DriverResult
 from grainmech.driver.dem.mpi import Tick
 from grainmech.driver.dem.run import DemResult, run_dem
 from grainmech.driver.dem.settings import DemSettings, dem_material
-from grainmech.driver.loop import cyclic_series
+from grainmech.driver.loop import ModulusReduction, cyclic_series
 from grainmech.driver.paths import LoadPath, cyclic_simple_shear
+from grainmech.elasticity import condensed_modulus
 from grainmech.errors import ParameterError
 from grainmech.network import ContactNetwork
 

@@ -35,7 +35,6 @@ from typing import Any, cast
 import numpy as np
 
 from grainmech import _workers
-from grainmech.analysis import condensed_modulus
 from grainmech.contact import (
     Hertz,
     LinearSpring,
@@ -52,6 +51,7 @@ from grainmech.driver.packing.options import (  # noqa: F401 (re-exported: the n
 )
 from grainmech.driver.packing.point import PackingPoint, PackingResult, run_packing, run_resolved
 from grainmech.driver.packing.tangent import unbalanced_force_ratio
+from grainmech.elasticity import condensed_modulus
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import Box, ContactNetwork, lattice_network
 
