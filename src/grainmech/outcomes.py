@@ -9,13 +9,26 @@ The outcome of every run kind (:class:`StiffnessOutcome`, :class:`CyclicOutcome`
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+if TYPE_CHECKING:  # annotations only: the drivers load on first use (grainmech stiffness imports none)
+    from grainmech.driver.base import KinematicModel
+
 __all__ = ["StiffnessOutcome", "RunOutcome", "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome",
-           "ContactOutcome", "envelope_and_loop_warnings", "packing_gmax_line", "run_mean_stress_change",
+           "ContactOutcome", "model_of", "envelope_and_loop_warnings", "packing_gmax_line", "run_mean_stress_change",
            "curve_value_problems", "curve_value_warnings", "RecommendedCurve", "recommended_curve"]
+
+
+def model_of(model: str | KinematicModel) -> KinematicModel:
+    """The registered kinematic model of a name (:func:`grainmech.driver.registry.resolve`), or the model itself.
+
+    The registry is imported on first use: this module stays light for the jobs that run no model.
+    """
+    from grainmech.driver.registry import resolve
+
+    return resolve(model)
 
 
 def run_mean_stress_change(result: Any) -> float:
@@ -78,7 +91,8 @@ class RunOutcome:
     warnings : list of str
         Plausibility warnings (value and reason).
     method : str
-        ``"affine"``, ``"packing"`` or ``"dem"`` (:data:`grainmech.jobs.RUN_METHODS`).
+        ``"affine"``, ``"packing"`` or ``"dem"`` (:data:`grainmech.jobs.RUN_METHODS`); the
+        model itself is :attr:`model`.
     details : dict
         For ``"packing"``: the packing (label, grains, rattlers, contacts, void ratio, input
         mean stress, notes of the point) and the largest equilibrium residual of any step.
@@ -94,6 +108,11 @@ class RunOutcome:
     warnings: list = field(default_factory=list)
     method: str = "affine"
     details: dict = field(default_factory=dict)
+
+    @property
+    def model(self) -> KinematicModel:
+        """The kinematic model that made this outcome (:data:`grainmech.driver.registry.MODELS`)."""
+        return model_of(self.method)
 
 
 @dataclass
@@ -228,11 +247,6 @@ class RunComparison:
         return recommended_curve(self)
 
 
-#: the physically based models whose points make the recommended curve, in the order they are
-#: preferred where both ran an amplitude and the packing model's grains do not rearrange there
-PHYSICAL_MODELS = ("packing", "dem")
-
-
 @dataclass
 class RecommendedCurve:
     """One modulus-reduction and damping curve of a run with several models.
@@ -294,7 +308,7 @@ def _model_points(o: CyclicOutcome) -> dict[float, dict]:
     """A cyclic model's completed amplitudes: G, damping and flags per amplitude (its own keys)."""
     n = len(o.G)
     beyond = o.beyond_envelope
-    moved = list((o.details or {}).get("rearranging", []))[:n] if o.method == "packing" else []
+    moved = list((o.details or {}).get("rearranging", []))[:n] if o.model.fixed_geometry else []
     moved += [False] * (n - len(moved))
     bad_loop = [not q.ok for q in o.loop_quality[:n]] + [False] * max(0, n - len(o.loop_quality))
     return {float(a): {"G": float(g), "damping": float(d), "beyond": bool(b), "moved": bool(m), "loop": bool(lp)}
@@ -329,44 +343,48 @@ def recommended_curve(comparison: RunComparison) -> RecommendedCurve | None:
     outs = [o for o in comparison.outcomes if isinstance(o, CyclicOutcome)]
     if len(comparison.outcomes) < 2 or not outs:
         return None
-    by = {o.method: o for o in outs}
-    phys = [by[m] for m in PHYSICAL_MODELS if m in by and len(by[m].G)]
+    # the physically based models (not an upper bound), the fixed-geometry one first: it is
+    # preferred where both ran an amplitude and its grains do not rearrange there
+    fixed = next((o for o in outs if o.model.fixed_geometry), None)
+    taking = next((o for o in outs if o.model.takes_over), None)
+    phys = [o for o in (fixed, taking) if o is not None and len(o.G)]
     if not phys:
         return None
     base = next((o for o in phys if np.isfinite(o.G_max) and o.G_max > 0), None)
     if base is None:
         return None
-    if base.method == "packing":
-        why = ("the packing model's Gmax: the small-strain modulus with every grain in force and moment "
+    if base.model.fixed_geometry:
+        why = (f"the {base.model.title}'s Gmax: the small-strain modulus with every grain in force and moment "
                "equilibrium (the exact tangent of the packing at rest, no relaxation tolerance)")
     else:
-        why = "the DEM model's Gmax (no packing-model Gmax in this run)"
+        why = f"the {base.model.title}'s Gmax (no packing-model Gmax in this run)"
     other = [o for o in phys if o is not base and np.isfinite(o.G_max) and o.G_max > 0]
     if other:
         why += "; " + "; ".join(
             f"the {o.method} model's own Gmax {o.G_max:.4g} Pa is {o.G_max / base.G_max:.3f} of it: its secant G "
             "is divided by this one Gmax, not by its own" for o in other)
-    pk = _model_points(by["packing"]) if "packing" in by else {}
-    dm = _model_points(by["dem"]) if "dem" in by else {}
+    pk = _model_points(fixed) if fixed is not None else {}
+    dm = _model_points(taking) if taking is not None else {}
+    pk_name, dm_name = (fixed.method if fixed is not None else ""), (taking.method if taking is not None else "")
     points: list[tuple[float, str, dict]] = []
     choices: list[str] = []
     for a, p in pk.items():
         twin = next((v for k, v in dm.items() if _same(k, a)), None)
         if twin is None:
-            points.append((a, "packing", p))
+            points.append((a, pk_name, p))
             continue
         rp, rd = p["G"] / base.G_max, twin["G"] / base.G_max
         if p["moved"]:
-            points.append((a, "dem", twin))
+            points.append((a, dm_name, twin))
             choices.append(f"{a:.3g}: the DEM point (G/Gmax {rd:.4f}, damping {100 * twin['damping']:.2f} %) is kept: "
                            f"the packing model's grains rearrange there (G/Gmax {rp:.4f}, damping "
                            f"{100 * p['damping']:.2f} %), its fixed geometry no longer holds")
         else:
-            points.append((a, "packing", p))
+            points.append((a, pk_name, p))
             choices.append(f"{a:.3g}: the packing point (G/Gmax {rp:.4f}, damping {100 * p['damping']:.2f} %) is "
                            f"kept: its grains do not rearrange there and every grain is in exact equilibrium; the "
                            f"DEM model gives G/Gmax {rd:.4f}, damping {100 * twin['damping']:.2f} %")
-    points += [(a, "dem", v) for a, v in dm.items() if not any(_same(a, k) for k in pk)]
+    points += [(a, dm_name, v) for a, v in dm.items() if not any(_same(a, k) for k in pk)]
     points.sort(key=lambda t: t[0])
     amps = np.array([a for a, _, _ in points])
     G = np.array([v["G"] for _, _, v in points])
@@ -378,11 +396,11 @@ def recommended_curve(comparison: RunComparison) -> RecommendedCurve | None:
         f += (["loop_not_closed"] if v["loop"] else []) + (["value_flag"] if prob else [])
         flags.append(f)
     ref = {}
-    if "affine" in by:
-        aff = by["affine"]
+    aff = next((o for o in outs if o.model.upper_bound), None)
+    if aff is not None:
         times = (f" (Gmax {aff.G_max / base.G_max:.2f} times the recommended curve's)"
                  if np.isfinite(aff.G_max) else "")
-        ref = {"model": "affine", "G_max_Pa": float(aff.G_max),
+        ref = {"model": aff.method, "G_max_Pa": float(aff.G_max),
                "note": "a reference only: every contact follows the mean strain, an upper bound that cannot fail"
                        + times}
     return RecommendedCurve(amps, G, ratio, damp, [m for _, m, _ in points], flags, float(base.G_max), base.method,
@@ -425,16 +443,19 @@ class ContactOutcome:
     force_unit: str
 
 
-def envelope_and_loop_warnings(method: str, amplitudes: Any, envelope: list, quality: list) -> list[str]:
-    """One warning per amplitude beyond the envelope of sands and per loop out of tolerance."""
+def envelope_and_loop_warnings(model: str | KinematicModel, amplitudes: Any, envelope: list,
+                               quality: list) -> list[str]:
+    """One warning per amplitude beyond the envelope of sands and per loop out of tolerance.
+
+    ``model`` (a model or its name) says how to read its states beyond the envelope
+    (``envelope_note``).
+    """
+    m = model_of(model)
+    method = m.name
     out = []
     for a, env, q in zip(amplitudes, envelope, quality):
         if env["beyond_any"]:
-            why = {"affine": "the affine model cannot fail (every contact follows the mean strain): this "
-                             "amplitude's G/Gmax and damping are not predictions for a sand",
-                   "packing": "the packing model keeps a fixed reference geometry: read this amplitude with "
-                              "its sliding fraction and equilibrium residual",
-                   "dem": "read this amplitude with its unbalanced force ratio"}.get(method, "")
+            why = m.envelope_note
             r = env["max_ratio"]
             rt = f"up to {r:.3g}" if np.isfinite(r) else "unbounded: sigma3 <= 0"
             out.append(f"{method} model, amplitude {a:.1e}: beyond the envelope of sands from step "

@@ -10,7 +10,6 @@ re-settled start state and the rearrangements the fixed geometry does not follow
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
@@ -347,100 +346,6 @@ def test_interrupting_a_dem_run_stops_lammps_and_its_workers(tmp_path, sig) -> N
     alive = [c for c in children if Path(f"/proc/{c}").exists()
              and "zombie" not in Path(f"/proc/{c}/status").read_text().lower()]
     assert not alive, f"worker processes left running: {alive}"
-
-
-def test_stopped_packing_amplitudes_are_handed_to_dem(monkeypatch) -> None:
-    """Issue 28 item 2: an amplitude the packing model stops at (and its later ones) joins the
-    DEM model's amplitudes when the DEM model runs after it, and the DEM notes say so."""
-    import tomllib
-
-    import numpy as np
-
-    import grainmech.lammps.engine as engine
-    from grainmech.jobs import CyclicOutcome, _hand_to_dem, prepare_run
-
-    monkeypatch.setattr(engine, "require_lammps", lambda: None)
-    cfg = tomllib.loads(BASE.format(law="hertz-mindlin", method='["packing", "dem"]', amps="[1e-5]",
-                                    constant="stress", extra_contacts="",
-                                    model="packing_amplitudes = [1e-6, 1e-4, 3e-4]\ndem_amplitudes = [1e-3]"))
-    spec = prepare_run(cfg)
-    stopped = CyclicOutcome(kind=spec.kind, pressure=spec.pressure, results=[], success=False,
-                            message="amplitude 0.0001: step 49: left the small-strain range", seconds=1.0,
-                            point=None, method="packing", G=np.array([1e8]), damping=np.array([0.01]))
-    assert _hand_to_dem(spec, stopped, ("dem",)) == [1e-4, 3e-4]
-    assert spec.amplitudes_of("dem") == [1e-4, 3e-4, 1e-3]
-    assert spec.dem_handed is not None and "step 49" in spec.dem_handed[1]
-    # nothing to hand over: a packing model that completed, or no DEM model after it
-    spec2 = prepare_run(cfg)
-    assert _hand_to_dem(spec2, stopped, ()) == [] and spec2.amplitudes_of("dem") == [1e-3]
-
-
-def test_rearranging_packing_amplitudes_are_handed_to_dem_too(monkeypatch) -> None:
-    """Issue 29: a completed packing-model amplitude flagged as rearranging (constant volume,
-    mean stress drifted by more than REARRANGEMENT_DP: details['rearranging']) joins the DEM
-    model's amplitudes as a stopped one does, and the reason names both."""
-    import tomllib
-
-    import numpy as np
-
-    import grainmech.lammps.engine as engine
-    from grainmech.jobs import CyclicOutcome, _hand_to_dem, prepare_run
-
-    monkeypatch.setattr(engine, "require_lammps", lambda: None)
-    cfg = tomllib.loads(BASE.format(law="hertz-mindlin", method='["packing", "dem"]', amps="[1e-5]",
-                                    constant="volume", extra_contacts="",
-                                    model="packing_amplitudes = [1e-5, 3e-5, 1e-4]\ndem_amplitudes = [1e-3]"))
-    spec = prepare_run(cfg)
-    flagged = CyclicOutcome(kind=spec.kind, pressure=spec.pressure, results=[], success=True, message="done",
-                            seconds=1.0, point=None, method="packing", amplitudes=np.array([1e-5, 3e-5, 1e-4]),
-                            G=np.array([1e8, 9e7, 6e7]), damping=np.array([0.01, 0.05, 0.1]),
-                            details={"rearranging": [False, True, True]})
-    handed = _hand_to_dem(spec, flagged, ("dem",))
-    assert handed == [3e-5, 1e-4] and all(type(a) is float for a in handed)  # printed as [3e-05, 0.0001]
-    assert spec.amplitudes_of("dem") == [3e-5, 1e-4, 1e-3]
-    assert "[3e-05, 0.0001] its grains rearrange" in spec.dem_handed[1] and "stopped" not in spec.dem_handed[1]
-    # flagged and then stopped: both, in the packing model's order
-    spec2 = prepare_run(cfg)
-    both = dataclasses.replace(flagged, success=False, message="amplitude 0.0001: step 5: no equilibrium found",
-                               amplitudes=flagged.amplitudes[:2], G=flagged.G[:2], damping=flagged.damping[:2],
-                               details={"rearranging": [False, True]})
-    assert _hand_to_dem(spec2, both, ("dem",)) == [3e-5, 1e-4]
-    assert "rearrange" in spec2.dem_handed[1] and "it stopped (amplitude 0.0001: step 5" in spec2.dem_handed[1]
-    # nothing flagged, nothing stopped: nothing handed over
-    spec3 = prepare_run(cfg)
-    calm = dataclasses.replace(flagged, details={"rearranging": [False] * 3})
-    assert _hand_to_dem(spec3, calm, ("dem",)) == [] and spec3.dem_handed is None
-
-
-@pytest.mark.parametrize("lammps", [True, False])
-def test_a_stopped_packing_model_without_dem_says_how_to_run_the_rest(monkeypatch, lammps) -> None:
-    """Issue 29 item 6: a packing model that stops with no DEM model after it warns which
-    amplitudes it did not run and how to hand them over (naming the extra when LAMMPS is
-    missing); no warning when it completed, failed before any amplitude, or the DEM runs."""
-    import tomllib
-
-    import numpy as np
-
-    import grainmech.lammps.engine as engine
-    from grainmech.jobs import CyclicOutcome, _dem_hint, prepare_run
-
-    monkeypatch.setattr(engine, "lammps_available", lambda: lammps)
-    cfg = tomllib.loads(BASE.format(law="hertz-mindlin", method='"packing"', amps="[1e-5]", constant="stress",
-                                    extra_contacts="", model="packing_amplitudes = [1e-6, 1e-4, 3e-4]"))
-    spec = prepare_run(cfg)
-    # results: the amplitude that completed and the one that stopped (only their presence matters)
-    stopped = CyclicOutcome(kind=spec.kind, pressure=spec.pressure, results=["1e-6 run", "1e-4 run"], success=False,
-                            message="amplitude 0.0001: step 5: no equilibrium found", seconds=1.0, point=None,
-                            method="packing", G=np.array([1e8]), damping=np.array([0.01]))
-    hint = _dem_hint(spec, stopped, ())
-    # the amplitudes it did not run (an amplitude beyond the DEM model's range, 0.05, is refused
-    # by the config reader up front: test_bad_dem_input_is_one_line_exit_2)
-    assert hint is not None and "[0.0001, 0.0003]" in hint
-    assert 'method = ["packing", "dem"]' in hint
-    assert ("grainmech[dem]" in hint) is (not lammps)
-    assert _dem_hint(spec, stopped, ("dem",)) is None
-    assert _dem_hint(spec, dataclasses.replace(stopped, success=True), ()) is None
-    assert _dem_hint(spec, dataclasses.replace(stopped, results=[]), ()) is None
 
 
 def _linear_run(G: float, liquefy_above: float):  # noqa: ANN202

@@ -151,8 +151,8 @@ def main(args: argparse.Namespace) -> int:
         if len(outs) > 1:
             show(f"{o.method} model ({'completed' if o.success else 'STOPPED: ' + o.message}):")
         det = o.details
-        if det and "grains" in det and o.method == "dem":
-            show(f"  {det['packing']}: {det['grains']} grains in LAMMPS, void ratio {det['void_ratio']:.3f}; "
+        if det and "grains" in det and o.model.engine:
+            show(f"  {det['packing']}: {det['grains']} grains in {o.model.engine}, void ratio {det['void_ratio']:.3f}; "
                  f"largest unbalanced force ratio {det.get('max_unbalanced', float('nan')):.2g}")
             for n in det.get("notes", []):
                 show(f"  note: {n}")

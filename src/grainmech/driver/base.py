@@ -18,10 +18,16 @@ and the DEM model's (:class:`grainmech.driver.dem.DemPoint`, a live LAMMPS simul
 that moves forward only) go through :func:`grainmech.driver.loop.follow_path`. All three return a
 :class:`DriverResult` (the packing and DEM models a subclass with their own per-step
 columns), and :func:`grainmech.driver.loop.cyclic_series` analyses any of them.
+
+Above the point, a model is a :class:`KinematicModel`: its name, what it needs from a
+config, its series and its path, the details it reports and whether it hands amplitudes
+over to another model (:class:`HandOver`). One entry per model is registered in
+:mod:`grainmech.driver.registry`; the jobs dispatch through it.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Any, Protocol, runtime_checkable
@@ -30,7 +36,8 @@ import numpy as np
 
 from grainmech.errors import GrainmechError
 
-__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "PointStepping", "DriverResult"]
+__all__ = ["Status", "StepFailure", "Point", "SteppingPoint", "PointStepping", "DriverResult", "KinematicModel",
+           "HandOver"]
 
 
 class Status(IntEnum):
@@ -163,3 +170,88 @@ class DriverResult:
     final: Any = field(repr=False)
     n_steps: int = 0
     engineering: dict = field(default_factory=dict, repr=False)
+
+
+@runtime_checkable
+class KinematicModel(Protocol):
+    """What the jobs know of a kinematic model (one registered instance per model).
+
+    Attributes
+    ----------
+    name : str
+        The model's name in a config (``[model] method``) and in every output.
+    title : str
+        The model in a sentence (``"packing model"``).
+    needs_grains : bool
+        True: it runs on a packing of grains (``[model] packing`` or ``network``) with the
+        run's law for spheres; False: on the analytical microstructure (``[packing]``,
+        ``[fabric]``), whose input warnings are then its own.
+    settings_section : str or None
+        Its own table ``[model.<settings_section>]``, if any.
+    amplitudes_key, steps_per_cycle_key : str or None
+        Its own ``[model]`` keys for the amplitudes and the steps per cycle of a cyclic
+        test, if any (otherwise those of ``[test]``); the same names on the run's spec.
+    max_amplitude : float
+        Largest strain amplitude it takes.
+    upper_bound : bool
+        Every contact follows the mean strain: stiffer than the grains, it cannot fail; its
+        states beyond the envelope of sands are not predictions, and it is a reference only
+        beside models that are not.
+    fixed_geometry : bool
+        Every grain in equilibrium in a fixed reference geometry: where the grains would
+        rearrange, or where it stops, its range ends and it hands the amplitudes over
+        (:class:`HandOver`) to a model that ``takes_over``.
+    takes_over : bool
+        Contacts form and break, grains rearrange: it runs what a fixed-geometry model hands over.
+    engine : str or None
+        The external code its grains run in (``"LAMMPS"``), None when grainmech solves it.
+    envelope_note : str
+        How to read its states beyond the envelope of sands.
+    """
+
+    name: str
+    title: str
+    needs_grains: bool
+    settings_section: str | None
+    amplitudes_key: str | None
+    steps_per_cycle_key: str | None
+    max_amplitude: float
+    upper_bound: bool
+    fixed_geometry: bool
+    takes_over: bool
+    engine: str | None
+    envelope_note: str
+
+    def series(self, start: Any, amplitudes: Sequence[float], **options: Any) -> Any:
+        """Cyclic simple shear at every amplitude from ``start`` (a :class:`~grainmech.analysis.ModulusReduction`)."""
+
+    def path(self, start: Any, load_path: Any, **options: Any) -> DriverResult:
+        """The run along a mixed-control path from ``start``."""
+
+    def details(self, start: Any) -> dict:
+        """What an outcome reports about the model's start state (grains, contacts, notes)."""
+
+
+@dataclass(frozen=True)
+class HandOver:
+    """The amplitudes one model of a job leaves to the next, and why.
+
+    Attributes
+    ----------
+    source : str
+        The model that hands them over.
+    amplitudes : tuple of float
+        The amplitudes, in the source model's order.
+    why : str
+        The reason, in words a user reads.
+    """
+
+    source: str
+    amplitudes: tuple[float, ...]
+    why: str
+
+    @property
+    def note(self) -> str:
+        """The sentence the receiving model's outcome carries."""
+        listed = [float(f"{a:.3g}") for a in self.amplitudes]
+        return f"amplitudes {listed} were handed over from the {self.source} model: {self.why}"

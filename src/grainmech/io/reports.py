@@ -37,7 +37,7 @@ from grainmech.io.results import (
     write_text,
 )
 from grainmech.io.site_response import write_curves
-from grainmech.outcomes import CyclicOutcome, RunComparison, envelope_and_loop_warnings, packing_gmax_line
+from grainmech.outcomes import CyclicOutcome, RunComparison, envelope_and_loop_warnings, model_of, packing_gmax_line
 from grainmech.plots import plot_normal_density, plot_rose
 
 __all__ = ["DEFAULT_OUTPUT_ROOT", "default_outdir", "write_run_outputs", "write_contact_outputs",
@@ -215,7 +215,7 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
     if env is not None:
         first = env["first_step"]
         cannot_fail = (" the affine model (every contact follows the mean strain) cannot fail, so these "
-                       "states are not predictions" if o.method == "affine" else
+                       "states are not predictions" if o.model.upper_bound else
                        " read them with the sliding fraction and the equilibrium residual of the packing")
         m["envelope"] = {
             "limit_sigma1_over_sigma3": env["limit"], "friction_angle_deg": env["friction_angle_deg"],
@@ -308,7 +308,7 @@ def _cyclic_checks(o: Any) -> dict:
     amps = np.asarray(o.amplitudes, dtype=float)
     excluded = [] if o.keep_beyond_envelope else [float(a) for a, b in zip(amps, beyond) if b]
     why = (" The affine model cannot fail (every contact follows the mean strain): states beyond the "
-           "envelope are what its equations give, not predictions for a sand." if o.method == "affine" else "")
+           "envelope are what its equations give, not predictions for a sand." if o.model.upper_bound else "")
     lim = mohr_coulomb_ratio(np.radians(SAND_PEAK_FRICTION_DEG))
     return {
         "beyond_envelope": beyond,
@@ -332,7 +332,7 @@ def _cyclic_checks(o: Any) -> dict:
         "loop_quality": [q.as_dict() for q in o.loop_quality],
         "loop_warning": [not q.ok for q in o.loop_quality],
         "site_response_excluded": excluded,
-        "amplitude_warnings": envelope_and_loop_warnings(o.method, amps, env, o.loop_quality),
+        "amplitude_warnings": envelope_and_loop_warnings(o.model, amps, env, o.loop_quality),
     }
 
 
@@ -464,8 +464,9 @@ def _model_details(m: dict) -> str:
     """A model's input (its grains, notes, amplitudes) and its strength, as paragraphs."""
     head = ""
     det = m.get("details")
-    if det and "grains" in det and m["method"] == "dem":
-        head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in LAMMPS, void ratio "
+    engine = model_of(m["method"]).engine  # an external engine's grains: its unbalanced force ratio, notes here
+    if det and "grains" in det and engine:
+        head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in {engine}, void ratio "
                  f"{det['void_ratio']:.3f}; largest unbalanced force ratio of any recorded state "
                  f"{det.get('max_unbalanced', float('nan')):.2g} (column unbalanced_force_ratio).</p>"
                  + "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", [])))
@@ -475,7 +476,7 @@ def _model_details(m: dict) -> str:
                  f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
                  f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "
                  "(column equilibrium_residual).</p>")
-    if det and m["method"] != "dem":  # the DEM model's notes are above, with its grains
+    if det and not engine:  # an external engine's notes are above, with its grains
         head += "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", []))
     if det and "amplitudes_note" in det:
         head += f"<p>Amplitudes: {html.escape(str(det['amplitudes_note']))}.</p>"

@@ -16,7 +16,9 @@ Kinds, one module each: ``stiffness`` (:mod:`~grainmech.jobs.stiffness`, ``grain
 stiffness``), ``run`` (:mod:`~grainmech.jobs.run`, ``grainmech run``: cyclic simple shear
 or a mixed-control path with the affine, packing and DEM models of
 :mod:`~grainmech.jobs.affine`, :mod:`~grainmech.jobs.packing`, :mod:`~grainmech.jobs.dem`
-through :func:`~grainmech.jobs.model.execute_model`; its config read by
+through :func:`~grainmech.jobs.model.execute_model`, dispatched through the model registry
+:mod:`grainmech.driver.registry`, the hand-over between models a step of its own,
+:mod:`~grainmech.jobs.handover`; its config read by
 :mod:`~grainmech.jobs.run_config` into a :class:`~grainmech.jobs.spec.RunSpec`), ``dem``
 (:mod:`~grainmech.jobs.network`, ``grainmech dem``: measures of a contact network; the
 config names the files in a ``[network]`` table), ``contact``
@@ -58,18 +60,19 @@ _LAZY: dict[str, str] = {
                      "last_cycle_quality", "REARRANGEMENT_DP", "rearranging", "rearrangement_warnings"),
                     "grainmech.jobs.checks"),
     **dict.fromkeys(("PACKING_PROGRESS_EVERY", "_step_reporter", "time"), "grainmech.jobs.progress"),
-    **dict.fromkeys(("ModelRun", "execute_model", "_cyclic_outcome", "_amplitudes_so_far", "_max_residual"),
-                    "grainmech.jobs.model"),
+    **dict.fromkeys(("ModelRun", "JobStep", "execute_model", "_cyclic_outcome", "_amplitudes_so_far",
+                     "_max_residual"), "grainmech.jobs.model"),
+    **dict.fromkeys(("hand_over", "series_end", "stop_hint", "taker"), "grainmech.jobs.handover"),
     "_execute_affine": "grainmech.jobs.affine",
     **dict.fromkeys(("PACKING_STRESS_TOLERANCE", "_execute_packing", "packing_gmax", "cyclic_control"),
                     "grainmech.jobs.packing"),
     **dict.fromkeys(("DEM_SETTING_KEYS", "DEM_PROGRESS_EVERY", "_check_dem", "_dem_settings", "_read_dem_keys",
-                     "_start_dem_early", "_hand_to_dem", "_dem_hint", "_execute_dem", "_dem_reporter"),
-                    "grainmech.jobs.dem"),
+                     "_read_dem_path_keys", "_check_dem_states", "_start_dem_early", "_execute_dem",
+                     "_dem_reporter"), "grainmech.jobs.dem"),
     **dict.fromkeys(("prepare_run", "_read_methods", "_GmaxKey", "_read_grains", "_segments"),
                     "grainmech.jobs.run_config"),
     "compile_ahead": "grainmech.jobs.schedule",
-    **dict.fromkeys(("execute_run", "compute_run", "run_scalars", "reference_strain", "_run_methods",
+    **dict.fromkeys(("execute_run", "compute_run", "run_scalars", "reference_strain", "MODEL_JOBS", "_run_methods",
                      "_invariants"), "grainmech.jobs.run"),
     **dict.fromkeys(("StiffnessSpec", "prepare_stiffness", "execute_stiffness", "compute_stiffness",
                      "stiffness_scalars", "_ENGINEERING_3D", "_ENGINEERING_2D"), "grainmech.jobs.stiffness"),

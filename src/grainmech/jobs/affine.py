@@ -9,8 +9,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import partial
 
-from grainmech.driver import MaterialPoint, modulus_reduction, run
-from grainmech.jobs.model import ModelRun, execute_model
+from grainmech.driver import MaterialPoint, run
+from grainmech.driver.affine.model import AFFINE
+from grainmech.jobs.model import JobStep, ModelRun, execute_model
 from grainmech.jobs.packing import packing_gmax
 from grainmech.jobs.run_config import affine_rolling_note
 from grainmech.jobs.spec import RunSpec
@@ -19,12 +20,13 @@ from grainmech.outcomes import RunOutcome
 __all__: list[str] = []
 
 
-def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+def _execute_affine(spec: RunSpec, say: Callable[[str], None], step: JobStep | None = None) -> RunOutcome:
     """The seed's material point (kinematic hypothesis) on the analytical fabric.
 
     With ``[model] gmax_packing`` the outcome's details carry the packing's own Gmax
     (:func:`~grainmech.jobs.packing.packing_gmax`), computed after the series. Rolling
     resistance (``spec.rolling``) is inert here (no grain rotates): the details' notes say so.
+    Nothing is handed to it (``step``).
     """
     point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
     details: dict = {}
@@ -35,9 +37,9 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         if spec.gmax_grains is not None:
             details["packing_gmax"] = packing_gmax(spec, say)
 
+    details.update(AFFINE.details(point))
     # the series runs each amplitude with the run this module imported (grainmech.driver.run)
-    series = partial(modulus_reduction, point, runner=run)
-    model = ModelRun("affine", point, f"{len(point.contacts)} directions", series=series,
-                     path=partial(run, point, engineering=True), void_ratio=spec.void_ratio, details=details,
-                     finish=finish)
+    model = ModelRun(AFFINE, point, f"{len(point.contacts)} directions",
+                     series=partial(AFFINE.series, point, runner=run),
+                     path=partial(AFFINE.path, point), void_ratio=spec.void_ratio, details=details, finish=finish)
     return execute_model(model, spec, say)

@@ -15,6 +15,8 @@ import numpy as np
 
 from grainmech.analysis import SAND_PEAK_FRICTION_DEG, hardin_richart, loop_quality, mohr_coulomb_ratio
 from grainmech.conventions import vector_to_stress
+from grainmech.driver.base import KinematicModel
+from grainmech.driver.registry import resolve
 from grainmech.fabric import CORRELATIONS, coordination_number
 from grainmech.outcomes import run_mean_stress_change
 
@@ -91,12 +93,13 @@ GMAX_FLAG_FACTOR = 2.0
 
 
 def empirical_gmax_check(g_model: float, void_ratio: float | None, pressure: float,
-                         method: str = "affine") -> dict | None:
+                         model: str | KinematicModel = "affine") -> dict | None:
     """The model's Gmax beside Hardin & Richart (1963) at the same void ratio and mean stress.
 
     Returns ``None`` without a void ratio; else a dict with both empirical values [Pa], the
     ratios model/empirical, the validity ranges, a ``flag`` (ratio to the nearer of the two
-    outside ``[1/2, 2]``) and a ``note`` saying what it means for the affine model.
+    outside ``[1/2, 2]``) and a ``note`` saying what it means for the ``model`` (a model or
+    its name): an upper bound, or a packing of grains stiffer than sands.
     """
     if void_ratio is None or not (0 < void_ratio < 2.17) or not np.isfinite(g_model):
         return None
@@ -106,7 +109,7 @@ def empirical_gmax_check(g_model: float, void_ratio: float | None, pressure: flo
     flag = not (1 / GMAX_FLAG_FACTOR <= nearest <= GMAX_FLAG_FACTOR)
     note = (f"model Gmax is {nearest:.2f} x Hardin-Richart (1963) for e = {void_ratio:g} and "
             f"p = {pressure / 1e3:.4g} kPa")
-    if flag and nearest > 1 and method == "packing":
+    if flag and nearest > 1 and not resolve(model).upper_bound:
         note += (": the packing is stiffer than sands of this void ratio (Hardin-Richart's sands are "
                  "angular and less coordinated than packings of smooth spheres; compare with a packing "
                  "of the sand's own density and coordination)")
@@ -212,14 +215,19 @@ def last_cycle_quality(result: Any, steps_per_cycle: int) -> Any:
 REARRANGEMENT_DP = 0.01
 
 
-def rearranging(method: str, constant: str, results: list) -> list[bool]:
-    """Whether each completed run is flagged by :func:`rearrangement_warnings` (aligned with ``results``)."""
-    if method != "packing" or constant != "volume":
+def rearranging(model: str | KinematicModel, constant: str, results: list) -> list[bool]:
+    """Whether each completed run is flagged by :func:`rearrangement_warnings` (aligned with ``results``).
+
+    Only a model with a fixed reference geometry (the packing model) is flagged; ``model``
+    is a model or its name.
+    """
+    if not resolve(model).fixed_geometry or constant != "volume":
         return [False] * len(results)
     return [abs(run_mean_stress_change(r)) > REARRANGEMENT_DP for r in results]
 
 
-def rearrangement_warnings(method: str, constant: str, amplitudes: Any, results: list) -> list[str]:
+def rearrangement_warnings(model: str | KinematicModel, constant: str, amplitudes: Any,
+                           results: list) -> list[str]:
     """One warning per packing-model amplitude whose constant-volume run drifts in mean stress.
 
     ``results``: the completed runs, aligned with ``amplitudes``. At constant volume a
@@ -227,10 +235,11 @@ def rearrangement_warnings(method: str, constant: str, amplitudes: Any, results:
     pressure; in sands from the volumetric threshold shear strain, Vucetic 1994); the
     packing model's fixed geometry follows that change in sign and size but not the loop
     (``docs/packing-driver.md``). An amplitude whose ``|p_end / p_0 - 1|`` exceeds
-    :data:`REARRANGEMENT_DP` is flagged. Other methods and constant stress: none.
+    :data:`REARRANGEMENT_DP` is flagged. Models without a fixed geometry and constant
+    stress: none.
     """
     out = []
-    for a, r, flagged in zip(amplitudes, results, rearranging(method, constant, results)):
+    for a, r, flagged in zip(amplitudes, results, rearranging(model, constant, results)):
         if flagged:
             dp = run_mean_stress_change(r)
             out.append(f"packing model, amplitude {a:.1e}: the mean stress changed by {100 * dp:+.1f} % over the "

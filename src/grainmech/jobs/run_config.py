@@ -14,6 +14,9 @@ import numpy as np
 from grainmech.analysis import MENQ_D50_MAX
 from grainmech.contact.forms import normal_law
 from grainmech.driver import concatenate, cycles, parse_mask, segment
+from grainmech.driver.base import KinematicModel
+from grainmech.driver.registry import MODELS, own_keys
+from grainmech.driver.registry import model as registered
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.fabric import LEBEDEV_ORDERS
 from grainmech.io.config import Section
@@ -28,11 +31,9 @@ from grainmech.io.schema import (
 )
 from grainmech.io.units import to_float
 from grainmech.jobs.checks import input_warnings
-from grainmech.jobs.dem import _check_dem, _dem_settings, _read_dem_keys, _refuse_unused_dem_table
+from grainmech.jobs.dem import _check_dem, _check_dem_states, _read_dem_keys, _read_dem_path_keys
 from grainmech.jobs.spec import (
     CYCLIC_SIMPLE_SHEAR,
-    GRAIN_METHODS,
-    MAX_DEM_STATES,
     MAX_STATES,
     RUN_METHODS,
     RUN_TEST_KINDS,
@@ -99,7 +100,21 @@ def _menq_grading(ref: Any, spec: RunSpec) -> dict:
 PACKING_OPTION_KEYS = ("max_fluctuation", "max_strain")
 
 
-def _read_packing_options(model: Any, methods: tuple) -> dict:
+def _refuse_unused_model_keys(model: Any, methods: tuple) -> None:
+    """A model's own ``[model]`` keys or table in a config that does not run it: named, not "unknown key".
+
+    Each registered model's :func:`~grainmech.driver.registry.own_keys`.
+    """
+    for m in MODELS.values():
+        if m.name in methods:
+            continue
+        for k in own_keys(m):
+            if model.has(k):
+                raise ConfigError(model.key(k), model.raw(k), f"is for method = {m.name!r}, which this config does "
+                                  f"not use (method = {list(methods)})")
+
+
+def _read_packing_options(model: Any) -> dict:
     """``[model.packing_options]``: ``max_fluctuation`` and ``max_strain`` of the packing model.
 
     Both are the bounds of its fixed reference geometry (a grain's displacement
@@ -108,9 +123,6 @@ def _read_packing_options(model: Any, methods: tuple) -> dict:
     """
     if not model.has("packing_options"):
         return {}
-    if "packing" not in methods:
-        raise ConfigError(model.key("packing_options"), model.raw("packing_options"),
-                          f"is for method = 'packing', which this config does not use (method = {list(methods)})")
     sec = model.section("packing_options", {})
     out = {k: sec.number(k, None, min=0, min_inclusive=False) for k in PACKING_OPTION_KEYS if sec.has(k)}
     if "max_fluctuation" in out and out["max_fluctuation"] > 1.0:
@@ -139,7 +151,7 @@ def _read_methods(model: Any) -> tuple:
     items = [raw] if isinstance(raw, str) else raw
     if not isinstance(items, list) or not items or not all(isinstance(m, str) for m in items):
         raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them")
-    bad = [m for m in items if m not in RUN_METHODS]
+    bad = [m for m in items if m not in MODELS]
     if bad or len(set(items)) != len(items):
         raise ConfigError(model.key("method"), raw, f"must be one of {list(RUN_METHODS)} or a list of them "
                           "(each at most once)")
@@ -149,17 +161,20 @@ def _read_methods(model: Any) -> tuple:
 class _GmaxKey:
     """``[model]`` seen by :func:`_read_grains` with ``gmax_packing`` in place of ``packing``."""
 
+    #: the key :func:`_read_grains` asks for -> the key of ``[model]`` it reads
+    _KEYS = {"packing": "gmax_packing"}
+
     def __init__(self, model: Any) -> None:
         self._m = model
 
     def has(self, k: str) -> bool:
-        return self._m.has("gmax_packing") if k == "packing" else False
+        return k in self._KEYS and self._m.has(self._KEYS[k])
 
     def raw(self, k: str, default: Any = None) -> Any:
-        return self._m.raw("gmax_packing", default) if k == "packing" else default
+        return self._m.raw(self._KEYS[k], default) if k in self._KEYS else default
 
     def key(self, k: str) -> str:
-        return self._m.key("gmax_packing" if k == "packing" else k)
+        return self._m.key(self._KEYS.get(k, k))
 
 
 def _read_grains(model: Any, base_dir: str | Path | None, who: str = "method = 'packing'") -> PackingSource:
@@ -265,13 +280,16 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     root = Section(cfg, "")
     model = root.section("model", {})
     methods = _read_methods(model)
-    _refuse_unused_dem_table(model, methods)
-    grain_methods = [m for m in methods if m in GRAIN_METHODS]
+    models: tuple[KinematicModel, ...] = tuple(registered(m) for m in methods)
+    _refuse_unused_model_keys(model, methods)
+    grain_methods = [m.name for m in models if m.needs_grains]
+    # the analytical microstructure ([packing], [fabric]) of the models that need no grains
+    microstructure = any(not m.needs_grains for m in models)
     grains = (_read_grains(model, base_dir, " and ".join(f"method = {m!r}" for m in grain_methods))
               if grain_methods else None)
     gmax_grains = None
     if model.has("gmax_packing"):
-        if any(m in methods for m in GRAIN_METHODS):
+        if grain_methods:
             raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
                               "is for method = 'affine' alone (the small-strain Gmax of a packing beside the "
                               "affine model's); with method 'packing' the packing model reports its own Gmax")
@@ -291,7 +309,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         raise ConfigError("initial.pressure", ini.raw("pressure"), f"is {pressure:.4g} Pa, outside the range a packing "
                           f"of grains is brought to ({lo:g} Pa to {hi:g} Pa) by method 'packing' or 'dem'")
     contacts = root.section("contacts")
-    if "affine" in methods:
+    if microstructure:
         packing = build_packing(root.section("packing"), density, pressure)
         law = build_law(contacts, packing.radius, rolling=True)
     else:
@@ -311,8 +329,8 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
             who = "method = 'packing'" if grains is not None else "model.gmax_packing"
             raise ConfigError("contacts.law", type(law).__name__, f"{who} needs a law for spheres "
                               "(linear, hertz, hertz-mindlin, mindlin-deresiewicz)")
-    if "dem" in methods:
-        _check_dem(law)
+    if any(m.engine is not None for m in models):
+        _check_dem(law)  # the engine is LAMMPS: installed, and a law it runs
     if grains is not None:
         # the packing driver evaluates every contact at its own radius R_A R_B / (R_A + R_B)
         # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
@@ -333,7 +351,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         raise ConfigError(model.key("gmax_packing"), model.raw("gmax_packing"),
                           f"is reported beside the G/Gmax curves of a cyclic test, not with test.kind = {kind!r}")
     ref = root.section("reference", {})
-    packing_options = _read_packing_options(model, methods)
+    packing_options = _read_packing_options(model)
     spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
                    methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains,
                    packing_options=packing_options, rolling=rolling)
@@ -342,28 +360,22 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
     spec.friction = float(getattr(law, "friction", float("inf")))
     spec.warnings = input_warnings(cfg)
-    if rolling is not None and "affine" in methods:
+    if rolling is not None and microstructure:
         spec.warnings.append(affine_rolling_note(rolling))
     if fit and ((fit["p_value"] is not None and fit["p_value"] < 0.01) or fit["shrink_factor"] < 1):
         spec.warnings.append(fit["summary"] + ": the fitted order does not describe the measured normals "
                              "well (raise fabric.fit_order, or check the file)")
     if kind == CYCLIC_SIMPLE_SHEAR:
         spec.amplitudes = _read_amplitudes(test, "amplitudes")
-        if model.has("packing_amplitudes"):
-            if "packing" not in methods:
-                raise ConfigError(model.key("packing_amplitudes"), model.raw("packing_amplitudes"),
-                                  f"is for method = 'packing', which this config does not use (method = "
-                                  f"{list(methods)})")
-            spec.packing_amplitudes = _read_amplitudes(model, "packing_amplitudes")
-        _read_dem_keys(spec, model, methods)
+        for m in models:  # a model's own amplitude list (the spec's field of the same name)
+            if m.amplitudes_key is not None and model.has(m.amplitudes_key):
+                setattr(spec, m.amplitudes_key, _read_amplitudes(model, m.amplitudes_key))
+        _read_dem_keys(spec, model)
         spec.keep_beyond_envelope = model.boolean("keep_beyond_envelope", False)
         spec.n_cycles = test.integer("n_cycles", 2, min=2, max=MAX_STATES)
         spec.steps_per_cycle = test.integer("steps_per_cycle", 40, min=8, max=MAX_STATES)
         check_states(test, ("n_cycles", "steps_per_cycle"), spec.n_cycles, spec.steps_per_cycle)
-        if "dem" in methods:
-            check_states(test, ("n_cycles", "steps_per_cycle"), spec.n_cycles, spec.dem_steps_per_cycle,
-                         MAX_DEM_STATES, f"DEM states per amplitude (model.dem_steps_per_cycle = "
-                         f"{spec.dem_steps_per_cycle})")
+        _check_dem_states(spec, test)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
         spec.constant = test.choice("constant", ("stress", "volume"), "stress")
         mu = float(getattr(packing_law, "friction", 0.0) or 0.0)
@@ -383,8 +395,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     for k in ("packing_amplitudes", "dem_amplitudes", "dem_steps_per_cycle", "keep_beyond_envelope"):
         if model.has(k):
             raise ConfigError(model.key(k), model.raw(k), f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
-    if "dem" in methods:
-        spec.dem_settings, spec.dem_workers = _dem_settings(model)
+    _read_dem_path_keys(spec, model)
     spec.path = _segments(test)
     root.finish()
     return spec

@@ -14,6 +14,7 @@ import contextlib
 from typing import Any
 
 from grainmech.driver.packing import compiling_ahead
+from grainmech.driver.packing.model import PACKING
 from grainmech.jobs.spec import RunSpec
 
 __all__ = ["compile_ahead"]
@@ -26,8 +27,8 @@ def compile_ahead(spec: RunSpec, later: tuple) -> Any:
     ----------
     spec : RunSpec
         The run (its packing law and the packing's number of contacts size the kernels).
-    later : tuple of str
-        The methods that run after this one.
+    later : tuple of KinematicModel
+        The models that run after this one.
 
     Returns
     -------
@@ -35,6 +36,6 @@ def compile_ahead(spec: RunSpec, later: tuple) -> Any:
         :func:`~grainmech.driver.packing.compiling_ahead`, or a context that does nothing
         when no packing run follows.
     """
-    if "packing" in later and spec.packing_law is not None and spec.grains is not None:
+    if PACKING in later and spec.packing_law is not None and spec.grains is not None:
         return compiling_ahead(spec.packing_law, spec.grains.network.n_contacts)
     return contextlib.nullcontext()

@@ -11,7 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.driver.base import HandOver, KinematicModel
 from grainmech.driver.dem import DEM_MAX_AMPLITUDE
+from grainmech.driver.registry import MODELS, resolve
 from grainmech.errors import ConfigError
 
 __all__ = ["CYCLIC_SIMPLE_SHEAR", "RUN_TEST_KINDS", "RUN_METHODS", "GRAIN_METHODS", "RunSpec", "PackingSource"]
@@ -21,15 +23,16 @@ CYCLIC_SIMPLE_SHEAR = "cyclic-simple-shear"
 #: test kinds of ``grainmech run`` (``[test] kind``): cyclic simple shear at several
 #: amplitudes, or a mixed-control path of ``[[test.segments]]``
 RUN_TEST_KINDS = (CYCLIC_SIMPLE_SHEAR, "path")
-#: kinematic models of ``grainmech run`` (``[model] method``): ``"affine"``, the seed's
-#: kinematic hypothesis (every contact follows the mean strain, seed Eq. 2.13) on an
-#: analytical fabric; ``"packing"``, a packing of grains with every grain in equilibrium
+#: kinematic models of ``grainmech run`` (``[model] method``), the names of
+#: :data:`grainmech.driver.registry.MODELS`: ``"affine"``, the seed's kinematic hypothesis
+#: (every contact follows the mean strain, seed Eq. 2.13) on an analytical fabric;
+#: ``"packing"``, a packing of grains with every grain in equilibrium
 #: (:mod:`grainmech.driver.packing`); ``"dem"``, the same test run by LAMMPS on the same
 #: grains, quasi-statically: contacts form and break, grains rearrange
 #: (:mod:`grainmech.driver.dem`)
-RUN_METHODS = ("affine", "packing", "dem")
+RUN_METHODS = tuple(MODELS)
 #: the methods that run on a packing of grains (``[model] packing`` or ``network``)
-GRAIN_METHODS = ("packing", "dem")
+GRAIN_METHODS = tuple(name for name, m in MODELS.items() if m.needs_grains)
 #: largest strain amplitude of any model: the DEM model's (:data:`grainmech.driver.dem.DEM_MAX_AMPLITUDE`);
 #: the affine and packing models are small-strain models and stop well before it
 MAX_AMPLITUDE = DEM_MAX_AMPLITUDE
@@ -59,6 +62,10 @@ class RunSpec:
     ``rolling_friction``, ``rolling_stiffness``, ``twisting_friction``), None when the
     config has none or it resists nothing; the packing and DEM models carry it, the
     affine model has no grain rotation (its run warns).
+
+    ``methods`` are the names the config gives, :attr:`models` the registered models
+    (:mod:`grainmech.driver.registry`). ``warnings`` are those of the analytical
+    microstructure's input (the models that need no grains report them).
     """
 
     kind: str
@@ -87,21 +94,42 @@ class RunSpec:
     dem_steps_per_cycle: int = 16
     dem_settings: Any = None
     dem_workers: int = 1
-    dem_handed: tuple | None = None
-    #: one amplitude list for the packing model and a DEM model after it: each amplitude is
-    #: run by one model (the packing model from the smallest up to the first it stops on or
-    #: flags, the DEM model from there; :func:`grainmech.jobs.dem._read_dem_keys`)
+    #: one amplitude list for a fixed-geometry model and a model after it that takes over:
+    #: each amplitude is run by one model (the packing model from the smallest up to the
+    #: first it stops on or flags, the DEM model from there; :mod:`grainmech.jobs.handover`)
     one_list: bool = False
-    dem_series: Any = None
     rolling: Any = None
 
-    def amplitudes_of(self, method: str) -> list[float]:
-        """The cyclic amplitudes of ``method`` (``[model] packing_amplitudes`` / ``dem_amplitudes``)."""
-        if method == "packing" and self.packing_amplitudes is not None:
-            return self.packing_amplitudes
-        if method == "dem" and self.dem_amplitudes is not None:
-            return self.dem_amplitudes
-        return self.amplitudes
+    @property
+    def models(self) -> tuple[KinematicModel, ...]:
+        """The registered models of :attr:`methods`, in the config's order."""
+        return tuple(resolve(m) for m in self.methods)
+
+    def amplitudes_of(self, model: str | KinematicModel, handed: HandOver | None = None) -> list[float]:
+        """The cyclic amplitudes of ``model``: its own list (``[model] <amplitudes_key>``) or ``test.amplitudes``.
+
+        With ``handed`` (the amplitudes an earlier model of the job left to it,
+        :func:`grainmech.jobs.handover.hand_over`) those join the list, in ascending order.
+        """
+        own = self.own_amplitudes(model)
+        amps = own if own is not None else self.amplitudes
+        if handed is not None and handed.amplitudes:
+            return sorted(amps + list(handed.amplitudes))
+        return amps
+
+    def own_amplitudes(self, model: str | KinematicModel) -> list[float] | None:
+        """The amplitude list ``model`` has of its own (``[model] <amplitudes_key>``), None when it has none."""
+        key = resolve(model).amplitudes_key
+        return getattr(self, key) if key is not None else None
+
+    def steps_per_cycle_of(self, model: str | KinematicModel) -> int:
+        """Steps per cycle of ``model``: its own (``[model] <steps_per_cycle_key>``) or ``test.steps_per_cycle``."""
+        m = resolve(model)
+        return int(getattr(self, m.steps_per_cycle_key)) if m.steps_per_cycle_key is not None else self.steps_per_cycle
+
+    def law_of(self, model: str | KinematicModel) -> Any:
+        """The contact law of ``model``: the grains' (``packing_law``) or the microstructure's (``law``)."""
+        return self.packing_law if resolve(model).needs_grains else self.law
 
 
 @dataclass

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 import grainmech
+from grainmech.outcomes import model_of
 
 __all__ = ["amplitude_key", "amp_id", "plan_runs", "entries_of", "Recorder", "ENTRY_STATUSES"]
 
@@ -77,7 +78,7 @@ def plan_runs(methods: tuple[str, ...], amplitudes: list[float],
     if methods != ("packing", "dem"):
         todo = [a for a in amps if (methods[0], a) not in entries]
         return [(methods, todo)] if todo else []
-    pk = {a: e for (m, a), e in entries.items() if m == "packing"}
+    pk = {a: e for (m, a), e in entries.items() if model_of(m).fixed_geometry}
     ends = [a for a, e in pk.items() if e["status"] in ("stopped", "handed") or e.get("moved")]
     if not ends:
         todo = [a for a in amps if a not in pk]
@@ -140,7 +141,7 @@ class Recorder:
         method = out.method
         n = len(out.G)
         beyond = out.beyond_envelope
-        moved = list((out.details or {}).get("rearranging", []))[:n] if method == "packing" else []
+        moved = list((out.details or {}).get("rearranging", []))[:n] if model_of(method).fixed_geometry else []
         moved += [False] * (n - len(moved))
         loops = list(out.loop_quality[:n])
         common = {"method": method, "G_max_Pa": float(out.G_max), "warnings": list(out.warnings),
@@ -165,7 +166,7 @@ class Recorder:
         """After the run: a model that did not start (no result at all) marks the amplitudes it was given."""
         outs = getattr(outcome, "outcomes", [outcome])
         for o in outs:
-            if o.method == "packing" and not o.results and not o.success:
+            if model_of(o.method).fixed_geometry and not o.results and not o.success:
                 for a in amplitudes:
                     if ("packing", amp_id(a)) not in self.have:
                         self._save({"method": "packing", "amplitude": float(a), "status": "stopped",

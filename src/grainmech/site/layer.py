@@ -42,6 +42,7 @@ from grainmech import jobs
 from grainmech.analysis import condensed_modulus, darendeli, menq_curve
 from grainmech.contact.forms import normal_law
 from grainmech.driver import MaterialPoint
+from grainmech.driver.registry import MODELS, own_keys, resolve
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.site_profile import read_amplitude_entry, write_amplitude_entry
 from grainmech.jobs import cyclic_control, packing_gmax, prepare_run
@@ -77,8 +78,10 @@ def layer_config(layer: Layer, grain_modulus: float | None = None, methods: tupl
         cfg.setdefault("contacts", {})["shear_modulus"] = float(grain_modulus)
     if methods is not None:
         cfg.setdefault("model", {})["method"] = list(methods) if len(methods) > 1 else methods[0]
-        if "dem" not in methods:
-            cfg["model"].pop("dem", None)
+        for m in MODELS.values():  # the keys of a model not run would be refused
+            if m.name not in methods:
+                for k in own_keys(m):
+                    cfg["model"].pop(k, None)
     if amplitudes is not None:
         cfg.setdefault("test", {})["amplitudes"] = [float(a) for a in amplitudes]
     return cfg
@@ -321,7 +324,7 @@ def run_task(task: tuple, progress: Callable[[str], None] | None = None) -> dict
         warnings.append(f"the packing {choice['packing']!r} has D_r {choice['packing_relative_density']:.2f}, "
                         f"{abs(choice['difference']):.2f} from the asked {choice['asked_relative_density']:.2f} "
                         f"({choice['asked']} = {choice['asked_value']:g}): no shipped sand packing is nearer")
-    pk_entries = [e for e in entries if e["method"] == "packing" and e.get("empirical_G_max")]
+    pk_entries = [e for e in entries if resolve(e["method"]).fixed_geometry and e.get("empirical_G_max")]
     sample: dict = next((e for e in entries if e.get("details")), {})
     rec: dict[str, Any] = layer_facts(layer)
     rec.update(key=layer_key(layer), method="+".join(methods),
