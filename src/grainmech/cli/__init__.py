@@ -75,7 +75,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         Exit status: 0 success, 2 input error (one line on stderr, no traceback
-        unless ``--debug``), 130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
+        unless ``--debug``), 1 a run that did not complete (a full disk: one line too),
+        130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -105,7 +106,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         msg = str(exc) if not isinstance(exc, OSError) else f"{exc.strerror}: {exc.filename}"
         print(f"grainmech: error: {msg}", file=sys.stderr)
-        return 2
+        return int(getattr(exc, "exit_status", 2))  # 1: not an input error (a full disk)
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

