@@ -70,7 +70,7 @@ LawOut = tuple
 
 
 def secant_kt(params: ContactParams, N0: np.ndarray, N1: np.ndarray, a0: np.ndarray,
-               a1: np.ndarray) -> np.ndarray:
+              a1: np.ndarray) -> np.ndarray:
     """Mean no-slip stiffness along a straight step: ``int kt0 dalpha / dalpha = dN / (r dalpha)``.
 
     Exact for a step that is straight in (alpha, delta) because ``kt0 = kn / r`` and
@@ -202,8 +202,8 @@ def _g_of_y(y: np.ndarray, p: float) -> np.ndarray:
 
 
 def md_update(params: MindlinDeresiewicz | Cylinder, state: ContactState, T0: np.ndarray, e0: np.ndarray,
-               N0: np.ndarray, N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
-               virgin_reset: np.ndarray) -> LawOut:
+              N0: np.ndarray, N1: np.ndarray, a0: np.ndarray, a1: np.ndarray, dt: np.ndarray,
+              virgin_reset: np.ndarray) -> LawOut:
     """Hysteretic law in 3D: scalar law along the memory axis, elastic across (module notes)."""
     n, dim = T0.shape
     mu = float(params.friction)

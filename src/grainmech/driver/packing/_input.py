@@ -40,7 +40,7 @@ def check_network(net: Any, forces: str, gap: float, imbalance: str) -> None:
 
 
 def input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool,
-                  notes: list[str]) -> tuple[np.ndarray, np.ndarray]:
+                 notes: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Normal (C,) [N] and tangential (C, 3) [N] forces of the input contacts.
 
     ``forces="stored"``: the network's forces split along the normal; ``"overlap"``: the
@@ -131,7 +131,7 @@ def _cap_small_excess(net: ContactNetwork, N: np.ndarray, T: np.ndarray, frictio
 
 
 def initial_contact_state(params: Any, Nk: np.ndarray, Tk: np.ndarray, rows: np.ndarray, frictional: bool,
-                   Lc: np.ndarray, Ra: np.ndarray, Rb: np.ndarray, s: np.ndarray) -> ContactState:
+                          Lc: np.ndarray, Ra: np.ndarray, Rb: np.ndarray, s: np.ndarray) -> ContactState:
     """Contact law state (law space): the listed contacts at their forces, the gap pairs open.
 
     ``Nk``, ``Tk``: forces [N] of the ``Nk.size`` listed contacts (first rows); ``Lc``

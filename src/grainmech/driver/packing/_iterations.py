@@ -34,9 +34,10 @@ if TYPE_CHECKING:
 STIFF_BACKTRACKS = 4
 
 
-def anderson_iterations(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray, cur: tuple,
-              m: float, residual: Callable, merit: Callable, limit: Callable, converged: Callable, settled: Callable,
-              accept: Callable, mem: int, n_iter: int, dbg: Callable | None) -> tuple:
+def anderson_iterations(prec: Preconditioner, S: np.ndarray, D: np.ndarray, xq: np.ndarray, xe: np.ndarray,
+                        cur: tuple, m: float, residual: Callable, merit: Callable, limit: Callable,
+                        converged: Callable, settled: Callable, accept: Callable, mem: int, n_iter: int,
+                        dbg: Callable | None) -> tuple:
     """Anderson-accelerated elastic iteration of one (sub)step.
 
     The fixed-point map is the elastic (initial-stiffness) update ``x + M^-1 (-r(x))``
@@ -163,8 +164,8 @@ _AA_RESTARTS = 2
 
 
 def krylov_direction(kin: Kinematics, Kb: Any, prec: Preconditioner, S: np.ndarray, rq: np.ndarray, re: np.ndarray,
-               shift: float, m: float, opts: PackingOptions, ctx: RunContext, rtol: float | None = None,
-               roll: Any = None) -> tuple:
+                     shift: float, m: float, opts: PackingOptions, ctx: RunContext, rtol: float | None = None,
+                     roll: Any = None) -> tuple:
     """Newton (``shift = 0``) or continuation update: GMRES on ``(J + shift I) y = -r``.
 
     ``J`` is the Jacobi-scaled consistent tangent (contact tangents ``Kb``, block diagonal)

@@ -700,7 +700,7 @@ def _resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions) -> Pack
 
 
 def run_resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
-         on_step: Callable[[int, int], None] | None = None) -> PackingResult:
+                 on_step: Callable[[int, int], None] | None = None) -> PackingResult:
     """:func:`run_packing` with its options resolved (``energy``: potential-energy line search).
 
     The path loop is :func:`grainmech.driver.loop.follow_path` (the semantics every model

@@ -637,7 +637,7 @@ class _StepSolve:
 
 
 def subdivided(point: PackingPoint, S: np.ndarray, de_E: np.ndarray, t0: np.ndarray, t1: np.ndarray,
-                depth: int, ctx: RunContext, counters: list, step_dsig: float | None = None) -> PackingPoint:
+               depth: int, ctx: RunContext, counters: list, step_dsig: float | None = None) -> PackingPoint:
     """Advance by strain ``de_E`` and stress target ``t1`` (from ``t0``), halving on failure.
 
     ``step_dsig`` (set at ``depth = 0``, kept by the halves): the step's stress change,

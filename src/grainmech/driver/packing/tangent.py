@@ -46,7 +46,7 @@ def unbalanced_force_ratio(point: PackingPoint, *, kind: str = "mean") -> float:
 
 
 def relaxed_tangent(point: PackingPoint, prec: Preconditioner, krylov_max: int, elastic: bool = False,
-                     direct: bool = True) -> np.ndarray:
+                    direct: bool = True) -> np.ndarray:
     """Relaxed tangent (6, 6) of ``point`` by GMRES per column.
 
     With its consistent contact tangent, or with the elastic one (``elastic``); the
