@@ -247,7 +247,7 @@ def test_drifting_loop_is_warned_everywhere(tmp_path, monkeypatch, cli):
 
     import grainmech.jobs as jobs
 
-    monkeypatch.setattr(jobs, "compute_run", lambda cfg, progress=None: o)
+    monkeypatch.setattr(jobs, "compute_run", lambda cfg, progress=None, records=None: o)
     (tmp_path / "c.toml").write_text(_cfg("[1e-5, 1e-4]"))
     res = cli("run", tmp_path / "c.toml", "-o", tmp_path / "o", "--quiet")
     assert res.rc == 0
@@ -341,7 +341,7 @@ constant = "volume"
     # where a user reads it: the amplitude's line, stderr, summary.json
     import grainmech.jobs as jobs
 
-    monkeypatch.setattr(jobs, "compute_run", lambda cfg, progress=None: o)
+    monkeypatch.setattr(jobs, "compute_run", lambda cfg, progress=None, records=None: o)
     (tmp_path / "c.toml").write_text(_cfg("[1e-5, 3e-5]"))
     res = cli("run", tmp_path / "c.toml", "-o", tmp_path / "o", "--quiet")
     assert res.rc == 0, res.err

@@ -22,7 +22,7 @@ from grainmech.driver.base import HandOver
 from grainmech.driver.dem.model import DEM
 from grainmech.driver.packing.model import PACKING
 from grainmech.jobs import CyclicOutcome, hand_over, prepare_run, stop_hint, taker
-from grainmech.jobs.model import ModelRun, execute_model
+from grainmech.jobs.model import JobStep, ModelRun, execute_model
 from grainmech.jobs.run import MODEL_JOBS, _run_methods
 
 BASE = """
@@ -197,7 +197,7 @@ def test_execute_model_runs_the_handed_amplitudes_and_tells_the_hook() -> None:
 
     say = Say()
     run = ModelRun(DEM, None, "10 grains", series=series, path=lambda p: None, details={"notes": []})
-    execute_model(run, spec, say, handed)
+    execute_model(run, spec, say, JobStep(handed=handed))
     assert ran == {"amps": [1e-4, 3e-4, 1e-3], "spc": spec.dem_steps_per_cycle}
     assert ("handed", [1e-4, 3e-4], "it stopped (no equilibrium)") in say
     assert ("done", [handed.note]) in say

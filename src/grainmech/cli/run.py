@@ -1,4 +1,4 @@
-"""``grainmech run [CONFIG.toml] [-o OUTDIR] [--quiet]``: the material-point driver from a config.
+"""``grainmech run [CONFIG.toml] [-o OUTDIR] [--resume] [--quiet]``: the material-point driver from a config.
 
 Without CONFIG it runs the built-in default (``grainmech/data/default_run.toml``): cyclic
 simple shear of an isotropic Hertz-Mindlin/Mindlin-Deresiewicz quartz sand with three
@@ -6,7 +6,9 @@ kinematic models (the seed's affine model at seven amplitudes, the shipped 'dens
 with every grain in equilibrium at 1e-6 ... 1e-4, and the same grains in LAMMPS at 3e-4 and
 1e-3; 117 s on 2 cores, ``docs/performance.md``), and writes CSV tables, a JSON summary and
 PNG plots (loops, G/Gmax and damping with Darendeli 2001, Hardin-Drnevich 1972 and Menq
-2003 for the same mean stress) to OUTDIR (default ``./grainmech-out/run``).
+2003 for the same mean stress) to OUTDIR (default ``./grainmech-out/run``). Every finished
+amplitude (and a model's finished path) is saved in ``OUTDIR/resume`` the moment it
+finishes; ``--resume`` takes them up after an interruption, even a SIGKILL.
 """
 
 from __future__ import annotations
@@ -32,6 +34,10 @@ def register(sub: Any) -> None:
                        description=__doc__.splitlines()[0])
     p.add_argument("config", nargs="?", help="TOML config (see examples/run_*.toml)")
     p.add_argument("-o", "--outdir", default=default_outdir("run"), help="output folder (default ./%(default)s)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the interrupted or killed run in OUTDIR: every amplitude it finished (and a "
+                        "model's finished path) is taken up, the rest run; the config must be the same (a changed "
+                        "key is refused, naming it). A path test's unfinished path runs again from its beginning")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=main)
 
@@ -63,6 +69,19 @@ class _Progress:
 
     def handed_over(self, amplitudes: Any, why: str) -> None:
         self.handed = (list(amplitudes), why)
+
+    def reused(self, model: str, amplitudes: list[float] | None) -> None:
+        """Say (also with ``--quiet``) what ``--resume`` took up of ``model``: its amplitudes, or its path (None)."""
+        from grainmech.driver.registry import model as registered
+        from grainmech.jobs.resume import listed
+
+        title = registered(model).title
+        line = (f"reused the finished path of the {title}" if amplitudes is None else
+                f"reused {len(amplitudes)} finished amplitude(s) of the {title}: {listed(amplitudes)}")
+        if self.quiet:
+            print(f"grainmech run: {line}", file=sys.stderr, flush=True)
+        else:
+            self(f"[{model}] {line}")
 
     def elapsed(self) -> float:
         """Seconds since the run began."""
@@ -112,6 +131,7 @@ def main(args: argparse.Namespace) -> int:
     """
     # imported on use: keeps `grainmech --help` start-up light
     from grainmech.jobs import CyclicOutcome, RunComparison, compute_run, packing_gmax_line
+    from grainmech.jobs.resume import run_records
 
     def show(msg: str) -> None:
         print(msg, flush=True)
@@ -128,8 +148,9 @@ def main(args: argparse.Namespace) -> int:
         source = "built-in default (cyclic simple shear, isotropic quartz sand, 100 kPa)"
     say = _Progress(args.quiet, f"grainmech run: {source}")
     with output_folder(args.outdir, "run") as folder:  # checked and locked before the work
+        records = run_records(folder.path, cfg, args.resume)  # finished amplitudes, saved as they finish
         try:
-            out = compute_run(cfg, progress=say)
+            out = compute_run(cfg, progress=say, records=records)
         except KeyboardInterrupt as exc:
             partial = say.partial()
             if partial is None:

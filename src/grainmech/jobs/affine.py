@@ -42,4 +42,4 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None], step: JobStep | N
     model = ModelRun(AFFINE, point, f"{len(point.contacts)} directions",
                      series=partial(AFFINE.series, point, runner=run),
                      path=partial(AFFINE.path, point), void_ratio=spec.void_ratio, details=details, finish=finish)
-    return execute_model(model, spec, say)
+    return execute_model(model, spec, say, step)

@@ -18,6 +18,7 @@ from grainmech.driver.base import HandOver
 from grainmech.driver.dem import DAMPINGS, PROTOCOLS, DemSeries, DemSettings, dem_material
 from grainmech.driver.dem.model import DEM, DemStart
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
+from grainmech.io.records import RunRecords
 from grainmech.io.schema import GRAIN_SHEAR_MODULUS_RANGE
 from grainmech.jobs.model import JobStep, ModelRun, execute_model
 from grainmech.jobs.progress import StepClock
@@ -117,19 +118,20 @@ def _check_dem_states(spec: RunSpec, test: Any) -> None:
                      f"{spec.dem_steps_per_cycle})")
 
 
-def _start_dem_early(spec: RunSpec, say: Callable[[str], None]) -> DemSeries | None:
+def _start_dem_early(spec: RunSpec, say: Callable[[str], None], records: RunRecords | None = None) -> DemSeries | None:
     """Start the DEM amplitudes' worker processes before the other models run (None when they are not).
 
     With other models in the job and more than one worker, the DEM amplitudes (minutes of
     LAMMPS on one core each) start first and use the cores the other models leave idle;
     :func:`_execute_dem` collects them (with the amplitudes handed over meanwhile added).
-    The caller closes the series.
+    Amplitudes saved by an earlier run (``records``, ``grainmech run --resume``) are taken
+    up instead. The caller closes the series.
     """
     if (DEM not in spec.models or len(spec.methods) < 2 or spec.kind != CYCLIC_SIMPLE_SHEAR
             or spec.dem_workers < 2 or spec.grains is None):
         return None
 
-    amps = spec.amplitudes_of(DEM)
+    amps = [a for a in spec.amplitudes_of(DEM) if records is None or records.get(DEM.name, a) is None]
     if not amps:  # one list: the DEM model runs what the packing model hands over, known later
         return None
     say(f"[dem] starting {len(amps)} amplitude(s) in {min(spec.dem_workers, len(amps))} worker process(es) "
@@ -190,11 +192,12 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
         if spec.kind == CYCLIC_SIMPLE_SHEAR:
             _cyclic_notes(spec, details, step.handed)
 
-    if step.early is not None and step.handed is not None:
-        step.early.add(list(step.handed.amplitudes))
+    if step.early is not None and step.handed is not None:  # those saved by an earlier run are taken up instead
+        step.early.add([a for a in step.handed.amplitudes
+                        if step.records is None or step.records.get(DEM.name, a) is None])
     model = ModelRun(DEM, None, f"{net.n_particles} grains", series=series, path=path,
-                     void_ratio=src.void_ratio, details=details, finish=finish)
-    return execute_model(model, spec, say, step.handed)
+                     void_ratio=src.void_ratio, details=details, finish=finish, in_order=True)
+    return execute_model(model, spec, say, step)
 
 
 def _cyclic_notes(spec: RunSpec, details: dict[str, Any], handed: HandOver | None) -> None:

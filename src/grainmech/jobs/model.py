@@ -18,6 +18,7 @@ import numpy as np
 
 from grainmech.driver.base import HandOver, KinematicModel
 from grainmech.driver.registry import resolve
+from grainmech.io.records import RunRecords, amp_id
 from grainmech.jobs.checks import (
     cyclic_envelope,
     empirical_gmax_check,
@@ -27,6 +28,7 @@ from grainmech.jobs.checks import (
     rearrangement_warnings,
     rearranging,
 )
+from grainmech.jobs.resume import listed, merged, reusable, saver
 from grainmech.jobs.spec import CYCLIC_SIMPLE_SHEAR, RunSpec
 from grainmech.outcomes import (
     CyclicOutcome,
@@ -52,11 +54,16 @@ class JobStep:
     early : object or None
         The DEM amplitudes started before the other models
         (:class:`grainmech.driver.dem.DemSeries`, :func:`grainmech.jobs.dem._start_dem_early`).
+    records : RunRecords or None
+        Where each finished amplitude or path is saved, and those an earlier run of the same
+        config saved are taken up from (``grainmech run --resume``,
+        :mod:`grainmech.jobs.resume`).
     """
 
     handed: HandOver | None = None
     later: tuple = ()
     early: Any = None
+    records: RunRecords | None = None
 
 
 @dataclass
@@ -90,6 +97,12 @@ class ModelRun:
     so_far : callable or None
         ``so_far(results)``: what the details of the amplitudes done so far add (the
         outcome a run interrupted from here on writes).
+    until : callable or None
+        ``until(amplitude, result)``: where the series ends at a hand-over
+        (:func:`grainmech.jobs.handover.series_end`), passed to ``series``.
+    in_order : bool
+        ``series`` runs the amplitudes in increasing order, whatever order it is given
+        them in (the DEM model's workers); otherwise in the order given.
     """
 
     model: KinematicModel
@@ -101,37 +114,66 @@ class ModelRun:
     details: dict = field(default_factory=dict)
     finish: Callable[[list], None] | None = None
     so_far: Callable[[list], dict] | None = None
+    until: Callable[[float, Any], str | None] | None = None
+    in_order: bool = False
 
 
 def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
-                  handed: HandOver | None = None) -> RunOutcome:
+                  step: JobStep | None = None) -> RunOutcome:
     """Run the test of ``spec`` with ``model``: a modulus-reduction series or a path.
 
     Cyclic simple shear: every amplitude of ``spec.amplitudes_of(model.model, handed)``
-    (its own and those an earlier model handed over) from the initial state (a progress
-    line before each; ``say.amplitudes_done`` after each, see :func:`_amplitudes_so_far`),
-    then the :class:`~grainmech.outcomes.CyclicOutcome` with its checks (envelope of
-    sands, loop quality, Gmax against the grains' modulus and Hardin & Richart). A path:
-    one run, a :class:`~grainmech.outcomes.PathOutcome` with
+    (its own and those an earlier model handed over, ``step.handed``) from the initial
+    state (a progress line before each; ``say.amplitudes_done`` after each, see
+    :func:`_amplitudes_so_far`), then the :class:`~grainmech.outcomes.CyclicOutcome` with
+    its checks (envelope of sands, loop quality, Gmax against the grains' modulus and
+    Hardin & Richart). A path: one run, a :class:`~grainmech.outcomes.PathOutcome` with
     :func:`~grainmech.jobs.checks.envelope_check` of its stresses. ``seconds`` is the time
     of the runs alone.
+
+    With ``step.records`` every finished amplitude (or path) is saved as it finishes, and
+    those saved by an earlier run of the same config are taken up instead of run
+    (:mod:`grainmech.jobs.resume`; ``say.reused(model, amplitudes)`` hears which, else a
+    progress line says it).
     """
+    step = step or JobStep()
+    handed, records = step.handed, step.records
     m = model.model
     method = m.name
     if spec.kind == CYCLIC_SIMPLE_SHEAR:
         amps = spec.amplitudes_of(m, handed)
+        kept, todo = reusable(records, method, sorted(amps) if model.in_order else amps, model.until)
+        if kept:
+            _say_reused(say, m, [a for a in amps if amp_id(a) in kept])
 
         def each(i: int, a: float, path: Any) -> None:
-            say(f"[{method} {i + 1}/{len(amps)}] cyclic simple shear, amplitude {a:.3g} "
+            say(f"[{method} {i + 1}/{len(todo)}] cyclic simple shear, amplitude {a:.3g} "
                 f"({len(path)} steps, {model.size})")
 
         hook = getattr(say, "handed_over", None)
         if hook is not None and handed is not None:
             hook(list(handed.amplitudes), handed.why)  # kept for the message of a run interrupted from here on
         t0 = time.perf_counter()
-        mr = model.series(amps, n_cycles=spec.n_cycles, steps_per_cycle=spec.steps_per_cycle_of(m),
-                          waveform=spec.waveform, constant=spec.constant, progress=each, raise_on_failure=False,
-                          on_amplitude=_amplitudes_so_far(say, spec, model, amps, t0, handed))
+        told = _amplitudes_so_far(say, spec, model, amps, t0, handed)
+        save = saver(records, method)
+        ordered = sorted(amps) if model.in_order else amps  # the order of the model's series
+        form: dict[str, Any] = {"n_cycles": spec.n_cycles, "steps_per_cycle": spec.steps_per_cycle_of(m),
+                                "waveform": spec.waveform, "constant": spec.constant}
+
+        def so_far(mr: Any) -> None:
+            save(mr)
+            if told is not None:
+                told(merged(ordered, kept, mr, until=model.until, complete=False, **form) if kept else mr)
+
+        mr = None
+        if todo:
+            mr = model.series(todo, **form, progress=each, raise_on_failure=False,
+                              on_amplitude=so_far if records is not None else told,
+                              **({"until": model.until} if model.until is not None else {}))
+            save(mr)
+        if kept:
+            mr = merged(ordered, kept, mr, until=model.until, **form)
+        assert mr is not None  # amps is not empty (jobs.run runs no model without amplitudes)
         seconds = time.perf_counter() - t0
         if model.finish is not None:
             model.finish(list(mr.results))
@@ -140,9 +182,18 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
         if done is not None:  # the model's own end (its stop reasons), for a run interrupted after it
             done(out)
         return out
-    say(f"[{method}] path: {len(spec.path)} steps, {model.size}")
     t0 = time.perf_counter()
-    r = model.path(spec.path)
+    got = records.get(method) if records is not None else None
+    if got is not None:
+        r = got[0]
+        _say_reused(say, m, None)
+    else:
+        say(f"[{method}] path: {len(spec.path)} steps, {model.size}"
+            + (" (from its beginning: a path's segments are not saved, only a finished path)"
+               if records is not None and records.resume else ""))
+        r = model.path(spec.path)
+        if records is not None:
+            records.save(method, None, r)
     seconds = time.perf_counter() - t0
     if model.finish is not None:
         model.finish([r])
@@ -150,6 +201,17 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
                        message=r.message, seconds=seconds, point=model.point,
                        warnings=_input_warnings(spec, m),
                        envelope=envelope_check(r.stress), method=method, details=model.details)
+
+
+def _say_reused(say: Callable[[str], None], m: KinematicModel, amplitudes: list[float] | None) -> None:
+    """Tell ``say.reused(model, amplitudes)`` (or a progress line) what was taken up (None: the model's path)."""
+    hook = getattr(say, "reused", None)
+    if hook is not None:
+        hook(m.name, amplitudes)
+    elif amplitudes is None:
+        say(f"[{m.name}] reused the finished path of the {m.title}")
+    else:
+        say(f"[{m.name}] reused {len(amplitudes)} finished amplitude(s) of the {m.title}: {listed(amplitudes)}")
 
 
 def _input_warnings(spec: RunSpec, m: KinematicModel) -> list:

@@ -83,12 +83,12 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None], step: JobStep | 
 
     to = taker(step.later)
     # the reports use no tangent row (tangent="none": 1.7 s less on 'dense')
-    series = partial(PACKING.series, pt, options=opts, on_step=on_step, tangent="none",
-                     until=series_end(spec, PACKING, to) if spec.one_list and to is not None else None)
+    series = partial(PACKING.series, pt, options=opts, on_step=on_step, tangent="none")
     model = ModelRun(PACKING, pt, f"{pt.n_grains} grains", series=series,
                      path=partial(PACKING.path, pt, options=opts, on_step=on_step), void_ratio=src.void_ratio,
-                     details=details, finish=finish, so_far=so_far)
-    return execute_model(model, spec, say, step.handed)
+                     details=details, finish=finish, so_far=so_far,
+                     until=series_end(spec, PACKING, to) if spec.one_list and to is not None else None)
+    return execute_model(model, spec, say, step)
 
 
 def packing_gmax(spec: RunSpec, say: Callable[[str], None]) -> dict:

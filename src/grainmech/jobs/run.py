@@ -12,6 +12,7 @@ from grainmech.driver.affine.model import AFFINE
 from grainmech.driver.base import HandOver, KinematicModel
 from grainmech.driver.dem.model import DEM
 from grainmech.driver.packing.model import PACKING
+from grainmech.io.records import RunRecords
 from grainmech.jobs.affine import _execute_affine
 from grainmech.jobs.dem import _execute_dem, _start_dem_early
 from grainmech.jobs.handover import hand_over, stop_hint, taker
@@ -30,26 +31,30 @@ MODEL_JOBS: dict[KinematicModel, Callable[..., RunOutcome]] = {
     AFFINE: _execute_affine, PACKING: _execute_packing, DEM: _execute_dem}
 
 
-def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None) -> RunOutcome | RunComparison:
+def execute_run(spec: RunSpec, progress: Callable[[str], None] | None = None,
+                records: RunRecords | None = None) -> RunOutcome | RunComparison:
     """Drive the material point of every method of ``spec``.
 
-    ``progress(message)`` is called before each run.
+    ``progress(message)`` is called before each run. ``records``: every finished
+    amplitude or path is saved there as it finishes, and those an earlier run of the same
+    config saved are taken up (:mod:`grainmech.jobs.resume`).
 
     Returns a :class:`CyclicOutcome` or a :class:`PathOutcome` for one method, a
     :class:`RunComparison` of them for several.
     """
     say = progress or (lambda msg: None)
     outs: list[RunOutcome] = []
-    early = _start_dem_early(spec, say)
+    early = _start_dem_early(spec, say, records)
     try:
-        _run_methods(spec, say, outs, early)
+        _run_methods(spec, say, outs, early, records)
     finally:
         if early is not None:
             early.close()
     return outs[0] if len(outs) == 1 else RunComparison(outs)
 
 
-def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list, early: Any = None) -> None:
+def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list, early: Any = None,
+                 records: RunRecords | None = None) -> None:
     """Run every model of ``spec`` in order, appending its outcome to ``outs``.
 
     The hand-over is a step of its own: a fixed-geometry model's outcome yields a
@@ -61,7 +66,7 @@ def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list, early: A
     models = spec.models
     for i, m in enumerate(models):
         later = models[i + 1:]
-        step = JobStep(handed=handed if m.takes_over else None, later=later, early=early)
+        step = JobStep(handed=handed if m.takes_over else None, later=later, early=early, records=records)
         if m.takes_over:
             handed = None  # received
         if spec.kind == CYCLIC_SIMPLE_SHEAR and not spec.amplitudes_of(m, step.handed):
@@ -84,9 +89,18 @@ def _run_methods(spec: RunSpec, say: Callable[[str], None], outs: list, early: A
             outs[-1].warnings.append(hint)
 
 
-def compute_run(cfg: dict, progress: Callable[[str], None] | None = None) -> RunOutcome | RunComparison:
-    """Config dict -> driver result (see :func:`execute_run`); no file writing."""
-    return execute_run(prepare_run(cfg), progress)
+def compute_run(cfg: dict, progress: Callable[[str], None] | None = None,
+                records: RunRecords | None = None) -> RunOutcome | RunComparison:
+    """Config dict -> driver result (see :func:`execute_run`).
+
+    No file writing but the ``records`` of finished amplitudes (``grainmech run``'s
+    ``OUTDIR/resume``), which are checked against the config after it is read
+    (:meth:`~grainmech.io.records.RunRecords.start`).
+    """
+    spec = prepare_run(cfg)
+    if records is not None:
+        records.start()
+    return execute_run(spec, progress, records)
 
 
 def reference_strain(amplitudes: Any, g_ratio: Any, level: float = 0.5) -> float:
