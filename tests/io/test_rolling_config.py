@@ -6,6 +6,7 @@ the key and the value, exit status 2), and the affine model saying it is inert t
 import copy
 import tomllib
 from importlib import resources
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,7 +18,8 @@ from grainmech.jobs.run_config import prepare_run
 
 
 def _default() -> dict:
-    return tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
+    """The smooth-quartz run config (no rolling keys; ``tests/data/smooth_quartz_run.toml``)."""
+    return tomllib.loads((Path(__file__).resolve().parents[1] / "data" / "smooth_quartz_run.toml").read_text())
 
 
 def _affine(**contacts) -> dict:
@@ -31,7 +33,7 @@ def _affine(**contacts) -> dict:
 def _packing(**contacts) -> dict:
     cfg = _default()
     cfg["model"] = {"method": "packing", "packing": "dense"}
-    del cfg["packing"]
+    del cfg["microstructure"]
     cfg["contacts"].update(contacts)
     return cfg
 
@@ -160,3 +162,13 @@ def test_default_config_unchanged():
     spec = prepare_run(cfg)
     assert spec.rolling is None
     assert cfg == before
+
+
+def test_built_in_default_carries_the_chosen_rolling_friction():
+    """The built-in default models a sand: mu_r = 0.25 (docs/contact-laws.md), said inert for
+    the affine model, carried by the packing and DEM models, on the sand packing 'nevada-medium'."""
+    cfg = tomllib.loads(resources.files("grainmech.data").joinpath("default_run.toml").read_text())
+    spec = prepare_run(cfg)
+    assert spec.rolling == RollingResistance(0.25)
+    assert cfg["model"]["packing"] == "nevada-medium"
+    assert any("inert in the affine model" in w for w in spec.warnings)
