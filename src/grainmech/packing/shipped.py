@@ -34,7 +34,7 @@ from grainmech.errors import GrainmechError
 from grainmech.network import ContactNetwork
 from grainmech.network.tables import read_npz_network
 
-__all__ = ["PACKINGS", "SAND_PACKINGS", "load_packing", "packing_info", "packing_limits"]
+__all__ = ["PACKINGS", "SAND_PACKINGS", "describe_packing", "load_packing", "packing_info", "packing_limits"]
 
 #: names of the shipped packings
 PACKINGS = ("dense", "medium", "loose", "nevada-dense", "nevada-medium", "nevada-loose")
@@ -85,6 +85,33 @@ def packing_limits(name: str) -> dict | None:
     were not measured.
     """
     _check(name)
-    stem = "nevada" if name.startswith("nevada") else "smooth"
+    stem = _grain_set(name)
     f = resources.files("grainmech.data").joinpath("packings").joinpath(f"{stem}-limits.json")
     return json.loads(f.read_text()) if f.is_file() else None
+
+
+#: the grains of each set of shipped packings, as their configs give them (``NAME.toml``)
+GRAIN_SETS = {"nevada": "Nevada sand's grading (VELACS: D50 0.15 mm, Cu 1.7), quartz grains with rolling "
+                        "resistance mu_r 0.25",
+              "smooth": "smooth quartz spheres (D50 0.3 mm, Cu 1.3), no rolling resistance"}
+
+
+def _grain_set(name: str) -> str:
+    return "nevada" if name.startswith("nevada") else "smooth"
+
+
+def describe_packing(name: str) -> str:
+    """What the shipped packing ``name`` models, in one line: its grains, void ratio and relative density.
+
+    The relative density ``D_r = (e_max - e) / (e_max - e_min)`` is against the limits
+    measured for the same grains (:func:`packing_limits`).
+    """
+    info = packing_info(name)
+    e = float(info["void_ratio"])
+    out = f"{GRAIN_SETS[_grain_set(name)]}; void ratio {e:.3f}"
+    lim = packing_limits(name)
+    if lim is not None:
+        dr = (lim["e_max"] - e) / (lim["e_max"] - lim["e_min"])
+        out += (f", relative density {dr:.2f} (against e_min {lim['e_min']:.3f} and e_max {lim['e_max']:.3f} "
+                "measured for the same grains)")
+    return out
