@@ -175,7 +175,7 @@ def test_a_changed_config_is_refused_naming_the_key(tmp_path, capsys):
     assert cli.main(["run", str(tmp_path / "d.toml"), "-o", str(out), "--resume", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("grainmech: error: contacts.friction = 0.4: differs from the "
-                                                   "config of the run in ") and "(there: 0.5)" in err
+                                                   "config of the run being resumed in ") and "(there: 0.5)" in err
     (tmp_path / "e.toml").write_text(AFFINE.replace("[quadrature]\ndegree = 11", ""))  # a key removed
     assert cli.main(["run", str(tmp_path / "e.toml"), "-o", str(out), "--resume", "--quiet"]) == 2
     assert capsys.readouterr().err.startswith("grainmech: error: quadrature: differs from the config")

@@ -143,6 +143,16 @@ def test_records_check_the_config_before_taking_anything_up(tmp_path):
         RunRecords(tmp_path / "other" / "resume", {}, resume=True).start()
 
 
+def test_records_of_another_version_are_refused(tmp_path, monkeypatch):
+    import grainmech
+
+    RunRecords(tmp_path / "resume", {}, resume=False).save("affine", 1e-4, dataclasses.replace(
+        DemResult.failed("x"), strain=np.zeros((1, 6)), status=0, success=True))
+    monkeypatch.setattr(grainmech, "__version__", "9.9.9")
+    with pytest.raises(GrainmechError, match=r"were made by grainmech .*, this is 9\.9\.9: they are not taken up"):
+        RunRecords(tmp_path / "resume", {}, resume=True).start()
+
+
 def test_a_merged_series_is_the_series_in_one_go(point, tmp_path):
     full = _series(point, AMPS)
     kept = {a: (r, full.G_max) for a, r in zip(AMPS[:2], full.results[:2])}  # the first two saved

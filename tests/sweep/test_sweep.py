@@ -202,6 +202,33 @@ def test_kill_and_resume_gives_identical_table(tmp_path, client):
     assert len({r["point_id"] for r in rows}) == len(rows) == 9
 
 
+def test_a_changed_base_config_is_refused_naming_the_key(tmp_path, cli):
+    """The finished points are taken up only for the same run kind and base config (and grainmech
+    version); another design over the same base reuses the points it shares (a point's id is a
+    hash of its whole config)."""
+    base = tmp_path / "base.toml"
+    base.write_text('[microstructure]\nvoid_ratio = 0.6\ncoordination = 8\nradius = "0.2 mm"\n'
+                    '[contacts]\nlaw = "hertz-mindlin"\nshear_modulus = "44 GPa"\npoisson = 0.08\n'
+                    '[stress]\npressure = "100 kPa"\n')
+    sw = tmp_path / "s.toml"
+    sw.write_text('[sweep]\nkind = "stiffness"\nbase = "base.toml"\n'
+                  '[parameters."microstructure.void_ratio"]\nvalues = [0.55, 0.65]\n')
+    out = tmp_path / "out"
+    assert cli("sweep", str(sw), "-o", str(out), "--quiet", "--no-plots").rc == 0
+    before = {p.name: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    base.write_text(base.read_text().replace("poisson = 0.08", "poisson = 0.1"))
+    res = cli("sweep", str(sw), "-o", str(out), "--quiet", "--no-plots")
+    errors = [line for line in res.err.splitlines() if line.startswith("grainmech: error:")]
+    assert res.rc == 2 and len(errors) == 1, res.err
+    assert errors[0].startswith("grainmech: error: base.contacts.poisson = 0.1: differs from the config of the sweep "
+                              "whose points are kept in ") and "(there: 0.08)" in errors[0]
+    assert {p.name: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before  # nothing written
+    base.write_text(base.read_text().replace("poisson = 0.1", "poisson = 0.08"))
+    sw.write_text(sw.read_text().replace("[0.55, 0.65]", "[0.55, 0.6, 0.65]"))
+    res = cli("sweep", str(sw), "-o", str(out), "--quiet", "--no-plots")
+    assert res.rc == 0 and "3 succeeded, 0 failed, 2 reused" in res.out
+
+
 def test_two_worker_processes_same_table(tmp_path, client):
     """--workers 2 (process workers: tasks and results are pickled) gives the same table."""
     sw = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"values": [0.6, 0.7]},

@@ -45,7 +45,7 @@ from grainmech.io.config import FILE_KEYS
 from grainmech.io.results import atomic_write, ensure_dir, write_json
 
 __all__ = ["RECORDS_DIR", "RunRecords", "amp_id", "record_key", "normal_config", "first_difference", "finished",
-           "save_result", "load_result"]
+           "save_result", "load_result", "save_config", "check_config"]
 
 #: the folder of the records inside OUTDIR
 RECORDS_DIR = "resume"
@@ -242,22 +242,11 @@ class RunRecords:
         """
         if not self.resume:
             return
-        out = self.folder.parent
-        try:
-            old = json.loads((self.folder / _CONFIG).read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            raise GrainmechError(f"--resume: nothing to resume in {out}: no {RECORDS_DIR}/{_CONFIG} (a run writes "
-                                 "it with its first finished amplitude or path); run without --resume") from None
-        if not isinstance(old, dict) or old.get("version") != grainmech.__version__:
-            raise GrainmechError(f"--resume: the records in {out} were made by grainmech "
-                                 f"{old.get('version') if isinstance(old, dict) else '?'}, this is "
-                                 f"{grainmech.__version__}; run without --resume (or use another -o)")
-        key = first_difference(old.get("config"), self.config)
-        if key is not None:
-            raise ConfigError(key or "(config)", _value_at(self.config, key),
-                              f"differs from the config of the run in {out} being resumed "
-                              f"(there: {_value_at(old.get('config'), key)!r}); --resume takes up only the "
-                              "same config: restore it, or run without --resume (or use another -o)")
+        if not check_config(self.folder / _CONFIG, self.config, "the run being resumed",
+                            "--resume takes up only the same config: restore it, or run without --resume (or use "
+                            "another -o)", self.folder.parent):
+            raise GrainmechError(f"--resume: nothing to resume in {self.folder.parent}: no {RECORDS_DIR}/{_CONFIG} "
+                                 "(a run writes it with its first finished amplitude or path); run without --resume")
         self._started = True
 
     def _name(self, model: str, amplitude: float | None) -> Path:
@@ -289,11 +278,49 @@ class RunRecords:
                 for old in self.folder.glob("*.npz"):
                     with contextlib.suppress(OSError):
                         old.unlink()
-            write_json(self.folder / _CONFIG, {"version": grainmech.__version__, "config": self.config})
+            save_config(self.folder / _CONFIG, self.config)
             self._started = True
         p = self._name(model, amplitude)
         return save_result(p, result, {**(meta or {}), "model": model, "amplitude": amplitude,
                                        "key": p.stem.rsplit("-", 1)[1]})
+
+
+def save_config(path: str | Path, config: dict) -> Path:
+    """Save the normalised ``config`` records came from, with grainmech's version (:func:`check_config` reads it)."""
+    return write_json(path, {"version": grainmech.__version__, "config": config})
+
+
+def check_config(path: str | Path, config: dict, what: str, hint: str, where: str | Path | None = None) -> bool:
+    """Whether records made from the config saved at ``path`` (:func:`save_config`) may be taken up.
+
+    Returns False when nothing is saved there; True when the saved config and version
+    equal ``config`` and the running version. ``where``: the output folder a message names
+    (default the file's folder).
+
+    Raises
+    ------
+    ConfigError
+        A key differs: the message names the first (:func:`first_difference`), its value
+        here and there (``what``: whose records they are, ``"the run being resumed"``), and
+        says what to do (``hint``).
+    GrainmechError
+        The records were made by another version of grainmech.
+    """
+    try:
+        old = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    folder = Path(path).parent if where is None else where
+    if not isinstance(old, dict) or old.get("version") != grainmech.__version__:
+        raise GrainmechError(f"the records of {what} in {folder} were made by grainmech "
+                             f"{old.get('version') if isinstance(old, dict) else '?'}, this is "
+                             f"{grainmech.__version__}: they are not taken up; {hint}")
+    key = first_difference(old.get("config"), config)
+    if key is not None:
+        raise ConfigError(key or "(config)", _value_at(config, key),
+                          f"differs from the config of {what} in {folder} "
+                          f"(there: {_value_at(old.get('config'), key)!r}); {hint}")
+    return True
 
 
 def _value_at(cfg: Any, key: str) -> Any:

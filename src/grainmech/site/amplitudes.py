@@ -25,40 +25,29 @@ model alone on the hand-over amplitude and the larger ones it has not done.
 
 from __future__ import annotations
 
-import hashlib
-import json
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-import grainmech
+from grainmech.io.records import amp_id, normal_config, record_key
 from grainmech.outcomes import model_of
 
-__all__ = ["amplitude_key", "amp_id", "plan_runs", "entries_of", "Recorder", "ENTRY_STATUSES"]
+__all__ = ["amplitude_key", "plan_runs", "entries_of", "Recorder", "ENTRY_STATUSES"]
 
 #: statuses of an amplitude entry
 ENTRY_STATUSES = ("ok", "stopped", "handed")
 
 
-def amp_id(a: float) -> float:
-    """An amplitude as a dictionary key (12 significant digits: the same one as written in a config)."""
-    return float(f"{float(a):.12g}")
-
-
 def amplitude_key(config: dict, density: float, method: str, amplitude: float) -> str:
-    """A short hash of what produces one amplitude of one model of a layer.
+    """A short hash of what produces one amplitude of one model of a layer (:func:`grainmech.io.records.record_key`).
 
     ``config`` is the layer's run config (with its ``[initial] pressure`` and the anchored
     grain modulus); its amplitude list and ``[model] method`` are left out (an amplitude
     does not depend on the others, nor on which models share the list).
     """
-    cfg = json.loads(json.dumps(config, default=str))
-    cfg.get("test", {}).pop("amplitudes", None)
-    cfg.get("model", {}).pop("method", None)
-    blob = json.dumps({"config": cfg, "rho": density, "method": method, "amplitude": amp_id(amplitude),
-                       "version": grainmech.__version__}, sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode("utf-8")).hexdigest()[:16]
+    cfg = normal_config(config, (("test", "amplitudes"), ("model", "method")))
+    return record_key({"config": cfg, "rho": density}, method, amplitude)
 
 
 def entries_of(entries: list[dict]) -> dict[tuple[str, float], dict]:

@@ -44,9 +44,10 @@ from grainmech.contact.forms import normal_law
 from grainmech.driver import MaterialPoint
 from grainmech.driver.registry import MODELS, own_keys, resolve
 from grainmech.errors import ConfigError, GrainmechError
+from grainmech.io.records import amp_id
 from grainmech.io.site_profile import read_amplitude_entry, write_amplitude_entry
 from grainmech.jobs import cyclic_control, packing_gmax, prepare_run
-from grainmech.site.amplitudes import Recorder, amp_id, amplitude_key, plan_runs
+from grainmech.site.amplitudes import Recorder, amplitude_key, plan_runs
 from grainmech.site.curve import layer_curve
 from grainmech.site.profile import GRAIN_MODULUS_PLAUSIBLE, GRAIN_MODULUS_RANGE, Layer
 

@@ -5,6 +5,7 @@ Layout of the output directory::
     OUTDIR/
       sweep.json             the sweep as read (kind, design, parameters, base config)
       points/<point-id>.json one file per finished point (written atomically)
+      points-config.json     the run kind and base config the points came from, grainmech's version
       sweep.csv              the table: one row per point, in point-index order
       sweep.parquet          the same table, if pyarrow is installed
       summary.json           counts (succeeded, failed, reused, ran), timings, files
@@ -14,7 +15,10 @@ A point's file is written (temporary file + ``os.replace``) as soon as its resul
 arrives, so a killed sweep loses at most the points that were running. Restarted on the
 same directory, the sweep reuses every point whose file exists -- ``status = "ok"``, or
 ``"failed"`` unless ``retry_failed`` -- and runs only the others; the final table is
-built from the point files and is identical to an uninterrupted run.
+built from the point files and is identical to an uninterrupted run. A point's id is a
+hash of its whole config, so another design or other parameter values reuse the points
+they share; a changed run kind, base config or grainmech version is refused before
+anything runs, naming the first key that differs (:func:`grainmech.io.records.check_config`).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from grainmech.io.outdir import output_folder
+from grainmech.io.records import check_config, normal_config, save_config
 from grainmech.io.results import _jsonable, atomic_write, ensure_dir, write_json
 from grainmech.parallel import map_completed, open_client
 from grainmech.sweep.kinds import SWEEP_KINDS, run_point
@@ -38,6 +43,8 @@ from grainmech.sweep.spec import Point, Sweep
 __all__ = ["run_sweep", "load_record", "table_rows", "write_table", "evaluate_task", "evaluate_batch"]
 
 TABLE = "sweep.csv"
+#: what the points of ``OUTDIR/points`` came from (:func:`grainmech.io.records.save_config`), in OUTDIR
+POINTS_CONFIG = "points-config.json"
 
 
 def evaluate_task(task: tuple[str, dict, str | None]) -> dict[str, Any]:
@@ -236,6 +243,11 @@ def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, wo
     t0 = time.perf_counter()
     out, stage = folder.path, folder.staging
     pdir = ensure_dir(out / "points")
+    made_of = {"kind": sweep.kind, "base": normal_config(sweep.base)}
+    if not check_config(out / POINTS_CONFIG, made_of, "the sweep whose points are kept",
+                        "a sweep takes up its finished points only for the same run kind and base config: restore "
+                        "it, or use another -o (or remove the folder points/ there to run every point again)"):
+        save_config(out / POINTS_CONFIG, made_of)
     write_json(stage / "sweep.json", sweep.describe())
     records: dict[str, dict] = {}
     todo: list[Point] = []
