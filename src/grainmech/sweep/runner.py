@@ -32,6 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from grainmech.io.config import resolve_file_keys
 from grainmech.io.outdir import output_folder
 from grainmech.io.records import check_config, normal_config, save_config
 from grainmech.io.results import _jsonable, atomic_write, ensure_dir, write_json
@@ -243,7 +244,7 @@ def _run_in(folder: Any, sweep: Sweep, *, client: Any, scheduler: str | None, wo
     t0 = time.perf_counter()
     out, stage = folder.path, folder.staging
     pdir = ensure_dir(out / "points")
-    made_of = {"kind": sweep.kind, "base": normal_config(sweep.base)}
+    made_of = {"kind": sweep.kind, "base": normal_config(resolve_file_keys(sweep.base, sweep.base_dir))}
     if not check_config(out / POINTS_CONFIG, made_of, "the sweep whose points are kept",
                         "a sweep takes up its finished points only for the same run kind and base config: restore "
                         "it, or use another -o (or remove the folder points/ there to run every point again)"):
