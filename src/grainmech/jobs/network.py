@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.conventions import stress_to_vector, von_mises
 from grainmech.elasticity import bulk_modulus, shear_modulus
 from grainmech.errors import ConfigError
 from grainmech.io.config import Section
@@ -140,9 +141,13 @@ def dem_scalars(out: DemOutcome) -> dict[str, Any]:
     S = np.asarray(rep["stress"]["tensor"], dtype=float)
     d = S.shape[0]
     p = float(np.trace(S) / d)
-    dev = (S + S.T) / 2 - p * np.eye(d)
+    sym = (S + S.T) / 2
     row["p [Pa]"] = p
-    row["q [Pa]"] = float(np.sqrt(1.5 * np.sum(dev * dev)))
+    if d == 3:
+        row["q [Pa]"] = float(von_mises(stress_to_vector(sym)))
+    else:  # the plane analogue sqrt(3/2 s:s) of the 2D deviator s = sigma - p I
+        dev = sym - p * np.eye(d)
+        row["q [Pa]"] = float(np.sqrt(1.5 * np.sum(dev * dev)))
     row["skew_ratio"] = float(rep["stress"]["skew_ratio"])
     for k in ("z", "z_force", "z_mechanical", "n_rattlers"):
         if k in rep["coordination"]:

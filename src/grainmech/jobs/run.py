@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from grainmech.conventions import ORDER_3D
+from grainmech.conventions import ORDER_3D, von_mises
 from grainmech.driver.affine.model import AFFINE
 from grainmech.driver.base import HandOver, KinematicModel
 from grainmech.driver.dem.model import DEM
@@ -123,10 +123,7 @@ def reference_strain(amplitudes: Any, g_ratio: Any, level: float = 0.5) -> float
 
 def _invariants(s: np.ndarray) -> tuple[float, float]:
     """Mean stress p and von Mises q = sqrt(3 J2) of a Voigt 6-vector (xx yy zz yz xz xy)."""
-    p = float(np.mean(s[:3]))
-    dev = s[:3] - p
-    j2 = 0.5 * float(dev @ dev) + float(s[3:] @ s[3:])
-    return p, float(np.sqrt(3.0 * j2))
+    return float(np.mean(s[:3])), float(von_mises(s))
 
 
 def run_scalars(out: RunOutcome | RunComparison) -> dict[str, Any]:
