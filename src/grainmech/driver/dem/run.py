@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from grainmech.contact.rolling import RollingResistance
-from grainmech.driver.base import DriverResult
-from grainmech.driver.dem.mpi import Tick, run_dem_ranks
+from grainmech.driver.base import DriverResult, Status
+from grainmech.driver.dem.mpi import JobDied, Tick, run_dem_ranks
 from grainmech.driver.dem.point import DemPoint
 from grainmech.driver.dem.settings import DemSettings, dem_material
 from grainmech.driver.loop import follow_path
@@ -50,6 +50,15 @@ class DemResult(DriverResult):
     elastic_tangent: np.ndarray = field(default_factory=lambda: np.full((6, 6), np.nan))
     inertial: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
+    @classmethod
+    def failed(cls, message: str) -> DemResult:
+        """The result of a run that ended without one (its process or an MPI rank died): no state, the cause."""
+        z, zi = np.zeros(0), np.zeros(0, int)
+        return cls(success=False, status=int(Status.FAILED), message=message, strain=np.zeros((0, 6)),
+                   stress=np.zeros((0, 6)), tangent=np.zeros((0, 6, 6)), sliding_fraction=z, open_fraction=z,
+                   dissipation=z, work=z, stored=z, substeps=zi, iterations=zi, final=None, unbalanced=z,
+                   coordination=z, n_contacts=zi)
+
 
 def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None = None, *,
             pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
@@ -77,14 +86,18 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     Returns
     -------
     DemResult
-        ``success`` False keeps every state before the failed step, the message names it.
+        ``success`` False keeps every state before the failed step, the message names it;
+        a job on several MPI ranks one of which died has no state and names the cause.
 
     With ``settings.ranks`` > 1 the path runs as an MPI job
     (:func:`grainmech.driver.dem.mpi.run_dem_ranks`); its ranks call this function.
     """
     st, why = (settings or DemSettings()).for_path(path)
     if st.ranks > 1 and mpi_world_size() == 1:
-        return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
+        try:
+            return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
+        except JobDied as exc:  # a rank died: this run fails, the caller's other runs go on
+            return DemResult.failed(str(exc))
     _, notes = dem_material(law)
     if why:
         notes.append(why)

@@ -5,23 +5,27 @@ from __future__ import annotations
 import ctypes
 import multiprocessing as mp
 import os
+import pickle
 import queue
 import signal
+import threading
+import traceback
+from collections import deque
 from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from multiprocessing.connection import Connection, wait
 from typing import Any
 
 import numpy as np
 
 from grainmech.contact.rolling import RollingResistance
 from grainmech.driver.base import DriverResult
-from grainmech.driver.dem.mpi import Tick
+from grainmech.driver.dem.mpi import Tick, signal_text
 from grainmech.driver.dem.run import DemResult, run_dem
 from grainmech.driver.dem.settings import DemSettings, dem_material
 from grainmech.driver.loop import ModulusReduction, cyclic_series
 from grainmech.driver.paths import LoadPath, cyclic_simple_shear
 from grainmech.elasticity import condensed_modulus
-from grainmech.errors import ParameterError
+from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork
 
 __all__ = ["DEM_MAX_AMPLITUDE", "DemSeries", "dem_modulus_reduction"]
@@ -52,14 +56,17 @@ def _worker_init() -> None:
 _BACKGROUND_NICE = 10
 
 
-def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
-                pressure: float | None, rolling: RollingResistance | None, background: bool, index: int,
-                q: Any) -> DemResult:
-    """One amplitude in a worker process; progress goes to the parent through ``q``.
+def _worker_main(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None,
+                 pressure: float | None, rolling: RollingResistance | None, background: bool,
+                 conn: Connection) -> None:
+    """One amplitude in its own worker process; progress and the answer go to the parent through ``conn``.
 
     ``background``: the worker lowers its own priority to niceness ``_BACKGROUND_NICE``
-    first (``os.nice``; a process cannot raise it again, so it keeps it for later tasks).
+    first (``os.nice``). Messages: ``("step", k, n)``, ``("tick", time_steps, unbalanced)``,
+    then one of ``("result", DemResult)``, ``("memory", text)`` (a :class:`MemoryError`:
+    the amplitude fails, the others go on) or ``("error", exception, traceback text)``.
     """
+    _worker_init()
     if background and hasattr(os, "nice"):
         try:
             os.nice(max(0, _BACKGROUND_NICE - os.nice(0)))
@@ -67,16 +74,48 @@ def _worker_run(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSett
             pass
 
     def on_step(k: int, n: int) -> None:
-        q.put((index, "step", k, n))
+        conn.send(("step", k, n))
 
     def tick(steps: int, ub: float) -> None:
-        q.put((index, "tick", steps, ub))
+        conn.send(("tick", steps, ub))
 
-    return run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
+    answer: tuple
+    try:
+        answer = ("result", run_dem(net, law, path, settings, pressure=pressure, on_step=on_step, tick=tick,
+                                    rolling=rolling))
+    except MemoryError as exc:
+        answer = ("memory", f"it ran out of memory (MemoryError{': ' + str(exc) if str(exc) else ''})")
+    except Exception as exc:  # passed to the parent, which raises it there
+        answer = ("error", exc, traceback.format_exc())
+    try:
+        try:
+            conn.send(answer)
+        except (pickle.PicklingError, TypeError, AttributeError):  # an exception that cannot be pickled: its text
+            conn.send(("error", GrainmechError(f"{type(answer[1]).__name__}: {answer[1]}"), answer[-1]))
+        conn.close()
+    except OSError:  # the parent has gone (it ended the pool): nobody to answer
+        pass
+
+
+def _death(pid: int | None, exitcode: int | None) -> str:
+    """Why a worker process ended without an answer, in words (``exitcode`` as :class:`multiprocessing.Process`)."""
+    who = f"its worker process (pid {pid})"
+    if exitcode is not None and exitcode < 0:
+        return f"{who} was killed by {signal_text(-exitcode)}"
+    return f"{who} ended with exit code {exitcode} before it answered"
 
 
 class _Pool:
-    """Amplitudes run side by side in worker processes (each a LAMMPS on one core).
+    """Amplitudes run side by side, each in a worker process of its own (each a LAMMPS on one core).
+
+    At most ``workers`` run at once; the others wait in the order submitted. Each worker
+    talks to the parent through a pipe of its own, so a worker that dies (killed, out of
+    memory) ends only its amplitude: :meth:`result` answers a failed
+    :class:`DemResult` naming the cause (signal or exit code) and the other amplitudes
+    go on. A thread of the parent reads every pipe all the time (a worker never waits for
+    the parent, which may be computing another model), reaps a worker when it ends and
+    starts the next; the progress of the amplitude :meth:`result` waits for is passed on
+    in the caller's thread, that of the others is dropped.
 
     The largest amplitude of each batch submitted together (:meth:`DemSeries.add`) is the
     longest run (more time steps per step, more servo corrections): its worker keeps the
@@ -87,41 +126,133 @@ class _Pool:
     """
 
     def __init__(self, workers: int) -> None:
-        ctx = mp.get_context("spawn")
-        self.manager = ctx.Manager()
-        self.queue = self.manager.Queue()
-        self.ex = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init)
-        self.futures: list[Future] = []
+        self.ctx = mp.get_context("spawn")
+        self.workers = int(workers)
+        self.calls: list[tuple] = []
+        self.waiting: deque[int] = deque()
+        self.running: dict[int, tuple[Any, Connection]] = {}
+        self.answers: dict[int, tuple] = {}
+        self.awaited = -1
+        self.progress: queue.SimpleQueue[tuple] = queue.SimpleQueue()
+        self.lock = threading.RLock()
+        self.stop = threading.Event()
+        self.reader = threading.Thread(target=self._read, name="grainmech-dem-pool", daemon=True)
+        self.reader.start()
 
     def submit(self, *args: Any, background: bool = False, rolling: RollingResistance | None = None) -> None:
-        call = (*args, rolling, background, len(self.futures), self.queue)
-        self.futures.append(self.ex.submit(_worker_run, *call))
+        with self.lock:
+            self.calls.append((*args, rolling, background))
+            self.waiting.append(len(self.calls) - 1)
+            self._start()
+
+    def _start(self) -> None:
+        """Start waiting amplitudes while fewer than ``workers`` run (with the lock held)."""
+        while self.waiting and len(self.running) < self.workers and not self.stop.is_set():
+            i = self.waiting.popleft()
+            recv, send = self.ctx.Pipe(duplex=False)
+            proc = self.ctx.Process(target=_worker_main, args=(*self.calls[i], send), daemon=True,
+                                    name=f"grainmech-dem-{i}")
+            proc.start()
+            send.close()  # the worker holds the only writing end: its death closes the pipe
+            self.running[i] = (proc, recv)
+
+    def _end(self, i: int, answer: tuple) -> None:
+        """Amplitude ``i`` answered (or its worker died): reap the worker, start the next."""
+        with self.lock:
+            if i not in self.running:  # ended by close()
+                return
+            proc, conn = self.running.pop(i)
+        conn.close()
+        proc.join(timeout=30)
+        if proc.is_alive():  # pragma: no cover - answered but does not exit
+            proc.kill()
+            proc.join()
+        if answer[0] == "died":
+            answer = ("died", _death(proc.pid, proc.exitcode))
+        with self.lock:
+            self.answers[i] = answer
+            self._start()
+        self.progress.put((i, "answer"))
+
+    def _read(self) -> None:
+        """The reader thread: every message of every worker, as it comes."""
+        while not self.stop.is_set():
+            with self.lock:
+                conns = {id(conn): (i, conn) for i, (_, conn) in self.running.items()}
+            if not conns:
+                self.stop.wait(0.1)
+                continue
+            try:
+                ready = wait([conn for _, conn in conns.values()], timeout=0.2)
+            except OSError:  # a pipe closed by close() meanwhile
+                continue
+            for r in ready:
+                i, conn = conns[id(r)]
+                try:
+                    msg = conn.recv()
+                except (EOFError, OSError):  # the pipe closed with no answer: the worker is gone
+                    if not self.stop.is_set():
+                        self._end(i, ("died",))
+                    continue
+                if msg[0] in ("result", "memory", "error"):
+                    self._end(i, msg)
+                elif i == self.awaited:
+                    self.progress.put((i, *msg))
 
     def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> DemResult:
-        """Wait for amplitude ``index``, passing on its progress meanwhile."""
-        fut = self.futures[index]
+        """Wait for amplitude ``index``, passing on its progress meanwhile.
+
+        Returns its :class:`DemResult`; a failed one (``success`` False) when its worker
+        died or ran out of memory. An error raised in the worker is raised here.
+        """
+        self.awaited = index
         while True:
+            with self.lock:
+                if index in self.answers:
+                    answer = self.answers.pop(index)
+                    break
             try:
-                i, kind, a, b = self.queue.get(timeout=0.5)
-                if i == index and kind == "step" and on_step is not None:
-                    on_step(int(a), int(b))
-                elif i == index and kind == "tick" and tick is not None:
-                    tick(int(a), float(b))
+                i, kind, *msg = self.progress.get(timeout=0.5)
             except queue.Empty:
-                pass
-            if fut.done():
-                return fut.result()
+                continue
+            if i == index and kind == "step" and on_step is not None:
+                on_step(int(msg[0]), int(msg[1]))
+            elif i == index and kind == "tick" and tick is not None:
+                tick(int(msg[0]), float(msg[1]))
+        self.awaited = -1
+        if answer[0] == "result":
+            return answer[1]
+        if answer[0] == "error":
+            exc = answer[1]
+            if isinstance(exc, GrainmechError):
+                raise exc
+            raise exc from _WorkerTraceback(answer[2])
+        return DemResult.failed(answer[1])
 
     def close(self) -> None:
         """End the pool; workers still running are stopped (interrupted run, failed amplitude)."""
-        for f in self.futures:
-            f.cancel()
-        procs = list(getattr(self.ex, "_processes", {}).values())
-        self.ex.shutdown(wait=False, cancel_futures=True)
-        for pr in procs:
-            if pr.is_alive():
-                pr.terminate()
-        self.manager.shutdown()
+        self.stop.set()
+        self.reader.join(timeout=5)  # it stops within 0.2 s, unless it is reaping a worker that ended
+        with self.lock:
+            self.waiting.clear()
+            running = list(self.running.values())
+            self.running.clear()
+        for proc, _ in running:
+            if proc.is_alive():
+                proc.terminate()
+        for proc, conn in running:
+            proc.join(timeout=10)
+            if proc.is_alive():  # pragma: no cover - a worker that ignores SIGTERM
+                proc.kill()
+                proc.join()
+            conn.close()
+
+
+class _WorkerTraceback(Exception):
+    """The traceback of an error raised in a worker process (the cause of the error raised in the parent)."""
+
+    def __str__(self) -> str:
+        return "\n" + str(self.args[0])
 
 
 class DemSeries:
@@ -195,9 +326,12 @@ class DemSeries:
             return r
 
         def gmax(path: LoadPath) -> float:
-            if not tangents:
+            # every amplitude starts from the same state: the first run that measured it
+            # (a run whose process died has none)
+            known = [t for t in tangents if np.all(np.isfinite(t))]
+            if not known:
                 return float("nan")
-            return condensed_modulus(tangents[0], 4, path.stress_control[0])
+            return condensed_modulus(known[0], 4, path.stress_control[0])
 
         return cyclic_series(one, amps, gmax, n_cycles=self.n_cycles, steps_per_cycle=self.steps_per_cycle,
                              waveform=self.waveform, constant=self.constant, progress=progress,
