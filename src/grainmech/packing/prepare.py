@@ -364,6 +364,97 @@ def _run_chunk(lmp: Any, de: np.ndarray, chunk: int, dt: float) -> None:
         lmp.command(f"run {chunk} post no")
 
 
+#: seconds between two progress lines of a preparation (at most, between two chunks of time steps)
+PROGRESS_EVERY = 5.0
+
+
+def decay_time_left(t: np.ndarray, y: np.ndarray, goal: float) -> float | None:
+    """Seconds until a quantity that decays exponentially falls to ``goal``, from its samples.
+
+    A proportional servo's relative stress error and a damped relaxation's unbalanced
+    force ratio approach their targets roughly as ``y = y0 exp(-k t)``: the least-squares
+    line ``ln y = a - k t`` through the samples gives ``k``, and from the last sample the
+    time left is ``ln(y_last / goal) / k`` (0 once ``y_last <= goal``).
+
+    Parameters
+    ----------
+    t : (m,) times [s], increasing
+    y : (m,) positive values
+    goal : float, > 0
+
+    Returns
+    -------
+    float or None
+        None with fewer than 3 samples, a non-positive or non-finite value, or no decay
+        (``k <= 0``): no estimate.
+    """
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    if t.size < 3 or not np.all(np.isfinite(y)) or np.any(y <= 0) or np.ptp(t) <= 0:
+        return None
+    k = -float(np.polyfit(t, np.log(y), 1)[0])
+    if not k > 0:
+        return None
+    return max(0.0, math.log(float(y[-1]) / goal) / k)
+
+
+class _Watch:
+    """The progress lines of a preparation (:func:`prepare_packing`): read-only, they change nothing it does.
+
+    Every :data:`PROGRESS_EVERY` seconds (and after the first chunk) a line with the
+    stage, the mean stress against the target, the void ratio, the unbalanced force ratio
+    (measured in stage 2 once the stress is within ``stress_tol``) and, once the samples
+    show a decay, the time left in the stage (:func:`decay_time_left`: in stage 1 from the
+    mean stress's relative error approaching ``switch_tol``, in stage 2 from the
+    unbalanced force ratio approaching ``unbalanced_tol``; the samples of the later half
+    of the stage so far, at least the last 5 s).
+    """
+
+    def __init__(self, say: Progress, settings: PackSettings, tmean: float, t0: float) -> None:
+        self.say, self.settings, self.tmean, self.t0 = say, settings, tmean, t0
+        self.last = -math.inf
+        self.start = t0
+        self.samples: list[tuple[float, float]] = []
+        self.ub = math.nan
+
+    def switch(self, now: float) -> None:
+        """Stage 2 begins: its own samples."""
+        self.start, self.samples, self.ub = now, [], math.nan
+
+    def left(self, now: float, goal: float) -> float | None:
+        keep = now - max(5.0, 0.5 * (now - self.start))
+        pts = np.array([p for p in self.samples if p[0] >= keep]).reshape(-1, 2)
+        return decay_time_left(pts[:, 0], pts[:, 1], goal)
+
+    def chunk(self, now: float, steps: int, stage: int, pm: float, e_now: float, ub: float, off: float) -> None:
+        """After a chunk: record the stage's sample, say a line when one is due.
+
+        ``off``: the largest relative error of a stress component (stage 2 holds the cell
+        once it is below ``stress_tol``).
+        """
+        st = self.settings
+        if stage == 1 and 1e-3 * self.tmean < pm:
+            self.samples.append((now, abs(pm - self.tmean) / self.tmean))
+        elif stage == 2 and not math.isnan(ub):
+            self.ub = ub
+            self.samples.append((now, ub))
+        if now - self.last < PROGRESS_EVERY:
+            return
+        self.last = now
+        if stage == 1:
+            what, goal = f"compression, friction {st.prep_friction:g}", st.switch_tol
+            ratio = "unbalanced force ratio measured in stage 2"
+        else:
+            what, goal = "relaxation with the grain friction", st.unbalanced_tol
+            ratio = (f"unbalanced force ratio {self.ub:.2e} (stops below {st.unbalanced_tol:g})"
+                     if not math.isnan(self.ub) else "unbalanced force ratio not measured yet")
+            if off >= st.stress_tol:
+                ratio += f", stress off its target by up to {100 * off:.2g} % (to be within {100 * st.stress_tol:g} %)"
+        eta = self.left(now, goal)
+        self.say(f"  stage {stage} of 2 ({what}): step {steps}, {now - self.t0:.1f} s, mean stress {pm:.4g} Pa "
+                 f"(target {self.tmean:.4g} Pa), void ratio {e_now:.4f}, {ratio}"
+                 + ("" if eta is None else f", about {eta:.0f} s left in stage {stage}"))
+
+
 def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSettings,
                     progress: Progress | None = None) -> PackResult:
     """Prepare a packing (module notes) and return it with its summary.
@@ -375,7 +466,10 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
     mat : GrainMaterial
     settings : PackSettings
     progress : callable(str), optional
-        Called with a progress line every few seconds.
+        Called with a progress line after the first chunk of time steps and then every
+        :data:`PROGRESS_EVERY` seconds (stage, mean stress and target, void ratio,
+        unbalanced force ratio, time left in the stage once it can be estimated), and at
+        the switch to stage 2.
 
     Raises
     ------
@@ -404,7 +498,7 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
     say = progress or (lambda s: None)
     hist: list[tuple] = []
     t0 = time.perf_counter()
-    last = [t0]
+    watch = _Watch(say, settings, tmean, t0)
     prep_roll = None
     if settings.prep_rolling > 0:
         grain = mat.rolling
@@ -458,17 +552,14 @@ def prepare_packing(radii: np.ndarray, mat: GrainMaterial, settings: PackSetting
                         lmp.command("uncompute croll")
                 dt = _start_relaxation(lmp, radii, mat, settings, tmean, settings.viscous_relax * omega * m_bar, rbar)
                 say(f"  stage 2 (grain friction {mat.friction:g}) at step {steps}, void ratio {e_now:.4f}")
+                watch.switch(time.perf_counter())
             if stage == 2 and within:
                 de = np.zeros(6)  # hold the cell: relax
             _run_chunk(lmp, de, chunk, dt)
             steps += chunk
             now = time.perf_counter()
             hist.append((steps, now - t0, pm, e_now, ub, stage))
-            if now - last[0] > 2.0:
-                last[0] = now
-                say(f"  step {steps:8d}  {now - t0:6.1f} s  stage {stage}  mean stress {pm:10.4g} Pa "
-                    f"(target {tmean:.4g})  void ratio {e_now:.4f}"
-                    + ("" if math.isnan(ub) else f"  unbalanced {ub:.2e}"))
+            watch.chunk(now, steps, stage, pm, e_now, ub, float(np.max(np.abs(err))))
         net = network_from_lammps(lmp)
         ub = unbalanced_ratio(net)
         p_l = lmp.vector("press")
