@@ -34,18 +34,18 @@ import tempfile
 import time
 
 STIFFNESS_BASE = {
-    "packing": {"void_ratio": 0.62, "coordination": "yanagisawa", "radius": "0.2 mm"},
+    "microstructure": {"void_ratio": 0.62, "coordination": "yanagisawa", "radius": "0.2 mm"},
     "fabric": {"dim": 3, "a20": 0.2},
     "contacts": {"law": "hertz-mindlin", "shear_modulus": "44 GPa", "poisson": 0.08},
     "stress": {"pressure": "200 kPa"},
 }
 STIFFNESS_PARAMS = {
-    "packing.void_ratio": {"min": 0.55, "max": 0.85},
+    "microstructure.void_ratio": {"min": 0.55, "max": 0.85},
     "stress.pressure": {"min": "25 kPa", "max": "1.6 MPa", "scale": "log"},
     "fabric.a20": {"min": 0.0, "max": 0.5},
 }
 DRIVER_BASE = {
-    "packing": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
+    "microstructure": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
     "contacts": {"law": "mindlin-deresiewicz", "shear_modulus": "44 GPa", "poisson": 0.08,
                  "friction_angle": "27 deg"},
     "initial": {"pressure": "100 kPa"},

@@ -9,7 +9,7 @@ import pytest
 from grainmech import contact, fabric
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
 from grainmech.io.config import Section
-from grainmech.io.schema import build_law, build_packing
+from grainmech.io.schema import build_law, build_microstructure
 
 
 def test_both_are_user_errors_with_the_same_message_form():
@@ -45,9 +45,9 @@ def test_config_readers_rename_library_errors_to_the_file_key():
         build_law(Section(law, "contacts"), radius=1e-3)
     assert e.value.key == "contacts.max_reversals" and e.value.value == 5000
     with pytest.raises(ConfigError) as e:
-        build_packing(Section({"void_ratio": 5.0, "coordination": "chang", "radius": 1e-3}, "packing"),
-                      fabric.isotropic(3))
-    assert e.value.key == "packing.void_ratio" and e.value.value == 5.0
+        build_microstructure(Section({"void_ratio": 5.0, "coordination": "chang", "radius": 1e-3}, "microstructure"),
+                             fabric.isotropic(3))
+    assert e.value.key == "microstructure.void_ratio" and e.value.value == 5.0
 
 
 def test_section_checked_names_the_key_or_the_section():
@@ -65,7 +65,7 @@ def test_section_checked_names_the_key_or_the_section():
 
 def test_cli_message_names_the_key_and_value(cli, tmp_path):
     cfg = tmp_path / "c.toml"
-    cfg.write_text('[packing]\nvoid_ratio = 5.0\ncoordination = "chang"\nradius = "1 mm"\n')
+    cfg.write_text('[microstructure]\nvoid_ratio = 5.0\ncoordination = "chang"\nradius = "1 mm"\n')
     r = cli("stiffness", cfg)
     assert r.rc == 2
-    assert "packing.void_ratio = 5.0" in r.err and "Traceback" not in r.err
+    assert "microstructure.void_ratio = 5.0" in r.err and "Traceback" not in r.err

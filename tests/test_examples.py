@@ -92,7 +92,7 @@ def test_both_models_example_is_valid():
     spec = prepare_run(cfg, base_dir=EX)
     assert spec.methods == ("affine", "packing")
     assert spec.grains is not None and "dense" in spec.grains.label
-    assert abs(cfg["packing"]["void_ratio"] - packing_info("dense")["void_ratio"]) < 0.005
+    assert abs(cfg["microstructure"]["void_ratio"] - packing_info("dense")["void_ratio"]) < 0.005
     assert spec.kind == "cyclic-simple-shear" and list(spec.amplitudes) == [1e-6, 1e-5, 1e-4]
 
 

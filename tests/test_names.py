@@ -3,8 +3,9 @@
 The analytical fabric-and-density description is ``material.Microstructure`` (with
 ``microstructure_stiffness``), the seed's rod packings are rod arrays
 (``rods.ARRAYS``, ``regular_array``, ``rods.random_arrays``). The old names work for one
-release and warn (DeprecationWarning) on use; the library itself uses none of them, and
-the config table ``[packing]`` keeps its name.
+release and warn (DeprecationWarning) on use; the library itself uses none of them. The
+config table is ``[microstructure]``; ``[packing]``, its old name, is read with a config
+warning (tests/io/test_renamed_tables.py).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import numpy as np
 import pytest
 
 STIFFNESS_TOML = """
-[packing]
+[microstructure]
 void_ratio = 0.65
 coordination = 8.7
 radius = "0.25 mm"
@@ -85,7 +86,7 @@ def test_rod_arrays_and_their_old_names():
 
 
 def test_the_library_uses_no_deprecated_name():
-    """A stiffness config with its [packing] table, a regular and a random rod array: no
+    """A stiffness config with its [microstructure] table, a regular and a random rod array: no
     DeprecationWarning from grainmech."""
     from grainmech.jobs import compute_stiffness
     from grainmech.material import Microstructure
@@ -95,7 +96,7 @@ def test_the_library_uses_no_deprecated_name():
     with warnings.catch_warnings():
         warnings.filterwarnings("error", category=DeprecationWarning, module="grainmech")
         out = compute_stiffness(tomllib.loads(STIFFNESS_TOML))
-        assert isinstance(out.packing, Microstructure)
+        assert isinstance(out.microstructure, Microstructure)
         assert array_stats(regular_array("square"))["coordination"] == pytest.approx(4.0)
         assert array_stats(random_array("one-size"))["particles"] == 271
 

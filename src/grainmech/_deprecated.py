@@ -40,6 +40,7 @@ MOVED_NAMES: dict[str, str] = {
     "grainmech.packing.prepare.unbalanced_ratio": "grainmech.lammps.network.unbalanced_ratio",
     "grainmech.network.plot_rose": "grainmech.plots.plot_rose",
     "grainmech.network.plot_normal_density": "grainmech.plots.plot_normal_density",
+    "grainmech.io.schema.build_packing": "grainmech.io.schema.build_microstructure",
 }
 
 

@@ -52,15 +52,15 @@ class StiffnessOutcome:
         Engineering constants of ``C``.
     symmetry : SymmetryClass
         Material symmetry class of ``C``.
-    packing : grainmech.material.Microstructure
-        The analytical description read from the ``[packing]`` table.
+    microstructure : grainmech.material.Microstructure
+        The analytical description read from the ``[microstructure]`` table.
     dim : int
     """
 
     result: Any
     engineering: Any
     symmetry: Any
-    packing: Any
+    microstructure: Any
     dim: int
     fabric_fit: dict | None = None  # the fit of a [fabric] normals file (io.schema.build_fabric)
 

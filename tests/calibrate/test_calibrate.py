@@ -53,7 +53,7 @@ def test_hardin_black_example_converges_from_poor_start(hb_fit):
     # start 1e5 psi, b = 5, n = 0: far from the optimum
     assert r.start[0] == pytest.approx(1e5 * PSI)
     # exponent 1/3 + 2n/3 = 1/2  =>  n = 1/4 (Hertzian scaling, independent of the code)
-    assert r.value("packing.coordination.n") == pytest.approx(0.25, abs=2e-3)
+    assert r.value("microstructure.coordination.n") == pytest.approx(0.25, abs=2e-3)
     assert r.stats["r2"]["G"] > 0.999
     assert all(r.stats["identifiable"])
     # the fitted model's own pressure exponent, at every void ratio
@@ -72,12 +72,12 @@ def test_fixed_coordination_gives_exponent_one_third_whatever_g_and_nu():
     for G, nu in ((7.5e6 * PSI, 0.13), (1e9, 0.3), (3e11, 0.0)):
         model = copy.deepcopy(cfg["model"])
         model["contacts"].update(shear_modulus=G, poisson=nu)
-        model["packing"]["coordination"] = "chang"
+        model["microstructure"]["coordination"] = "chang"
         g = predict("modulus-pressure", model, sub, {})["G"]
         assert _slope(sub["pressure"], g) == pytest.approx(1.0 / 3.0, abs=1e-9)
     # fitting G alone cannot fix the exponent: systematic misfit remains
     cfg["parameters"] = [cfg["parameters"][0]]
-    cfg["model"]["packing"]["coordination"] = "chang"
+    cfg["model"]["microstructure"]["coordination"] = "chang"
     r = fit(problem_from_config(cfg, HB_CSV))
     assert r.success
     d = r.problem.data
@@ -96,9 +96,9 @@ def test_grain_modulus_and_poisson_not_separately_identifiable():
                          {"path": "contacts.poisson", "start": 0.2, "lower": 0.0, "upper": 0.45}]
     r = fit(problem_from_config(cfg, HB_CSV))
     ident = dict(zip([p.path for p in r.problem.parameters], r.stats["identifiable"]))
-    assert ident == {"contacts.shear_modulus": False, "packing.coordination.n": True, "contacts.poisson": False}
+    assert ident == {"contacts.shear_modulus": False, "microstructure.coordination.n": True, "contacts.poisson": False}
     assert r.std_error("contacts.shear_modulus") is None and r.std_error("contacts.poisson") is None
-    assert r.std_error("packing.coordination.n") is not None
+    assert r.std_error("microstructure.coordination.n") is not None
     assert any("not identifiable: contacts.shear_modulus, contacts.poisson" in n for n in r.stats["notes"])
 
 
@@ -108,7 +108,7 @@ def test_modulus_pressure_prediction_matches_closed_form():
     """G, K, nu of the kind equal the seed's Eq. 4.43-4.45 (closed_form, corrected)."""
     from grainmech.closed_form import isotropic_hertz_mindlin
 
-    model = {"packing": {"void_ratio": 0.6, "coordination": 8.0, "radius": "0.1 mm"}, "fabric": {"dim": 3},
+    model = {"microstructure": {"void_ratio": 0.6, "coordination": 8.0, "radius": "0.1 mm"}, "fabric": {"dim": 3},
              "contacts": {"law": "hertz-mindlin", "shear_modulus": "29 GPa", "poisson": 0.15}}
     p = np.array([1e4, 1e5, 1e6])
     ones = np.ones_like(p)
@@ -122,7 +122,7 @@ def test_modulus_pressure_prediction_matches_closed_form():
 
 
 def test_directional_recovers_fabric_and_grain_modulus():
-    model = {"packing": {"void_ratio": 0.6, "coordination": 8.0, "radius": 1e-3},
+    model = {"microstructure": {"void_ratio": 0.6, "coordination": 8.0, "radius": 1e-3},
              "fabric": {"dim": 3, "a20": 0.5},
              "contacts": {"law": "hertz-mindlin", "shear_modulus": 2e10, "poisson": 0.2},
              "stress": {"pressure": "100 kPa"}}
@@ -144,7 +144,7 @@ def test_directional_recovers_fabric_and_grain_modulus():
 
 
 def test_stress_strain_recovers_spring_stiffnesses(one_numba_thread):
-    model = {"packing": {"void_ratio": 0.6, "coordination": 8.0, "radius": 1e-3}, "fabric": {"dim": 3},
+    model = {"microstructure": {"void_ratio": 0.6, "coordination": 8.0, "radius": 1e-3}, "fabric": {"dim": 3},
              "contacts": {"law": "linear", "kn": 1e6, "ks": 3e5},
              "initial": {"pressure": 1e5}, "quadrature": {"degree": 7}}
     ez = np.linspace(0.0, 2e-4, 5)
@@ -189,7 +189,7 @@ def one_numba_thread():
 
 
 def test_modulus_reduction_recovers_friction(one_numba_thread):
-    model = {"packing": {"void_ratio": 0.65, "coordination": 7.0, "radius": 2.5e-4}, "fabric": {"dim": 3},
+    model = {"microstructure": {"void_ratio": 0.65, "coordination": 7.0, "radius": 2.5e-4}, "fabric": {"dim": 3},
              "contacts": {"law": "mindlin-deresiewicz", "shear_modulus": "44 GPa", "poisson": 0.08,
                           "friction": 0.5},
              "initial": {"pressure": "100 kPa"}, "quadrature": {"degree": 7}}
@@ -257,8 +257,8 @@ def test_jacobian_standard_errors_match_scatter_over_seeded_noise():
         g = base["G"][sel] * (1 + 0.02 * rng.standard_normal(sel.sum()))
         data = from_arrays({"pressure": base["pressure"][sel], "void_ratio": base["void_ratio"][sel], "G": g})
         r = fit(problem_from_config(cfg, data))
-        vals.append(r.value("packing.coordination.n"))
-        ses.append(r.std_error("packing.coordination.n"))
+        vals.append(r.value("microstructure.coordination.n"))
+        ses.append(r.std_error("microstructure.coordination.n"))
     sd = float(np.std(vals, ddof=1))
     assert 0.4 < np.mean(ses) / sd < 2.5
 
@@ -291,7 +291,7 @@ def test_cli_writes_report(tmp_path, cli):
         assert (out / f).stat().st_size > 0
     s = json.loads((out / "fit.json").read_text())
     n = {p["path"]: p for p in s["parameters"]}
-    assert n["packing.coordination.n"]["value"] == pytest.approx(0.25, abs=2e-3)
+    assert n["microstructure.coordination.n"]["value"] == pytest.approx(0.25, abs=2e-3)
     assert n["contacts.shear_modulus"]["unit"] == "psi"
     assert s["n_residuals"] == 18 and s["dof"] == 15
     assert not list(out.glob(".*.tmp"))

@@ -28,14 +28,15 @@ from _hyp import HealthCheck, given, settings, st
 
 # ------------------------------------------------------------------ configs
 RUN = {
-    "packing": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
+    "microstructure": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
     "contacts": {"law": "mindlin-deresiewicz", "shear_modulus": "44 GPa", "poisson": 0.08, "friction": 0.5},
     "initial": {"pressure": "100 kPa"},
     "test": {"kind": "cyclic-simple-shear", "amplitudes": [1e-5], "n_cycles": 2, "steps_per_cycle": 8},
     "quadrature": {"degree": 5},
 }
 PATH = {
-    "packing": RUN["packing"], "contacts": RUN["contacts"], "initial": RUN["initial"], "quadrature": {"degree": 5},
+    "microstructure": RUN["microstructure"], "contacts": RUN["contacts"], "initial": RUN["initial"],
+    "quadrature": {"degree": 5},
     "test": {"kind": "path", "segments": [{"control": "SSEEEE", "change": [0, 0, 1e-4, 0, 0, 0], "steps": 4}]},
 }
 GRAINS = {  # packing / DEM model: n_cycles = 1 (read after the model's keys) stops them at validation
@@ -47,7 +48,7 @@ GRAINS = {  # packing / DEM model: n_cycles = 1 (read after the model's keys) st
 SITE = {
     "site": {"k0": 0.5},
     "model": {"method": "affine"},
-    "packing": RUN["packing"], "contacts": RUN["contacts"], "quadrature": {"degree": 5},
+    "microstructure": RUN["microstructure"], "contacts": RUN["contacts"], "quadrature": {"degree": 5},
     "test": {"amplitudes": [1e-5], "n_cycles": 2, "steps_per_cycle": 8},
     "layers": [{"name": "sand", "thickness": "4 m", "unit_weight": "19 kN/m^3", "vs": "150 m/s"}],
     "bedrock": {"vs": "760 m/s", "unit_weight": "22 kN/m^3", "damping": 0.01},
@@ -59,7 +60,7 @@ PACK = {  # [preparation] max_steps = 1 (read after the rest) stops it at valida
     "preparation": {"stress": "100 kPa", "friction": 0.0, "max_steps": 1},
 }
 STIFFNESS = {
-    "packing": {"void_ratio": 0.6, "coordination": 8, "radius": "0.2 mm"},
+    "microstructure": {"void_ratio": 0.6, "coordination": 8, "radius": "0.2 mm"},
     "fabric": {"a20": 0.2, "a22": 0.05, "b22": 0.0},
     "contacts": {"law": "hertz-mindlin", "shear_modulus": "30 GPa", "poisson": 0.2},
     "stress": {"pressure": "100 kPa"},
@@ -76,7 +77,7 @@ SWEEP = {
 }
 CALIBRATE = {  # an unknown [fit] key (read last) stops it before the Dask cluster starts
     "data": {"kind": "modulus-pressure"},
-    "model": {"packing": {"void_ratio": 0.65, "radius": "0.01 in", "coordination": 8},
+    "model": {"microstructure": {"void_ratio": 0.65, "radius": "0.01 in", "coordination": 8},
               "fabric": {"dim": 3}, "contacts": {"law": "hertz-mindlin", "shear_modulus": "7.5e6 psi",
                                                    "poisson": 0.13}},
     "parameters": [{"path": "contacts.shear_modulus", "start": "1e5 psi", "lower": "1e3 psi", "upper": "1e9 psi",

@@ -19,7 +19,7 @@ SRC = ROOT / "src" / "grainmech"
 EX = ROOT / "examples"
 
 TINY_RUN = """
-[packing]
+[microstructure]
 void_ratio = 0.65
 coordination = 8.0
 radius = "0.25 mm"
@@ -112,7 +112,7 @@ def test_fabric_md_point_count_of_degree_23_is_what_run_uses():
     cfg = tomllib.loads((SRC / "data" / "default_run.toml").read_text())
     spec = prepare_run(cfg)
     assert spec.degree == 23
-    point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+    point = MaterialPoint.isotropic(spec.microstructure, spec.law, spec.pressure, extra_degree=spec.degree)
     assert len(point.contacts) == 194
     assert "23 (194)" in (DOCS / "fabric.md").read_text()
     assert "194 directions" in (DOCS / "config.md").read_text()

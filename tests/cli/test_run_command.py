@@ -8,7 +8,7 @@ import pytest
 from conftest import CYCLIC
 
 PATH = """
-[packing]
+[microstructure]
 void_ratio = 0.65
 coordination = 6.75
 radius = "0.25 mm"

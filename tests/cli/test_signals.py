@@ -50,7 +50,7 @@ def test_without_debug_one_line(capsys):
 # at a known point: what a batch scheduler's stop or a Ctrl-C does mid-run.
 
 TINY = """
-[packing]
+[microstructure]
 void_ratio = 0.65
 coordination = 8.0
 radius = "0.25 mm"

@@ -15,7 +15,7 @@ def _write(tmp_path, text, name="c.toml"):
 
 
 LINEAR = """
-[packing]
+[microstructure]
 void_ratio = 0.57
 coordination = 9
 radius = "0.01 in"
@@ -79,13 +79,13 @@ def test_text_output_and_orders(tmp_path, cli):
 
 
 @pytest.mark.parametrize("edit, needle", [
-    (("void_ratio = 0.57", "void_ratio = -1"), "packing.void_ratio = -1"),
-    (("radius = \"0.01 in\"", "radius = \"0.01 blorps\""), "packing.radius"),
-    (("radius = \"0.01 in\"", "radius = \"3 kg\""), "packing.radius"),
+    (("void_ratio = 0.57", "void_ratio = -1"), "microstructure.void_ratio = -1"),
+    (("radius = \"0.01 in\"", "radius = \"0.01 blorps\""), "microstructure.radius"),
+    (("radius = \"0.01 in\"", "radius = \"3 kg\""), "microstructure.radius"),
     (("law = \"linear\"", "law = \"elastoplastic\""), "contacts.law"),
     (("b22 = 0.1", "b22 = 0.1\nc33 = 1"), "fabric.c33"),
     (("a20 = 0.2", "a20 = 3.0"), "negative"),
-    (("coordination = 9", "coordination = \"nonsense\""), "packing.coordination"),
+    (("coordination = 9", "coordination = \"nonsense\""), "microstructure.coordination"),
 ])
 def test_bad_configs_give_one_line_and_exit_2(tmp_path, edit, needle, cli):
     path = _write(tmp_path, LINEAR.replace(*edit))

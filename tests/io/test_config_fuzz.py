@@ -6,7 +6,7 @@ import math
 from _hyp import HealthCheck, given, settings, st
 
 BASE = {
-    "packing": {"void_ratio": 0.6, "coordination": 8, "radius": "0.2 mm"},
+    "microstructure": {"void_ratio": 0.6, "coordination": 8, "radius": "0.2 mm"},
     "fabric": {"a20": 0.2, "a22": 0.05, "b22": 0.0},
     "contacts": {"law": "hertz-mindlin", "shear_modulus": "30 GPa", "poisson": 0.2},
     "stress": {"pressure": "100 kPa"},
@@ -50,7 +50,7 @@ def _dump(cfg):
 
 
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(key=st.sampled_from(KEYS + [("packing", "unknown_key"), ("contacts", "frictoin")]), value=bad_values)
+@given(key=st.sampled_from(KEYS + [("microstructure", "unknown_key"), ("contacts", "frictoin")]), value=bad_values)
 def test_bad_values_give_one_line_error_naming_the_key(tmp_path, key, value, cli):
     cfg = {t: dict(tab) for t, tab in BASE.items()}
     cfg[key[0]][key[1]] = value
@@ -81,9 +81,9 @@ import pytest  # noqa: E402
 
 @pytest.mark.filterwarnings("error::RuntimeWarning")
 @pytest.mark.parametrize(("key", "value", "named"), [
-    (("packing", "coordination"), 2.225073858507e-311, "packing.coordination"),
-    (("packing", "coordination"), 9.638604024989455e+297, "packing.coordination"),
-    (("packing", "coordination"), 1e-4, "packing.coordination"),
+    (("microstructure", "coordination"), 2.225073858507e-311, "microstructure.coordination"),
+    (("microstructure", "coordination"), 9.638604024989455e+297, "microstructure.coordination"),
+    (("microstructure", "coordination"), 1e-4, "microstructure.coordination"),
     (("fabric", "a22"), 3.068012262549445e+154, "negative"),
     (("fabric", "b22"), 1.7e308, "negative"),
 ])

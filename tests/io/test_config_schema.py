@@ -94,9 +94,9 @@ def test_one_reader_for_the_contact_law():
     st = prepare_stiffness(cfg).contacts
     run_cfg = _toml(DATA / "default_run.toml")
     run_cfg["contacts"] = dict(table)
-    run_cfg["packing"]["radius"] = cfg["packing"]["radius"]
+    run_cfg["microstructure"]["radius"] = cfg["microstructure"]["radius"]
     rn = prepare_run(run_cfg).law
-    one = build_law(Section({**table, "radius": cfg["packing"]["radius"]}, "contact"), None, laws=LAWS)
+    one = build_law(Section({**table, "radius": cfg["microstructure"]["radius"]}, "contact"), None, laws=LAWS)
     assert st == rn == one == HertzMindlin(44e9, 0.08, 0.25e-3, friction=0.5)
 
 
@@ -110,8 +110,8 @@ def test_radius_has_one_name():
         build_law(sec, None, laws=LAWS)
     cfg = _toml(DATA / "default_run.toml")
     cfg["contacts"]["radius"] = "1 mm"
-    with pytest.raises(ConfigError, match=r"contacts\.radius = '1 mm': the grain radius of a packing "
-                                          r"is packing\.radius"):
+    with pytest.raises(ConfigError, match=r"contacts\.radius = '1 mm': the grain radius is "
+                                          r"microstructure\.radius \(or the grains' own\)"):
         prepare_run(cfg)
 
 
@@ -179,8 +179,8 @@ def test_misspelt_optional_key_is_named_with_a_suggestion():
     from grainmech.jobs import prepare_stiffness
 
     cfg = _stiffness_cfg()
-    cfg["packing"]["conventon"] = "seed"
-    with pytest.raises(ConfigError, match=r"packing\.conventon = 'seed': unknown key 'conventon' "
+    cfg["microstructure"]["conventon"] = "seed"
+    with pytest.raises(ConfigError, match=r"microstructure\.conventon = 'seed': unknown key 'conventon' "
                                           r"\(did you mean 'convention'\?\)"):
         prepare_stiffness(cfg)
 
@@ -189,10 +189,10 @@ def test_no_message_says_none():
     from grainmech.jobs import prepare_run, prepare_stiffness
 
     cfg = _stiffness_cfg()
-    del cfg["packing"]["void_ratio"]
+    del cfg["microstructure"]["void_ratio"]
     with pytest.raises(ConfigError) as exc:
         prepare_stiffness(cfg)
-    assert str(exc.value) == "packing.void_ratio: required key is missing"
+    assert str(exc.value) == "microstructure.void_ratio: required key is missing"
     run = _toml(DATA / "default_run.toml")
     del run["contacts"]["friction"]
     with pytest.raises(ConfigError) as exc:

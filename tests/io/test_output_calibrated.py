@@ -14,13 +14,13 @@ from grainmech.jobs import compute_stiffness
 
 EX = Path(__file__).resolve().parents[2] / "examples"
 
-STIFF = {"packing": {"void_ratio": 0.65, "radius": "0.25 mm", "coordination": 8.0},
+STIFF = {"microstructure": {"void_ratio": 0.65, "radius": "0.25 mm", "coordination": 8.0},
          "contacts": {"law": "hertz-mindlin", "shear_modulus": "44 GPa", "poisson": 0.08},
          "stress": {"pressure": "200 kPa"}}
 
 
 def _with(cfg: dict, coordination) -> dict:
-    return {**cfg, "packing": {**cfg["packing"], "coordination": coordination}}
+    return {**cfg, "microstructure": {**cfg["microstructure"], "coordination": coordination}}
 
 
 def test_stiffness_accepts_the_relation_and_evaluates_it_at_the_mean_stress():
@@ -38,9 +38,9 @@ def test_stiffness_accepts_the_relation_and_evaluates_it_at_the_mean_stress():
 
 
 def test_relation_errors_name_the_key():
-    with pytest.raises(ConfigError, match=r"packing\.coordination\.a: required key is missing"):
+    with pytest.raises(ConfigError, match=r"microstructure\.coordination\.a: required key is missing"):
         compute_stiffness(_with(STIFF, {"b": 25.0}))
-    with pytest.raises(ConfigError, match=r"packing\.coordination = .*gives coordination m = -"):
+    with pytest.raises(ConfigError, match=r"microstructure\.coordination = .*gives coordination m = -"):
         compute_stiffness(_with(STIFF, {"a": 10.0, "b": 25.0}))
     with pytest.raises(ConfigError, match=r"unknown key 'c'"):
         compute_stiffness(_with(STIFF, {"a": 23.0, "c": 1.0}))
@@ -54,7 +54,7 @@ def test_run_accepts_the_relation(tmp_path):
 
     cfg = tomllib.loads(default_run_affine())
     cfg["test"]["amplitudes"] = [1e-5]
-    e, p = cfg["packing"]["void_ratio"], 1e5
+    e, p = cfg["microstructure"]["void_ratio"], 1e5
     from grainmech.jobs import compute_run
 
     rel = compute_run(_with(cfg, {"a": 20.0, "b": 20.0, "n": 0.5, "p_ref": "50 kPa"}))
@@ -71,7 +71,7 @@ def test_calibrate_writes_a_config_that_stiffness_runs(tmp_path, cli):
     text = (out / "calibrated.toml").read_text()
     assert "# Run it with: grainmech stiffness calibrated.toml" in text
     cfg = tomllib.loads(text)
-    assert cfg["packing"]["coordination"]["b"] == pytest.approx(best["packing.coordination.b"], rel=1e-9)
+    assert cfg["microstructure"]["coordination"]["b"] == pytest.approx(best["microstructure.coordination.b"], rel=1e-9)
     assert cfg["contacts"]["shear_modulus"].endswith(" psi")
     assert float(cfg["contacts"]["shear_modulus"].split()[0]) == pytest.approx(best["contacts.shear_modulus"],
                                                                               rel=1e-9)

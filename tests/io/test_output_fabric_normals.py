@@ -13,7 +13,7 @@ from grainmech.jobs import compute_stiffness
 
 EX = Path(__file__).resolve().parents[2] / "examples"
 NORMALS = EX / "fabric_normals_sand.csv"
-BASE = {"packing": {"void_ratio": 0.65, "coordination": 7.0, "radius": "0.25 mm"},
+BASE = {"microstructure": {"void_ratio": 0.65, "coordination": 7.0, "radius": "0.25 mm"},
         "contacts": {"law": "hertz-mindlin", "shear_modulus": "44 GPa", "poisson": 0.08},
         "stress": {"pressure": "100 kPa"}}
 

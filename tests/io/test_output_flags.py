@@ -13,7 +13,7 @@ from grainmech.io.site_response import read_curves
 from grainmech.jobs import compute_run
 
 CFG = {
-    "packing": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
+    "microstructure": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
     "contacts": {"law": "mindlin-deresiewicz", "shear_modulus": "44 GPa", "poisson": 0.08, "friction": 0.5},
     "initial": {"pressure": "100 kPa"},
     "test": {"kind": "cyclic-simple-shear", "amplitudes": [1e-6, 1e-5, 1e-4], "n_cycles": 2, "steps_per_cycle": 8},

@@ -169,7 +169,7 @@ kind = "run"
 design = "latin-hypercube"
 samples = 8
 seed = 3
-[base.packing]
+[base.microstructure]
 void_ratio = 0.65
 coordination = "chang"
 radius = "0.25 mm"

@@ -88,7 +88,7 @@ def test_menq_grading_from_grains_from_config_or_default():
     assert (ref["uniformity_coefficient"], ref["d50"]) == (1.3, 3e-4) and "default" in ref["grading_source"]
     grains = tomllib.loads(CFG)
     grains["model"] = {"method": "packing", "packing": "dense"}
-    del grains["packing"]
+    del grains["microstructure"]
     ref = prepare_run(grains).reference
     assert ref["d50"] == pytest.approx(0.298e-3, rel=2e-3) and ref["uniformity_coefficient"] == pytest.approx(
         1.278, rel=1e-3)

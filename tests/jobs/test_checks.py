@@ -91,10 +91,11 @@ def test_input_warnings_name_value_and_reason():
     (w,) = input_warnings(cfg)
     assert w.startswith("test.amplitudes = [0.05]: above 0.01")
     for m in (3.0, 13.0):
-        (w,) = input_warnings(dict(base, packing=dict(base["packing"], coordination=m)))
-        assert w.startswith(f"packing.coordination = {m:g}: outside 4-12")
+        (w,) = input_warnings(dict(base, microstructure=dict(base["microstructure"], coordination=m)))
+        assert w.startswith(f"microstructure.coordination = {m:g}: outside 4-12")
     # Yanagisawa (seed Eq. 4.2) at e = 0.9: m = 3.183^(2.469-0.9) = 6.16, inside
-    assert input_warnings(dict(base, packing=dict(base["packing"], coordination="yanagisawa", void_ratio=0.9))) == []
+    ms = dict(base["microstructure"], coordination="yanagisawa", void_ratio=0.9)
+    assert input_warnings(dict(base, microstructure=ms)) == []
 
     class Law:
         shear_modulus = 44e9

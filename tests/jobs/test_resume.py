@@ -41,7 +41,7 @@ AMPS = [1e-5, 1e-4, 3e-4, 1e-3]
 @pytest.fixture(scope="module")
 def point():
     spec = prepare_run(tomllib.loads(CYCLIC))
-    return MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+    return MaterialPoint.isotropic(spec.microstructure, spec.law, spec.pressure, extra_degree=spec.degree)
 
 
 def _series(point, amps, until=None, on_amplitude=None):

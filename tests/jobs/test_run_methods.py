@@ -484,7 +484,7 @@ def test_built_in_default_runs_three_models():
     kn, ks, _ = contact_stiffnesses(net, shear_modulus=law.shear_modulus, poisson=law.poisson, source="force")
     # the rolling constants as the packing model resolves them (rolling_constants, Iwashita & Oda
     # 1998, on the load-bearing contacts: k_roll 9.07e4 N/m; on every contact 8.94e4)
-    consts = PackingPoint.from_network(net, spec.packing_law, rolling=spec.rolling).rolling
+    consts = PackingPoint.from_network(net, spec.grain_law, rolling=spec.rolling).rolling
     assert consts.mu_roll == 0.25 and consts.k_roll == pytest.approx(9.07e4, rel=1e-3)
     rr = relaxed_stiffness(net, kn, ks, rolling=consts)
     g_ref = condensed_modulus(rr.C_relaxed, 4, [bool(b) for b in cyclic_control("stress")])

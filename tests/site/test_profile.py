@@ -29,7 +29,7 @@ water_table = "2 m"
 k0 = 0.5
 [model]
 method = "affine"
-[packing]
+[microstructure]
 coordination = 8.0
 radius = "0.25 mm"
 [contacts]

@@ -20,7 +20,7 @@ from grainmech.sweep import load_sweep, run_sweep, sweep_from_dict  # noqa: E402
 from grainmech.sweep.design import SweepParameter, latin_hypercube, lhs_unit, monte_carlo  # noqa: E402
 
 BASE = {
-    "packing": {"void_ratio": 0.62, "coordination": "yanagisawa", "radius": "0.2 mm"},
+    "microstructure": {"void_ratio": 0.62, "coordination": "yanagisawa", "radius": "0.2 mm"},
     "fabric": {"dim": 3, "a20": 0.4},
     "contacts": {"law": "hertz-mindlin", "shear_modulus": "44 GPa", "poisson": 0.08},
     "stress": {"pressure": "200 kPa"},
@@ -29,7 +29,7 @@ BASE = {
 
 def stiffness_sweep(params=None, **sweep):
     return {"sweep": {"kind": "stiffness", **sweep}, "base": copy.deepcopy(BASE),
-            "parameters": params or {"packing.void_ratio": {"values": [0.55, 0.65, 0.75]},
+            "parameters": params or {"microstructure.void_ratio": {"values": [0.55, 0.65, 0.75]},
                                      "stress.pressure": {"min": "50 kPa", "max": "400 kPa", "num": 3,
                                                          "scale": "log"}}}
 
@@ -84,7 +84,7 @@ def test_import_does_not_need_dask():
 # --------------------------------------------------------------------------------- design
 def test_grid_order_units_and_columns():
     sw = sweep_from_dict(stiffness_sweep())
-    assert [p.column for p in sw.parameters] == ["packing.void_ratio", "stress.pressure [Pa]"]
+    assert [p.column for p in sw.parameters] == ["microstructure.void_ratio", "stress.pressure [Pa]"]
     vals = [pt.values for pt in sw.points]
     assert len(vals) == 9 and vals[0] == (0.55, 50e3) and vals[1][1] == pytest.approx(np.sqrt(50e3 * 400e3))
     assert vals[-1] == (0.75, 400e3)
@@ -93,7 +93,7 @@ def test_grid_order_units_and_columns():
     # the id is a stable function of kind + resolved config
     assert [pt.id for pt in sweep_from_dict(stiffness_sweep()).points] == [pt.id for pt in sw.points]
     assert sw.points[4].config["stress"]["pressure"] == pytest.approx(np.sqrt(50e3 * 400e3))
-    assert sw.points[4].config["packing"]["void_ratio"] == 0.65
+    assert sw.points[4].config["microstructure"]["void_ratio"] == 0.65
     assert BASE["stress"]["pressure"] == "200 kPa"  # base not modified
 
 
@@ -131,9 +131,9 @@ def test_monte_carlo_bounded_reproducible():
     assert np.all(np.abs(a) <= 1) and np.all((b >= 1) & (b <= 100))
     assert np.mean(b < 10) == pytest.approx(0.5, abs=0.12)  # log-uniform: half below the geometric mid
     assert monte_carlo(params, 200, seed=3) == pts and monte_carlo(params, 200, seed=4) != pts
-    sw = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"min": 0.55, "max": 0.8}},
+    sw = sweep_from_dict(stiffness_sweep({"microstructure.void_ratio": {"min": 0.55, "max": 0.8}},
                                          design="monte-carlo", samples=5, seed=9))
-    again = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"min": 0.55, "max": 0.8}},
+    again = sweep_from_dict(stiffness_sweep({"microstructure.void_ratio": {"min": 0.55, "max": 0.8}},
                                             design="monte-carlo", samples=5, seed=9))
     assert [p.id for p in sw.points] == [p.id for p in again.points]
 
@@ -153,7 +153,7 @@ def test_grid_stiffness_table_equals_library(tmp_path, client):
     assert all(r["status"] == "ok" and r["error"] == "" for r in rows)
     dens = SphericalDensity.from_seed(a20=0.4)
     for r in rows:
-        e, p = float(r["packing.void_ratio"]), float(r["stress.pressure [Pa]"])
+        e, p = float(r["microstructure.void_ratio"]), float(r["stress.pressure [Pa]"])
         pk = Packing.from_grains(dens, void_ratio=e, coordination=float(coordination_number(e, "yanagisawa")),
                                  radius=0.2e-3)
         C = packing_stiffness(pk, HertzMindlin.for_equal_spheres(44e9, 0.08, 0.2e-3), p).C
@@ -231,7 +231,7 @@ def test_a_changed_base_config_is_refused_naming_the_key(tmp_path, cli):
 
 def test_two_worker_processes_same_table(tmp_path, client):
     """--workers 2 (process workers: tasks and results are pickled) gives the same table."""
-    sw = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"values": [0.6, 0.7]},
+    sw = sweep_from_dict(stiffness_sweep({"microstructure.void_ratio": {"values": [0.6, 0.7]},
                                           "stress.pressure": {"values": ["100 kPa", "300 kPa"]}}))
     run_sweep(sw, tmp_path / "a", client=client, plots=False)
     s = run_sweep(sw, tmp_path / "b", workers=2, plots=False)
@@ -240,12 +240,12 @@ def test_two_worker_processes_same_table(tmp_path, client):
 
 
 def test_failing_point_recorded_rest_complete_and_retry(tmp_path, client):
-    sw = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"values": [0.6, -0.1, 0.7]}}))
+    sw = sweep_from_dict(stiffness_sweep({"microstructure.void_ratio": {"values": [0.6, -0.1, 0.7]}}))
     s = run_sweep(sw, tmp_path, client=client, plots=False)
     assert (s["succeeded"], s["failed"], s["failed_points"]) == (2, 1, [1])
     rows = read_table(tmp_path / "sweep.csv")
     assert [r["status"] for r in rows] == ["ok", "failed", "ok"]
-    assert "packing.void_ratio" in rows[1]["error"] and "-0.1" in rows[1]["error"]
+    assert "microstructure.void_ratio" in rows[1]["error"] and "-0.1" in rows[1]["error"]
     assert rows[1]["K_hill [Pa]"] == "" and float(rows[2]["K_hill [Pa]"]) > 0
     s = run_sweep(sw, tmp_path, client=client, plots=False)
     assert (s["reused"], s["ran"], s["failed"]) == (3, 0, 1)
@@ -254,7 +254,7 @@ def test_failing_point_recorded_rest_complete_and_retry(tmp_path, client):
 
 
 def test_run_kind_sweep(tmp_path, client):
-    base = {"packing": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
+    base = {"microstructure": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
             "contacts": {"law": "mindlin-deresiewicz", "shear_modulus": "44 GPa", "poisson": 0.08,
                          "friction": 0.5},
             "initial": {"pressure": "100 kPa"},
@@ -312,15 +312,15 @@ values = ["29 GPa", "58 GPa"]
     (lambda d: d.pop("base"), "sweep.base"),
     (lambda d: d["sweep"].update(base="nope.toml"), "sweep.base"),
     (lambda d: d.update(parameters={}), "parameters"),
-    (lambda d: d.update(parameters={"packing.void_ration": {"values": [0.6]}}), "parameters.packing.void_ration"),
-    (lambda d: d.update(parameters={"packing..x": {"values": [0.6]}}), "parameters.packing..x"),
+    (lambda d: d.update(parameters={"microstructure.void_ration": {"values": [0.6]}}), "parameters.microstructure.void_ration"),
+    (lambda d: d.update(parameters={"microstructure..x": {"values": [0.6]}}), "parameters.microstructure..x"),
     (lambda d: d["parameters"]["stress.pressure"].pop("num"), 'parameters.stress.pressure.num'),
     (lambda d: d["parameters"]["stress.pressure"].update(min="-5 kPa"), 'parameters.stress.pressure.min'),
     (lambda d: d["parameters"]["stress.pressure"].update(max="3 m"), 'parameters.stress.pressure.max'),
     (lambda d: d["parameters"]["stress.pressure"].update(values=[1]), 'parameters.stress.pressure.min'),
     (lambda d: d["parameters"]["stress.pressure"].update(unit="kPa"), 'parameters.stress.pressure.unit'),
     (lambda d: d["parameters"]["stress.pressure"].update(stepz=2), 'parameters.stress.pressure.stepz'),
-    (lambda d: d["parameters"]["packing.void_ratio"].update(values=[0.6, 0.6]), 'parameters.packing.void_ratio.values'),
+    (lambda d: d["parameters"]["microstructure.void_ratio"].update(values=[0.6, 0.6]), 'parameters.microstructure.void_ratio.values'),
     (lambda d: d["sweep"].update(design="latin-hypercube"), "sweep.samples"),
     (lambda d: d["sweep"].update(samples=4), "sweep.samples"),
     (lambda d: d["base"]["contacts"].update(law="hooke"), "contacts.law"),
@@ -335,7 +335,7 @@ def test_bad_sweep_files_name_the_key(mutate, key):
 
 def test_cli_sweep_and_errors(tmp_path, cli):
     base = tmp_path / "base.toml"
-    base.write_text('[packing]\nvoid_ratio = 0.6\ncoordination = 8\nradius = "0.2 mm"\n'
+    base.write_text('[microstructure]\nvoid_ratio = 0.6\ncoordination = 8\nradius = "0.2 mm"\n'
                     '[contacts]\nlaw = "hertz-mindlin"\nshear_modulus = "44 GPa"\npoisson = 0.08\n'
                     '[stress]\npressure = "100 kPa"\n')
     sw = tmp_path / "s.toml"
@@ -386,7 +386,7 @@ def test_cheap_points_run_in_batches_and_a_failure_stays_one_point(tmp_path, cli
     assert _batches(1000, "run", 2) == [[k] for k in range(1000)]
     assert _batches(8, "stiffness", 1) == [[0, 1], [2, 3], [4, 5], [6, 7]]
     values = [0.6, 0.62, 0.64, -0.1, 0.66, 0.68, 0.7, 0.72, 0.74, 0.76, 0.78, 0.8]
-    sw = sweep_from_dict(stiffness_sweep({"packing.void_ratio": {"values": values}}))
+    sw = sweep_from_dict(stiffness_sweep({"microstructure.void_ratio": {"values": values}}))
     s = run_sweep(sw, tmp_path, client=client, plots=False)
     assert (s["succeeded"], s["failed"], s["failed_points"]) == (11, 1, [3])
     rows = read_table(tmp_path / "sweep.csv")

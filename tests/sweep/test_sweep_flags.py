@@ -11,7 +11,7 @@ from grainmech import jobs
 from grainmech.outcomes import CyclicOutcome, RunComparison
 from grainmech.sweep.kinds import envelope_columns, recommended_columns, run_kind_point
 
-BASE = {"packing": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
+BASE = {"microstructure": {"void_ratio": 0.65, "coordination": "chang", "radius": "0.25 mm"},
         "contacts": {"law": "mindlin-deresiewicz", "shear_modulus": "44 GPa", "poisson": 0.08,
                      "friction_angle": "27 deg"},
         "initial": {"pressure": "100 kPa"},

@@ -1,9 +1,10 @@
 """Model predictions for calibration: parameters -> predicted data columns, per data kind.
 
 A calibration holds a *model config* (the tables of a ``grainmech stiffness`` or
-``grainmech run`` config: ``packing``, ``fabric``, ``contacts``...) and a list of
+``grainmech run`` config: ``microstructure``, ``fabric``, ``contacts``...) and a list of
 parameters, each a dotted path into it (``contacts.shear_modulus``,
-``fabric.a20``, ``packing.coordination.n``). :func:`set_path` writes a trial value
+``fabric.a20``, ``microstructure.coordination.n``; ``[packing]``, the microstructure's old
+name, is still read). :func:`set_path` writes a trial value
 (SI) into a copy of the config; the data kind's ``predict`` builds the library objects
 through :mod:`grainmech.io.schema` and returns the predicted columns.
 
@@ -45,7 +46,7 @@ Data kinds (``docs/calibrate.md``)
 
 Coordination as a relation with coefficients
 --------------------------------------------
-In kinds with a packing, ``packing.coordination`` may be a table
+In kinds with a microstructure, ``microstructure.coordination`` may be a table
 ``{a = 23.0, b = 25.0, n = 0.0, p_ref = "100 kPa"}`` meaning
 
     m = (a - b e) (p / p_ref)^n
@@ -73,7 +74,16 @@ from grainmech.driver import MaterialPoint, concatenate, parse_mask, run, segmen
 from grainmech.elasticity import directional_poisson, directional_young, engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.config import Section
-from grainmech.io.schema import build_fabric, build_law, build_packing, build_pressure, build_stress, check_pressure
+from grainmech.io.schema import (
+    RENAMED_TABLES,
+    build_fabric,
+    build_law,
+    build_microstructure,
+    build_pressure,
+    build_stress,
+    check_pressure,
+    microstructure_key,
+)
 from grainmech.material import microstructure_stiffness
 from grainmech.rods import regular_array
 
@@ -143,16 +153,16 @@ def set_path(cfg: dict, path: str, value: Any, *, key_prefix: str = "model") -> 
 def _sections(cfg: dict, allowed: tuple[str, ...]):
     root = Section(cfg, "model")
     for k in cfg:
-        if k not in allowed:
+        if k not in allowed and RENAMED_TABLES.get(k) not in allowed:  # an old table name: read, with a warning
             raise ConfigError(f"model.{k}", cfg[k], f"unknown table for this data kind (allowed: {', '.join(allowed)})")
     return root
 
 
-def _packing(root: Any, density: Any, pressure: float) -> Any:
-    sec = root.section("packing")
+def _microstructure(root: Any, density: Any, pressure: float) -> Any:
+    sec = root.section(microstructure_key(root))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # correlation range warnings: the fit explores
-        return build_packing(sec, density, pressure)
+        return build_microstructure(sec, density, pressure)
 
 
 def _eng_name(name: str, dim: int) -> str:
@@ -171,18 +181,18 @@ def _predict_modulus_pressure(model: dict, data: Dataset, settings: dict, valida
     for i in range(len(data)):
         cfg = copy.deepcopy(model)
         if data.has("void_ratio"):
-            cfg.setdefault("packing", {})["void_ratio"] = float(data["void_ratio"][i])
+            cfg.setdefault(microstructure_key(Section(cfg, "model")), {})["void_ratio"] = float(data["void_ratio"][i])
         root = _sections(cfg, DATA_KINDS["modulus-pressure"].model_keys)
         if density is None:  # the fabric does not change from row to row
             density = build_fabric(root.section("fabric", {}))
         p = float(data["pressure"][i])
         if p <= 0:
             raise data.error("pressure must be > 0", i, "pressure")
-        packing = _packing(root, density, p)
-        contacts = build_law(root.section("contacts"), packing.radius)
+        ms = _microstructure(root, density, p)
+        contacts = build_law(root.section("contacts"), ms.radius)
         if validate and i == 0:
             root.finish()
-        C = microstructure_stiffness(packing, contacts, p).C
+        C = microstructure_stiffness(ms, contacts, p).C
         eng = engineering_constants(C).as_dict()
         for t in targets:
             if t == "K":  # bulk modulus: volumetric strain under p I is sum of the normal block of S
@@ -204,11 +214,11 @@ def _stiffness_at_stress(model: dict, allowed: tuple[str, ...], validate: bool) 
     stress = build_stress(root.section("stress", {}), density.dim)
     p = float(stress) if np.ndim(stress) == 0 and stress is not None else (
         float(np.trace(stress)) / density.dim if stress is not None else 1.0)
-    packing = _packing(root, density, p)
-    contacts = build_law(root.section("contacts"), packing.radius)
+    ms = _microstructure(root, density, p)
+    contacts = build_law(root.section("contacts"), ms.radius)
     if validate:
         root.finish()
-    return microstructure_stiffness(packing, contacts, stress).C, density.dim
+    return microstructure_stiffness(ms, contacts, stress).C, density.dim
 
 
 def _predict_directional(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
@@ -245,12 +255,12 @@ def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
         raise ConfigError("model.fabric.dim", density.dim, "the driver works in 3D")
     ini = root.section("initial")
     pressure = build_pressure(ini)
-    packing = _packing(root, density, pressure)
-    law = build_law(root.section("contacts"), packing.radius)
+    ms = _microstructure(root, density, pressure)
+    law = build_law(root.section("contacts"), ms.radius)
     degree = root.section("quadrature", {}).integer("degree", 11, min=4)
     if validate:
         root.finish()
-    return MaterialPoint.isotropic(packing, law, pressure, extra_degree=degree)
+    return MaterialPoint.isotropic(ms, law, pressure, extra_degree=degree)
 
 
 def _predict_stress_strain(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
@@ -322,7 +332,7 @@ def _predict_rod_strains(model: dict, data: Dataset, settings: dict, validate: b
     return {k: np.asarray(eps[k], dtype=float) for k in ("eps_xx", "eps_yy", "eps_xy") if data.has(k)}
 
 
-_PACK = ("packing", "fabric", "contacts")
+_PACK = ("microstructure", "fabric", "contacts")
 _ENG_COLS = ("G", "E", "K", "nu") + tuple(dict.fromkeys(_ENG_3D + _ENG_2D))
 DATA_KINDS: dict[str, DataKind] = {
     "modulus-pressure": DataKind("modulus-pressure", ("pressure", "void_ratio"), _ENG_COLS, ("pressure",),

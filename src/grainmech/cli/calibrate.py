@@ -54,7 +54,7 @@ def main(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise ConfigError("--workers", args.workers, "must be >= 1")
     problem = load_problem(args.config, args.data, starts=args.starts, seed=args.seed)
-    for warning in input_warnings(problem.model):
+    for warning in input_warnings(problem.model, "model"):
         print(f"grainmech: warning: {warning}", file=sys.stderr, flush=True)
     if not args.quiet:
         print(f"grainmech calibrate: {problem.kind}, {len(problem.data)} rows; fitting {len(problem.parameters)} "

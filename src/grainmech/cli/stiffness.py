@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
                          "axis": None if sym.axis is None else [float(x) for x in sym.axis],
                          "residual": float(sym.residual)},
             "mean_stress": mean_stress,
-            "convention": out.packing.convention,
+            "convention": out.microstructure.convention,
             "source": source,
         }
         if out.fabric_fit:
@@ -85,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     w = sys.stdout.write
     w(f"grainmech stiffness: {source}\n")
-    w(f"counting convention: {out.packing.convention}; mean stress {mean_stress:.6g} Pa\n")
+    w(f"counting convention: {out.microstructure.convention}; mean stress {mean_stress:.6g} Pa\n")
     if out.fabric_fit:
         w(out.fabric_fit["summary"] + "\n")
     w("\n")

@@ -2,7 +2,7 @@
 
 Tables understood here (all keys optional unless marked):
 
-``[packing]``
+``[microstructure]`` (``[packing]`` before: :func:`microstructure_key`)
     ``void_ratio``, ``coordination`` (a number or a correlation name: ``"yanagisawa"``,
     ``"smith"``, ``"filep"``, ``"field"``, ``"chang"``), ``radius`` (length), ``convention``
     (``"physical"`` | ``"seed"``); or directly ``contacts_per_volume`` (1/length^d) and
@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from grainmech import contact, fabric
+from grainmech._deprecated import moved_attribute
 from grainmech.contact.forms import law_forms, normal_law
 from grainmech.contact.rolling import RollingResistance
 from grainmech.errors import ConfigError, GrainmechError, ParameterError
@@ -40,7 +41,8 @@ from grainmech.io.config import Section, read_text_file
 from grainmech.io.units import to_float
 from grainmech.material import Microstructure
 
-__all__ = ["build_fabric", "read_normals", "build_packing", "coordination_relation", "build_law", "build_stress",
+__all__ = ["build_fabric", "read_normals", "build_microstructure", "MICROSTRUCTURE", "RENAMED_TABLES",
+           "microstructure_key", "renamed_table_warnings", "coordination_relation", "build_law", "build_stress",
            "build_pressure", "check_pressure", "pressure_problem", "PRESSURE_MIN", "PRESSURE_MAX",
            "LAWS", "PACKING_LAWS", "build_contact_path", "contact_units", "ContactInitial",
            "ContactSegment", "build_rolling", "ROLLING_KEYS"]
@@ -190,14 +192,14 @@ def _fabric_from_normals(sec: Section, fit_report: dict | None) -> Any:
 
 
 def coordination_relation(sec: Section, void_ratio: float, pressure: float | None) -> float:
-    """Coordination number from a relation table at ``packing.coordination``.
+    """Coordination number from a relation table at ``microstructure.coordination``.
 
     Coordination number from a table ``{a, b = 0, n = 0, p_ref = "1 atm"}`` at
-    ``packing.coordination``: ``m = (a - b e) (p / p_ref)^n`` at the mean stress ``p`` [Pa].
+    ``microstructure.coordination``: ``m = (a - b e) (p / p_ref)^n`` at the mean stress ``p`` [Pa].
 
     ``n = 0``, ``a = 23``, ``b = 25`` is seed Eq. 6.4 (``m = 23 - 25 e``); ``n > 0`` is the
     phenomenological pressure dependence ``grainmech calibrate`` can fit
-    (``docs/calibrate.md``). ``sec`` is the ``[packing]`` section; raises
+    (``docs/calibrate.md``). ``sec`` is the ``[microstructure]`` section; raises
     :class:`ConfigError` naming the key for a missing mean stress or ``m <= 0``.
     """
     coord = sec.raw("coordination")
@@ -229,13 +231,55 @@ def coordination_relation(sec: Section, void_ratio: float, pressure: float | Non
 COORDINATION_MIN, COORDINATION_MAX = 1e-3, 1e3
 
 
-def build_packing(sec: Section, density: Any, pressure: float | None = None) -> Any:
-    """The :class:`~grainmech.material.Microstructure` of the ``[packing]`` table and a density.
+#: The analytical microstructure's table (void ratio, coordination and radius, or contacts
+#: per volume and branch length: :func:`build_microstructure`). "packing" names a packing
+#: of grains only (``[model] packing``).
+MICROSTRUCTURE = "microstructure"
+#: config tables renamed: old name -> new name. The old name is still read, with a warning
+#: (:func:`renamed_table_warnings`), until the next minor release; both at once are refused.
+RENAMED_TABLES = {"packing": MICROSTRUCTURE}
+
+
+def microstructure_key(root: Section) -> str:
+    """The name ``root`` gives the analytical microstructure's table: ``"microstructure"``, or the old ``"packing"``.
+
+    A config written before the rename has ``[packing]``; it is read under that name, so
+    that every message names the key as the user wrote it. Without either table the new
+    name is returned (a missing table is then reported as ``microstructure``).
+
+    Raises
+    ------
+    ConfigError
+        If both names are given, naming both.
+    """
+    old = next((o for o, n in RENAMED_TABLES.items() if n == MICROSTRUCTURE and root.has(o)), None)
+    if old is None:
+        return MICROSTRUCTURE
+    if root.has(MICROSTRUCTURE):
+        raise ConfigError(root.key(old), None, f"[{root.key(old)}] and [{root.key(MICROSTRUCTURE)}] are the same "
+                          f"table ([{old}] is its old name): keep [{root.key(MICROSTRUCTURE)}] only")
+    return old
+
+
+def renamed_table_warnings(cfg: Any, prefix: str = "") -> list[str]:
+    """One warning for each renamed table (:data:`RENAMED_TABLES`) that ``cfg`` gives under its old name.
+
+    ``prefix`` is the dotted name of ``cfg`` in its file (``"model"`` in a calibration).
+    """
+    if not isinstance(cfg, dict):
+        return []
+    dot = f"{prefix}." if prefix else ""
+    return [f"[{dot}{old}] is now [{dot}{new}]; the old name is read until the next minor release"
+            for old, new in RENAMED_TABLES.items() if isinstance(cfg.get(old), dict)]
+
+
+def build_microstructure(sec: Section, density: Any, pressure: float | None = None) -> Any:
+    """The :class:`~grainmech.material.Microstructure` of the ``[microstructure]`` table and a density.
 
     The analytical description (contacts per volume and branch length, or void ratio,
-    coordination and radius) from ``[packing]`` (the table keeps its name) and a density;
-    ``pressure`` [Pa] is the mean stress a coordination relation
-    (:func:`coordination_relation`) is evaluated at.
+    coordination and radius) from ``[microstructure]`` (``[packing]`` in older configs:
+    :func:`microstructure_key`) and a density; ``pressure`` [Pa] is the mean stress a
+    coordination relation (:func:`coordination_relation`) is evaluated at.
     """
     convention = sec.choice("convention", ("physical", "seed"), "physical")
     if sec.has("contacts_per_volume") or sec.has("branch_length"):
@@ -380,7 +424,7 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
     sec : Section
         The table.
     radius : float, optional
-        Grain radius [m] of a packing (``packing.radius``). Without it (one contact,
+        Grain radius [m] (``microstructure.radius``, or the grains' median). Without it (one contact,
         ``grainmech contact``) the table itself gives ``radius`` and may describe a second
         body (``radius2``, ``shear_modulus2``, ``poisson2``).
     laws : tuple of str
@@ -405,7 +449,7 @@ def build_law(sec: Section, radius: float | None = None, *, laws: tuple[str, ...
     law = sec.choice("law", laws)
     if radius is not None and sec.has("radius"):
         raise ConfigError(sec.key("radius"), sec.data["radius"],
-                          "the grain radius of a packing is packing.radius, not a contact-law key")
+                          "the grain radius is microstructure.radius (or the grains' own), not a contact-law key")
 
     def make(cls: Any, *args: Any, **kw: Any) -> Any:
         with sec.checked(RENAMED):  # the parameter classes name their fields: use the file's keys
@@ -763,3 +807,8 @@ def build_pack_config(cfg: dict) -> PackConfig:
     settings = PackSettings(stress, seed=seed, threads=threads or None, **kw)
     root.finish()
     return PackConfig(grading, n, ratio, mat, settings)
+
+
+
+def __getattr__(name: str) -> Any:
+    return moved_attribute(__name__, name)  # build_packing: build_microstructure (a warning)

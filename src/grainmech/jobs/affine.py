@@ -28,7 +28,7 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None], step: JobStep | N
     resistance (``spec.rolling``) is inert here (no grain rotates): the details' notes say so.
     Nothing is handed to it (``step``).
     """
-    point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+    point = MaterialPoint.isotropic(spec.microstructure, spec.law, spec.pressure, extra_degree=spec.degree)
     details: dict = {}
     if spec.rolling is not None:  # said as a warning too (prepare_run)
         details["notes"] = [affine_rolling_note(spec.rolling)]

@@ -18,6 +18,7 @@ from grainmech.conventions import vector_to_stress
 from grainmech.driver.base import KinematicModel
 from grainmech.driver.registry import resolve
 from grainmech.fabric import CORRELATIONS, coordination_number
+from grainmech.io.schema import MICROSTRUCTURE, RENAMED_TABLES, renamed_table_warnings
 from grainmech.outcomes import run_mean_stress_change
 
 __all__ = ["SMALL_STRAIN_LIMIT", "SPHERE_COORDINATION_RANGE", "GMAX_FLAG_FACTOR", "input_warnings",
@@ -48,7 +49,7 @@ def grain_modulus_warning(g_max: float, law: Any) -> list[str]:
             "a packing cannot be stiffer than its solid"]
 
 
-def input_warnings(cfg: dict) -> list[str]:
+def input_warnings(cfg: dict, prefix: str = "") -> list[str]:
     """Plausibility warnings (not errors) about a config, each with value and reason.
 
     The same checks for every command that reads these keys (``run``, ``stiffness``,
@@ -57,9 +58,14 @@ def input_warnings(cfg: dict) -> list[str]:
     * a bare stress below 1 kPa (``pressure = 100`` is read as 100 Pa) in
       ``initial.pressure``, ``stress.pressure`` or ``preparation.stress``;
     * a cyclic amplitude above :data:`SMALL_STRAIN_LIMIT`;
-    * a coordination number outside :data:`SPHERE_COORDINATION_RANGE`.
+    * a coordination number outside :data:`SPHERE_COORDINATION_RANGE`;
+    * a table under its old name (:data:`grainmech.io.schema.RENAMED_TABLES`: ``[packing]``
+      is ``[microstructure]`` now).
+
+    ``prefix`` is the dotted name of ``cfg`` in its file (``"model"`` in a calibration),
+    for the names of renamed tables.
     """
-    out: list[str] = []
+    out = renamed_table_warnings(cfg, prefix)
     for table, key in (("initial", "pressure"), ("stress", "pressure"), ("preparation", "stress")):
         sec = cfg.get(table, {}) if isinstance(cfg.get(table), dict) else {}
         p = sec.get(key)
@@ -73,7 +79,9 @@ def input_warnings(cfg: dict) -> list[str]:
         if big:
             out.append(f"test.amplitudes = {big}: above {SMALL_STRAIN_LIMIT:g}, beyond the small-strain "
                        "range of the model (fixed reference geometry, no grain rearrangement)")
-    pk = cfg.get("packing", {}) if isinstance(cfg.get("packing"), dict) else {}
+    # the analytical microstructure under the name the config gives it (both: refused by the readers)
+    ms = next((old for old in RENAMED_TABLES if isinstance(cfg.get(old), dict)), MICROSTRUCTURE)
+    pk = cfg.get(ms, {}) if isinstance(cfg.get(ms), dict) else {}
     coord, e = pk.get("coordination"), pk.get("void_ratio")
     m = None
     if isinstance(coord, (int, float)) and not isinstance(coord, bool):
@@ -82,7 +90,7 @@ def input_warnings(cfg: dict) -> list[str]:
         m = float(coordination_number(float(e), coord.strip().lower()))
     lo, hi = SPHERE_COORDINATION_RANGE
     if m is not None and not (lo <= m <= hi):
-        out.append(f"packing.coordination = {m:.3g}: outside {lo:g}-{hi:g}, the range sphere packings "
+        out.append(f"{ms}.coordination = {m:.3g}: outside {lo:g}-{hi:g}, the range sphere packings "
                    "reach (loose frictional ~4, random close ~6, face-centred cubic 12)")
     return out
 

@@ -136,7 +136,7 @@ def _start_dem_early(spec: RunSpec, say: Callable[[str], None], records: RunReco
         return None
     say(f"[dem] starting {len(amps)} amplitude(s) in {min(spec.dem_workers, len(amps))} worker process(es) "
         "while the other models run")
-    return DemSeries(spec.grains.network, spec.packing_law, amps, n_cycles=spec.n_cycles,
+    return DemSeries(spec.grains.network, spec.grain_law, amps, n_cycles=spec.n_cycles,
                      steps_per_cycle=spec.dem_steps_per_cycle, waveform=spec.waveform,
                      constant=spec.constant, settings=spec.dem_settings, pressure=spec.pressure,
                      workers=spec.dem_workers, rolling=spec.rolling)
@@ -156,7 +156,7 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
     if src is None:
         raise ValueError("the DEM model needs a packing (RunSpec.grains is None)")
     net = src.network
-    start = DemStart(net, spec.packing_law, spec.dem_settings, spec.pressure, spec.rolling, spec.dem_workers)
+    start = DemStart(net, spec.grain_law, spec.dem_settings, spec.pressure, spec.rolling, spec.dem_workers)
     dem_details = DEM.details(start)
     details: dict[str, Any] = {"packing": src.label, "grains": dem_details["grains"], "void_ratio": src.void_ratio,
                                "settings": dem_details["settings"], "notes": dem_details["notes"]}

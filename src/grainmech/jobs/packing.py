@@ -52,12 +52,12 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None], step: JobStep | 
         f"void ratio {src.void_ratio:.3f}; equilibrium check and elastic factorisation")
     cyclic = spec.kind == CYCLIC_SIMPLE_SHEAR
     try:
-        pt = PackingPoint.from_network(net, spec.packing_law, options=opts, rolling=spec.rolling)
+        pt = PackingPoint.from_network(net, spec.grain_law, options=opts, rolling=spec.rolling)
         p0 = float(np.mean(pt.stress[:3]))
         if abs(p0 / spec.pressure - 1.0) > PACKING_STRESS_TOLERANCE:
             say(f"[packing] bringing the packing from p = {p0:.4g} Pa to {spec.pressure:.4g} Pa "
                 "(stress-controlled, every grain in equilibrium)")
-            pt = PackingPoint.at_stress(net, spec.packing_law, spec.pressure, options=opts, rolling=spec.rolling)
+            pt = PackingPoint.at_stress(net, spec.grain_law, spec.pressure, options=opts, rolling=spec.rolling)
     except GrainmechError as exc:  # the other models' results still get written
         cls = CyclicOutcome if cyclic else PathOutcome
         return cls(kind=spec.kind, pressure=spec.pressure, results=[], success=False,

@@ -1,7 +1,8 @@
 """Reading a ``grainmech run`` config into a :class:`~grainmech.jobs.spec.RunSpec` (strict keys).
 
-Tables ``[model]``, ``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
-``[quadrature]``, ``[test]`` (with ``[[test.segments]]`` of a path), ``[reference]``.
+Tables ``[model]``, ``[microstructure]`` (``[packing]`` in older configs), ``[fabric]``,
+``[contacts]``, ``[initial]``, ``[quadrature]``, ``[test]`` (with ``[[test.segments]]`` of a
+path), ``[reference]``.
 """
 
 from __future__ import annotations
@@ -25,9 +26,10 @@ from grainmech.io.schema import (
     GRAINS_PRESSURE_RANGE,
     build_fabric,
     build_law,
-    build_packing,
+    build_microstructure,
     build_pressure,
     build_rolling,
+    microstructure_key,
 )
 from grainmech.io.units import to_float
 from grainmech.jobs.checks import input_warnings
@@ -274,8 +276,9 @@ def _segments(sec: Any) -> Any:
 def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     """Read a driver config (strict keys).
 
-    Tables ``[model]``, ``[packing]``, ``[fabric]``, ``[contacts]``, ``[initial]``,
-    ``[quadrature]``, ``[test]``, ``[reference]``.
+    Tables ``[model]``, ``[microstructure]`` (``[packing]`` in older configs, read with a
+    warning), ``[fabric]``, ``[contacts]``, ``[initial]``, ``[quadrature]``, ``[test]``,
+    ``[reference]``.
     """
     root = Section(cfg, "")
     model = root.section("model", {})
@@ -283,8 +286,9 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
     models: tuple[KinematicModel, ...] = tuple(registered(m) for m in methods)
     _refuse_unused_model_keys(model, methods)
     grain_methods = [m.name for m in models if m.needs_grains]
-    # the analytical microstructure ([packing], [fabric]) of the models that need no grains
+    # the analytical microstructure ([microstructure], [fabric]) of the models that need no grains
     microstructure = any(not m.needs_grains for m in models)
+    ms_key = microstructure_key(root)
     grains = (_read_grains(model, base_dir, " and ".join(f"method = {m!r}" for m in grain_methods))
               if grain_methods else None)
     gmax_grains = None
@@ -310,20 +314,20 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
                           f"of grains is brought to ({lo:g} Pa to {hi:g} Pa) by method 'packing' or 'dem'")
     contacts = root.section("contacts")
     if microstructure:
-        packing = build_packing(root.section("packing"), density, pressure)
-        law = build_law(contacts, packing.radius, rolling=True)
+        ms = build_microstructure(root.section(ms_key), density, pressure)
+        law = build_law(contacts, ms.radius, rolling=True)
     else:
-        if root.has("packing"):
-            raise ConfigError("packing", cfg.get("packing"), "[packing] describes the affine model's "
-                              "packing (void ratio, coordination, radius); with method = 'packing' the "
+        if root.has(ms_key):
+            raise ConfigError(ms_key, None, f"[{ms_key}] describes the affine model's analytical microstructure "
+                              "(void ratio, coordination, radius); with method = 'packing' or 'dem' the "
                               "grains come from model.packing or model.network: remove the table or add "
                               "'affine' to model.method")
-        packing = None
+        ms = None
         if grains is None:  # _read_grains gives the packing whenever 'packing' is a method
             raise ConfigError("model.method", list(methods), "the packing model needs model.packing or model.network")
         law = build_law(contacts, float(np.median(grains.network.require_radii("the packing model"))), rolling=True)
     rolling = build_rolling(contacts, law)
-    packing_law = None
+    grain_law = None
     if grains is not None or gmax_grains is not None:
         if normal_law(law) not in ("hertz", "linear"):
             who = "method = 'packing'" if grains is not None else "model.gmax_packing"
@@ -335,7 +339,7 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         # the packing driver evaluates every contact at its own radius R_A R_B / (R_A + R_B)
         # (exact for Hertz-Mindlin forces, grainmech.driver.packing._law_scale): the law's
         # own radius is only a reference
-        packing_law = law
+        grain_law = law
     quad = root.section("quadrature", {})
     degree = quad.integer("degree", 23, min=4)
     MAX_SPHERE_DEGREE = max(LEBEDEV_ORDERS)
@@ -352,12 +356,12 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
                           f"is reported beside the G/Gmax curves of a cyclic test, not with test.kind = {kind!r}")
     ref = root.section("reference", {})
     packing_options = _read_packing_options(model)
-    spec = RunSpec(kind=kind, packing=packing, law=law, pressure=pressure, degree=degree,
-                   methods=methods, grains=grains, packing_law=packing_law, gmax_grains=gmax_grains,
+    spec = RunSpec(kind=kind, microstructure=ms, law=law, pressure=pressure, degree=degree,
+                   methods=methods, grains=grains, grain_law=grain_law, gmax_grains=gmax_grains,
                    packing_options=packing_options, rolling=rolling)
-    pk = cfg.get("packing", {})
+    pk = cfg.get(ms_key, {})
     if isinstance(pk, dict) and "void_ratio" in pk:
-        spec.void_ratio = float(pk["void_ratio"])  # validated by build_packing
+        spec.void_ratio = float(pk["void_ratio"])  # validated by build_microstructure
     spec.friction = float(getattr(law, "friction", float("inf")))
     spec.warnings = input_warnings(cfg)
     if rolling is not None and microstructure:
@@ -378,9 +382,9 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         _check_dem_states(spec, test)
         spec.waveform = test.choice("waveform", ("triangle", "sine"), "triangle")
         spec.constant = test.choice("constant", ("stress", "volume"), "stress")
-        mu = float(getattr(packing_law, "friction", 0.0) or 0.0)
-        if packing_law is not None and not (0 < mu < float("inf")):
-            raise ConfigError("contacts.friction", getattr(packing_law, "friction", None),
+        mu = float(getattr(grain_law, "friction", 0.0) or 0.0)
+        if grain_law is not None and not (0 < mu < float("inf")):
+            raise ConfigError("contacts.friction", getattr(grain_law, "friction", None),
                               "damping needs friction: the packing model's loops have no area without a finite "
                               "Coulomb limit (give contacts.friction or contacts.friction_angle)")
         spec.reference = dict(

@@ -36,6 +36,6 @@ def compile_ahead(spec: RunSpec, later: tuple) -> Any:
         :func:`~grainmech.driver.packing.compiling_ahead`, or a context that does nothing
         when no packing run follows.
     """
-    if PACKING in later and spec.packing_law is not None and spec.grains is not None:
-        return compiling_ahead(spec.packing_law, spec.grains.network.n_contacts)
+    if PACKING in later and spec.grain_law is not None and spec.grains is not None:
+        return compiling_ahead(spec.grain_law, spec.grains.network.n_contacts)
     return contextlib.nullcontext()

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech._deprecated import warn_renamed
 from grainmech.driver.base import HandOver, KinematicModel
 from grainmech.driver.dem import DEM_MAX_AMPLITUDE
 from grainmech.driver.registry import MODELS, resolve
@@ -57,6 +58,13 @@ def check_states(sec: Any, keys: tuple[str, str], n: int, steps: int, limit: int
 class RunSpec:
     """Objects read from a ``grainmech run`` config.
 
+    ``microstructure`` (:class:`~grainmech.material.Microstructure`, the
+    ``[microstructure]`` table and the fabric) and ``law`` are those of the models that run
+    on the analytical microstructure (None without one); ``grains`` is the packing of grains
+    of the packing and DEM models and ``grain_law`` the contact law both of them apply to
+    it (the ``[contacts]`` law, evaluated at every contact's own radii). ``packing``, the
+    old name of ``microstructure``, warns.
+
     ``rolling``: the contacts' rolling and twisting resistance
     (:class:`~grainmech.contact.rolling.RollingResistance`, ``[contacts]``
     ``rolling_friction``, ``rolling_stiffness``, ``twisting_friction``), None when the
@@ -69,7 +77,7 @@ class RunSpec:
     """
 
     kind: str
-    packing: Any
+    microstructure: Any
     law: Any
     pressure: float
     degree: int
@@ -86,7 +94,7 @@ class RunSpec:
     warnings: list = field(default_factory=list)
     methods: tuple = ("affine",)
     grains: PackingSource | None = None
-    packing_law: Any = None
+    grain_law: Any = None
     gmax_grains: PackingSource | None = None
     packing_amplitudes: list[float] | None = None
     packing_options: dict = field(default_factory=dict)
@@ -128,8 +136,14 @@ class RunSpec:
         return int(getattr(self, m.steps_per_cycle_key)) if m.steps_per_cycle_key is not None else self.steps_per_cycle
 
     def law_of(self, model: str | KinematicModel) -> Any:
-        """The contact law of ``model``: the grains' (``packing_law``) or the microstructure's (``law``)."""
-        return self.packing_law if resolve(model).needs_grains else self.law
+        """The contact law of ``model``: the grains' (``grain_law``) or the microstructure's (``law``)."""
+        return self.grain_law if resolve(model).needs_grains else self.law
+
+    @property
+    def packing(self) -> Any:
+        """The old name of :attr:`microstructure` (warns; removed in the next minor release)."""
+        warn_renamed("RunSpec.packing", "RunSpec.microstructure")
+        return self.microstructure
 
 
 @dataclass

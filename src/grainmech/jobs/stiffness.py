@@ -10,7 +10,7 @@ import numpy as np
 
 from grainmech.elasticity import bulk_modulus, engineering_constants, shear_modulus, symmetry_class
 from grainmech.io.config import Section
-from grainmech.io.schema import build_fabric, build_law, build_packing, build_stress
+from grainmech.io.schema import build_fabric, build_law, build_microstructure, build_stress, microstructure_key
 from grainmech.material import microstructure_stiffness
 from grainmech.outcomes import StiffnessOutcome
 
@@ -22,29 +22,29 @@ class StiffnessSpec:
     """Objects read from a ``grainmech stiffness`` config."""
 
     density: Any
-    packing: Any
+    microstructure: Any
     contacts: Any
     stress: Any
     fabric_fit: dict | None = None
 
 
 def prepare_stiffness(cfg: dict, base_dir: str | Path | None = None) -> StiffnessSpec:
-    """Read ``[packing]``, ``[fabric]``, ``[contacts]``, ``[stress]`` (strict keys)."""
+    """Read ``[microstructure]`` (``[packing]`` in older configs), ``[fabric]``, ``[contacts]``, ``[stress]``."""
     root = Section(cfg, "")
     fit: dict = {}
     density = build_fabric(root.section("fabric", {}), fit)
     stress = build_stress(root.section("stress", {}), density.dim)
     mean = None if stress is None else float(stress if np.ndim(stress) == 0 else np.trace(stress) / density.dim)
-    packing = build_packing(root.section("packing"), density, mean)
-    contacts = build_law(root.section("contacts"), packing.radius)
+    ms = build_microstructure(root.section(microstructure_key(root)), density, mean)
+    contacts = build_law(root.section("contacts"), ms.radius)
     root.finish()
-    return StiffnessSpec(density, packing, contacts, stress, fit or None)
+    return StiffnessSpec(density, ms, contacts, stress, fit or None)
 
 
 def execute_stiffness(spec: StiffnessSpec) -> StiffnessOutcome:
     """Stiffness tensor (seed Eq. 2.41), engineering constants and symmetry class."""
-    res = microstructure_stiffness(spec.packing, spec.contacts, spec.stress)
-    return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.packing,
+    res = microstructure_stiffness(spec.microstructure, spec.contacts, spec.stress)
+    return StiffnessOutcome(res, engineering_constants(res.C), symmetry_class(res.C), spec.microstructure,
                             spec.density.dim, spec.fabric_fit)
 
 

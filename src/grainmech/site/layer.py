@@ -122,7 +122,7 @@ def model_gmax(spec: Any) -> float:
     layer's stress).
     """
     if not spec.models[0].needs_grains:  # the affine model, on the analytical microstructure
-        point = MaterialPoint.isotropic(spec.packing, spec.law, spec.pressure, extra_degree=spec.degree)
+        point = MaterialPoint.isotropic(spec.microstructure, spec.law, spec.pressure, extra_degree=spec.degree)
         return float(condensed_modulus(point.tangent, 4, [bool(b) for b in cyclic_control(spec.constant)]))
     pg = packing_gmax(dataclasses.replace(spec, gmax_grains=spec.grains), lambda msg: None)
     if "error" in pg:
@@ -142,7 +142,7 @@ def anchor_task(task: tuple[Layer, str | None]) -> dict:
     if layer.vs is None:
         raise ValueError(f"{layer.label} has no vs")
     spec = prepare_layer(layer, base_dir)
-    law = spec.packing_law if spec.packing_law is not None else spec.law
+    law = spec.grain_law if spec.grain_law is not None else spec.law
     if normal_law(law) != "hertz":
         raise ConfigError(f"layers[{layer.index}].vs (layer {layer.name!r})", layer.vs,
                           f"anchoring to a measured Vs rescales the grains' shear modulus by the Hertz 2/3-power "
@@ -305,7 +305,7 @@ def run_task(task: tuple, progress: Callable[[str], None] | None = None) -> dict
         rec_hook.finished(out, run_amps)
     entries = list(rec_hook.have.values())
     curve = layer_curve(methods, entries, float(layer.p_eff), spec.kind, spec.keep_beyond_envelope)
-    law = spec.packing_law if spec.packing_law is not None else spec.law
+    law = spec.grain_law if spec.grain_law is not None else spec.law
     g_max = curve["G_max_Pa"]
     done = {amp_id(a) for a in curve["amplitudes"]}
     missing = [a for a in amps if amp_id(a) not in done]

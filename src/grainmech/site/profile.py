@@ -31,6 +31,7 @@ from typing import Any
 from grainmech.errors import ConfigError
 from grainmech.io.config import Section
 from grainmech.io.motion import MOTION_UNITS
+from grainmech.io.schema import MICROSTRUCTURE, RENAMED_TABLES, microstructure_key
 from grainmech.jobs import RUN_TEST_KINDS
 from grainmech.site.density import choose_packing, named_packing
 
@@ -51,12 +52,14 @@ GRAIN_MODULUS_PLAUSIBLE = (10e9, 100e9)
 #: 1e-6 ... 1e-2, three per decade (1, 2, 5)
 DEFAULT_AMPLITUDES = [m * 10.0 ** k for k in range(-6, -2) for m in (1.0, 2.0, 5.0)] + [1e-2]
 #: tables of a run config that a layer may override (copied into the layer's run config)
-RUN_TABLES = ("model", "contacts", "fabric", "packing", "quadrature", "test", "reference")
+#: (``[packing]``, the old name of ``[microstructure]``, too: the run reads it with a warning)
+RUN_TABLES = ("model", "contacts", "fabric", MICROSTRUCTURE, *RENAMED_TABLES, "quadrature", "test", "reference")
 #: layer keys naming its grains, and where they go in the layer's run config
+#: (``MICROSTRUCTURE``: the analytical microstructure's table under the profile's name for it)
 GRAIN_KEYS = {"packing": ("model", "packing"), "network": ("model", "network"),
               "particles": ("model", "particles"), "format": ("model", "format"),
-              "void_ratio": ("packing", "void_ratio"), "coordination": ("packing", "coordination"),
-              "radius": ("packing", "radius")}
+              "void_ratio": (MICROSTRUCTURE, "void_ratio"), "coordination": (MICROSTRUCTURE, "coordination"),
+              "radius": (MICROSTRUCTURE, "radius")}
 #: the kinematic models a profile can run (``[model] method``): one model, or the packing
 #: model over its range and the DEM model beyond it (the default)
 SITE_METHODS = (("packing", "dem"), ("packing",), ("dem",), ("affine",))
@@ -265,7 +268,7 @@ def _density(item: Section, run: dict, key_map: dict, label: str, grain_models: 
 
     ``relative_density`` always chooses a shipped sand packing (or is compared with the
     one the layer names); ``void_ratio`` does so where the layer runs on grains (the
-    packing or DEM model), and is the analytical ``[packing] void_ratio`` of the affine
+    packing or DEM model), and is the analytical ``[microstructure] void_ratio`` of the affine
     model otherwise.
     """
     if item.has("relative_density") and item.has("void_ratio"):
@@ -286,7 +289,7 @@ def _density(item: Section, run: dict, key_map: dict, label: str, grain_models: 
     for k in ("packing", "network", "particles", "format"):  # the chosen packing replaces the profile's grains
         run.get("model", {}).pop(k, None)
     run.setdefault("model", {})["packing"] = choice["packing"]
-    run.get("packing", {}).pop("void_ratio", None)
+    run.get(microstructure_key(Section(run, "")), {}).pop("void_ratio", None)
     key_map["model.packing"] = where
     return choice
 
@@ -300,9 +303,11 @@ def _grains(item: Section, run: dict, key_map: dict, label: str, grain_models: b
         for k in ("packing", "network", "particles", "format"):  # the layer's grains replace the profile's
             run.get("model", {}).pop(k, None)
     density = _density(item, run, key_map, label, grain_models)
+    ms = microstructure_key(Section(run, ""))
     for k, (table, key) in GRAIN_KEYS.items():
         if k == "void_ratio" and grain_models:
             continue
+        table = ms if table == MICROSTRUCTURE else table
         if item.has(k):
             run.setdefault(table, {})[key] = item.raw(k)
             key_map[f"{table}.{key}"] = item.key(k)
@@ -407,7 +412,7 @@ def read_profile(cfg: dict, base_dir: str | Path | None = None, source: str = "p
     the grains: ``packing``/``network``/``particles``/``format`` or
     ``void_ratio``/``coordination``/``radius``, optional ``contacts`` and ``fabric``
     tables replacing the profile's), ``[model]``, ``[contacts]``, ``[fabric]``,
-    ``[packing]``, ``[quadrature]``, ``[test]``, ``[reference]`` as in ``grainmech run``
+    ``[microstructure]``, ``[quadrature]``, ``[test]``, ``[reference]`` as in ``grainmech run``
     (the defaults of every layer), ``[bedrock]`` and ``[motion]`` for the site-response
     run.
 

@@ -1,6 +1,6 @@
 """Parameters of a sweep and the designs that sample them: grid, Latin hypercube, Monte Carlo.
 
-A :class:`SweepParameter` is one config key (a dotted path such as ``"packing.void_ratio"``)
+A :class:`SweepParameter` is one config key (a dotted path such as ``"microstructure.void_ratio"``)
 with either an explicit list of ``values`` or a range ``[lo, hi]`` on a linear or log
 scale. Quantities with units (``"50 kPa"``, ``"24 deg"``) are converted to SI at the
 edge; the column of the sweep table then names the SI unit (``"stress.pressure [Pa]"``).
@@ -177,7 +177,8 @@ _SEGMENT = re.compile(r"^([A-Za-z0-9_\-]+)((?:\[\d+\])*)$")
 def parse_path(key: Any, where: str = "parameters") -> list[str | int]:
     """``"test.segments[0].amplitude"`` -> ``["test", "segments", 0, "amplitude"]``."""
     if not isinstance(key, str) or not key.strip():
-        raise ConfigError(where, key, "a parameter key must be a dotted config path such as 'packing.void_ratio'")
+        raise ConfigError(where, key, "a parameter key must be a dotted config path such as "
+                          "'microstructure.void_ratio'")
     out: list[str | int] = []
     for part in key.split("."):
         m = _SEGMENT.match(part)

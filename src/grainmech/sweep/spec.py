@@ -9,7 +9,7 @@ File format (TOML; see ``docs/sweep.md``)::
     samples = 50                  # latin-hypercube / monte-carlo: number of points
     seed = 1                      # latin-hypercube / monte-carlo (default 0)
 
-    [parameters."packing.void_ratio"]
+    [parameters."microstructure.void_ratio"]
     values = [0.55, 0.65, 0.75]
 
     [parameters."stress.pressure"]
@@ -33,6 +33,7 @@ from typing import Any
 
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.io.config import Section, load_toml
+from grainmech.io.schema import MICROSTRUCTURE, RENAMED_TABLES, microstructure_key
 from grainmech.io.units import config_value
 from grainmech.sweep.design import DESIGNS, SweepParameter, make_design, parse_parameter, parse_path
 from grainmech.sweep.kinds import SWEEP_KINDS
@@ -171,10 +172,11 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     praw = root.raw("parameters")
     if not isinstance(praw, dict) or not praw:
         raise ConfigError("parameters", praw, "must be a table with one sub-table per swept key, "
-                                              "e.g. [parameters.\"packing.void_ratio\"]")
+                                              "e.g. [parameters.\"microstructure.void_ratio\"]")
     psec = root.section("parameters")
     params = [parse_parameter(key, psec.section(key), design) for key in praw]
     root.finish()
+    _check_table_names(params, base)
 
     n_total = 1
     if design == "grid":
@@ -201,6 +203,22 @@ def sweep_from_dict(data: dict, sweep_dir: str | Path = ".", *, source: str = "<
     if check:
         check_sweep(sweep)
     return sweep
+
+
+def _check_table_names(params: list[SweepParameter], base: dict) -> None:
+    """Refuse a swept key in the analytical microstructure's table under the name the base does not use.
+
+    ``[packing]`` is the old name of ``[microstructure]`` (both are read): a swept
+    ``packing.void_ratio`` on a base with ``[microstructure]`` would add a second table.
+    """
+    if not any(n in base for n in (MICROSTRUCTURE, *RENAMED_TABLES)):
+        return
+    ms = microstructure_key(Section(base, ""))
+    for p in params:
+        head, _, rest = p.key.partition(".")
+        if head in (MICROSTRUCTURE, *RENAMED_TABLES) and head != ms:
+            raise ConfigError(f"parameters.{p.key}", None, f"the base config calls this table [{ms}] "
+                              f"([packing] is the old name of [microstructure]): write '{ms}.{rest}'")
 
 
 def check_sweep(sweep: Sweep) -> None:
