@@ -3,9 +3,10 @@
 See ``docs/analysis.md``. The analysis sits above the driver: the names every model's
 cyclic series needs live there and are found here on first use --
 :func:`loop_properties`, :class:`LoopProperties` and :class:`ModulusReduction`
-(:mod:`grainmech.driver.loop`), :func:`modulus_reduction` (the affine model's series,
-:mod:`grainmech.driver.affine.solver`) --; :func:`condensed_modulus` is
-:func:`grainmech.elasticity.condensed_modulus`.
+(:mod:`grainmech.driver.loop`) --; :func:`modulus_reduction` runs any kinematic model's
+series (``model="affine"``, ``"packing"`` or ``"dem"``, through
+:mod:`grainmech.driver.registry`; :mod:`grainmech.analysis.series`);
+:func:`condensed_modulus` is :func:`grainmech.elasticity.condensed_modulus`.
 """
 
 from typing import Any
@@ -29,6 +30,7 @@ from grainmech.analysis.empirical import (
     mohr_coulomb_ratio,
 )
 from grainmech.analysis.loops import LOOP_ASYMMETRY_TOLERANCE, LOOP_CLOSURE_TOLERANCE, LoopQuality, loop_quality
+from grainmech.analysis.series import modulus_reduction
 from grainmech.elasticity import condensed_modulus
 
 __all__ = ["DARENDELI_PHI", "MENQ_D50_MAX", "MenqCurves", "menq_curve",
@@ -46,8 +48,4 @@ def __getattr__(name: str) -> Any:
         from grainmech.driver import loop  # noqa: PLC0415 (the driver, on first use)
 
         return getattr(loop, name)
-    if name == "modulus_reduction":
-        from grainmech.driver import modulus_reduction  # noqa: PLC0415 (the driver, on first use)
-
-        return modulus_reduction
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
