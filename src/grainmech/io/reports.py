@@ -471,7 +471,8 @@ def _model_details(m: dict) -> str:
                  f"{det.get('max_unbalanced', float('nan')):.2g} (column unbalanced_force_ratio).</p>"
                  + "".join(f"<p>Note: {html.escape(str(n))}.</p>" for n in det.get("notes", [])))
     elif det and "grains" in det:
-        head += (f"<p>{html.escape(str(det['packing']))}: {det['grains']} grains in equilibrium "
+        what = f" ({det['packing_description']})" if det.get("packing_description") else ""
+        head += (f"<p>{html.escape(str(det['packing']) + what)}: {det['grains']} grains in equilibrium "
                  f"({det['rattlers']} rattlers left out), {det['contacts_closed']} contacts "
                  f"({det['contacts_tracked']} pairs tracked), void ratio {det['void_ratio']:.3f}; "
                  f"largest out-of-balance force ratio of any step {det.get('max_residual', float('nan')):.2g} "

@@ -67,6 +67,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None], step: JobStep | 
     on_step = _step_reporter(say, "[packing]", len(spec.amplitudes_of(PACKING)) if cyclic else None)
     details = {"packing": src.label, **PACKING.details(pt), "void_ratio": src.void_ratio,
                "input_mean_stress_Pa": p0, "prepare_seconds": time.perf_counter() - t0}
+    if src.description:
+        details["packing_description"] = src.description
     if cyclic and spec.packing_amplitudes is not None:
         amps = spec.amplitudes_of(PACKING)
         others = [a for a in spec.amplitudes if a not in amps]

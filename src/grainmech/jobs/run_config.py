@@ -45,6 +45,7 @@ from grainmech.jobs.spec import (
     check_states,
 )
 from grainmech.packing import load_packing, measured_grading
+from grainmech.packing.shipped import describe_packing
 
 __all__ = ["prepare_run"]
 
@@ -201,6 +202,7 @@ def _read_grains(model: Any, base_dir: str | Path | None, who: str = "method = '
         except GrainmechError as exc:
             raise ConfigError(model.key("packing"), name, str(exc)) from None
         label = f"shipped packing {name!r}"
+        description = describe_packing(name)
     else:
         base = Path(base_dir) if base_dir is not None else Path(".")
 
@@ -217,6 +219,7 @@ def _read_grains(model: Any, base_dir: str | Path | None, who: str = "method = '
             raise ConfigError(model.key("network"), None, "must be a file path")
         fmt = model.choice("format", ("auto", "liggghts", "lammps", "csv", "npz"), "auto")
         label = str(model.raw("network"))
+        description = ""
         try:  # a missing, empty or truncated file: named by the key that names it
             net = read_network(contacts, particles, format=fmt)
         except (GrainmechError, OSError) as exc:
@@ -226,7 +229,7 @@ def _read_grains(model: Any, base_dir: str | Path | None, who: str = "method = '
     if net.dim != 3 or net.radii is None or not net.box.periodic.all():
         raise ConfigError(model.key("packing" if has_name else "network"), label,
                           "the packing driver needs a 3D periodic packing of spheres with radii")
-    return PackingSource(label, net)
+    return PackingSource(label, net, description)
 
 
 def _names(exc: BaseException, path: Path) -> bool:

@@ -156,10 +156,14 @@ class PackingSource:
         ``"shipped packing 'medium'"`` or the file name, for messages and reports.
     network : grainmech.network.ContactNetwork
         The packing read (3D, periodic, with radii).
+    description : str
+        What a shipped packing models (its grains, void ratio and relative density,
+        :func:`grainmech.packing.shipped.describe_packing`); empty for a file.
     """
 
     label: str
     network: Any
+    description: str = ""
 
     @property
     def void_ratio(self) -> float:
