@@ -1,4 +1,4 @@
-"""Whether the DEM model completes every shipped packing at every amplitude (docs/dem-model.md).
+"""Whether the DEM model completes every shipped packing at every amplitude (docs/models/dem.md).
 
 For each shipped packing ('dense', 'medium', 'loose'; Hertz-Mindlin with the packing's
 own quartz grains), each control (constant stress: ``sigma_zz`` held by the servo;
@@ -73,7 +73,7 @@ def main(argv: list[str]) -> int:
             mr = dem_modulus_reduction(net, law, amps, constant=control, settings=settings,
                                        workers=a.workers, raise_on_failure=False, on_amplitude=row)
             for amp, r in zip(mr.run_amplitudes, mr.results):
-                if int(r.status) == Status.LIQUEFIED:  # the test's answer (docs/dem-model.md)
+                if int(r.status) == Status.LIQUEFIED:  # the test's answer (docs/models/dem.md)
                     p = np.mean(r.stress[:, :3], axis=1)
                     print(f"| {name} | {control} | {amp:g} | LIQUEFIED: {r.message} | | | | "
                           f"{p[-1] / p[0] - 1:+.3f} at step {len(p) - 1} | | {float(np.max(r.unbalanced)):.2g} | "

@@ -1,4 +1,4 @@
-"""How the DEM model's relaxation ends one step under each damping (docs/dem-model.md, "Relaxation").
+"""How the DEM model's relaxation ends one step under each damping (docs/models/dem.md, "Relaxation").
 
 Loads a shipped packing into LAMMPS (Hertz-Mindlin, its own quartz grains) with viscous
 drags, Cundall's local damping (0.7) or kinetic damping, relaxes it, applies one shear

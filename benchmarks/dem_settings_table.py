@@ -1,4 +1,4 @@
-"""Whether the DEM model's numerical settings move the answer (docs/dem-model.md, settings table).
+"""Whether the DEM model's numerical settings move the answer (docs/models/dem.md, settings table).
 
 Runs cyclic simple shear with the DEM model on a shipped packing (Hertz-Mindlin, the
 packing's own quartz grains, ``n_cycles = 2``, 16 steps per cycle) at each amplitude with

@@ -1,4 +1,4 @@
-"""DEM against the packing model on every shipped packing (docs/dem-model.md, "Against the packing model").
+"""DEM against the packing model on every shipped packing (docs/models/dem.md, "Against the packing model").
 
 LAMMPS keeps no tangential spring history from a network: the DEM model restarts the
 tangential forces of a packing from zero and lets it re-settle, while the packing model

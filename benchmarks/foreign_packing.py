@@ -113,7 +113,7 @@ def small_strain_context(net) -> tuple[float, float]:
     """Affine (seed Eq. 2.26) and relaxed (every grain in equilibrium) no-slip Hertz-Mindlin moduli [Pa].
 
     Contact stiffnesses from each contact's overlap (seed Eq. 3.7, 3.11), quartz 29 GPa / 0.15
-    (``docs/dem.md``, "Contact stiffness").
+    (``docs/networks.md``, "Contact stiffness").
     """
     kn, ks, _ = contact_stiffnesses(net, shear_modulus=29e9, poisson=0.15, source="overlap")
     return (pure_shear_modulus(affine_stiffness(net, kn, ks)),

@@ -1,4 +1,4 @@
-"""Plot of the packing driver against LAMMPS on the same packing, for docs/packing-driver.md.
+"""Plot of the packing driver against LAMMPS on the same packing, for docs/models/packing.md.
 
 The reference is ``tests/data/dem_reference/dense-cyclic.json``: LAMMPS (``pair_style
 granular hertz/material`` + ``tangential mindlin``, quasi-static) on the re-settled

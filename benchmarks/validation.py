@@ -14,7 +14,7 @@ where it stopped:
   relative density;
 * ``cyclic``: the modulus-reduction and damping curve at 100 kPa, the packing model at
   1e-6 ... 1e-4 and the DEM model at 3e-4 ... 1e-2 (step and relax up to 1e-3, continuous
-  shearing at I = 1e-3 above: ``docs/dem-model.md``), against Menq (2003) and Darendeli
+  shearing at I = 1e-3 above: ``docs/models/dem.md``), against Menq (2003) and Darendeli
   (2001); ``cyclic50`` and ``cyclic400``: the same at 50 and 400 kPa (the packing model's
   point brought to that stress, the DEM model's packing re-settled there);
 * ``ru``: constant-volume cycles at 1e-4 and 1e-3 with the DEM model (step and relax), the
@@ -285,7 +285,7 @@ def write_page(cache: dict, page: Path) -> None:
               "Menq with the grains' own grading (Cu, D50 measured on the packing's grains); Darendeli with PI 0, "
               "OCR 1. Each model's G/Gmax is on its own Gmax (the packing model's: the relaxed small-strain modulus; "
               "the DEM model's: the same of its re-settled start state). The DEM model runs 3e-4 and 1e-3 by step and "
-              "relax and 3e-3, 1e-2 by continuous shearing at I = 1e-3 (`docs/dem-model.md`: there the continuous "
+              "relax and 3e-3, 1e-2 by continuous shearing at I = 1e-3 (`docs/models/dem.md`: there the continuous "
               "loops were 6-16 % stiffer than step and relax on 'dense').", "",
               "| packing | p′ kPa | γ | model | G/Gmax | damping % | Menq G/Gmax | Menq damping % | Darendeli G/Gmax | "
               "Darendeli damping % |", "|---|---|---|---|---|---|---|---|---|---|"]

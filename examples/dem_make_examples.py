@@ -26,7 +26,7 @@ net = random_network(250, coordination=7.0, cell=cell, radius_range=(0.9, 1.1), 
 write_liggghts(net, here / "dem_liggghts_contacts.dump", here / "dem_liggghts_particles.dump")
 write_table(net, here / "dem_table_contacts.csv", here / "dem_table_particles.csv")
 (here / "dem_material.toml").write_text(
-    "# grain properties for `grainmech dem` (quartz-like), see docs/dem.md\n"
+    "# grain properties for `grainmech dem` (quartz-like), see docs/networks.md\n"
     "[material]\nshear_modulus = \"29 GPa\"\npoisson = 0.15\n\n"
     "[stiffness]\nsource = \"overlap\"   # auto | overlap | force | columns | constant\n"
     "geometric = false\n\n"

@@ -9,7 +9,7 @@ or ``exec(open("yade_export.py").read()); export("out_prefix")`` from the consol
 
 It writes ``<prefix>_contacts.csv`` and ``<prefix>_particles.csv`` in the format read by
 ``grainmech.io.dem.read_table`` / ``grainmech dem <prefix>_contacts.csv --particles
-<prefix>_particles.csv`` (see docs/dem.md):
+<prefix>_particles.csv`` (see docs/networks.md):
 
 * contacts: ``id1,id2,fx,fy,fz,cpx,cpy,cpz,delta,kn,ks`` - one row per *real* interaction
   between two spheres; ``f = i.phys.normalForce + i.phys.shearForce``. In YADE's

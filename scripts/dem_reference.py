@@ -9,7 +9,7 @@ shear ``gamma_xz`` at constant volume by the DEM model
 the relaxed start state, two cycles (the last analysed), run three times (reference
 settings, ramp rate halved, drag doubled) to show the answer does not depend on them;
 ``cyclic-stress``: the same at constant normal stress (reference settings only). See
-docs/packing.md.
+docs/packings.md.
 
 The stored ``dense-cyclic*.json`` were made by the earlier reference runner (cyclic
 simple shear ``gamma_xy``, amplitudes in increasing order on the same packing, one cycle

@@ -81,14 +81,36 @@ def test_unknown_key_message_is_the_documented_one(tmp_path, cli):
 
 
 def test_doc_references_exist():
-    """Every docs/<name>.md named in the docs and the README exists."""
-    files = sorted(DOCS.glob("*.md")) + [ROOT / "README.md"]
+    """Every docs/<path>.md named in the docs (docs/models/ too), the README, ARCHITECTURE.md,
+    the sources, the examples and the tests exists, and so does every picture a page shows."""
+    files = (sorted(DOCS.rglob("*.md")) + [ROOT / "README.md", ROOT / "ARCHITECTURE.md"]
+             + sorted(SRC.rglob("*.py")) + sorted(SRC.rglob("*.toml")) + sorted(EX.glob("*"))
+             + sorted((ROOT / "tests").rglob("*.py")) + sorted((ROOT / "benchmarks").glob("*.py")))
     missing = []
     for f in files:
-        for name in re.findall(r"docs/([\w.-]+\.md)", f.read_text()):
+        if not f.is_file() or f.suffix not in (".md", ".py", ".toml"):
+            continue
+        text = f.read_text()
+        for name in re.findall(r"docs/([\w./-]+?\.md)\b", text):
             if not (DOCS / name).exists():
-                missing.append(f"{f.name}: docs/{name}")
+                missing.append(f"{f.relative_to(ROOT)}: docs/{name}")
+        if f.suffix == ".md":
+            for pic in re.findall(r"!\[[^]]*\]\(([^)\s]+)\)", text):
+                if not pic.startswith("http") and not (f.parent / pic).exists():
+                    missing.append(f"{f.relative_to(ROOT)}: picture {pic}")
     assert not missing, missing
+
+
+def test_docs_are_named_after_the_rooms():
+    """One page per kinematic model under docs/models/ (named as [model] method), making
+    packings in docs/packings.md, contact networks in docs/networks.md; no page keeps an old name."""
+    from grainmech.driver.registry import MODELS
+
+    assert sorted(p.stem for p in (DOCS / "models").glob("*.md")) == sorted(MODELS)
+    for old in ("driver", "packing-driver", "dem-model", "packing", "dem", "tensors"):
+        assert not (DOCS / f"{old}.md").exists(), old
+    assert (DOCS / "packings.md").read_text().startswith("# Making packings")
+    assert (DOCS / "networks.md").read_text().startswith("# DEM contact networks")
 
 
 def test_output_units_are_what_conventions_md_says():

@@ -1,6 +1,6 @@
 """Seed Sec. 6.3.2 / Fig. 6.10-6.12: moduli along three stress paths, both initial-state methods.
 
-Analytic reference (derived in docs/driver.md): for an isotropic fabric the static
+Analytic reference (derived in docs/models/affine.md): for an isotropic fabric the static
 estimate gives f = sigma . n (up to a constant), so with sigma = diag(s3, s3, s1) and
 n = (sin t, 0, cos t): T/N = (R - 1) sin t cos t / (sin^2 t + R cos^2 t), R = s1/s3,
 maximal at tan t = sqrt(R) where it equals (R - 1)/(2 sqrt R). Setting it to tan(phi_mu)

@@ -262,7 +262,7 @@ def test_kinetic_damping_and_drags_record_the_same_states_on_dense() -> None:
     simple shear at 1e-4, constant volume, 2 cycles x 8 steps, with kinetic damping
     (``DemSettings.damping = "kinetic"``) and with the default viscous drags give G within 0.5 % and
     damping within 0.002 (measured with 16 steps per cycle: 183.048 vs 183.05 MPa, 1.800 vs
-    1.80 %, ``docs/dem-model.md`` "Relaxation")."""
+    1.80 %, ``docs/models/dem.md`` "Relaxation")."""
     from grainmech.contact import HertzMindlin
     from grainmech.driver.dem import dem_modulus_reduction
     from grainmech.packing import load_packing, packing_info

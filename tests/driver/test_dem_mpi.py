@@ -54,7 +54,7 @@ def test_two_ranks_give_the_same_cycle_as_one() -> None:
     assert abs(two.G[0] / one.G[0] - 1.0) < 0.01
     assert abs(two.damping[0] - one.damping[0]) < 0.005
     assert abs(two.G_max / one.G_max - 1.0) < 1e-6  # same start state, same relaxed tensor
-    # a physical value, not just two equal ones: the packing's G at 1e-5 is ~197 MPa (docs/dem-model.md)
+    # a physical value, not just two equal ones: the packing's G at 1e-5 is ~197 MPa (docs/models/dem.md)
     assert 150e6 < one.G[0] < 250e6
     notes = two.results[0].notes
     assert any("2 MPI ranks" in n for n in notes) and not any("MPI ranks" in n for n in one.results[0].notes)

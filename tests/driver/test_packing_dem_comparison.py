@@ -10,7 +10,7 @@ cycle of sixteen increments. The packing driver runs the same strain path with
 ``HertzMindlin`` (the same contact model) on the same network.
 
 Tolerances are those of the packing-driver specification: secant G within 5 %, damping
-ratio within 0.01 (absolute). Seen (``docs/packing-driver.md``, 2026-11-26): γ = 1e-5,
+ratio within 0.01 (absolute). Seen (``docs/models/packing.md``, 2026-11-26): γ = 1e-5,
 G 195.84 vs 195.77 MPa, D 0.106 % vs 0.069 %, 2.8 s; γ = 1e-4, G 180.18 vs 179.83 MPa,
 D 2.75 % vs 2.54 %, 11.8 s (150 s, 2026-11-25, before the Anderson-accelerated
 iterations and the step-relative acceptance; ~6 minutes before that, when this case ran

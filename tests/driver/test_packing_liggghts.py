@@ -5,7 +5,7 @@ with ``examples/liggghts/pack.in`` (the packing) and ``cyclic.in`` (constant-vol
 simple shear), summarised by ``examples/liggghts/summarise.py``; its header records how, and
 LIGGGHTS' own pressure tensor of the packing. Issues 28 and 29, "How it will be checked":
 secant G within 10 % of LIGGGHTS' at 1e-5 (the full 2-cycle comparison at 1e-5 and 1e-4 is
-``benchmarks/foreign_packing.py``, table in ``docs/dem.md``). No LIGGGHTS is run here.
+``benchmarks/foreign_packing.py``, table in ``docs/networks.md``). No LIGGGHTS is run here.
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ def test_packing_model_at_1e5_matches_liggghts(network):
     kept), Hertz-Mindlin quartz, constant volume, 1e-5: secant G within 10 % of LIGGGHTS'
     own (liggghts_cyclic.csv, amplitude 1e-5; issue 29's check). One cycle of 8 steps against
     LIGGGHTS' first cycle (both from gamma = 0, the virgin quarter included; the benchmark
-    compares the second cycles of 2 x 16 steps: 48.63 against 48.04 MPa, docs/dem.md).
+    compares the second cycles of 2 x 16 steps: 48.63 against 48.04 MPa, docs/networks.md).
 
     The test is LIGGGHTS' (examples/liggghts/cyclic.in): pure shear eps_xx = -eps_zz = gamma/2
     at constant volume, x extending first, sinusoidal, i.e. simple shear in the axes rotated

@@ -550,7 +550,7 @@ def test_step_budget_stops_the_run_and_keeps_results():
     """PackingOptions.max_step_work: a step that spends its budget (residual evaluations plus
     GMRES iterations) stops the run with status 1, naming the budget and the out-of-balance
     measures reached, and keeps the steps before. On the shipped 'medium' packing at 1e-4
-    the third step costs 261 (docs/packing-driver.md, "Step budget"), so a budget of 100
+    the third step costs 261 (docs/models/packing.md, "Step budget"), so a budget of 100
     stops the run within its first steps. Every accepted step stays within the equilibrium
     bar of issue 29 (largest grain residual <= 0.05 of the mean contact force)."""
     from grainmech.driver.packing.options import ACCEPT_MAX_FORCE
@@ -579,7 +579,7 @@ def test_rest_acceptance_is_bounded_by_the_step_stress_change(point):
     """PackingOptions.rest_step: a stalled (sub)step at rest by the DEM's measure (mean
     unbalanced force ratio <= accept_unbalanced) is accepted only when the stress uncertainty
     its out-of-balance forces leave, sum_p |M_p| here, is at most rest_step times the step's
-    stress change (docs/packing-driver.md, "Convergence and acceptance"). Out-of-balance
+    stress change (docs/models/packing.md, "Convergence and acceptance"). Out-of-balance
     moments of alternating sign on every grain (mean ratio 5e-5, at rest) against a step
     whose stress change makes that uncertainty 0.5 % (accepted) or 5 % (refused, but
     accepted with rest_step = inf) of it."""

@@ -293,7 +293,7 @@ def _cv_run(dp: float, n: int = 8):
 def test_packing_loops_whose_mean_stress_drifts_at_constant_volume_are_flagged(tmp_path, monkeypatch, cli):
     """Issue 29 (honest outputs): a packing-model loop at constant volume whose mean stress
     changes by more than REARRANGEMENT_DP is flagged. The cases are the measured ones of
-    docs/packing-driver.md ("Where the fixed geometry holds", Hertz-Mindlin): 'loose' at 3e-5
+    docs/models/packing.md ("Where the fixed geometry holds", Hertz-Mindlin): 'loose' at 3e-5
     (-0.0196; the DEM model's G differs by 6.9 %) and 1e-4 (-0.1177; +20 %) flagged, 'medium'
     at 1e-4 (-0.0028; within 0.2 % of the DEM) and 'dense' at 3e-4 (+0.0017; 1.0 %) not."""
     from grainmech.driver.loop import ModulusReduction

@@ -1,7 +1,7 @@
 """DEM references stored in tests/data/dem_reference (made with LAMMPS by
 scripts/dem_reference.py on the shipped "dense" packing; these tests need no LAMMPS).
 
-* Strain probes (strain 1e-6, quasi-static, docs/packing.md) against grainmech's relaxed
+* Strain probes (strain 1e-6, quasi-static, docs/packings.md) against grainmech's relaxed
   tensor ``C_affine - (1/V) B^T H^+ B`` (Lemaitre & Maloney 2006, Eq. 12; Kruyt &
   Rothenburg 1998) of the same re-equilibrated network with Hertz-Mindlin no-slip contact
   stiffnesses (seed Eq. 3.7, 3.11-3.12): within 5 % in bulk and shear modulus.

@@ -75,7 +75,7 @@ def test_simple_cubic_lattice_stress():
 def test_pack_command_small_loose_packing(tmp_path, cli):
     """``grainmech pack`` end to end on 120 grains (frictional preparation, fast; one thread,
     so the run is deterministic: packings this small do not always bring every shear stress
-    within 0.5 % of zero, see docs/packing.md)."""
+    within 0.5 % of zero, see docs/packings.md)."""
     from grainmech.io.dem import read_network
     from grainmech.packing import unbalanced_ratio
 

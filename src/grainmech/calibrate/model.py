@@ -264,7 +264,7 @@ def _point(model: dict, allowed: tuple[str, ...], validate: bool) -> Any:
 
 
 def _predict_stress_strain(model: dict, data: Dataset, settings: dict, validate: bool) -> dict:
-    """Driver path through the rows (seed Ch. 2 kinematics, driver docs/driver.md)."""
+    """Driver path through the rows (seed Ch. 2 kinematics, driver docs/models/affine.md)."""
     point = _point(model, DATA_KINDS["stress-strain"].model_keys, validate)
     mask = settings["control"]
     sub = settings["substeps"]

@@ -3,7 +3,7 @@
 Reads a DEM contact network (LIGGGHTS/LAMMPS local dump, generic CSV/NPZ table), and
 writes its Love-Weber stress, fabric, coordination, affine and relaxed stiffness tensors,
 engineering constants and plots to OUTDIR (default ``./grainmech-out/dem``). See
-``docs/dem.md``.
+``docs/networks.md``.
 
 Material config (TOML, all tables optional)::
 

@@ -12,7 +12,7 @@ packing there as it was). Progress lines go to stderr while LAMMPS runs, at leas
 10 s: the stage, the mean stress and its target, the void ratio, the unbalanced force
 ratio and, once it can be estimated, the time left in the stage. Exit status 2 for bad
 input or missing LAMMPS, 1 when the preparation does not reach its target or the disk is
-full, 130 on Ctrl-C. See ``docs/packing.md``.
+full, 130 on Ctrl-C. See ``docs/packings.md``.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def register(sub: Any) -> None:
     """Add the ``grainmech pack`` sub-command and its options to ``sub`` (argparse sub-parsers)."""
     p = sub.add_parser("pack", help="prepare a periodic sphere packing at a target stress (LAMMPS)",
                        description=__doc__.splitlines()[0])
-    p.add_argument("config", help="TOML config (see examples/pack_*.toml and docs/packing.md)")
+    p.add_argument("config", help="TOML config (see examples/pack_*.toml and docs/packings.md)")
     p.add_argument("-o", "--outdir", default=default_outdir("pack"), help="output folder (default ./%(default)s)")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.add_argument("--no-plot", action="store_true", help="do not write packing.png")

@@ -38,7 +38,7 @@ REV_TOL = 1e-6
 #: *sign* would otherwise decide whether the branch reverses: a reversal pushed or not, the
 #: branch direction and the tangent (theta) then differ between two runs that differ only
 #: by rounding, and the forces part at the next real reversal (by up to 5e-4 of the stress
-#: on a 194-direction path, compiled loop against the NumPy reference; docs/driver.md).
+#: on a 194-direction path, compiled loop against the NumPy reference; docs/models/affine.md).
 #: Dropping a component of 1e-12 of the increment changes the force by at most that
 #: fraction of ``kt0 |d_t|``.
 PAR_TOL = 1e-12

@@ -5,7 +5,7 @@ Public API
 :class:`MaterialPoint` (``isotropic``, ``at_stress`` with ``initial="state-estimate"`` or
 ``"path-following"``, ``from_forces``), :func:`run` -> :class:`DriverResult`,
 :class:`SolverOptions`, and the path builders of :mod:`grainmech.driver.paths`.
-See ``docs/driver.md``. The affine model (the seed's material point) is in
+See ``docs/models/affine.md``. The affine model (the seed's material point) is in
 :mod:`grainmech.driver.affine`, the packing model in :mod:`grainmech.driver.packing`, the
 DEM model in :mod:`grainmech.driver.dem`.
 """

@@ -65,7 +65,7 @@ def _csv_header(rd: LineReader) -> tuple[list[str], dict[str, str], str | None]:
 def read_table(contacts: str | os.PathLike, particles: str | os.PathLike | None = None, *,
                force_on: str | None = None,
                progress: Callable[[int, int], None] | None = None) -> ContactNetwork:
-    """Read the generic contact table (CSV or NPZ) and particle table; see ``docs/dem.md``.
+    """Read the generic contact table (CSV or NPZ) and particle table; see ``docs/networks.md``.
 
     Contact columns (CSV header or NPZ array names): ``id1, id2, fx, fy, fz`` required
     (force exerted **by id1 on id2**, i.e. acting on id2; compression gives

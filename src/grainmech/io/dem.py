@@ -1,7 +1,7 @@
 """Readers (and writers) of DEM contact networks: LIGGGHTS, LAMMPS, generic CSV/NPZ.
 
 Every reader returns a :class:`grainmech.network.ContactNetwork` in grainmech's
-convention (``docs/conventions.md``, ``docs/dem.md``): each contact once, from particle
+convention (``docs/conventions.md``, ``docs/networks.md``): each contact once, from particle
 A = ``id1`` to B = ``id2``, branch ``l = x_B - x_A`` (periodic minimum image), force
 ``f`` exerted **by A on B**, compression positive.
 

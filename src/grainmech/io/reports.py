@@ -451,10 +451,10 @@ def _run_intro(summary: dict, compare: bool, models: list) -> str:
                            "strain, on the analytical fabric), an upper bound that cannot fail",
                  "packing": "<b>packing</b>, a packing of grains in which every grain moves and turns until it "
                             "is in force and moment equilibrium at every step, in a fixed reference geometry "
-                            "(docs/packing-driver.md)",
+                            "(docs/models/packing.md)",
                  "dem": "<b>dem</b>, the same grains in LAMMPS, strained in ramped increments and relaxed to "
                         "equilibrium at every recorded state: contacts form and break, grains rearrange "
-                        "(docs/dem-model.md)"}
+                        "(docs/models/dem.md)"}
         intro += (f"<p>{len(models)} kinematic models of the same sand: "
                   + "; ".join(words[m["method"]] for m in models) + ".</p>")
     return intro
@@ -545,7 +545,7 @@ def _cyclic_part(d: Path, summary: dict, m: dict, compare: bool, pre: str, secti
     if pg:
         head += ("<p>" + html.escape(packing_gmax_line(pg, m["G_max_Pa"]).strip()) + ". The packing's "
                  "Gmax is the small-strain shear modulus with every grain in force and moment "
-                 "equilibrium (packing driver, docs/packing-driver.md); the affine model makes every "
+                 "equilibrium (packing driver, docs/models/packing.md); the affine model makes every "
                  "contact follow the mean strain, an upper bound.</p>")
     head += table
     sections.append(PageSection(f"{pre}loops", "Stress-strain loops" + (f" ({m['method']})" if compare else ""),

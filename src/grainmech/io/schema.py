@@ -683,9 +683,9 @@ GRAIN_SHEAR_MODULUS_RANGE = (1e6, 1e12)
 
 
 def build_pack_config(cfg: dict) -> PackConfig:
-    """Read a ``grainmech pack`` config (``docs/packing.md``).
+    """Read a ``grainmech pack`` config (``docs/packings.md``).
 
-    Read a ``grainmech pack`` config (``docs/packing.md``): tables ``[grains]``,
+    Read a ``grainmech pack`` config (``docs/packings.md``): tables ``[grains]``,
     ``[material]``, ``[preparation]``; strict keys, quantities with units.
 
     ``[grains]``: ``count`` (>= 50), ``distribution`` = ``"sieve"`` (``sizes``, list of

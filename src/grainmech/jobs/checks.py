@@ -215,7 +215,7 @@ def last_cycle_quality(result: Any, steps_per_cycle: int) -> Any:
 
 
 #: change of mean stress over a constant-volume cyclic run of the packing model above which
-#: its loop is flagged: against the DEM model on the same grains (``docs/packing-driver.md``,
+#: its loop is flagged: against the DEM model on the same grains (``docs/models/packing.md``,
 #: "Where the fixed geometry holds"), where the packing model's change stays within 0.3 %,
 #: the two agree within 1 % in G on 'dense' and 'medium' and on 'loose' at 1e-5 within the
 #: DEM's own spread with its damping (0.4 % and 3.3 %); they differ by 6.9 % and 20 % where
@@ -242,7 +242,7 @@ def rearrangement_warnings(model: str | KinematicModel, constant: str, amplitude
     packing whose grains rearrange changes its mean stress (an undrained test's pore
     pressure; in sands from the volumetric threshold shear strain, Vucetic 1994); the
     packing model's fixed geometry follows that change in sign and size but not the loop
-    (``docs/packing-driver.md``). An amplitude whose ``|p_end / p_0 - 1|`` exceeds
+    (``docs/models/packing.md``). An amplitude whose ``|p_end / p_0 - 1|`` exceeds
     :data:`REARRANGEMENT_DP` is flagged. Models without a fixed geometry and constant
     stress: none.
     """
@@ -253,6 +253,6 @@ def rearrangement_warnings(model: str | KinematicModel, constant: str, amplitude
             out.append(f"packing model, amplitude {a:.1e}: the mean stress changed by {100 * dp:+.1f} % over the "
                        f"constant-volume cycles (more than {100 * REARRANGEMENT_DP:g} %): the grains rearrange "
                        "here, which the packing model's fixed geometry does not follow; against the DEM model on "
-                       "the same grains such loops were 7-20 % off in G (docs/packing-driver.md, 'Where the fixed "
+                       "the same grains such loops were 7-20 % off in G (docs/models/packing.md, 'Where the fixed "
                        "geometry holds'): method = \"dem\" is the model for this amplitude")
     return out

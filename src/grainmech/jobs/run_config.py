@@ -122,7 +122,7 @@ def _read_packing_options(model: Any) -> dict:
 
     Both are the bounds of its fixed reference geometry (a grain's displacement
     fluctuation as a fraction of its radius; a strain component); a step past either stops
-    the amplitude (``docs/packing-driver.md``, "Small-strain range").
+    the amplitude (``docs/models/packing.md``, "Small-strain range").
     """
     if not model.has("packing_options"):
         return {}

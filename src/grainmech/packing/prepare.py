@@ -1,6 +1,6 @@
 """Preparing a periodic, mechanically stable sphere packing with LAMMPS.
 
-Procedure (``docs/packing.md``):
+Procedure (``docs/packings.md``):
 
 1. **Gas.** ``n`` spheres with radii from a grading (:mod:`grainmech.packing.grading`)
    placed at random without overlap (random sequential addition) in a periodic

@@ -12,7 +12,7 @@ same grains (``nevada-limits.json``):
 * ``"nevada-loose"`` - preparation friction 0.5 and rolling friction 0.25 (the grains');
 * ``"nevada-dense"`` - preparation friction 0.09, no preparation rolling friction; the
   grains' rolling resistance starts unloaded at the prepared state (``grain_rolling =
-  "after"``, ``docs/packing.md``), so its contact moments are zero.
+  "after"``, ``docs/packings.md``), so its contact moments are zero.
 
 Smooth-sphere packings (``D50 = 0.3 mm``, ``Cu = 1.3``, sizes cut to a ratio of 2.5, no
 rolling resistance: glass-bead-like grains, kept for comparison):

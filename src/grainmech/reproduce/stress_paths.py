@@ -37,7 +37,7 @@ def critical_ratio(friction_angle_deg: float = INPUTS["friction_angle_deg"]) -> 
     """``R* = (1 + sin phi_mu)/(1 - sin phi_mu)``: onset of sliding in the state estimate.
 
     For an isotropic fabric the estimate gives ``f ~ sigma . n``; ``T/N`` is largest where
-    ``tan t = sqrt(R)`` and reaches ``tan phi_mu`` at ``R*`` (``docs/driver.md``).
+    ``tan t = sqrt(R)`` and reaches ``tan phi_mu`` at ``R*`` (``docs/models/affine.md``).
     """
     s = math.sin(math.radians(friction_angle_deg))
     return (1 + s) / (1 - s)

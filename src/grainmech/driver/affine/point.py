@@ -139,7 +139,7 @@ class MaterialPoint:
     def at_stress(cls, source: Any, law: Any, sigma: Any, *, initial: str = "state-estimate",
                   start_pressure: float | None = None, n_steps: int = 50, extra_degree: int = 4,
                   backend: str = "auto", **run_options: Any) -> MaterialPoint:
-        """Point at an anisotropic stress, by one of two methods (``docs/driver.md``).
+        """Point at an anisotropic stress, by one of two methods (``docs/models/affine.md``).
 
         Parameters
         ----------

@@ -15,7 +15,7 @@ drags by default, ``DemSettings.damping``) until (a) the unbalanced force ratio 
 steps by less than ``settle`` times its change over the step. Only these equilibrium
 states are recorded; on a dense packing the damping and the ramp rate change the path
 between them, not the states, while on a loose one the equilibrium a step ends in depends
-on the dynamics that lead to it (``docs/dem-model.md`` measures both). At constant volume
+on the dynamics that lead to it (``docs/models/dem.md`` measures both). At constant volume
 a path that loses its mean stress ends as liquefied (``DemSettings.liquefaction``).
 
 **Mixed control.** Stress-controlled components (``sigma_zz`` at constant normal stress,

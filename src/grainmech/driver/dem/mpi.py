@@ -9,7 +9,7 @@ sub-domains (its own domain decomposition), and the network each check needs is 
 on every rank (:meth:`grainmech.lammps.engine.Lammps.atom_all`), so all ranks take the
 same decisions. Rank 0 sends progress lines (JSON) on its standard output and writes the
 result; the caller reads both. The result is the same as on one rank up to the order of
-floating-point sums (G within 1 % on 'dense', ``docs/dem-model.md``).
+floating-point sums (G within 1 % on 'dense', ``docs/models/dem.md``).
 
 The launcher is the ``mpiexec`` next to the Python interpreter (the ``mpich`` wheel of
 ``grainmech[dem]`` installs it there) or the first on ``PATH``. Each rank runs LAMMPS on

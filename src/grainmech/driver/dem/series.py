@@ -362,7 +362,7 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
     (:func:`grainmech.network.relaxed_stiffness` with the no-slip Hertz-Mindlin
     stiffnesses LAMMPS uses, condensed with the path's control: ``sigma_zz`` free at
     constant stress): the small-strain limit of the same DEM state, which LAMMPS' own
-    strain probes reproduce to 0.13 % on 'dense' (``docs/packing.md``).
+    strain probes reproduce to 0.13 % on 'dense' (``docs/packings.md``).
 
     ``workers`` > 1 runs the amplitudes side by side in that many processes (each
     LAMMPS runs on one core; the amplitudes are independent): the same results, in the

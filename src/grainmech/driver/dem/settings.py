@@ -32,7 +32,7 @@ PROTOCOLS = ("relax", "continuous", "auto")
 #: this strain (a drained triaxial test to failure, where every relaxation of a flowing
 #: packing costs ~1e5 time steps), by step and relax otherwise (every cyclic amplitude:
 #: continuous shearing at 1e-3 and 1e-2 gave secant moduli 6 % and 15 % above step and
-#: relax on 'dense', beyond the 2 % the choice must hold; ``docs/dem-model.md``)
+#: relax on 'dense', beyond the 2 % the choice must hold; ``docs/models/dem.md``)
 AUTO_CONTINUOUS_STRAIN = 1e-2
 
 
@@ -131,7 +131,7 @@ class DemSettings:
         comes to rest where the drags leave a loose packing's stress creeping and takes
         fewer time steps at large strain; at 1e-2 one run of a 2000-grain packing scatters
         by about 2.5 % in G (a 1e-9 R perturbation of the start suffices), and the settings
-        move the mean of 6 perturbed runs by at most 1.4 % (``docs/dem-model.md``).
+        move the mean of 6 perturbed runs by at most 1.4 % (``docs/models/dem.md``).
     cundall : float
         Cundall's local damping coefficient in (0, 1), used with ``damping = "cundall"``.
     fallback : bool

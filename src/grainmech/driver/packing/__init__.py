@@ -17,7 +17,7 @@ equilibrium residuals), :class:`PackingOptions`, :func:`packing_modulus_reductio
 (G/Gmax and damping, an :class:`grainmech.analysis.ModulusReduction`),
 :func:`equilibrate_network` (a stable packing from an unbalanced network) and
 :func:`unbalanced_force_ratio`. The derivation and its sources are in
-``docs/packing-driver.md``.
+``docs/models/packing.md``.
 
 Modules: the options in :mod:`grainmech.driver.packing.options`, the point and the run in
 :mod:`grainmech.driver.packing.point`, the step solver in

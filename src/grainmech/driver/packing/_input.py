@@ -100,7 +100,7 @@ def _cap_small_excess(net: ContactNetwork, N: np.ndarray, T: np.ndarray, frictio
     times the normal force, which is not the force that acted: capped to ``mu N``, the
     contact forces of the shipped LIGGGHTS packing balance every grain 60 times better
     (mean out-of-balance force 1.5e-4 -> 2.3e-6 of the mean contact force,
-    ``docs/dem.md``, "A packing from LIGGGHTS"). Such forces are capped when (1) every
+    ``docs/networks.md``, "A packing from LIGGGHTS"). Such forces are capped when (1) every
     excess ``|T| - mu N`` is below :data:`TANGENTIAL_EXCESS_CAP` of the mean normal force
     and (2) capping lowers the grains' mean out-of-balance force; otherwise they are left
     for :func:`initial_contact_state` to reject. The capped forces are the input state (what is

@@ -5,7 +5,7 @@ right-preconditioned GMRES (``krylov_direction``), the per-grain trust limits (`
 ``clip_grain_moves``, ``stop_closing``), the step tangent of the contact laws (``step_tangent``,
 ``slip_rotation``), the held input imbalance (``held_load``), the stress uncertainty of
 out-of-balance forces (``stress_ambiguity``) and the solver's trace output. The method
-and its sources are in ``docs/packing-driver.md``.
+and its sources are in ``docs/models/packing.md``.
 """
 
 from __future__ import annotations
@@ -291,7 +291,7 @@ def held_load(point: PackingPoint, resp: Any) -> np.ndarray:
     the part kept does no work on any such motion (it is the load minus its orthogonal
     projection on them, rotations scaled by the grain radius). The first case was the
     rule before; the second drove a grain held by two weak contacts of the 500-grain
-    packing of ``docs/packing-driver.md`` around its contact axis by 0.17 rad and 4 % of
+    packing of ``docs/models/packing.md`` around its contact axis by 0.17 rad and 4 % of
     its radius in 68 steps at γ = 3e-5, until the small-strain check stopped the run.
     """
     kin = point.kinematics
@@ -379,7 +379,7 @@ def _mechanisms(kin: Kinematics, R: np.ndarray, closed: np.ndarray) -> tuple[np.
 def hold_mechanisms(kin: Kinematics, dxq: np.ndarray, R: np.ndarray, closed: np.ndarray) -> np.ndarray:
     """Grain update ``dxq`` without its parts along each grain's mechanisms (:func:`_mechanisms`).
 
-    The driver's rule for a grain that loses contacts (``docs/packing-driver.md``,
+    The driver's rule for a grain that loses contacts (``docs/models/packing.md``,
     "Opening and closing"): a motion along a mechanism changes no contact, so no force
     acts along it (the contacts do no work on it and the held load's share there is
     dropped, :func:`held_load`) and equilibrium does not fix it. The grain keeps its

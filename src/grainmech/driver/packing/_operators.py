@@ -1,6 +1,6 @@
 """Kinematics, residuals and linear algebra of the packing driver (private).
 
-Conventions (as :func:`grainmech.network.relaxed_stiffness`, ``docs/packing-driver.md``):
+Conventions (as :func:`grainmech.network.relaxed_stiffness`, ``docs/models/packing.md``):
 every tracked contact ``c`` joins grains ``A = a[c]`` and ``B = b[c]`` (rows of the
 non-rattler grains), branch ``l = x_B - x_A`` (periodic image), unit normal ``n = l/|l|``,
 lever arms ``r_A = R_A n`` and ``r_B = -R_B n``. Each grain has six fluctuation
@@ -196,7 +196,7 @@ def contact_tangent(n: np.ndarray, kn: np.ndarray, ks: np.ndarray, ks_perp: np.n
 
     ``K = kn n n + ks_perp (I - n n) + (ks - ks_perp) e e + ktn e n`` with ``e`` the slip
     axis and ``ktn = d tau / d alpha`` (seed Eq. 3.11; Thornton & Randall 1988), as the
-    material-point driver assembles it (``docs/driver.md``).
+    material-point driver assembles it (``docs/models/affine.md``).
     """
     nn = n[:, :, None] * n[:, None, :]
     ee = axis[:, :, None] * axis[:, None, :]
@@ -258,7 +258,7 @@ def openblas_one_thread() -> Any:
     threads; OpenBLAS' own threads, spinning between them, cost more than they gain: the
     built-in default run took 56.3 s with them, 52.1 s with ``OPENBLAS_NUM_THREADS=1``
     set by hand and 48.0 s with this limit (2 cores); on a loaded machine
-    Gram-Schmidt took 24 ms per product instead of under 1 ms (``docs/packing-driver.md``).
+    Gram-Schmidt took 24 ms per product instead of under 1 ms (``docs/models/packing.md``).
     MKL (PARDISO) keeps its own setting.
     """
     try:

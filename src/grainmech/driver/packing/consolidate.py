@@ -97,7 +97,7 @@ def dem_consolidated(net: ContactNetwork, law: Any, pressure: float,
         if settings is not None:
             raise
         # the default drags leave a loose packing creeping when it is unloaded; kinetic
-        # damping comes to rest there (docs/dem-model.md, "Relaxation")
+        # damping comes to rest there (docs/models/dem.md, "Relaxation")
         tried.append(f"with the viscous drags the DEM model did not settle ({exc}); it relaxed with kinetic damping")
         dp = DemPoint.start(net, law, DemSettings(damping="kinetic"), pressure=pressure, rolling=rolling)
     with dp:

@@ -50,7 +50,7 @@ class PackingOptions:
         The imbalance left is not lost: the next step starts from it. ``rtol_step = 0``:
         the stress scale alone (on a 500-grain DEM packing at γ = 3e-4 that stopped the
         run at a contact at touch whose uncertainty was ~3 Pa against a 40 kPa shear
-        amplitude, see ``docs/packing-driver.md``).
+        amplitude, see ``docs/models/packing.md``).
     accept_unbalanced : float
         A (sub)step whose iterations stall is also accepted when the packing is at rest by
         a DEM's measure: the mean unbalanced force ratio (:func:`unbalanced_force_ratio`,
@@ -65,7 +65,7 @@ class PackingOptions:
         packing at 1e-4 and constant volume, steps stalled at a mean ratio of 2e-5 … 1e-4
         with a few contacts sliding on each of many grains (a fixed geometry cannot
         rearrange them); with ``0`` the run was still halving a step after 34 min, with
-        ``1e-4`` it completed (``docs/packing-driver.md``).
+        ``1e-4`` it completed (``docs/models/packing.md``).
     rest_step : float
         Acceptance at rest (``accept_unbalanced``) also asks that the stress uncertainty
         the out-of-balance forces leave is at most this fraction of the step's stress
@@ -90,7 +90,7 @@ class PackingOptions:
         ``max_depth``) is solved by
         committed relaxation (overdamped pseudo-time stepping whose every update is
         committed to the contact laws' history, as a quasi-static DEM relaxes; see
-        ``docs/packing-driver.md``); ``None``: never, the step fails after ``max_depth``
+        ``docs/models/packing.md``); ``None``: never, the step fails after ``max_depth``
         halvings.
     relax_iter : int
         Updates of one committed relaxation.
@@ -122,7 +122,7 @@ class PackingOptions:
         laws'). The elastic tangent (``G_max``) is solved to 1e-10 with the unshifted
         operator whatever this is. On the shipped 'medium' packing at γ = 1e-5 the
         default 1e-4 let 80 steps finish where 1e-10 stopped at step 21
-        (``docs/packing-driver.md``).
+        (``docs/models/packing.md``).
     reproducible : bool
         PARDISO factorises (and then solves) on one thread, so that the same input gives
         the same run (default). ``False``: on every core, ~1.5x faster solves, but its
@@ -140,7 +140,7 @@ class PackingOptions:
         continuation, step halving and committed relaxation) goes on from their best
         point. ``0``: Newton-Krylov from the start. On the
         shipped 'dense' packing at γ = 1e-4 the first 20 steps took 10.3 s instead of
-        47.0 s, with the same loop (``docs/packing-driver.md``).
+        47.0 s, with the same loop (``docs/models/packing.md``).
     settle : float
         The Anderson iterations of a (sub)step stop as soon as the stress uncertainty
         their out-of-balance forces leave (as for ``rtol_accept``/``rtol_step``) is below
@@ -151,7 +151,7 @@ class PackingOptions:
         stress. ``0``: iterate to ``rtol``.
         On the built-in default run ('dense', 2 x 40 steps at 1e-6, 1e-5, 1e-4) the
         default 0.1 took 19.8 s instead of 45.4 s, with G/Gmax within 2.6e-5 and damping
-        within 0.0016 % (absolute) of iterating to ``rtol`` (``docs/packing-driver.md``).
+        within 0.0016 % (absolute) of iterating to ``rtol`` (``docs/models/packing.md``).
         On looser packings at 1e-4 (shipped 'medium'), where the fixed geometry is near
         its limit, whether a run completes can depend on round-off with either setting;
         if a run on a loose packing stops, try ``settle=0``.
@@ -163,7 +163,7 @@ class PackingOptions:
         out-of-balance measures reached and the results so far: where a fixed geometry has
         no equilibrium (grains that would roll off and rearrange in a DEM), halving and
         committed relaxation otherwise crawl on for tens of minutes. The default is set
-        from the measurements in ``docs/packing-driver.md`` ("Step budget").
+        from the measurements in ``docs/models/packing.md`` ("Step budget").
     """
 
     rtol: float = 1e-8

@@ -5,7 +5,7 @@
 GMRES per column (``relaxed_tangent``), and the run: :func:`run_packing` ->
 :class:`PackingResult`, whose steps the step solver :mod:`grainmech.driver.packing.step`
 takes. The point's constructors run the driver (to settle the input, to reach a stress),
-so the two live together. The derivation is in ``docs/packing-driver.md``.
+so the two live together. The derivation is in ``docs/models/packing.md``.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ __all__ = ["PackingPoint", "PackingResult", "run_packing", "unbalanced_force_rat
 
 @dataclass(frozen=True, eq=False)
 class PackingPoint:
-    """Converged state of a packing (see module notes and ``docs/packing-driver.md``).
+    """Converged state of a packing (see module notes and ``docs/models/packing.md``).
 
     Attributes
     ----------
@@ -467,7 +467,7 @@ class PackingPoint:
         Over the grains with at least one closed contact: the small-strain check
         (``PackingOptions.max_fluctuation``) is on the geometry of the force network. A
         grain without a closed contact carries nothing, whatever its position (a rattler
-        in its cage; it does not move while free, ``docs/packing-driver.md``, "Opening and
+        in its cage; it does not move while free, ``docs/models/packing.md``, "Opening and
         closing"); bringing 'medium' from 100 to 800 kPa, such grains had been pushed by
         their closing neighbours by up to 5 % of their radius.
         """

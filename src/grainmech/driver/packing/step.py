@@ -3,7 +3,7 @@
 One (sub)step: Newton-Krylov iterations on every grain's fluctuation and the
 stress-controlled strains, with the consistent contact tangent, right-preconditioned
 GMRES, a per-grain trust limit, a line search, pseudo-transient continuation where Newton
-fails, and step halving. The method and its sources are in ``docs/packing-driver.md``.
+fails, and step halving. The method and its sources are in ``docs/models/packing.md``.
 
 The (sub)step: :func:`_solve` (predictor, Anderson iterations, Newton-Krylov with line
 search, pseudo-transient continuation, committed relaxation, acceptance) and
