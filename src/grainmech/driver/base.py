@@ -184,8 +184,8 @@ class KinematicModel(Protocol):
         The model in a sentence (``"packing model"``).
     needs_grains : bool
         True: it runs on a packing of grains (``[model] packing`` or ``network``) with the
-        run's law for spheres; False: on the analytical microstructure (``[packing]``,
-        ``[fabric]``), whose input warnings are then its own.
+        grain law (the run's law for spheres); False: on the analytical microstructure
+        (``[microstructure]``, ``[fabric]``), whose input warnings are then its own.
     settings_section : str or None
         Its own table ``[model.<settings_section>]``, if any.
     amplitudes_key, steps_per_cycle_key : str or None
