@@ -14,6 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
+from conftest import CYCLIC as RUN
 from grainmech.errors import ConfigError
 from grainmech.io.config import Section
 from grainmech.io.schema import build_microstructure, microstructure_key, renamed_table_warnings
@@ -37,26 +38,6 @@ friction = 0.5
 pressure = "100 kPa"
 """
 
-RUN = """
-[microstructure]
-void_ratio = 0.65
-coordination = 8.0
-radius = "0.25 mm"
-[contacts]
-law = "mindlin-deresiewicz"
-shear_modulus = "44 GPa"
-poisson = 0.08
-friction = 0.5
-[initial]
-pressure = "100 kPa"
-[quadrature]
-degree = 5
-[test]
-kind = "cyclic-simple-shear"
-amplitudes = [1e-5, 1e-4]
-n_cycles = 2
-steps_per_cycle = 16
-"""
 
 
 def _same(a, b) -> bool:
