@@ -102,6 +102,11 @@ def test_first_difference_names_the_dotted_key():
     assert first_difference(a, {**a, "extra": {}}) == "extra"
     assert first_difference(a, {"contacts": a["contacts"]}) == "test"
     assert first_difference({"s": [1, 2]}, {"s": [1, 3]}) == "s"
+    # a list of tables ([[layers]]) is followed into the table that differs
+    layers = {"layers": [{"name": "top", "e": 0.7}, {"name": "deep", "e": 0.6}]}
+    changed = {"layers": [{"name": "top", "e": 0.7}, {"name": "deep", "e": 0.65}]}
+    assert first_difference(layers, changed) == "layers[1].e"
+    assert first_difference(layers, {"layers": layers["layers"][:1]}) == "layers"
 
 
 def test_record_key_is_the_site_amplitude_key():

@@ -284,10 +284,14 @@ def test_resume_on_dask_skips_every_saved_amplitude_and_reruns_changed_ones(site
         again = json.loads((d / "layers/02-deep.json").read_text())
         assert again["G_ratio"] == pytest.approx(deep["G_ratio"], rel=1e-12)
         assert again["anchor"]["scale"] == deep["anchor"]["scale"]
+        # a changed profile is refused with resume, naming the key; without resume it runs again
         p2 = tmp_path / "p2.toml"
         p2.write_text(PROFILE.replace('void_ratio = 0.7', 'void_ratio = 0.72'))
-        s = run_site(load_profile(p2), d, client=client)
-    assert (s["amplitudes_reused"], s["amplitudes_run"], s["reused"]) == (4, 4, 1)
+        with pytest.raises(ConfigError, match=r"^layers\[0\]\.void_ratio = 0\.72: differs from the config of "
+                                              r"the profile being resumed .*there: 0\.7\)"):
+            run_site(load_profile(p2), d, client=client)
+        s = run_site(load_profile(p2), d, client=client, resume=False)
+    assert (s["amplitudes_reused"], s["amplitudes_run"]) == (0, 8)
 
 
 def test_stopped_layer_is_reported_others_complete_exit_1(tmp_path, cli, monkeypatch):

@@ -108,9 +108,17 @@ def normal_config(cfg: dict, leave_out: tuple[tuple[str, str], ...] = ()) -> dic
 def first_difference(old: Any, new: Any, where: str = "") -> str | None:
     """The dotted key of the first difference between two JSON values (keys in sorted order), or None.
 
-    A list that differs is named as a whole (``test.segments``); the empty string names
-    the top level.
+    A list of tables of the same length (``[[layers]]``) is followed into the first table
+    that differs (``layers[0].void_ratio``); any other list that differs is named as a
+    whole (``test.amplitudes``); the empty string names the top level.
     """
+    if (isinstance(old, list) and isinstance(new, list) and len(old) == len(new)
+            and all(isinstance(v, dict) for v in old + new)):
+        for i, (a, b) in enumerate(zip(old, new)):
+            d = first_difference(a, b, f"{where}[{i}]")
+            if d is not None:
+                return d
+        return None
     if isinstance(old, dict) and isinstance(new, dict):
         for k in sorted(set(old) | set(new)):
             sub = f"{where}.{k}" if where else str(k)
@@ -326,7 +334,13 @@ def check_config(path: str | Path, config: dict, what: str, hint: str, where: st
 def _value_at(cfg: Any, key: str) -> Any:
     """The value at a dotted ``key`` of a config (None where it is missing)."""
     v = cfg
-    for part in key.split(".") if key else []:
+    for part in key.replace("[", ".[").split(".") if key else []:
+        if part.startswith("[") and part.endswith("]"):  # a table of a list of tables: layers[0]
+            i = int(part[1:-1])
+            if not isinstance(v, list) or i >= len(v):
+                return None
+            v = v[i]
+            continue
         if not isinstance(v, dict) or part not in v:
             return None
         v = v[part]

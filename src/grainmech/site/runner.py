@@ -30,6 +30,7 @@ from typing import Any
 from grainmech.errors import ConfigError
 from grainmech.io.motion import read_motion
 from grainmech.io.outdir import output_folder
+from grainmech.io.records import check_config, normal_config, save_config
 from grainmech.io.results import ensure_dir
 from grainmech.io.site_profile import read_anchor, write_anchor, write_layer_record
 from grainmech.jobs.progress import Heartbeat
@@ -181,9 +182,28 @@ def run_site(profile: SiteProfile, outdir: str | Path, *, client: Any = None, sc
     return summary
 
 
+#: what the saved amplitudes of ``OUTDIR/layers`` came from (:func:`profile_record`), checked by ``--resume``
+PROFILE_CONFIG = "profile-config.json"
+
+
+def profile_record(profile: SiteProfile) -> dict:
+    """The profile as ``--resume`` compares it (:func:`grainmech.io.records.normal_config`).
+
+    Its config without the tables that do not change a layer's curve (``[motion]``,
+    ``[bedrock]``: the response is computed again anyway), the amplitude list and the list
+    of models (each amplitude starts from the same state).
+    """
+    raw = {k: v for k, v in profile.raw.items() if k not in ("motion", "bedrock")}
+    return normal_config(raw, (("test", "amplitudes"), ("model", "method")))
+
+
 def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], None], cluster: tuple,
             response: bool, motion: Any, t0: float, resume: bool = True) -> dict:
     ldir = folder.path / "layers"
+    made_of = profile_record(profile)
+    if resume:  # records of another profile are not taken up: refused naming the first key that differs
+        check_config(ldir / PROFILE_CONFIG, made_of, "the profile being resumed",
+                     "run without --resume (every amplitude again) or into another folder", where=folder.path)
     records: dict[int, dict] = {}
     anchors: dict[int, dict] = {}
     for layer in profile.layers:
@@ -210,6 +230,7 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
             if err is None:
                 check_anchor(la, anchors[la.index])
     ensure_dir(ldir)
+    save_config(ldir / PROFILE_CONFIG, made_of)
     for la in need:
         if la.index in anchors:
             write_anchor(ldir / la.slug, layer_key(la), anchors[la.index])
