@@ -162,3 +162,23 @@ def test_known_exceptions_are_still_needed():
     edges = _unit_imports()
     stale = sorted(edge for edge in KNOWN_LAYER_EXCEPTIONS if edge not in edges)
     assert not stale, f"KNOWN_LAYER_EXCEPTIONS lists imports that are gone (remove them): {stale}"
+
+
+#: what the writer may import from ``analysis``: constants and the types of what an outcome
+#: carries; the physics (curves, strength, tables) comes with the outcome (jobs call it)
+IO_ALLOWED_ANALYSIS_NAMES = {"SAND_PEAK_FRICTION_DEG", "SAND_ENVELOPE_RATIO", "SAND_ENVELOPE_TAU_RATIO",
+                             "ReferenceCurves", "PathMeasures", "StrengthResult", "LoopQuality"}
+
+
+def test_the_writer_imports_no_physics_from_analysis():
+    bad = []
+    for importer, target, name, line in _imports():
+        if not (importer == "grainmech.io" or importer.startswith("grainmech.io.")):
+            continue
+        if target == "grainmech" and name == "analysis":
+            bad.append(f"{importer}:{line} imports grainmech.analysis whole")
+        elif target == "grainmech.analysis" or target.startswith("grainmech.analysis."):
+            if name is None or name not in IO_ALLOWED_ANALYSIS_NAMES:
+                bad.append(f"{importer}:{line} {target}.{name or ''}")
+    assert not bad, ("io computes no physics: these imports of analysis are not constants or types "
+                     "(compute them in the job and carry them on the outcome):\n" + "\n".join(bad))

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:  # annotations only: the drivers load on first use (grainmech stiffness imports none)
+    from grainmech.analysis.references import PathMeasures, ReferenceCurves
     from grainmech.driver.base import KinematicModel
 
 __all__ = ["StiffnessOutcome", "RunOutcome", "CyclicOutcome", "PathOutcome", "RunComparison", "DemOutcome",
@@ -142,6 +143,9 @@ class CyclicOutcome(RunOutcome):
     keep_beyond_envelope : bool
         ``[model] keep_beyond_envelope``: amplitudes beyond the envelope stay in
         ``site_response_curves.csv``.
+    references : grainmech.analysis.references.ReferenceCurves or None
+        :func:`grainmech.analysis.references.reference_curves` of the completed amplitudes
+        (the empirical curves the report draws and tabulates; None without one).
     """
 
     amplitudes: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -154,6 +158,7 @@ class CyclicOutcome(RunOutcome):
     envelope: list = field(default_factory=list)
     loop_quality: list = field(default_factory=list)
     keep_beyond_envelope: bool = False
+    references: ReferenceCurves | None = None
 
     @property
     def beyond_envelope(self) -> np.ndarray:
@@ -197,9 +202,15 @@ class CyclicOutcome(RunOutcome):
 
 @dataclass
 class PathOutcome(RunOutcome):
-    """A mixed-control path; ``envelope`` is :func:`envelope_check` of its stresses."""
+    """A mixed-control path.
+
+    ``envelope`` is :func:`envelope_check` of its stresses; ``measures``
+    (:func:`grainmech.analysis.references.path_measures` of its run) its soil-mechanics
+    table (p, q, strains along the loading axis) and its strength (None without a run).
+    """
 
     envelope: dict | None = None
+    measures: PathMeasures | None = None
 
 
 @dataclass

@@ -141,17 +141,3 @@ def test_loops_are_normalised_per_amplitude():
         assert np.max(np.abs(y)) == pytest.approx(1.0)
     assert ax.get_ylabel() and "[-]" in ax.get_ylabel() and "[-]" in ax.get_xlabel()
     assert "kPa" in ax.get_legend().get_texts()[0].get_text()
-
-
-def test_reference_curves_cover_the_model_strain_range(default_run):
-    from grainmech.io.reports import _reference_curves
-
-    class Out:
-        amplitudes = [1e-5, 3e-4]
-        reference = dict(pi=0.0, ocr=1.0, n_cycles=10.0, frequency=1.0, phi=math.radians(33))
-        pressure, G_max = 1e5, 4e8
-        empirical_G_max = None
-
-    r = _reference_curves(Out())
-    assert r["gamma"][0] == pytest.approx(1e-5) and r["gamma"][-1] == pytest.approx(3e-4)
-    assert r["hd_gmax"] == 4e8 and "model" in r["hd_gmax_source"]  # no void ratio: said so

@@ -16,16 +16,8 @@ from typing import Any
 import numpy as np
 
 from grainmech import __version__, plots
-from grainmech.analysis import (
-    SAND_PEAK_FRICTION_DEG,
-    darendeli,
-    hardin_drnevich,
-    hardin_drnevich_reference,
-    menq_curve,
-    mohr_coulomb_ratio,
-)
-from grainmech.analysis.strength import path_strength
-from grainmech.analysis.stress_path import soil_path_table
+from grainmech.analysis import SAND_PEAK_FRICTION_DEG
+from grainmech.analysis.references import SAND_ENVELOPE_RATIO, SAND_ENVELOPE_TAU_RATIO
 from grainmech.io.html import PageSection, write_page
 from grainmech.io.results import (
     atomic_write,
@@ -57,51 +49,6 @@ def default_outdir(command: str) -> str:
 
 
 # ----------------------------------------------------------------------------------- run
-def _menq(out: Any, gamma: Any) -> Any:
-    """Menq (2003) at the run's mean stress and the grading of ``out.reference`` (None without one)."""
-    ref = out.reference
-    if "uniformity_coefficient" not in ref or "d50" not in ref:
-        return None
-    return menq_curve(gamma, out.pressure, ref["uniformity_coefficient"], ref["d50"], ref.get("n_cycles", 10.0))
-
-
-def _reference_curves(out: Any) -> dict:
-    """Empirical reference curves (Darendeli 2001, Hardin-Drnevich 1972, Menq 2003) for a run.
-
-    Darendeli (2001), Hardin-Drnevich (1972) and Menq (2003) curves at the run's mean
-    stress, over the strain range of the model's amplitudes (a decade either side of a
-    single one). Menq's takes the coefficient of uniformity and D50 of
-    ``out.reference`` (the grains the run used, ``[reference]`` keys or the default:
-    :func:`grainmech.jobs.prepare_run`).
-
-    All are empirical end to end: no reference strain uses the model's Gmax.
-    Darendeli's ``gamma_r`` comes from his correlation (mean stress, PI, OCR; Table 8.12);
-    Hardin-Drnevich's ``gamma_r = tau_max / Gmax`` takes ``tau_max = p sin(phi')`` and the
-    Gmax of Hardin's correlation for angular grains at the run's void ratio and mean stress
-    (Hardin & Richart 1963, the form Hardin & Drnevich 1972 use), so a model that is too
-    stiff shows as a curve shifted away from both references instead of moving one of
-    them. Without a void ratio (packing given by contacts per volume) the model's Gmax is
-    the only one available and is used (``hd_gmax_source`` says which).
-    """
-    amps = np.asarray(out.amplitudes)
-    ref = out.reference
-    lo, hi = float(amps.min()), float(amps.max())
-    if hi <= lo:  # one amplitude (or an interrupted run's first): a decade either side
-        lo, hi = lo / 10, hi * 10
-    gam = np.logspace(np.log10(lo), np.log10(hi), 60)
-    dar = darendeli(gam, out.pressure, pi=ref["pi"], ocr=ref["ocr"], n_cycles=ref["n_cycles"],
-                    frequency=ref["frequency"])
-    emp = getattr(out, "empirical_G_max", None)
-    if emp:
-        g_hd, source = float(emp["G_angular_Pa"]), "Hardin-Richart (1963) angular grains"
-    else:
-        g_hd, source = float(out.G_max), "the model's Gmax (no void ratio given)"
-    hd = hardin_drnevich_reference(out.pressure, ref["phi"], g_hd, ref["n_cycles"])
-    hd_r, hd_d = hardin_drnevich(gam, hd.gamma_r, hd.d_max)
-    return {"gamma": gam, "darendeli": dar, "hardin_drnevich": hd, "hd_ratio": hd_r, "hd_damping": hd_d,
-            "hd_gmax": g_hd, "hd_gmax_source": source, "menq": _menq(out, gam)}
-
-
 def amplitude_csv_name(amplitude: float) -> str:
     """File name of one amplitude's step table: ``cycles_gamma_1.0e-04.csv``."""
     return f"cycles_gamma_{amplitude:.1e}.csv"
@@ -184,12 +131,12 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
         # a failed amplitude's steps up to the failure are written too (run_amplitudes
         # names every run; amplitudes only the completed ones)
         name = prefix + (amplitude_csv_name(o.run_amplitudes[i]) if cyclic else "path.csv")
-        if not cyclic:
-            scols, srows, axis = soil_path_table(r)
-            cols, rows = cols + scols, np.hstack([rows, srows])
-            m["axial_direction"] = axis
-            if len(srows) >= 3 and o.results and r is o.results[0]:
-                m["strength"] = path_strength(r.stress, srows[:, 3], srows[:, 4]).as_dict()
+        if not cyclic and o.measures is not None:  # p, q, strains along the axis and the strength (jobs)
+            pm = o.measures
+            cols, rows = cols + pm.columns, np.hstack([rows, pm.rows])
+            m["axial_direction"] = pm.axis
+            if pm.strength is not None:
+                m["strength"] = pm.strength.as_dict()
         if getattr(r, "residual", None) is not None and len(r.residual) == len(rows):
             cols = cols + ["equilibrium_residual [-]"]
             rows = np.hstack([rows, np.asarray(r.residual, dtype=float)[:, None]])
@@ -243,7 +190,7 @@ def _write_model_files(o: Any, d: Path, prefix: str, files: list, source: str) -
                                      [q.stress_closure for q in o.loop_quality],
                                      [q.strain_closure for q in o.loop_quality],
                                      [q.asymmetry for q in o.loop_quality], [int(w) for w in checks["loop_warning"]])]
-        menq = _menq(o, amps)
+        menq = o.references.menq_at_amplitudes if o.references is not None else None
         if menq is not None:  # Menq (2003) at the same amplitudes and mean stress, and its grading
             mr_cols += ["menq_G_over_Gmax [-]", "menq_damping [-]", "menq_uniformity_coefficient [-]", "menq_d50 [m]"]
             mr_rows = [r + [float(mg), float(md), menq.uniformity_coefficient, menq.d50]
@@ -309,7 +256,6 @@ def _cyclic_checks(o: Any) -> dict:
     excluded = [] if o.keep_beyond_envelope else [float(a) for a, b in zip(amps, beyond) if b]
     why = (" The affine model cannot fail (every contact follows the mean strain): states beyond the "
            "envelope are what its equations give, not predictions for a sand." if o.model.upper_bound else "")
-    lim = mohr_coulomb_ratio(np.radians(SAND_PEAK_FRICTION_DEG))
     return {
         "beyond_envelope": beyond,
         "max_stress_ratio": [e["max_ratio"] for e in env],
@@ -319,8 +265,8 @@ def _cyclic_checks(o: Any) -> dict:
         "envelope": {
             "criterion": "Mohr-Coulomb on the principal stresses of every recorded state of each amplitude's "
                          "run: sigma1/sigma3 <= (1 + sin phi)/(1 - sin phi)",
-            "friction_angle_deg": SAND_PEAK_FRICTION_DEG, "limit_sigma1_over_sigma3": lim,
-            "limit_tau_over_sigma_zz": float(np.tan(np.radians(SAND_PEAK_FRICTION_DEG))),
+            "friction_angle_deg": SAND_PEAK_FRICTION_DEG, "limit_sigma1_over_sigma3": SAND_ENVELOPE_RATIO,
+            "limit_tau_over_sigma_zz": SAND_ENVELOPE_TAU_RATIO,
             "reason": "phi = 50 deg bounds the peak friction angles of sands (critical state ~33 deg plus the "
                       "largest dilatancy contribution, Bolton 1986)",
             "keep_beyond_envelope": bool(o.keep_beyond_envelope),
@@ -357,18 +303,22 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict, re
     """Write ``modulus_reduction.png``: G/Gmax and damping with empirical references.
 
     ``modulus_reduction.png``: G/Gmax and damping of every model with Darendeli (2001),
-    Hardin-Drnevich (1972) and Menq (2003) at the run's mean stress
-    (:func:`_reference_curves` of the first model: the references are empirical, none
-    depends on the model).
+    Hardin-Drnevich (1972) and Menq (2003) at the run's mean stress, the
+    :class:`~grainmech.analysis.references.ReferenceCurves` the first model's outcome
+    carries (the references are empirical, none depends on the model; none drawn where it
+    carries none).
     """
     first, _ = cyclic[0]
-    refs = _reference_curves(first)
-    dar, hd, gam, menq = refs["darendeli"], refs["hardin_drnevich"], refs["gamma"], refs["menq"]
-    ref_g = {"Darendeli (2001)": (gam, dar.G_ratio), "Hardin-Drnevich (1972)": (gam, refs["hd_ratio"])}
-    ref_d = {"Darendeli (2001)": (gam, dar.damping), "Hardin-Drnevich (1972)": (gam, refs["hd_damping"])}
-    if menq is not None:
-        ref_g["Menq (2003)"] = (gam, menq.G_ratio)
-        ref_d["Menq (2003)"] = (gam, menq.damping)
+    refs = first.references
+    ref_g: dict | None = None
+    ref_d: dict | None = None
+    if refs is not None:
+        dar, gam, menq = refs.darendeli, refs.gamma, refs.menq
+        ref_g = {"Darendeli (2001)": (gam, dar.G_ratio), "Hardin-Drnevich (1972)": (gam, refs.hd_ratio)}
+        ref_d = {"Darendeli (2001)": (gam, dar.damping), "Hardin-Drnevich (1972)": (gam, refs.hd_damping)}
+        if menq is not None:
+            ref_g["Menq (2003)"] = (gam, menq.G_ratio)
+            ref_d["Menq (2003)"] = (gam, menq.damping)
     fig, (a1, a2) = plots.subplots(1, 2, figsize=(10, 4.2))
     for k, (o, m) in enumerate(cyclic):
         style, name = MODEL_STYLE[o.method] if compare else ("ko", "grainmech")
@@ -385,13 +335,16 @@ def _write_curves_figure(d: Path, cyclic: list, compare: bool, summary: dict, re
     fig.tight_layout()
     write_figure(d / "modulus_reduction.png", fig)
     summary["files"].append("modulus_reduction.png")
-    summary.update(darendeli_gamma_r=dar.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
-                   hardin_drnevich_d_max=hd.d_max, hardin_drnevich_G_max_Pa=refs["hd_gmax"],
-                   hardin_drnevich_G_max_source=refs["hd_gmax_source"])
+    if refs is None:
+        return
+    hd, menq = refs.hardin_drnevich, refs.menq
+    summary.update(darendeli_gamma_r=refs.darendeli.gamma_r, hardin_drnevich_gamma_r=hd.gamma_r,
+                   hardin_drnevich_d_max=hd.d_max, hardin_drnevich_G_max_Pa=refs.hd_gmax,
+                   hardin_drnevich_G_max_source=refs.hd_gmax_source)
     if menq is not None:
         summary.update(menq_gamma_r=menq.gamma_r, menq_curvature=menq.curvature, menq_d_min=menq.d_min,
                        menq_masing_scaling=menq.masing_scaling, menq_uniformity_coefficient=menq.uniformity_coefficient,
-                       menq_d50_m=menq.d50, menq_grading_source=first.reference["grading_source"])
+                       menq_d50_m=menq.d50, menq_grading_source=refs.grading_source)
 
 
 def _ratio_text(r: Any) -> str:
@@ -429,7 +382,7 @@ def _write_run_index(d: Path, summary: dict, cfg_text: str) -> None:
             head += _cyclic_part(d, summary, m, compare, pre, sections)
         head += _path_part(d, summary, m, compare, pre, sections)
         intro += head
-    if "darendeli_gamma_r" in summary:
+    if "modulus_reduction.png" in summary["files"]:
         sections.insert(0, _curves_section(d, summary, compare))
     for w in summary.get("warnings", []):
         intro += f"<p><b>Warning:</b> {html.escape(w)}.</p>"
@@ -582,7 +535,13 @@ def _path_part(d: Path, summary: dict, m: dict, compare: bool, pre: str, section
 
 
 def _curves_section(d: Path, summary: dict, compare: bool) -> Any:
-    """The section of the modulus-reduction and damping curves with the empirical references."""
+    """The section of the modulus-reduction and damping curves with the empirical references (if any)."""
+    text = ("Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
+            "amplitude" + (" for each model" if compare else "") + " (markers; strain as a decimal, 1e-3 = 0.1 %)")
+    files = ("modulus_reduction.png",) + (("recommended_curve.csv",) if "recommended_curve" in summary else ())
+    if "darendeli_gamma_r" not in summary:  # an outcome without references
+        return PageSection("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
+                           text + "." + _recommended_text(summary), files)
     menq = "menq_gamma_r" in summary
     menq_text = ("; and Menq (2003), clean sands and gravels, "
                  f"gamma_r = {summary['menq_gamma_r']:.3g} ({100 * summary['menq_gamma_r']:.4f} %), curvature "
@@ -592,9 +551,7 @@ def _curves_section(d: Path, summary: dict, compare: bool) -> Any:
                  "menq_* of modulus_reduction.csv give it at the model's amplitudes)") if menq else ""
     n_refs, every = ("three", "All three reference strains") if menq else ("two", "Both reference strains")
     return PageSection("curves", "Modulus reduction and damping", d / "modulus_reduction.png",
-                       "Secant modulus and damping ratio D = dW/(4 pi W) of the last cycle at each "
-                       "amplitude" + (" for each model" if compare else "")
-                       + f" (markers; strain as a decimal, 1e-3 = 0.1 %), with {n_refs} empirical "
+                       text + f", with {n_refs} empirical "
                        "reference curves for a sand at the same mean stress over the same strain range. "
                        f"{every} come from correlations, not from the model: Darendeli "
                        f"(2001) gamma_r = {summary['darendeli_gamma_r']:.3g} "
@@ -607,9 +564,7 @@ def _curves_section(d: Path, summary: dict, compare: bool) -> Any:
                        f"{summary['hardin_drnevich_G_max_source']}, "
                        f"D_max = {100 * summary['hardin_drnevich_d_max']:.1f} %{menq_text}. The model's G/Gmax is "
                        "normalised by its own Gmax; a model that is too stiff shows against "
-                       f"{'all' if menq else 'both'} references alike." + _recommended_text(summary),
-                       ("modulus_reduction.png",)
-                       + (("recommended_curve.csv",) if "recommended_curve" in summary else ()))
+                       f"{'all' if menq else 'both'} references alike." + _recommended_text(summary), files)
 
 
 def _recommended_text(summary: dict) -> str:

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from grainmech.analysis.references import path_measures, reference_curves
 from grainmech.driver.base import HandOver, KinematicModel
 from grainmech.driver.registry import resolve
 from grainmech.io.records import RunRecords, amp_id
@@ -200,7 +201,8 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
     return PathOutcome(kind=spec.kind, pressure=spec.pressure, results=[r], success=r.success,
                        message=r.message, seconds=seconds, point=model.point,
                        warnings=_input_warnings(spec, m),
-                       envelope=envelope_check(r.stress), method=method, details=model.details)
+                       envelope=envelope_check(r.stress), method=method, details=model.details,
+                       measures=path_measures(r))
 
 
 def _say_reused(say: Callable[[str], None], m: KinematicModel, amplitudes: list[float] | None) -> None:
@@ -237,6 +239,8 @@ def _cyclic_outcome(spec: RunSpec, model: str | KinematicModel, mr: Any, seconds
         details["rearranging"] = rearranging(m, spec.constant, mr.completed)
     with np.errstate(divide="ignore", invalid="ignore"):  # a Gmax of 0 or NaN: flagged, not a warning of NumPy's
         ratio = np.asarray(mr.G, dtype=float) / float(mr.G_max)
+    reference = dict(spec.reference or {})
+    emp = empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, m)
     return CyclicOutcome(
         kind=spec.kind, pressure=spec.pressure, results=list(mr.results), success=mr.success,
         message=mr.message, seconds=seconds, point=point, method=method, details=details,
@@ -249,8 +253,9 @@ def _cyclic_outcome(spec: RunSpec, model: str | KinematicModel, mr: Any, seconds
            for m in mr.liquefied],
         amplitudes=amps, G=np.asarray(mr.G, dtype=float),
         damping=np.asarray(mr.damping, dtype=float), G_max=float(mr.G_max),
-        reference=dict(spec.reference or {}),
-        empirical_G_max=empirical_gmax_check(mr.G_max, void_ratio, spec.pressure, m),
+        reference=reference, empirical_G_max=emp,
+        references=(reference_curves(amps, spec.pressure, reference, float(mr.G_max), emp)
+                    if len(mr.G) else None),
         run_amplitudes=(np.asarray(mr.run_amplitudes, dtype=float) if mr.run_amplitudes is not None else
                         np.asarray(listed[:len(mr.results)], dtype=float)),
         envelope=envelope, loop_quality=quality, keep_beyond_envelope=spec.keep_beyond_envelope)
