@@ -58,12 +58,13 @@ def test_input_error_before_any_output_keeps_the_previous_run(tmp_path, capsys):
     good = tmp_path / "good.toml"
     good.write_text(default_run_affine())
     assert cli.main(["run", str(good), "-o", str(out), "--quiet"]) == 0
-    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert any(p.parts[0] == "resume" for p in before)  # the saved amplitudes too
     bad = tmp_path / "bad.toml"
     bad.write_text(default_run_affine().replace("[contacts]", "[contacts]\npoison = 0.2"))
     assert cli.main(["run", str(bad), "-o", str(out), "--quiet"]) == 2
     assert "poison" in capsys.readouterr().err
-    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
 
 
 def test_ctrl_c_leaves_the_previous_folder_untouched(tmp_path):
@@ -226,7 +227,8 @@ def test_sweep_ctrl_c_stops_the_worker_processes(tmp_path):
     assert "Traceback" not in err
     _, alive = psutil.wait_procs(children, timeout=5)
     assert not alive
-    assert _names(tmp_path / "out") == {"points"}
+    # the finished points and what they came from (points-config.json: sweep resume refuses another base)
+    assert _names(tmp_path / "out") == {"points", "points-config.json"}
 
 
 _LEAK = """

@@ -110,7 +110,9 @@ def test_every_file_is_linked_and_named_by_what_it_holds(default_run):
     page = (default_run / "index.html").read_text()
     links = set(re.findall(r"href='([^']+)'", page))
     on_disk = {p.name for p in default_run.iterdir() if not p.name.startswith(".")}
-    assert on_disk - {"index.html"} <= links
+    # resume/: the saved amplitudes --resume takes up (records, not results to read)
+    assert (default_run / "resume" / "config.json").is_file()
+    assert on_disk - {"index.html", "resume"} <= links
 
 
 def test_every_csv_header_has_a_unit(default_run):

@@ -193,8 +193,8 @@ def test_model_config_errors(network_files):
     with pytest.raises(ConfigError, match=r"model\.network.*does not use"):
         prepare_run(bad)
     bad = json.loads(json.dumps(base))
-    bad["model"]["method"] = "packing"  # [packing] belongs to the affine model
-    with pytest.raises(ConfigError, match=r"^packing.*affine"):
+    bad["model"]["method"] = "packing"  # [microstructure] belongs to the affine model
+    with pytest.raises(ConfigError, match=r"^microstructure: \[microstructure\] describes the affine model"):
         prepare_run(bad)
     bad = json.loads(json.dumps(base))
     bad["model"]["network"] = "no_such_file.npz"
