@@ -153,7 +153,8 @@ def test_stress_tensor_and_pack_stress_use_the_same_range():
 
     from grainmech.errors import ConfigError
     from grainmech.io.config import Section
-    from grainmech.io.schema import build_pack_config, build_stress
+    from grainmech.io.pack_config import build_pack_config
+    from grainmech.io.schema import build_stress
 
     with pytest.raises(ConfigError, match=r"stress.tensor = .*outside 1 Pa to 1 GPa"):
         build_stress(Section({"tensor": [["0.1 Pa", 0, 0], [0, "0.1 Pa", 0], [0, 0, "0.1 Pa"]]}, "stress"), 3)

@@ -154,7 +154,7 @@ steps = 1
 
 # ------------------------------------------------------------------------- grainmech pack
 def test_pack_config_rolling_keys():
-    from grainmech.io.schema import build_pack_config
+    from grainmech.io.pack_config import build_pack_config
 
     base = {"grains": {"count": 100, "distribution": "uniform", "radius": "0.15 mm"},
             "preparation": {"stress": "100 kPa"}}
@@ -199,7 +199,7 @@ def test_loosest_preparation_with_rolling_resistance():
 def test_pack_config_grain_rolling_key():
     """``[preparation] grain_rolling``: "relaxation" (default) or "after"; anything else, or
     "after" for grains without rolling resistance, is refused naming the key."""
-    from grainmech.io.schema import build_pack_config
+    from grainmech.io.pack_config import build_pack_config
 
     cfg = {"grains": {"count": 100, "distribution": "uniform", "radius": "0.15 mm"},
            "material": {"rolling_friction": 0.25},

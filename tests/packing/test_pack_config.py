@@ -1,10 +1,10 @@
-"""``grainmech pack`` config (grainmech.io.schema.build_pack_config): strict keys, units,
+"""``grainmech pack`` config (grainmech.io.pack_config.build_pack_config): strict keys, units,
 errors naming the key and the value."""
 
 import pytest
 
 from grainmech.errors import ConfigError
-from grainmech.io.schema import build_pack_config
+from grainmech.io.pack_config import build_pack_config
 from grainmech.packing import GLASS, QUARTZ, D50Cu, SieveCurve
 
 

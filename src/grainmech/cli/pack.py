@@ -23,8 +23,8 @@ from typing import Any
 
 from grainmech.io.config import load_toml, read_text_file
 from grainmech.io.outdir import output_folder
+from grainmech.io.pack_config import build_pack_config
 from grainmech.io.reports import default_outdir
-from grainmech.io.schema import build_pack_config
 
 
 def register(sub: Any) -> None:

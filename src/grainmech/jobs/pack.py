@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.errors import ConfigError, GrainmechError
-from grainmech.io.schema import build_pack_config
+from grainmech.io.pack_config import build_pack_config
 from grainmech.jobs.progress import PACKING_PROGRESS_EVERY, Heartbeat
 from grainmech.packing import prepare_packing
 
@@ -42,7 +42,7 @@ class _LastLine:
 def pack_job(cfg: dict, progress: Callable[[str], None] | None = None) -> Any:
     """Config dict -> prepared packing (:class:`grainmech.packing.PackResult`) with LAMMPS.
 
-    Reads the config with :func:`grainmech.io.schema.build_pack_config`, samples the radii
+    Reads the config with :func:`grainmech.io.pack_config.build_pack_config`, samples the radii
     from the grading (what was cut is in ``summary["grading"]``), prepares the packing
     (:func:`grainmech.packing.prepare_packing`). Writes nothing. ``progress`` gets the
     preparation's lines, and a line at least every :data:`PACKING_PROGRESS_EVERY` s
