@@ -77,7 +77,7 @@ def test_site_run_prints_progress_lines_while_a_layer_runs(monkeypatch, capsys):
     monkeypatch.setattr(runner, "write_outputs", lambda *a, **k: {"lines": list(lines)})
 
     class Profile:
-        source, method, layers = "p.toml", "packing", [Layer()]
+        source, method, layers, raw = "p.toml", "packing", [Layer()], {"layers": [{"name": "sand"}]}
 
     import pathlib
     import tempfile
