@@ -4,8 +4,8 @@ write to their default output folder, ``./grainmech-out/<command>``, write there
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import pytest
 
@@ -65,6 +65,29 @@ n_cycles = 2
 steps_per_cycle = 16
 [quadrature]
 degree = 11
+"""
+
+
+#: a cyclic run on the shipped 'dense' packing (fill law, extra_contacts, method, model, amps, constant)
+DENSE_CYCLIC = """
+[contacts]
+law = "{law}"
+shear_modulus = "29 GPa"
+poisson = 0.15
+friction = 0.5
+{extra_contacts}
+[initial]
+pressure = "100 kPa"
+[model]
+method = {method}
+packing = "dense"
+{model}
+[test]
+kind = "cyclic-simple-shear"
+amplitudes = {amps}
+n_cycles = 2
+steps_per_cycle = 16
+constant = "{constant}"
 """
 
 

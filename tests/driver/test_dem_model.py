@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import DENSE_CYCLIC
 from grainmech.cli import main as cli_main
 from grainmech.driver.base import Status, StepFailure
 from grainmech.driver.dem import DemSettings, dem_material
@@ -22,26 +23,7 @@ from grainmech.errors import GrainmechError, ParameterError
 from grainmech.lammps.engine import lammps_available
 from grainmech.lammps.session import RelaxationTimeout
 
-BASE = """
-[contacts]
-law = "{law}"
-shear_modulus = "29 GPa"
-poisson = 0.15
-friction = 0.5
-{extra_contacts}
-[initial]
-pressure = "100 kPa"
-[model]
-method = {method}
-packing = "dense"
-{model}
-[test]
-kind = "cyclic-simple-shear"
-amplitudes = {amps}
-n_cycles = 2
-steps_per_cycle = 16
-constant = "{constant}"
-"""
+BASE = DENSE_CYCLIC
 
 
 def config(tmp_path: Path, *, law: str = "hertz-mindlin", method: str = '"dem"', model: str = "",

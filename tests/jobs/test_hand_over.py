@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import grainmech.lammps.engine as engine
+from conftest import DENSE_CYCLIC
 from grainmech.driver.base import HandOver
 from grainmech.driver.dem.model import DEM
 from grainmech.driver.packing.model import PACKING
@@ -25,29 +26,11 @@ from grainmech.jobs import CyclicOutcome, hand_over, prepare_run, stop_hint, tak
 from grainmech.jobs.model import JobStep, ModelRun, execute_model
 from grainmech.jobs.run import MODEL_JOBS, _run_methods
 
-BASE = """
-[contacts]
-law = "hertz-mindlin"
-shear_modulus = "29 GPa"
-poisson = 0.15
-friction = 0.5
-[initial]
-pressure = "100 kPa"
-[model]
-method = {method}
-packing = "dense"
-{model}
-[test]
-kind = "cyclic-simple-shear"
-amplitudes = {amps}
-n_cycles = 2
-steps_per_cycle = 16
-constant = "{constant}"
-"""
-
 
 def _spec(method: str, amps: str = "[1e-5]", constant: str = "stress", model: str = ""):  # noqa: ANN202
-    return prepare_run(tomllib.loads(BASE.format(method=method, amps=amps, constant=constant, model=model)))
+    text = DENSE_CYCLIC.format(law="hertz-mindlin", extra_contacts="", method=method, amps=amps,
+                               constant=constant, model=model)
+    return prepare_run(tomllib.loads(text))
 
 
 @pytest.fixture(autouse=True)
