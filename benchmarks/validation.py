@@ -33,6 +33,7 @@ parts not run yet are listed as such.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import sys
@@ -50,6 +51,14 @@ PRESSURE = 100e3
 NEVADA_LAB = {"e_min": 0.511, "e_max": 0.887, "d50_mm": 0.15, "cu": 1.7}
 CYCLIC_PACKING = (1e-6, 1e-5, 3e-5, 1e-4)
 CYCLIC_DEM = (3e-4, 1e-3, 3e-3, 1e-2)
+
+
+@functools.cache
+def _grading(name: str):
+    """Cu and D50 of the shipped packing ``name``'s grains by mass (Menq's inputs), read once."""
+    from grainmech.packing import load_packing, measured_grading
+
+    return measured_grading(load_packing(name).radii)
 
 
 def _law(name: str):
@@ -209,10 +218,8 @@ def _reading(cache: dict, names: list[str]) -> list[str]:
         c = (cache.get("cyclic", {}).get(n) or {}).get("dem") or {}
         if 1e-3 in c.get("amplitude", []):
             from grainmech.analysis.empirical import menq_curve
-            from grainmech.packing import load_packing, measured_grading
-
             k = c["amplitude"].index(1e-3)
-            gr = measured_grading(load_packing(n).radii)
+            gr = _grading(n)
             men = menq_curve([1e-3], PRESSURE, gr.cu, gr.d50)
             bits.append(f"at 1e-3 G/Gmax is {c['G'][k] / c['G_max']:.2f} against Menq's {men.G_ratio[0]:.2f} and the "
                         f"damping {100 * c['damping'][k]:.0f} % against Menq's {100 * men.damping[0]:.0f} %: the "
@@ -224,9 +231,7 @@ def _reading(cache: dict, names: list[str]) -> list[str]:
                 at3[pressure] = d["G"][d["amplitude"].index(1e-3)] / d["G_max"]
         if len(at3) > 1:
             from grainmech.analysis.empirical import menq_curve
-            from grainmech.packing import load_packing, measured_grading
-
-            gr = measured_grading(load_packing(n).radii)
+            gr = _grading(n)
             pairs = [f"{at3[q]:.2f} at {q / 1e3:g} kPa (Menq {menq_curve([1e-3], q, gr.cu, gr.d50).G_ratio[0]:.2f})"
                      for q in sorted(at3)]
             bits.append("G/Gmax at 1e-3 is " + ", ".join(pairs) + ": the grains' curve moves to larger strains "
@@ -310,9 +315,7 @@ def write_page(cache: dict, page: Path) -> None:
             if not c or "error" in c:
                 lines.append(f"| {n} | {kpa} | | {c.get('error', '—') if c else '—'} | | | | | | |")
                 continue
-            from grainmech.packing import load_packing, measured_grading
-
-            gr = measured_grading(load_packing(n).radii)
+            gr = _grading(n)
             for model in ("packing", "dem"):
                 m = c.get(model, {})
                 if "error" in m or not m.get("amplitude"):
