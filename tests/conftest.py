@@ -91,6 +91,26 @@ constant = "{constant}"
 """
 
 
+def write_fcc_packing(d):
+    """A 103-grain disordered fcc packing of 0.25 mm quartz-like spheres (G 29 GPa, nu 0.15,
+    Mindlin-Deresiewicz, friction 0.5) in equilibrium (frictionless preparation), written as
+    grainmech NPZ network files ``contacts.npz``, ``particles.npz`` in folder ``d``; returns the network."""
+    import numpy as np
+
+    from grainmech.contact import MindlinDeresiewicz
+    from grainmech.driver.packing import equilibrate_network, perturbed_fcc_network
+
+    law = MindlinDeresiewicz(29e9, 0.15, 2.5e-4, friction=0.5)
+    net = equilibrate_network(perturbed_fcc_network(3, radius=2.5e-4, seed=1, vacancies=0.05, overlap=0.002,
+                                                    disorder=0.0004), law)
+    pos, f = net.positions, net.force
+    np.savez(d / "particles.npz", id=net.ids, x=pos[:, 0], y=pos[:, 1], z=pos[:, 2], radius=net.radii,
+             cell=net.box.cell, origin=net.box.origin)
+    np.savez(d / "contacts.npz", id1=net.ids[net.i], id2=net.ids[net.j], fx=f[:, 0], fy=f[:, 1], fz=f[:, 2],
+             delta=net.overlap)
+    return net
+
+
 def default_run_affine(text: str | None = None) -> str:
     """The smooth-quartz run config ``tests/data/smooth_quartz_run.toml`` (or ``text``) with
     the affine model alone.

@@ -59,18 +59,10 @@ PACKING_RUN = ("grainmech.driver.packing", "run_packing")  # looked up by the se
 @pytest.fixture(scope="module")
 def packing_config(tmp_path_factory):
     """A 103-grain disordered fcc packing in equilibrium (NPZ files) and a packing-model config at its stress."""
-    from grainmech.contact import MindlinDeresiewicz
-    from grainmech.driver.packing import equilibrate_network, perturbed_fcc_network
+    from conftest import write_fcc_packing
 
-    law = MindlinDeresiewicz(29e9, 0.15, 2.5e-4, friction=0.5)
-    net = equilibrate_network(perturbed_fcc_network(3, radius=2.5e-4, seed=1, vacancies=0.05, overlap=0.002,
-                                                    disorder=0.0004), law)
     d = tmp_path_factory.mktemp("grains")
-    pos, f = net.positions, net.force
-    np.savez(d / "particles.npz", id=net.ids, x=pos[:, 0], y=pos[:, 1], z=pos[:, 2], radius=net.radii,
-             cell=net.box.cell, origin=net.box.origin)
-    np.savez(d / "contacts.npz", id1=net.ids[net.i], id2=net.ids[net.j], fx=f[:, 0], fy=f[:, 1], fz=f[:, 2],
-             delta=net.overlap)
+    net = write_fcc_packing(d)
     p = float(np.trace(np.einsum("ci,cj->ij", net.force, net.branch) / net.box.volume) / 3)  # seed Eq. 2.6
     return f"""
 [model]

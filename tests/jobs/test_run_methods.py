@@ -17,9 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import write_fcc_packing
 from grainmech.analysis import condensed_modulus
-from grainmech.contact import MindlinDeresiewicz
-from grainmech.driver.packing import equilibrate_network, perturbed_fcc_network
 from grainmech.errors import ConfigError, GrainmechError
 from grainmech.jobs import CyclicOutcome, PathOutcome, RunComparison, compute_run, prepare_run
 from grainmech.lammps.engine import lammps_available
@@ -36,16 +35,8 @@ G_GRAIN, NU = 29e9, 0.15
 def network_files(tmp_path_factory):
     """A 103-grain disordered fcc packing of 0.25 mm quartz-like spheres in equilibrium
     (frictionless preparation), written as grainmech NPZ network files."""
-    law = MindlinDeresiewicz(G_GRAIN, NU, 2.5e-4, friction=0.5)
-    net = equilibrate_network(perturbed_fcc_network(3, radius=2.5e-4, seed=1, vacancies=0.05,
-                                                    overlap=0.002, disorder=0.0004), law)
     d = tmp_path_factory.mktemp("packing")
-    pos, f = net.positions, net.force
-    np.savez(d / "particles.npz", id=net.ids, x=pos[:, 0], y=pos[:, 1], z=pos[:, 2], radius=net.radii,
-             cell=net.box.cell, origin=net.box.origin)
-    np.savez(d / "contacts.npz", id1=net.ids[net.i], id2=net.ids[net.j], fx=f[:, 0], fy=f[:, 1], fz=f[:, 2],
-             delta=net.overlap)
-    return d, net
+    return d, write_fcc_packing(d)
 
 
 MATERIAL = f"""
