@@ -122,8 +122,10 @@ def _wait_for(p: subprocess.Popen, found, timeout: float = 120.0):
 
 
 def _check_one_amplitude_failed(tmp_path: Path, p: subprocess.Popen, seen, failed: str, done: float,
-                                cause: str) -> None:
-    """Exit 1, one error line naming the ``failed`` amplitude and ``cause``, ``done`` written, no process left."""
+                                cause: str) -> str:
+    """Exit 1, one error line naming the ``failed`` amplitude and ``cause``, ``done`` written, no process left.
+
+    Returns the run's stderr."""
     out, err = p.communicate(timeout=300)
     assert p.returncode == 1, err
     assert "Traceback" not in err
@@ -138,6 +140,7 @@ def _check_one_amplitude_failed(tmp_path: Path, p: subprocess.Popen, seen, faile
     assert not list(tmp_path.glob("out/.grainmech-staging-*")) and not (tmp_path / "out" / ".grainmech.lock").exists()
     time.sleep(0.5)
     assert not _alive(seen), f"processes of the run left running: {_alive(seen)}"
+    return err
 
 
 @needs_lammps
@@ -157,8 +160,10 @@ def test_a_killed_worker_fails_its_amplitude_and_the_other_finishes(tmp_path) ->
     assert len(largest) == 1, mine
     time.sleep(2.0)  # LAMMPS at work
     os.kill(largest[0], signal.SIGKILL)
-    _check_one_amplitude_failed(tmp_path, p, list(mine), "1e-05", 1e-6,
-                                f"its worker process (pid {largest[0]}) was killed by signal 9 (SIGKILL")
+    err = _check_one_amplitude_failed(tmp_path, p, list(mine), "1e-05", 1e-6,
+                                      f"its worker process (pid {largest[0]}) was killed by signal 9 (SIGKILL")
+    # the stop is said once, as a progress line, when it happens (not only in the final error)
+    assert err.count(f"[dem] amplitude 1e-05 stopped: its worker process (pid {largest[0]}) was killed") == 1, err
 
 
 @needs_lammps
@@ -179,9 +184,10 @@ def test_a_killed_mpi_rank_fails_its_amplitude_and_the_other_finishes(tmp_path) 
     time.sleep(2.0)  # LAMMPS at work
     os.kill(rank[-1], signal.SIGKILL)
     seen.update(_descendants(p.pid))
-    _check_one_amplitude_failed(tmp_path, p, seen, "1e-06", 1e-5,
-                                "the DEM job on 2 MPI ranks ended with no result: a rank was killed by signal 9 "
-                                "(SIGKILL")
+    err = _check_one_amplitude_failed(tmp_path, p, seen, "1e-06", 1e-5,
+                                      "the DEM job on 2 MPI ranks ended with no result: a rank was killed by "
+                                      "signal 9 (SIGKILL")
+    assert err.count("[dem] amplitude 1e-06 stopped: the DEM job on 2 MPI ranks ended with no result") == 1, err
 
 
 def test_the_launchers_report_gives_the_rank_and_its_signal() -> None:

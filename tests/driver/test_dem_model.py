@@ -10,9 +10,11 @@ re-settled start state and the rearrangements the fixed geometry does not follow
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from conftest import DENSE_CYCLIC
@@ -394,6 +396,31 @@ def test_until_ends_the_series_and_leaves_the_larger_amplitudes_unrun() -> None:
     assert list(mr.amplitude) == [1e-4, 1e-3] and list(mr.run_amplitudes) == [1e-4, 1e-3]
     assert mr.message == "amplitudes [0.003, 0.01] not run: its grains rearrange"
     assert len(mr.results) == 2
+
+
+def test_a_stop_is_reported_when_it_happens_before_the_next_amplitude() -> None:
+    """``cyclic_series(on_stop=...)``: a failed amplitude is reported the moment it fails,
+    before the next amplitude starts (a long series does not keep a stop for its end); a
+    liquefied one is the test's answer, not a stop."""
+    from grainmech.driver.loop import cyclic_series
+
+    events: list[str] = []
+    ok = _linear_run(50e6, 5e-3)
+
+    def run(path):  # noqa: ANN001, ANN202
+        r = ok(path)
+        if np.isclose(float(np.abs(np.cumsum(path.increment[:, 4])).max()), 1e-3):
+            return dataclasses.replace(r, success=False, status=int(Status.FAILED), message="step 5: no equilibrium")
+        return r
+
+    mr = cyclic_series(run, [1e-4, 1e-3, 3e-3, 1e-2], lambda p: 50e6, n_cycles=2, steps_per_cycle=16,
+                       constant="volume", raise_on_failure=False,
+                       progress=lambda i, a, path: events.append(f"start {a:g}"),
+                       on_stop=lambda a, why: events.append(f"stopped {a:g}: {why}"))
+    assert events == ["start 0.0001", "start 0.001", "stopped 0.001: step 5: no equilibrium", "start 0.003",
+                      "start 0.01"]
+    assert not mr.success and list(mr.amplitude) == [1e-4, 3e-3]
+    assert mr.liquefied == ("amplitude 0.01: step 3: liquefied: r_u = 0.990",)
 
 
 def test_the_largest_amplitude_is_submitted_first_at_normal_priority(monkeypatch) -> None:

@@ -302,6 +302,29 @@ def test_packing_step_reporter_throttles_and_restarts_per_run():
                     "[packing] amplitude 2/2, step 3/4, 50 s (total 70 s), about 10 s left"]
 
 
+def test_packing_step_reporter_counts_only_the_amplitudes_it_runs():
+    """A resumed series of 3 amplitudes that takes up 2 runs one: ``planned(1)`` makes the
+    line say amplitude 1/1 and the time left cover only that amplitude's steps (not the
+    two taken up)."""
+    import grainmech.jobs as jobs
+    from grainmech.jobs import _step_reporter
+
+    clock = iter([0.0, 11.0, 22.0])
+    said: list[str] = []
+    real = jobs.time.perf_counter
+    jobs.time.perf_counter = lambda: next(clock)
+    try:
+        rep = _step_reporter(said.append, "[packing]", 3)
+        rep.planned(1)
+        rep(1, 4)
+        rep(2, 4)
+    finally:
+        jobs.time.perf_counter = real
+    # the first amplitude run: no estimate before it ends, and its count is 1/1
+    assert said == ["[packing] amplitude 1/1, step 1/4, 11 s (total 11 s)",
+                    "[packing] amplitude 1/1, step 2/4, 22 s (total 22 s)"]
+
+
 def test_path_step_reporter_estimates_from_the_first_step():
     import grainmech.jobs as jobs
     from grainmech.jobs import _step_reporter

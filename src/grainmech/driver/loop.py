@@ -187,7 +187,8 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
                   progress: Callable[[int, float, Any], None] | None = None,
                   raise_on_failure: bool = True,
                   on_amplitude: Callable[[ModulusReduction], None] | None = None,
-                  until: Callable[[float, DriverResult], str | None] | None = None) -> ModulusReduction:
+                  until: Callable[[float, DriverResult], str | None] | None = None,
+                  on_stop: Callable[[float, str], None] | None = None) -> ModulusReduction:
     """Cyclic simple shear ``gamma_xz`` at each amplitude and the last cycle's secant G and damping.
 
     Parameters
@@ -222,6 +223,9 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
         the series there: the larger amplitudes are not run (they are left out of
         ``run_amplitudes``, for another model to run) and the message says why. The
         amplitudes run in the order given.
+    on_stop : callable ``(amplitude, message)``, optional
+        Called the moment an amplitude fails (with ``raise_on_failure`` False), before
+        the next one runs: a long series reports a stop when it happens.
 
     Raises
     ------
@@ -247,6 +251,8 @@ def cyclic_series(run_one: Callable[[LoadPath], DriverResult], amplitudes: Array
             if raise_on_failure:
                 raise GrainmechError(f"amplitude {a:g}: {r.message}")
             failures.append(f"amplitude {a:g}: {r.message}")
+            if on_stop is not None:
+                on_stop(float(a), r.message)
         else:
             last = slice(len(path) - steps_per_cycle, len(path) + 1)
             lp = loop_properties(r.strain[last, 4], r.stress[last, 4])

@@ -177,7 +177,8 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
 
         if step.early is not None:  # started before the other models (_start_dem_early)
             return step.early.run(progress=each, on_step=on_step, tick=tick,
-                                  raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"])
+                                  raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"],
+                                  on_stop=kw.get("on_stop"))
         return DEM.series(start, amps, progress=each, on_step=on_step, tick=tick, **kw)
 
     def path(load_path: Any) -> Any:

@@ -104,6 +104,9 @@ class ModelRun:
     in_order : bool
         ``series`` runs the amplitudes in increasing order, whatever order it is given
         them in (the DEM model's workers); otherwise in the order given.
+    planned : callable or None
+        ``planned(n)``: the series will run ``n`` amplitudes (those not taken up from an
+        earlier run), for the progress lines' count and time left.
     """
 
     model: KinematicModel
@@ -117,6 +120,7 @@ class ModelRun:
     so_far: Callable[[list], dict] | None = None
     until: Callable[[float, Any], str | None] | None = None
     in_order: bool = False
+    planned: Callable[[int], None] | None = None
 
 
 def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
@@ -167,9 +171,12 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
                 told(merged(ordered, kept, mr, until=model.until, complete=False, **form) if kept else mr)
 
         mr = None
+        if todo and model.planned is not None:
+            model.planned(len(todo))
         if todo:
             mr = model.series(todo, **form, progress=each, raise_on_failure=False,
                               on_amplitude=so_far if records is not None else told,
+                              on_stop=lambda a, why: say(f"[{method}] amplitude {a:.3g} stopped: {why}"),
                               **({"until": model.until} if model.until is not None else {}))
             save(mr)
         if kept:

@@ -89,7 +89,8 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None], step: JobStep | 
     model = ModelRun(PACKING, pt, f"{pt.n_grains} grains", series=series,
                      path=partial(PACKING.path, pt, options=opts, on_step=on_step), void_ratio=src.void_ratio,
                      details=details, finish=finish, so_far=so_far,
-                     until=series_end(spec, PACKING, to) if spec.one_list and to is not None else None)
+                     until=series_end(spec, PACKING, to) if spec.one_list and to is not None else None,
+                     planned=on_step.planned)
     return execute_model(model, spec, say, step)
 
 

@@ -27,9 +27,12 @@ def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None 
     per amplitude (committed relaxation at the strain reversals); the line tells the user
     that it is working and how far it is. A call with ``k`` not above the previous one
     starts the next run (amplitude); the last step of a run is silent.
+    ``on_step.planned(m)`` sets the number of amplitudes to ``m`` before the first step (a
+    resumed run: only those not taken up from the earlier run are counted and timed).
     """
     start = time.perf_counter()
     state = {"t0": start, "last": start, "end": start, "k": 0.0, "run": 1, "done_steps": 0}
+    count: list[int | None] = [amplitudes]
 
     def on_step(k: int, n: int) -> None:
         now = time.perf_counter()
@@ -38,6 +41,7 @@ def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None 
             state["done_steps"] += int(state["k"])
             state["t0"] = state["last"] = state["end"]
         state["k"], state["end"] = k, now
+        amplitudes = count[0]
         if now - state["last"] >= every and k < n:
             state["last"] = now
             where = f"amplitude {state['run']}/{amplitudes}, " if amplitudes else ""
@@ -48,6 +52,11 @@ def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None 
                 line += f", about {rate * left_steps:.0f} s left"
             say(line)
 
+    def planned(m: int) -> None:
+        if count[0] is not None:
+            count[0] = int(m)
+
+    on_step.planned = planned  # type: ignore[attr-defined]
     return on_step
 
 

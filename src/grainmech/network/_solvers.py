@@ -139,18 +139,29 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
         with _PARDISO_LOCK:
             ps = shared_pardiso()
             ps.set_matrix_type(2)
+            # MKL on one thread in this thread while the factor lives (as the packing
+            # driver's factors): PARDISO's multithreaded reordering, after other MKL and
+            # OpenMP work in the same process (the packing driver, numba's threads),
+            # failed with error -3 or spun forever in METIS; one thread is also
+            # reproducible, and these operators factor in milliseconds
+            local = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None)
+            prev = local(1) if local is not None else None
             try:
-                ps.factorize(Au)
-            except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
-                ps.free_memory(everything=True)
-                raise GrainmechError(f"relaxed stiffness: PARDISO factorisation failed ({exc})") from None
+                try:
+                    ps.factorize(Au)
+                except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
+                    ps.free_memory(everything=True)
+                    raise GrainmechError(f"relaxed stiffness: PARDISO factorisation failed ({exc})") from None
 
-            def solve_p(b: np.ndarray) -> np.ndarray:
-                return np.asarray(ps.solve(Au, np.ascontiguousarray(b, dtype=float))).reshape(b.shape)
-            try:
-                yield solve_p
+                def solve_p(b: np.ndarray) -> np.ndarray:
+                    return np.asarray(ps.solve(Au, np.ascontiguousarray(b, dtype=float))).reshape(b.shape)
+                try:
+                    yield solve_p
+                finally:
+                    ps.free_memory(everything=True)
             finally:
-                ps.free_memory(everything=True)
+                if local is not None:
+                    local(prev)
         return
     if method == "cholesky":
         from cholespy import CholeskySolverD, MatrixType

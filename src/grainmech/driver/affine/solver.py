@@ -475,6 +475,7 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
                       raise_on_failure: bool = True,
                       on_amplitude: Callable[[ModulusReduction], None] | None = None,
                       runner: Callable[..., DriverResult] | None = None,
+                      on_stop: Callable[[float, str], None] | None = None,
                       **run_options: Any) -> ModulusReduction:
     """Strain-controlled cyclic simple shear (``gamma_xz``) per amplitude.
 
@@ -499,6 +500,8 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     runner : callable ``(point, path, **run_options) -> DriverResult``, optional
         What runs each amplitude's path; default :func:`run` (the caller's own reference
         to it: ``grainmech.jobs`` passes the ``grainmech.driver.run`` it imported).
+    on_stop : callable ``(amplitude, message)``, optional
+        Called when an amplitude fails (with ``raise_on_failure`` False), as it fails.
 
     Raises
     ------
@@ -509,4 +512,5 @@ def modulus_reduction(point: Any, amplitudes: ArrayLike, *, n_cycles: int = 2,
     return cyclic_series(lambda path: run_path(point, path, **run_options), amplitudes,
                          lambda path: condensed_modulus(point.tangent, 4, path.stress_control[0]),
                          n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
-                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
+                         progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude,
+                         on_stop=on_stop)

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from grainmech.contact.rolling import RollingResistance
-from grainmech.driver.base import DriverResult
+from grainmech.driver.base import DriverResult, Status
 from grainmech.driver.dem.mpi import Tick, signal_text
 from grainmech.driver.dem.run import DemResult, run_dem
 from grainmech.driver.dem.settings import DemSettings, dem_material
@@ -95,6 +95,16 @@ def _worker_main(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSet
         conn.close()
     except OSError:  # the parent has gone (it ended the pool): nobody to answer
         pass
+
+
+def _stop_text(answer: tuple | None) -> str | None:
+    """Why a worker's answer is a stop (died, out of memory, a run that did not succeed), or None."""
+    if answer is None or answer[0] == "error":  # an error is raised when its amplitude is collected
+        return None
+    if answer[0] in ("died", "memory"):
+        return str(answer[1])
+    r = answer[1]
+    return None if r.success or int(r.status) == Status.LIQUEFIED else str(r.message)
 
 
 def _death(pid: int | None, exitcode: int | None) -> str:
@@ -199,11 +209,14 @@ class _Pool:
                 elif i == self.awaited:
                     self.progress.put((i, *msg))
 
-    def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> DemResult:
+    def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None,
+               on_other_stop: Callable[[int, str], None] | None = None) -> DemResult:
         """Wait for amplitude ``index``, passing on its progress meanwhile.
 
         Returns its :class:`DemResult`; a failed one (``success`` False) when its worker
         died or ran out of memory. An error raised in the worker is raised here.
+        ``on_other_stop(i, message)`` hears meanwhile of another amplitude ``i`` that
+        ended without success (the moment its worker answers, not when it is collected).
         """
         self.awaited = index
         while True:
@@ -219,6 +232,11 @@ class _Pool:
                 on_step(int(msg[0]), int(msg[1]))
             elif i == index and kind == "tick" and tick is not None:
                 tick(int(msg[0]), float(msg[1]))
+            elif i != index and kind == "answer" and on_other_stop is not None:
+                with self.lock:
+                    why = _stop_text(self.answers.get(i))
+                if why is not None:
+                    on_other_stop(i, why)
         self.awaited = -1
         if answer[0] == "result":
             return answer[1]
@@ -310,15 +328,28 @@ class DemSeries:
     def run(self, *, progress: Callable[[int, float, Any], None] | None = None,
             on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
             raise_on_failure: bool = True,
-            on_amplitude: Callable[[ModulusReduction], None] | None = None) -> ModulusReduction:
-        """Collect the series in increasing amplitude (:func:`dem_modulus_reduction`)."""
+            on_amplitude: Callable[[ModulusReduction], None] | None = None,
+            on_stop: Callable[[float, str], None] | None = None) -> ModulusReduction:
+        """Collect the series in increasing amplitude (:func:`dem_modulus_reduction`).
+
+        ``on_stop(amplitude, message)`` hears of each amplitude that fails once, when it
+        fails: with workers, the moment its worker answers, even while the series still
+        waits for a smaller amplitude.
+        """
         tangents: list[np.ndarray] = []
         amps = np.array(sorted(self.amplitudes))
+        told: set[float] = set()
+        by_index = {i: a for a, i in self.index.items()}
+
+        def stopped(a: float, why: str) -> None:
+            if on_stop is not None and a not in told:
+                told.add(a)
+                on_stop(a, why)
 
         def one(path: LoadPath) -> DriverResult:
             a = float(amps[len(tangents)])
             if self.pool is not None:
-                r = self.pool.result(self.index[a], on_step, tick)
+                r = self.pool.result(self.index[a], on_step, tick, lambda i, why: stopped(by_index[i], why))
             else:
                 r = run_dem(self.net, self.law, path, self.settings, pressure=self.pressure, on_step=on_step,
                             tick=tick, rolling=self.rolling)
@@ -335,7 +366,7 @@ class DemSeries:
 
         return cyclic_series(one, amps, gmax, n_cycles=self.n_cycles, steps_per_cycle=self.steps_per_cycle,
                              waveform=self.waveform, constant=self.constant, progress=progress,
-                             raise_on_failure=raise_on_failure, on_amplitude=on_amplitude)
+                             raise_on_failure=raise_on_failure, on_amplitude=on_amplitude, on_stop=stopped)
 
     def close(self) -> None:
         """End the worker processes (idempotent)."""
@@ -352,7 +383,8 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
                           on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
                           raise_on_failure: bool = True,
                           on_amplitude: Callable[[ModulusReduction], None] | None = None,
-                          rolling: RollingResistance | None = None) -> ModulusReduction:
+                          rolling: RollingResistance | None = None,
+                          on_stop: Callable[[float, str], None] | None = None) -> ModulusReduction:
     """G/Gmax and damping of a packing by DEM: cyclic simple shear ``gamma_xz`` per amplitude.
 
     Each amplitude starts from the same state (the packing loaded and relaxed anew; LAMMPS
@@ -375,6 +407,6 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
                        rolling=rolling)
     try:
         return series.run(progress=progress, on_step=on_step, tick=tick, raise_on_failure=raise_on_failure,
-                          on_amplitude=on_amplitude)
+                          on_amplitude=on_amplitude, on_stop=on_stop)
     finally:
         series.close()

@@ -67,7 +67,8 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
                               raise_on_failure: bool = True, options: PackingOptions | None = None,
                               on_step: Callable[[int, int], None] | None = None,
                               on_amplitude: Callable[[Any], None] | None = None,
-                              until: Callable[[float, Any], str | None] | None = None, **kwargs: Any):
+                              until: Callable[[float, Any], str | None] | None = None,
+                              on_stop: Callable[[float, str], None] | None = None, **kwargs: Any):
     """G/Gmax and damping of a packing: strain-controlled cyclic simple shear per amplitude.
 
     As :func:`grainmech.analysis.modulus_reduction` (each amplitude starts from ``point``;
@@ -81,7 +82,8 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
     ``on_amplitude(series)``, if given, is called after each completed amplitude with a
     :class:`~grainmech.analysis.ModulusReduction` of the amplitudes done so far;
     ``until(amplitude, result)`` returning a reason ends the series there (the larger
-    amplitudes are not run: :func:`grainmech.driver.loop.cyclic_series`).
+    amplitudes are not run: :func:`grainmech.driver.loop.cyclic_series`);
+    ``on_stop(amplitude, message)`` hears of a failed amplitude when it fails.
 
     Raises
     ------
@@ -103,7 +105,7 @@ def packing_modulus_reduction(point: PackingPoint, amplitudes: Sequence[float], 
                          lambda path: condensed_modulus(point.elastic_tangent, 4, path.stress_control[0]),
                          n_cycles=n_cycles, steps_per_cycle=steps_per_cycle, waveform=waveform, constant=constant,
                          progress=progress, raise_on_failure=raise_on_failure, on_amplitude=on_amplitude,
-                         until=until)
+                         until=until, on_stop=on_stop)
 
 
 # --------------------------------------------------------------------------- preparation
