@@ -222,3 +222,31 @@ def test_an_error_raised_in_a_worker_still_reaches_the_caller() -> None:
     with pytest.raises(GrainmechError, match="pressure"):
         dem_modulus_reduction(load_packing("dense"), HertzMindlin(29e9, 0.15, 1.5e-4, friction=0.5), [1e-6, 1e-5],
                               n_cycles=2, steps_per_cycle=8, pressure=-1.0, workers=2)
+
+
+def test_a_worker_out_of_memory_answers_a_failed_amplitude(monkeypatch) -> None:
+    """A :class:`MemoryError` inside a worker (an array LAMMPS' output could not be
+    allocated) is answered as ``("memory", text)``, not raised: the pool turns it into a
+    failed amplitude naming the cause, reported as a stop while another amplitude is
+    awaited, and the other amplitudes go on (the worker itself runs in-process here)."""
+    from multiprocessing import Pipe
+
+    from grainmech.driver.dem import series as dem_series
+
+    def no_memory(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+        raise MemoryError("cannot allocate 8.00 GiB")
+
+    monkeypatch.setattr(dem_series, "_worker_init", lambda: None)  # it would ignore Ctrl-C in pytest's process
+    monkeypatch.setattr(dem_series, "run_dem", no_memory)
+    recv, send = Pipe(duplex=False)
+    dem_series._worker_main(None, None, None, None, None, None, False, send)
+    answer = recv.recv()
+    assert answer == ("memory", "it ran out of memory (MemoryError: cannot allocate 8.00 GiB)")
+    assert dem_series._stop_text(answer) == answer[1]
+    pool = dem_series._Pool(1)
+    try:
+        pool.answers[0] = answer
+        r = pool.result(0, None, None)
+    finally:
+        pool.close()
+    assert not r.success and r.message == answer[1] and len(r.stress) == 0
