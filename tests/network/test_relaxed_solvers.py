@@ -211,20 +211,23 @@ def test_refine_pcg_removes_the_error_left_in_soft_modes():
 def test_pardiso_handle_finds_mkl_from_the_mkl_package(monkeypatch):
     """pardiso_solver names pypardiso's MKL runtime from the ``mkl`` distribution's files
     (instead of find_library and a recursive glob); the handle factors and solves; a
-    value the user set is kept."""
+    value the user set is kept. The solve runs on one MKL thread (``one_mkl_thread``, as
+    every factor of grainmech): multithreaded, it failed with PARDISO error -3 after the
+    rest of the suite had run MKL and numba's threads in this process."""
     pytest.importorskip("pypardiso")
     import os
 
     import scipy.sparse as sp
 
-    from grainmech.network._solvers import pardiso_solver
+    from grainmech.network._solvers import one_mkl_thread, pardiso_solver
 
     monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
     s = pardiso_solver(2)
     path = os.environ.get("PYPARDISO_MKL_RT")
     assert path is not None and os.path.isfile(path) and "mkl_rt" in os.path.basename(path)
     A = sp.csr_matrix(np.array([[4.0, 1.0], [1.0, 3.0]]))
-    x = s.solve(sp.triu(A, format="csr"), np.array([1.0, 2.0]))
+    with one_mkl_thread(s):
+        x = s.solve(sp.triu(A, format="csr"), np.array([1.0, 2.0]))
     np.testing.assert_allclose(A @ x, [1.0, 2.0], rtol=1e-12)
     s.free_memory(everything=True)
     mine = os.path.join(os.path.dirname(path), ".", os.path.basename(path))  # the same file, another name

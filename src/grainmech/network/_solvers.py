@@ -115,6 +115,26 @@ def pardiso_solver(mtype: int = 2) -> Any:
     return pypardiso.PyPardisoSolver(mtype=mtype)
 
 
+@contextmanager
+def one_mkl_thread(ps: Any) -> Iterator[None]:
+    """MKL on one thread in the calling thread while the block runs (``ps``: a pypardiso handle).
+
+    PARDISO's multithreaded reordering, after other MKL and OpenMP work in the same
+    process (the packing driver, numba's threads), failed with error -3 or spun forever
+    in METIS; on one thread it does not, the factor is reproducible, and the operators
+    here factor in milliseconds to seconds. The setting is MKL's thread-local one
+    (``MKL_Set_Num_Threads_Local``), restored after the block; nothing happens with an
+    MKL that lacks it.
+    """
+    local = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None)
+    prev = local(1) if local is not None else None
+    try:
+        yield
+    finally:
+        if local is not None:
+            local(prev)
+
+
 @functools.cache
 def shared_pardiso() -> Any:
     """The one PARDISO handle of this process (real symmetric positive definite).
@@ -139,14 +159,7 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
         with _PARDISO_LOCK:
             ps = shared_pardiso()
             ps.set_matrix_type(2)
-            # MKL on one thread in this thread while the factor lives (as the packing
-            # driver's factors): PARDISO's multithreaded reordering, after other MKL and
-            # OpenMP work in the same process (the packing driver, numba's threads),
-            # failed with error -3 or spun forever in METIS; one thread is also
-            # reproducible, and these operators factor in milliseconds
-            local = getattr(ps.libmkl, "MKL_Set_Num_Threads_Local", None)
-            prev = local(1) if local is not None else None
-            try:
+            with one_mkl_thread(ps):
                 try:
                     ps.factorize(Au)
                 except Exception as exc:  # noqa: BLE001 (pypardiso raises its own PyPardisoError)
@@ -159,9 +172,6 @@ def _factorised(A: Any, method: str) -> Iterator[Callable[[np.ndarray], np.ndarr
                     yield solve_p
                 finally:
                     ps.free_memory(everything=True)
-            finally:
-                if local is not None:
-                    local(prev)
         return
     if method == "cholesky":
         from cholespy import CholeskySolverD, MatrixType
