@@ -1,8 +1,9 @@
 """The models' grains against sand data no one here made: writes ``docs/validation.md``.
 
 For each packing (the sand packings and the smooth-sphere packings beside them) it runs,
-caching every finished part in ``OUT/cache.json`` so that a killed run restarted goes on
-where it stopped:
+caching every finished part in ``benchmarks/validation-cache.json`` (kept in the
+repository: the page is remade from it, and a killed or later run goes on where it
+stopped; delete a part's entry to run it again):
 
 * ``gmax``: the small-strain shear modulus (the relaxed tensor, every grain in
   equilibrium, with the rolling stiffness where the grains have it) against Hardin &
@@ -22,7 +23,7 @@ where it stopped:
 
 Usage::
 
-    python benchmarks/validation.py [--out DIR] [--parts gmax,triaxial,cyclic,ru,cyclic50,cyclic400]
+    python benchmarks/validation.py [--cache FILE] [--parts gmax,triaxial,cyclic,ru,cyclic50,cyclic400]
                                     [--packings nevada-loose,nevada-medium,nevada-dense,dense,medium,loose]
                                     [--workers 2] [--page docs/validation.md]
 
@@ -351,15 +352,14 @@ def write_page(cache: dict, page: Path) -> None:
 
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default="validation-out")
+    ap.add_argument("--cache", default=str(ROOT / "benchmarks" / "validation-cache.json"))
     ap.add_argument("--parts", default="gmax,triaxial,cyclic,ru,cyclic50,cyclic400")
     ap.add_argument("--packings", default=",".join((*SAND, *SMOOTH)))
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--page", default=str(ROOT / "docs" / "validation.md"))
     a = ap.parse_args(argv)
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    cache_file = out / "cache.json"
+    cache_file = Path(a.cache)
+    cache_file.parent.mkdir(parents=True, exist_ok=True)
     cache = json.loads(cache_file.read_text()) if cache_file.exists() else {}
     from grainmech.packing.shipped import PACKINGS
 
@@ -371,7 +371,7 @@ def main(argv: list[str]) -> int:
         for fut in as_completed([pool.submit(_job, j) for j in jobs]):
             part, name, res = fut.result()
             cache.setdefault(part, {})[name] = res
-            cache_file.write_text(json.dumps(cache))
+            cache_file.write_text(json.dumps(cache, indent=1) + "\n")
             print(f"done {part} {name}: {str(res)[:200]}", flush=True)
     write_page(cache, Path(a.page))
     print(f"wrote {a.page}")

@@ -187,7 +187,7 @@ def test_io_does_not_import_site():
 
 
 def test_sand_layer_by_density_packing_model_and_resume_per_amplitude(tmp_path, cli):
-    """A real run: D_r 0.5 takes 'nevada-medium' at its own 100 kPa (k0 = 1, 10 m of 20 kN/m^3:
+    """A real run: D_r 0.5 takes 'nevada-medium' (D_r 0.58, within 0.1) at its own 100 kPa (k0 = 1, 10 m of 20 kN/m^3:
     p' = 100 kPa at 5 m), the packing model at 1e-6 and 1e-5 (its range: no DEM model);
     the row names the packing and its D_r; a rerun with --resume runs nothing, one after
     an amplitude file is deleted runs that one only, with the same G/Gmax (without

@@ -8,7 +8,7 @@ ratio of 4), grains with rolling resistance ``mu_r = 0.25`` (``docs/contact-laws
 three relative densities against the void-ratio limits ``grainmech pack`` measures for the
 same grains (``nevada-limits.json``):
 
-* ``"nevada-medium"`` - preparation friction 0.5, preparation rolling friction 0.03;
+* ``"nevada-medium"`` - preparation friction 0.5, preparation rolling friction 0.01;
 * ``"nevada-loose"`` - preparation friction 0.5 and rolling friction 0.25 (the grains');
 * ``"nevada-dense"`` - preparation friction 0.09, no preparation rolling friction; the
   grains' rolling resistance starts unloaded at the prepared state (``grain_rolling =
