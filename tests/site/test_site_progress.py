@@ -33,6 +33,19 @@ def test_layer_line_names_the_layer_the_models_amplitude_and_the_time_left():
     assert w.line() == "[site] layer 2/3 layer 2 'sand-2': running 30 s; profile: about 170 s left"
 
 
+def test_a_stopped_amplitude_is_said_at_once_not_only_in_the_next_line():
+    """A model's stop line (``[packing] amplitude 0.0001 stopped: ...``) is said the moment
+    the layer's model says it, with the layer; other lines wait for the heartbeat."""
+    said: list[str] = []
+    w = LayerWatch(total=3, todo=3, in_process=True, clock=Clock(), say=said.append)
+    w.start("layer 1 'upper sand'")
+    w.note("[packing] amplitude 4/8, step 24/48, 128 s (total 158 s), about 203 s left")
+    w.note("[packing] amplitude 0.0001 stopped: step 26: no equilibrium of the fixed geometry")
+    w.note("[dem 1/5] cyclic simple shear, amplitude 0.0001 (32 steps, 2000 grains)")
+    assert said == ["[site] layer 1/3 layer 1 'upper sand': [packing] amplitude 0.0001 stopped: step 26: no "
+                    "equilibrium of the fixed geometry"]
+
+
 def test_cluster_line_counts_the_layers():
     clock = Clock()
     w = LayerWatch(total=4, todo=2, in_process=False, clock=clock)

@@ -21,6 +21,7 @@ Order of work (``docs/site-profile.md``):
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from collections.abc import Callable
@@ -57,6 +58,10 @@ def _in_process(client: Any, scheduler: str | None, workers: int | None) -> bool
     return client is None and scheduler is None and (workers is None or workers == 1)
 
 
+#: a model's line saying that one of its amplitudes stopped (``jobs.model.execute_model``)
+_STOPPED = re.compile(r"^\[\w+\] amplitude \S+ stopped: ")
+
+
 class LayerWatch:
     """What the site's progress line says while layers run (read by a :class:`Heartbeat`).
 
@@ -68,8 +73,10 @@ class LayerWatch:
     cluster the layers run elsewhere: the line counts them and gives the elapsed time.
     """
 
-    def __init__(self, total: int, todo: int, in_process: bool, clock: Callable[[], float] = time.perf_counter):
+    def __init__(self, total: int, todo: int, in_process: bool, clock: Callable[[], float] = time.perf_counter,
+                 say: Callable[[str], None] | None = None):
         self.total, self.todo, self.in_process, self.clock = total, todo, in_process, clock
+        self.say = say
         self.t0 = self.t_layer = clock()
         self.label, self.index, self.latest, self.t_latest = "", 0, "", 0.0
         self.seconds: list[float] = []
@@ -81,8 +88,10 @@ class LayerWatch:
         self.t_layer = self.clock()
 
     def note(self, message: str) -> None:
-        """The model's latest progress line."""
+        """The model's latest progress line; an amplitude's stop is also said at once (with ``say``)."""
         self.latest, self.t_latest = message, self.clock()
+        if self.say is not None and _STOPPED.match(message):
+            self.say(f"[site] layer {self.index}/{self.todo} {self.label}: {message}")
 
     def done(self, seconds: float | None) -> None:
         """A layer finished after ``seconds`` (None: not known)."""
@@ -244,7 +253,7 @@ def _run_in(folder: Any, profile: SiteProfile, base: str, say: Callable[[str], N
     todo = [la for la in profile.layers if la.index not in records]
     if todo:  # 3. the layers, every amplitude saved as it finishes
         tasks = [(la, base, anchors.get(la.index), str(ldir / la.slug), resume) for la in todo]
-        watch = LayerWatch(len(profile.layers), len(todo), _in_process(cluster[0], cluster[1], cluster[2]))
+        watch = LayerWatch(len(profile.layers), len(todo), _in_process(cluster[0], cluster[1], cluster[2]), say=say)
 
         def local(task: tuple) -> dict:
             watch.start(task[0].label)
