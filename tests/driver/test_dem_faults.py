@@ -250,3 +250,39 @@ def test_a_worker_out_of_memory_answers_a_failed_amplitude(monkeypatch) -> None:
     finally:
         pool.close()
     assert not r.success and r.message == answer[1] and len(r.stress) == 0
+
+
+def test_an_amplitude_waiting_for_a_worker_hears_how_far_the_running_ones_are() -> None:
+    """``_Pool.result(on_wait=...)``: while the awaited amplitude has no worker (the larger
+    ones, submitted first, hold them), it hears about every half second the latest step of
+    each running amplitude, so the job can say what runs instead of going silent."""
+    import threading
+    from multiprocessing import Pipe
+
+    from grainmech.driver.dem import series as dem_series
+
+    class Done:  # a worker process that has ended
+        pid, exitcode = 0, 0
+
+        def is_alive(self) -> bool:
+            return False
+
+        def join(self, timeout=None) -> None:  # noqa: ANN001
+            return None
+
+    recv, _send = Pipe(duplex=False)
+    pool = dem_series._Pool(1)
+    heard: list[dict] = []
+    try:
+        with pool.lock:
+            pool.running[1] = (Done(), recv)  # amplitude 1 runs; amplitude 0 waits for a worker
+            pool.steps[1] = (12, 32)
+        r = dem_series.DemResult.failed("stand-in answer")
+        timer = threading.Timer(1.3, lambda: pool.answers.__setitem__(0, ("result", r)))
+        timer.start()
+        got = pool.result(0, None, None, on_wait=heard.append)
+        timer.join()
+    finally:
+        pool.close()
+    assert got is r
+    assert len(heard) >= 2 and all(h == {1: (12, 32)} for h in heard)

@@ -483,7 +483,7 @@ def test_dem_progress_lines_name_the_ratio_and_never_print_nan(monkeypatch) -> N
 
     lines: list[str] = []
     tag = {"amp": "1/2 amplitude 1e-05", "t": 0.0}
-    on_step, tick = jd._dem_reporter(lines.append, tag)
+    on_step, tick, waiting = jd._dem_reporter(lines.append, tag)
     monkeypatch.setattr(jd, "DEM_PROGRESS_EVERY", 0.0)
     on_step(3, 32)
     tick(15000, 3.9e-6)
@@ -491,3 +491,7 @@ def test_dem_progress_lines_name_the_ratio_and_never_print_nan(monkeypatch) -> N
     assert lines[0].startswith("[dem]  1/2 amplitude 1e-05, step 3/32 done, 15000 LAMMPS time steps, "
                                "unbalanced force ratio 3.9e-06, ")
     assert "nan" not in lines[1] and "16000 LAMMPS time steps, " in lines[1]
+    # the awaited amplitude has no worker yet: the line says which amplitudes run and how far
+    waiting({1e-2: (12, 32), 3e-3: (5, 32)})
+    assert lines[2].startswith("[dem] 1/2 amplitude 1e-05 waits for a worker (the larger amplitudes run first); "
+                               "running: amplitude 0.003 at step 5/32, amplitude 0.01 at step 12/32, ")

@@ -166,7 +166,7 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
     say(f"[dem] {src.label}: {net.n_particles} grains, {net.n_contacts} contacts, void ratio {src.void_ratio:.3f}; "
         "LAMMPS, quasi-static (ramped increments, every recorded state relaxed to equilibrium)")
     tag: dict[str, Any] = {"amp": "", "t": time.perf_counter()}
-    on_step, tick = _dem_reporter(say, tag)
+    on_step, tick, waiting = _dem_reporter(say, tag)
 
     def series(amps: list[float], *, progress: Callable[[int, float, Any], None], **kw: Any) -> Any:
         def each(i: int, a: float, path: Any) -> None:
@@ -178,8 +178,8 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
         if step.early is not None:  # started before the other models (_start_dem_early)
             return step.early.run(progress=each, on_step=on_step, tick=tick,
                                   raise_on_failure=kw["raise_on_failure"], on_amplitude=kw["on_amplitude"],
-                                  on_stop=kw.get("on_stop"))
-        return DEM.series(start, amps, progress=each, on_step=on_step, tick=tick, **kw)
+                                  on_stop=kw.get("on_stop"), on_wait=waiting)
+        return DEM.series(start, amps, progress=each, on_step=on_step, tick=tick, on_wait=waiting, **kw)
 
     def path(load_path: Any) -> Any:
         return DEM.path(start, load_path, on_step=on_step, tick=tick)
@@ -215,13 +215,15 @@ def _cyclic_notes(spec: RunSpec, details: dict[str, Any], handed: HandOver | Non
 DEM_PROGRESS_EVERY = 10.0
 
 
-def _dem_reporter(say: Callable[[str], None],
-                  tag: dict) -> tuple[Callable[[int, int], None], Callable[[int, float], None]]:
+def _dem_reporter(say: Callable[[str], None], tag: dict) -> tuple[Callable[[int, int], None],
+                                                                  Callable[[int, float], None],
+                                                                  Callable[[dict[float, tuple[int, int]]], None]]:
     """Progress of a DEM run: a line at least every :data:`DEM_PROGRESS_EVERY` s while LAMMPS works.
 
     The line names the amplitude, the step, the LAMMPS time steps and the last unbalanced
     force ratio; ``on_step(k, n)`` follows the path, ``tick(time_steps, unbalanced)`` each
-    relaxation.
+    relaxation, ``waiting({amplitude: (k, n)})`` the amplitudes running in the workers
+    while the one the series waits for has none yet (it says which run and how far).
     """
     st = {"last": time.perf_counter()}
     tag.setdefault("k", 0)
@@ -245,4 +247,13 @@ def _dem_reporter(say: Callable[[str], None],
     def tick(steps: int, ub: float) -> None:
         line(steps, ub)
 
-    return on_step, tick
+    def waiting(running: dict[float, tuple[int, int]]) -> None:
+        now = time.perf_counter()
+        if now - st["last"] >= DEM_PROGRESS_EVERY:
+            st["last"] = now
+            what = f" {tag['amp']}" if tag["amp"] else ""
+            busy = ", ".join(f"amplitude {a:.3g} at step {k}/{n}" for a, (k, n) in sorted(running.items()))
+            say(f"[dem]{what} waits for a worker (the larger amplitudes run first); running: "
+                f"{busy or 'starting'}, {now - tag['t']:.0f} s")
+
+    return on_step, tick, waiting

@@ -143,6 +143,7 @@ class _Pool:
         self.running: dict[int, tuple[Any, Connection]] = {}
         self.answers: dict[int, tuple] = {}
         self.awaited = -1
+        self.steps: dict[int, tuple[int, int]] = {}  # the latest step (k, n) of every running amplitude
         self.progress: queue.SimpleQueue[tuple] = queue.SimpleQueue()
         self.lock = threading.RLock()
         self.stop = threading.Event()
@@ -172,6 +173,7 @@ class _Pool:
             if i not in self.running:  # ended by close()
                 return
             proc, conn = self.running.pop(i)
+            self.steps.pop(i, None)
         conn.close()
         proc.join(timeout=30)
         if proc.is_alive():  # pragma: no cover - answered but does not exit
@@ -206,17 +208,24 @@ class _Pool:
                     continue
                 if msg[0] in ("result", "memory", "error"):
                     self._end(i, msg)
-                elif i == self.awaited:
-                    self.progress.put((i, *msg))
+                else:
+                    if msg[0] == "step":
+                        self.steps[i] = (int(msg[1]), int(msg[2]))
+                    if i == self.awaited:
+                        self.progress.put((i, *msg))
 
     def result(self, index: int, on_step: Callable[[int, int], None] | None, tick: Tick | None,
-               on_other_stop: Callable[[int, str], None] | None = None) -> DemResult:
+               on_other_stop: Callable[[int, str], None] | None = None,
+               on_wait: Callable[[dict[int, tuple[int, int]]], None] | None = None) -> DemResult:
         """Wait for amplitude ``index``, passing on its progress meanwhile.
 
         Returns its :class:`DemResult`; a failed one (``success`` False) when its worker
         died or ran out of memory. An error raised in the worker is raised here.
         ``on_other_stop(i, message)`` hears meanwhile of another amplitude ``i`` that
         ended without success (the moment its worker answers, not when it is collected).
+        ``on_wait(steps)`` is called about every half second while amplitude ``index`` waits
+        for a worker (the others, larger ones first, hold them), with the latest step
+        ``(k, n)`` of each amplitude running meanwhile (``{i: (k, n)}``).
         """
         self.awaited = index
         while True:
@@ -227,6 +236,12 @@ class _Pool:
             try:
                 i, kind, *msg = self.progress.get(timeout=0.5)
             except queue.Empty:
+                if on_wait is not None:
+                    with self.lock:
+                        queued = index not in self.running
+                        steps = {j: self.steps[j] for j in self.running if j in self.steps}
+                    if queued:
+                        on_wait(steps)
                 continue
             if i == index and kind == "step" and on_step is not None:
                 on_step(int(msg[0]), int(msg[1]))
@@ -329,12 +344,14 @@ class DemSeries:
             on_step: Callable[[int, int], None] | None = None, tick: Tick | None = None,
             raise_on_failure: bool = True,
             on_amplitude: Callable[[ModulusReduction], None] | None = None,
-            on_stop: Callable[[float, str], None] | None = None) -> ModulusReduction:
+            on_stop: Callable[[float, str], None] | None = None,
+            on_wait: Callable[[dict[float, tuple[int, int]]], None] | None = None) -> ModulusReduction:
         """Collect the series in increasing amplitude (:func:`dem_modulus_reduction`).
 
         ``on_stop(amplitude, message)`` hears of each amplitude that fails once, when it
         fails: with workers, the moment its worker answers, even while the series still
-        waits for a smaller amplitude.
+        waits for a smaller amplitude. ``on_wait({amplitude: (k, n)})``: while the amplitude
+        the series waits for has no worker yet, the steps of those running (``_Pool.result``).
         """
         tangents: list[np.ndarray] = []
         amps = np.array(sorted(self.amplitudes))
@@ -349,7 +366,9 @@ class DemSeries:
         def one(path: LoadPath) -> DriverResult:
             a = float(amps[len(tangents)])
             if self.pool is not None:
-                r = self.pool.result(self.index[a], on_step, tick, lambda i, why: stopped(by_index[i], why))
+                r = self.pool.result(self.index[a], on_step, tick, lambda i, why: stopped(by_index[i], why),
+                                     None if on_wait is None else
+                                     lambda steps: on_wait({by_index[i]: kn for i, kn in steps.items()}))
             else:
                 r = run_dem(self.net, self.law, path, self.settings, pressure=self.pressure, on_step=on_step,
                             tick=tick, rolling=self.rolling)
@@ -384,7 +403,8 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
                           raise_on_failure: bool = True,
                           on_amplitude: Callable[[ModulusReduction], None] | None = None,
                           rolling: RollingResistance | None = None,
-                          on_stop: Callable[[float, str], None] | None = None) -> ModulusReduction:
+                          on_stop: Callable[[float, str], None] | None = None,
+                          on_wait: Callable[[dict[float, tuple[int, int]]], None] | None = None) -> ModulusReduction:
     """G/Gmax and damping of a packing by DEM: cyclic simple shear ``gamma_xz`` per amplitude.
 
     Each amplitude starts from the same state (the packing loaded and relaxed anew; LAMMPS
@@ -407,6 +427,6 @@ def dem_modulus_reduction(net: ContactNetwork, law: Any, amplitudes: Sequence[fl
                        rolling=rolling)
     try:
         return series.run(progress=progress, on_step=on_step, tick=tick, raise_on_failure=raise_on_failure,
-                          on_amplitude=on_amplitude, on_stop=on_stop)
+                          on_amplitude=on_amplitude, on_stop=on_stop, on_wait=on_wait)
     finally:
         series.close()
