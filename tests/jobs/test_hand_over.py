@@ -184,3 +184,28 @@ def test_execute_model_runs_the_handed_amplitudes_and_tells_the_hook() -> None:
     assert ran == {"amps": [1e-4, 3e-4, 1e-3], "spc": spec.dem_steps_per_cycle}
     assert ("handed", [1e-4, 3e-4], "it stopped (no equilibrium)") in say
     assert ("done", [handed.note]) in say
+
+
+@pytest.mark.parametrize("constant", ["stress", "volume"])
+def test_one_list_ends_the_fixed_geometry_where_it_was_last_checked(constant) -> None:
+    """One amplitude list: after the last amplitude at or below FIXED_GEOMETRY_CHECKED (3e-4,
+    the largest at which the packing model was held to the DEM model, docs/models/packing.md)
+    the packing model's series ends, at constant stress too, where nothing else would end
+    it; the reason names the checked range. Smaller amplitudes, and a list that stays
+    within it, run on."""
+    from types import SimpleNamespace
+
+    from grainmech.jobs.handover import FIXED_GEOMETRY_CHECKED, series_end
+
+    assert FIXED_GEOMETRY_CHECKED == 3e-4
+    done = SimpleNamespace(success=True, stress=np.tile([1e5, 1e5, 1e5, 0, 0, 0], (3, 1)))
+    spec = _spec('["packing", "dem"]', amps="[1e-5, 1e-4, 3e-4, 1e-3, 1e-2]", constant=constant)
+    until = series_end(spec, PACKING, DEM)
+    assert until(1e-5, done) is None and until(1e-4, done) is None
+    why = until(3e-4, done)
+    assert why is not None and "above 0.0003" in why and "the DEM model runs them" in why
+    within = series_end(_spec('["packing", "dem"]', amps="[1e-5, 1e-4, 3e-4]", constant=constant), PACKING, DEM)
+    assert within(1e-4, done) is None
+    # a list that skips 3e-4: the series ends after 1e-4, before 1e-3
+    skip = series_end(_spec('["packing", "dem"]', amps="[1e-4, 1e-3]", constant=constant), PACKING, DEM)
+    assert "above 0.0003" in skip(1e-4, done)

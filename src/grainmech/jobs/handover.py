@@ -24,7 +24,16 @@ from grainmech.jobs.spec import RunSpec
 from grainmech.lammps import engine
 from grainmech.outcomes import CyclicOutcome, RunOutcome, run_mean_stress_change
 
-__all__ = ["hand_over", "series_end", "stop_hint", "taker"]
+__all__ = ["FIXED_GEOMETRY_CHECKED", "hand_over", "series_end", "stop_hint", "taker"]
+
+#: the largest amplitude at which the packing model's fixed geometry was checked against
+#: the DEM model on the same grains (``docs/models/packing.md``, "Where the fixed geometry
+#: holds": 'dense' at 3e-4, +1.0 % in G at constant volume and +1.1 % at constant stress;
+#: at 1e-3 its fixed geometry found no equilibrium there). With one amplitude list and a
+#: model that takes over, the larger amplitudes go to that model: at constant stress no
+#: other check would stop the fixed geometry (a sand packing with rolling resistance
+#: completed 1e-3 and 3e-3 in it, minutes per step, with nothing to hold it to).
+FIXED_GEOMETRY_CHECKED = 3e-4
 
 
 def taker(later: Sequence[KinematicModel]) -> KinematicModel | None:
@@ -39,14 +48,23 @@ def series_end(spec: RunSpec, source: KinematicModel, to: KinematicModel) -> Cal
     grains rearrange (its constant-volume cycles change the mean stress by more than
     ``REARRANGEMENT_DP``, where the fixed geometry's loops were 7-20 % off the DEM model's,
     ``docs/models/packing.md``), ends the series: it and the larger ones go to the model
-    ``to`` that takes over (:func:`hand_over`).
+    ``to`` that takes over (:func:`hand_over`). So does the last amplitude at or below
+    :data:`FIXED_GEOMETRY_CHECKED` when larger ones follow (a first amplitude above it
+    still runs in the fixed geometry).
     """
+    amps = sorted(float(a) for a in spec.amplitudes_of(source))
+
     def until(a: float, r: Any) -> str | None:
         if not r.success:
             return f"the {source.title} stopped at {a:.3g}; the {to.title} runs them"
         if spec.constant == "volume" and abs(run_mean_stress_change(r)) > REARRANGEMENT_DP:
             return (f"at {a:.3g} the grains rearrange (mean stress changed by more than "
                     f"{100 * REARRANGEMENT_DP:g} % at constant volume); the {to.title} runs them")
+        nxt = next((x for x in amps if x > a), None)
+        if source.fixed_geometry and a <= FIXED_GEOMETRY_CHECKED < (nxt if nxt is not None else 0.0):
+            return (f"amplitudes above {FIXED_GEOMETRY_CHECKED:g} are beyond the largest at which the "
+                    f"{source.title}'s fixed geometry was checked against the {to.title} "
+                    f"(docs/models/packing.md); the {to.title} runs them")
         return None
 
     return until
