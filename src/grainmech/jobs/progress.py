@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-__all__ = ["PACKING_PROGRESS_EVERY", "StepClock", "Heartbeat"]
+__all__ = ["PACKING_PROGRESS_EVERY", "StepClock", "StepReporter", "Heartbeat"]
 
 
 #: seconds between two progress lines of a long packing run (at most; a batch job's log
@@ -14,7 +14,7 @@ PACKING_PROGRESS_EVERY = 10.0
 
 
 def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None = None,
-                   every: float = PACKING_PROGRESS_EVERY) -> Callable[[int, int], None]:
+                   every: float = PACKING_PROGRESS_EVERY) -> StepReporter:
     """``on_step(k, n)`` that reports the progress of a long run at most once every ``every`` seconds.
 
     The line says ``"<tag> amplitude a/m, step k/n, t s (total T s), about R s left"``:
@@ -30,34 +30,41 @@ def _step_reporter(say: Callable[[str], None], tag: str, amplitudes: int | None 
     ``on_step.planned(m)`` sets the number of amplitudes to ``m`` before the first step (a
     resumed run: only those not taken up from the earlier run are counted and timed).
     """
-    start = time.perf_counter()
-    state = {"t0": start, "last": start, "end": start, "k": 0.0, "run": 1, "done_steps": 0}
-    count: list[int | None] = [amplitudes]
+    return StepReporter(say, tag, amplitudes, every)
 
-    def on_step(k: int, n: int) -> None:
+
+class StepReporter:
+    """The callable :func:`_step_reporter` returns: ``reporter(k, n)`` after each step, ``planned(m)``."""
+
+    def __init__(self, say: Callable[[str], None], tag: str, amplitudes: int | None, every: float) -> None:
+        self.say, self.tag, self.amplitudes, self.every = say, tag, amplitudes, float(every)
+        self.start = time.perf_counter()
+        self.t0 = self.last = self.end = self.start
+        self.k, self.run, self.done_steps = 0, 1, 0
+
+    def planned(self, m: int) -> None:
+        """The series will run ``m`` amplitudes (a run of one path keeps no count)."""
+        if self.amplitudes is not None:
+            self.amplitudes = int(m)
+
+    def __call__(self, k: int, n: int) -> None:
+        """Step ``k`` of ``n`` of the current run is done: a line when one is due."""
         now = time.perf_counter()
-        if k <= state["k"]:  # a new run (next amplitude): it started when the last one ended
-            state["run"] += 1
-            state["done_steps"] += int(state["k"])
-            state["t0"] = state["last"] = state["end"]
-        state["k"], state["end"] = k, now
-        amplitudes = count[0]
-        if now - state["last"] >= every and k < n:
-            state["last"] = now
-            where = f"amplitude {state['run']}/{amplitudes}, " if amplitudes else ""
-            line = f"{tag} {where}step {k}/{n}, {now - state['t0']:.0f} s (total {now - start:.0f} s)"
-            left_steps = n - k + (max(amplitudes - state["run"], 0) * n if amplitudes else 0)
-            if state["done_steps"] or not amplitudes:
-                rate = (now - start) / max(state["done_steps"] + k, 1)
+        if k <= self.k:  # a new run (next amplitude): it started when the last one ended
+            self.run += 1
+            self.done_steps += int(self.k)
+            self.t0 = self.last = self.end
+        self.k, self.end = k, now
+        amplitudes = self.amplitudes
+        if now - self.last >= self.every and k < n:
+            self.last = now
+            where = f"amplitude {self.run}/{amplitudes}, " if amplitudes else ""
+            line = f"{self.tag} {where}step {k}/{n}, {now - self.t0:.0f} s (total {now - self.start:.0f} s)"
+            left_steps = n - k + (max(amplitudes - self.run, 0) * n if amplitudes else 0)
+            if self.done_steps or not amplitudes:
+                rate = (now - self.start) / max(self.done_steps + k, 1)
                 line += f", about {rate * left_steps:.0f} s left"
-            say(line)
-
-    def planned(m: int) -> None:
-        if count[0] is not None:
-            count[0] = int(m)
-
-    on_step.planned = planned  # type: ignore[attr-defined]
-    return on_step
+            self.say(line)
 
 
 class StepClock:
