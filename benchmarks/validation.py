@@ -225,15 +225,21 @@ def _reading(cache: dict, names: list[str]) -> list[str]:
             text = (f"at 1e-3 G/Gmax is {c['G'][k] / c['G_max']:.2f} against Menq's {men.G_ratio[0]:.2f} and the "
                     f"damping {100 * c['damping'][k]:.0f} % against Menq's {100 * men.damping[0]:.0f} %")
             stiff = g["G_Pa"] / g["hr_round_same_dr_Pa"] if "hr_round_same_dr_Pa" in g else None
-            if stiff is not None and stiff > 1.0:
-                # Hardin & Drnevich (1972): gamma_r = tau_max / Gmax. A Gmax `stiff` times the
-                # empirical one at about the same strength moves the curve to strains `stiff`
-                # times smaller: Menq's curve read at 1e-3 * stiff
-                shifted = menq_curve([1e-3 * stiff], PRESSURE, gr.cu, gr.d50).G_ratio[0]
-                text += (f"; part of it is the grains' Gmax, {stiff:.2f} times Hardin-Richart's at the same D_r for "
-                         "about the same strength, so a reference strain tau_max/Gmax (Hardin & Drnevich 1972) "
-                         f"that many times smaller: Menq's curve so shifted gives {shifted:.2f} at 1e-3, still above "
-                         "the grains' (the rest, and the wider loops, are not explained yet)")
+            st = t.get("strength") if "strength" in t and g.get("relative_density") is not None else None
+            if stiff is not None and st is not None:
+                # Hardin & Drnevich (1972): gamma_r = tau_max / Gmax. The grains' Gmax is
+                # `stiff` times the empirical one and their strength, tau_max ~ tan(phi_peak)
+                # at the same p', `weak` times a sand's (drained triaxial against Bolton 1986):
+                # their reference strain is weak / stiff times a sand's, and Menq's curve so
+                # shifted is read at 1e-3 * stiff / weak
+                phi_b = bolton(min(max(g["relative_density"], 0.0), 1.0), PRESSURE).phi_peak
+                weak = math.tan(math.radians(st["peak_friction_angle_deg"])) / math.tan(math.radians(phi_b))
+                shifted = menq_curve([1e-3 * stiff / weak], PRESSURE, gr.cu, gr.d50).G_ratio[0]
+                text += (f"; with the grains' Gmax ({stiff:.2f} times Hardin-Richart's at the same D_r) and strength "
+                         f"(tan phi_peak {weak:.2f} times Bolton's) the reference strain tau_max/Gmax (Hardin & "
+                         f"Drnevich 1972) is {weak / stiff:.2f} times a sand's: Menq's curve so shifted gives "
+                         f"{shifted:.2f} at 1e-3, the grains {c['G'][k] / c['G_max']:.2f} (the damping, "
+                         f"{c['damping'][k] / men.damping[0]:.1f} times Menq's, is not explained by it)")
             else:
                 text += " (not explained yet)"
             bits.append(text)
