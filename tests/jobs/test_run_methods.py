@@ -10,6 +10,7 @@ computed independently of the packing driver; the affine Gmax stays the seed's
 
 from __future__ import annotations
 
+import contextlib
 import json
 import tomllib
 from pathlib import Path
@@ -273,27 +274,36 @@ steps_per_cycle = 16
     assert (tmp_path / "out" / "packing_modulus_reduction.csv").exists()
 
 
+@contextlib.contextmanager
+def _clocked_reporter(times: list[float], amplitudes: int | None = None):
+    """``(reporter, said)``: a packing step reporter whose clock reads ``times`` in turn (the first: its creation)."""
+    import grainmech.jobs as jobs
+    from grainmech.jobs import _step_reporter
+
+    clock = iter(times)
+    said: list[str] = []
+    real = jobs.time.perf_counter
+    jobs.time.perf_counter = lambda: next(clock)
+    try:
+        yield _step_reporter(said.append, "[packing]", amplitudes), said
+    finally:
+        jobs.time.perf_counter = real
+
+
 def test_packing_step_reporter_throttles_and_restarts_per_run():
     """The progress line of a long packing run: at most one per interval, never after the
     last step, the seconds counted from the start of the current run (amplitude) and of
     the first, the amplitude k/n, and an estimate of the time left once an amplitude has
     finished (seconds per step so far x steps left)."""
-    import grainmech.jobs as jobs
-    from grainmech.jobs import PACKING_PROGRESS_EVERY, _step_reporter
+    from grainmech.jobs import PACKING_PROGRESS_EVERY
 
     assert PACKING_PROGRESS_EVERY == 10.0
-    clock = iter([0.0, 1.0, 5.0, 11.0, 20.0, 35.0, 40.0, 70.0])
-    said: list[str] = []
-    real = jobs.time.perf_counter
-    jobs.time.perf_counter = lambda: next(clock)
-    try:
-        rep = _step_reporter(said.append, "[packing]", 2)  # created at t = 0; two amplitudes
+    # created at t = 0; two amplitudes
+    with _clocked_reporter([0.0, 1.0, 5.0, 11.0, 20.0, 35.0, 40.0, 70.0], 2) as (rep, said):
         for k, n in ((1, 4), (2, 4), (3, 4), (4, 4)):  # steps end at 1, 5, 11, 20
             rep(k, n)
         for k, n in ((1, 4), (2, 4), (3, 4)):  # second amplitude, from t = 20: steps end at 35, 40, 70
             rep(k, n)
-    finally:
-        jobs.time.perf_counter = real
     # 11 s after the start (no estimate yet); 15 s after the second amplitude began (t = 20):
     # 35 s for 5 steps, 7 s per step, 3 steps left; then 70 s for 7 steps, 1 left; the last
     # step of the first amplitude is silent
@@ -306,39 +316,19 @@ def test_packing_step_reporter_counts_only_the_amplitudes_it_runs():
     """A resumed series of 3 amplitudes that takes up 2 runs one: ``planned(1)`` makes the
     line say amplitude 1/1 and the time left cover only that amplitude's steps (not the
     two taken up)."""
-    import grainmech.jobs as jobs
-    from grainmech.jobs import _step_reporter
-
-    clock = iter([0.0, 11.0, 22.0])
-    said: list[str] = []
-    real = jobs.time.perf_counter
-    jobs.time.perf_counter = lambda: next(clock)
-    try:
-        rep = _step_reporter(said.append, "[packing]", 3)
+    with _clocked_reporter([0.0, 11.0, 22.0], 3) as (rep, said):
         rep.planned(1)
         rep(1, 4)
         rep(2, 4)
-    finally:
-        jobs.time.perf_counter = real
     # the first amplitude run: no estimate before it ends, and its count is 1/1
     assert said == ["[packing] amplitude 1/1, step 1/4, 11 s (total 11 s)",
                     "[packing] amplitude 1/1, step 2/4, 22 s (total 22 s)"]
 
 
 def test_path_step_reporter_estimates_from_the_first_step():
-    import grainmech.jobs as jobs
-    from grainmech.jobs import _step_reporter
-
-    clock = iter([0.0, 12.0, 30.0])
-    said: list[str] = []
-    real = jobs.time.perf_counter
-    jobs.time.perf_counter = lambda: next(clock)
-    try:
-        rep = _step_reporter(said.append, "[packing]")
+    with _clocked_reporter([0.0, 12.0, 30.0]) as (rep, said):
         rep(3, 10)
         rep(5, 10)
-    finally:
-        jobs.time.perf_counter = real
     assert said == ["[packing] step 3/10, 12 s (total 12 s), about 28 s left",
                     "[packing] step 5/10, 30 s (total 30 s), about 30 s left"]
 
