@@ -141,6 +141,65 @@ def test_sigkill_after_the_first_amplitude_then_resume_equals_an_uninterrupted_r
     assert len(_records(out)) == 3
 
 
+PACKING_PATH = """
+[test]
+kind = "path"
+[[test.segments]]
+control = "SSSEEE"
+change = ["0 Pa", "0 Pa", "0 Pa", 0, 1e-5, 0]
+steps = 6
+[[test.segments]]
+control = "SSSEEE"
+change = ["0 Pa", "0 Pa", "0 Pa", 0, -2e-5, 0]
+steps = 6
+"""
+
+# a run killed right after its first save of a path's segment end
+_KILL_AFTER_SEGMENT = """
+import sys, time
+from grainmech.io.records import RunRecords
+real = RunRecords.save_step
+def save_step(self, *a, **k):
+    out = real(self, *a, **k)
+    print("saved step", a[1], file=sys.stderr, flush=True)
+    time.sleep(300)
+    return out
+RunRecords.save_step = save_step
+from grainmech.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigkill_after_a_path_segment_then_resume_goes_on_from_its_end(tmp_path, packing_config):
+    """The packing model's path of two segments, killed after the first: the resumed run takes up its 6 steps.
+
+    The saved state is the point, rows, running targets and solver counters after step 6
+    (``driver/packing/resume.py``); the resumed run, with the start's preconditioner, is
+    the uninterrupted one: every CSV byte for byte.
+    """
+    (tmp_path / "c.toml").write_text(packing_config.split("[test]")[0] + PACKING_PATH)
+    ref = _run(tmp_path, "c.toml", "-o", "ref", "--quiet")
+    assert ref.returncode == 0, ref.stderr
+    assert not list((tmp_path / "ref" / "resume").glob("*.pkl"))  # the finished path replaced the segment's state
+    (tmp_path / "kill.py").write_text(_KILL_AFTER_SEGMENT)
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    p = subprocess.Popen([sys.executable, "kill.py", "run", "c.toml", "-o", "out", "--quiet"], cwd=tmp_path, env=env,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
+    line = p.stderr.readline()
+    assert line == "saved step 6\n", line + p.stderr.read()
+    p.send_signal(signal.SIGKILL)
+    p.communicate(timeout=120)
+    out = tmp_path / "out"
+    assert [f.name.split("-")[2] for f in (out / "resume").glob("*.pkl")] == ["step6"]
+    assert not list(out.glob("*.csv")) and not list((out / "resume").glob("*.npz"))
+    res = _run(tmp_path, "c.toml", "-o", "out", "--resume")
+    assert res.returncode == 0, res.stderr
+    assert ("[packing] path: 12 steps, 103 grains (going on from step 7: steps 1-6, its first 1 segment(s), taken "
+            "up from the interrupted run)") in res.stderr
+    assert _csvs(out) == _csvs(tmp_path / "ref") and "path.csv" in _csvs(out)
+    assert _records(out) == ["packing path"] and not list((out / "resume").glob("*.pkl"))
+
+
 def test_sigterm_then_resume_equals_an_uninterrupted_run(tmp_path):
     (tmp_path / "c.toml").write_text(AFFINE)
     assert _run(tmp_path, "c.toml", "-o", "ref", "--quiet").returncode == 0  # the same source named in the files
@@ -236,5 +295,5 @@ def test_a_finished_path_is_reused_an_unfinished_one_restarts(tmp_path, capsys):
     assert cli.main(["run", str(tmp_path / "c.toml"), "-o", str(out / "a"), "--resume"]) == 0
     err = capsys.readouterr().err
     assert "[affine] path: 10 steps, " in err
-    assert " directions (from its beginning: a path's segments are not saved" in err
+    assert " directions (from its beginning: the affine model's path is saved only when it is finished)" in err
     assert _csvs(out / "a") == _csvs(out / "ref")

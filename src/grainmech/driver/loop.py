@@ -40,7 +40,8 @@ from grainmech.driver.base import DriverResult, Status, StepFailure, SteppingPoi
 from grainmech.driver.paths import LoadPath, PathTargets, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
 
-__all__ = ["follow_path", "cyclic_series", "Recorder", "LoopProperties", "loop_properties", "ModulusReduction"]
+__all__ = ["follow_path", "PathCheckpoint", "cyclic_series", "Recorder", "LoopProperties", "loop_properties",
+           "ModulusReduction"]
 
 #: ``record(point, step_index)`` -> None: what a model keeps of each state
 Recorder = Callable[[Any, int], None]
@@ -126,10 +127,30 @@ class ModulusReduction:
         return self.G / self.G_max
 
 
+@dataclass(frozen=True)
+class PathCheckpoint:
+    """Where a model's run along a path is saved, and the saved state it goes on from.
+
+    For ``grainmech run --resume`` on a path test: the run is saved after each of the
+    steps in ``after`` (the ends of the path's segments but the last) by
+    ``save(k, state)``, ``state`` a picklable dict the model makes (its point, its
+    recorded rows, the loop's running targets, :func:`follow_path`); ``resume`` is
+    ``(k, state)`` of such a save: the run starts from it, after step ``k``, and its
+    rows are the saved ones followed by the new ones.
+    """
+
+    after: tuple[int, ...] = ()
+    save: Callable[[int, dict], None] | None = None
+    resume: tuple[int, dict] | None = None
+
+
 def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
                 on_step: Callable[[int, int], None] | None = None,
                 word_failure: Callable[[int, StepFailure], str] | None = None,
                 check_targets: Callable[[int, np.ndarray, np.ndarray], None] | None = None,
+                save_at: tuple[int, ...] = (),
+                save: Callable[[int, SteppingPoint, PathTargets], None] | None = None,
+                resume: tuple[int, PathTargets] | None = None,
                 ) -> tuple[SteppingPoint, bool, Status, str]:
     """Drive ``point`` along ``path``; ``record(point, k)`` after the start (k = 0) and each step.
 
@@ -150,6 +171,13 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         Called before step ``k`` (1-based) with its control mask and running strain
         targets; a model's range check: a :class:`StepFailure` it raises ends the path
         there, as a failed step does (the packing model's small-strain bound).
+    save_at, save : tuple of int, callable ``(k, point, targets)``, optional
+        After step ``k`` in ``save_at`` (not the last), ``save`` is called with the state
+        and the running targets (:class:`PathCheckpoint`: a model saves them with its rows).
+    resume : ``(k, targets)``, optional
+        Go on from a saved state: ``point`` is the state after step ``k`` and ``targets``
+        the running targets saved with it; ``record`` is not called for the start (the
+        caller holds the rows up to step ``k``), the steps run from ``k + 1``.
 
     Returns
     -------
@@ -160,9 +188,15 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
     if not isinstance(path, LoadPath):
         raise ParameterError("path", type(path).__name__, "must be a LoadPath")
     m = len(path)
-    record(point, 0)
-    targets = PathTargets(point.stress, point.strain)
-    for k in range(m):
+    if resume is None:
+        k0 = 0
+        record(point, 0)
+        targets = PathTargets(point.stress, point.strain)
+    else:
+        k0, targets = resume
+        if not 0 <= k0 <= m:
+            raise ParameterError("resume", k0, f"must be a step of the path (0-{m})")
+    for k in range(k0, m):
         sc = np.asarray(path.stress_control[k], bool)
         new_t_stress, new_t_strain = targets.step(sc, path.increment[k], point.stress, point.strain)
         d_strain = np.where(sc, 0.0, new_t_strain - point.strain)
@@ -178,6 +212,8 @@ def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,
         record(point, k + 1)
         if on_step is not None:
             on_step(k + 1, m)
+        if save is not None and k + 1 in save_at and k + 1 < m:
+            save(k + 1, point, targets)
     return point, True, Status.DONE, f"completed {m} steps"
 
 

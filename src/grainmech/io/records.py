@@ -12,6 +12,10 @@ SIGTERM and SIGKILL::
                                          run (every array of the DriverResult) and the
                                          model's Gmax
       <model>-path-<key>.npz             one model's finished path
+      <model>-path-step<k>-<key>.pkl     a model's path saved after step k, the end of
+                                         one of its segments (the packing model: its
+                                         point and rows, pickled), while the path runs;
+                                         the latest one only
 
 Every file is written to a temporary name and renamed (:func:`grainmech.io.results.atomic_write`):
 a file that exists is complete. ``key`` (:func:`record_key`) is a hash of everything that
@@ -33,6 +37,7 @@ import dataclasses
 import hashlib
 import io
 import json
+import pickle
 from pathlib import Path
 from typing import Any
 
@@ -277,20 +282,76 @@ class RunRecords:
         return self._cache[str(p)]
 
     def save(self, model: str, amplitude: float | None, result: Any, meta: dict | None = None) -> Path | None:
-        """Save a finished result (:func:`finished`; others are not saved: None)."""
+        """Save a finished result (:func:`finished`; others are not saved: None).
+
+        A finished path replaces the model's path saved at a segment's end (:meth:`save_step`).
+        """
         if not finished(result):
             return None
-        if not self._started:  # a new run: what an earlier one left is replaced by this run's
-            ensure_dir(self.folder)
-            if not self.resume:
-                for old in self.folder.glob("*.npz"):
-                    with contextlib.suppress(OSError):
-                        old.unlink()
-            save_config(self.folder / _CONFIG, self.config)
-            self._started = True
+        self._begin()
         p = self._name(model, amplitude)
-        return save_result(p, result, {**(meta or {}), "model": model, "amplitude": amplitude,
-                                       "key": p.stem.rsplit("-", 1)[1]})
+        out = save_result(p, result, {**(meta or {}), "model": model, "amplitude": amplitude,
+                                      "key": p.stem.rsplit("-", 1)[1]})
+        if amplitude is None:
+            self._drop_steps(model)
+        return out
+
+    def _begin(self) -> None:
+        """Before this run's first record: a new run replaces what an earlier one left; config.json."""
+        if self._started:
+            return
+        ensure_dir(self.folder)
+        if not self.resume:
+            for old in [*self.folder.glob("*.npz"), *self.folder.glob("*.pkl")]:
+                with contextlib.suppress(OSError):
+                    old.unlink()
+        save_config(self.folder / _CONFIG, self.config)
+        self._started = True
+
+    def _steps(self, model: str) -> dict[int, Path]:
+        """The model's path states saved at a segment's end by this config: step -> file."""
+        key = record_key({"config": self.config}, model, None)
+        out = {}
+        for f in self.folder.glob(f"{model}-path-step*-{key}.pkl"):
+            with contextlib.suppress(ValueError):
+                out[int(f.name[len(f"{model}-path-step"):].split("-", 1)[0])] = f
+        return out
+
+    def _drop_steps(self, model: str, keep: int | None = None) -> None:
+        for k, f in self._steps(model).items():
+            if k != keep:
+                with contextlib.suppress(OSError):
+                    f.unlink()
+
+    def save_step(self, model: str, k: int, state: dict) -> Path:
+        """Save ``model``'s path state after step ``k`` (a segment's end), replacing the one before.
+
+        ``state`` is the model's picklable state (:class:`grainmech.driver.loop.PathCheckpoint`).
+        """
+        self._begin()
+        key = record_key({"config": self.config}, model, None)
+        p = self.folder / f"{model}-path-step{int(k)}-{key}.pkl"
+        atomic_write(p, lambda fh: pickle.dump({"key": key, "step": int(k), "state": state}, fh,
+                                               protocol=pickle.HIGHEST_PROTOCOL), binary=True)
+        self._drop_steps(model, keep=int(k))
+        return p
+
+    def step(self, model: str) -> tuple[int, dict] | None:
+        """``(k, state)`` of ``model``'s path saved after step ``k`` by an earlier run of this config, or None.
+
+        Only with ``resume``. The latest one that reads back whole; a file that does not is skipped.
+        """
+        if not self.resume:
+            return None
+        for k, f in sorted(self._steps(model).items(), reverse=True):
+            try:
+                with open(f, "rb") as fh:
+                    got = pickle.load(fh)
+            except Exception:  # noqa: BLE001 - a file that does not read back is not taken up
+                continue
+            if isinstance(got, dict) and got.get("step") == k and isinstance(got.get("state"), dict):
+                return k, got["state"]
+        return None
 
 
 def save_config(path: str | Path, config: dict) -> Path:

@@ -18,6 +18,7 @@ import numpy as np
 
 from grainmech.analysis.references import path_measures, reference_curves
 from grainmech.driver.base import HandOver, KinematicModel
+from grainmech.driver.loop import PathCheckpoint
 from grainmech.driver.registry import resolve
 from grainmech.io.records import RunRecords, amp_id
 from grainmech.jobs.checks import (
@@ -107,13 +108,18 @@ class ModelRun:
     planned : callable or None
         ``planned(n)``: the series will run ``n`` amplitudes (those not taken up from an
         earlier run), for the progress lines' count and time left.
+    saves_segments : bool
+        ``path(load_path, checkpoint=...)`` takes a
+        :class:`~grainmech.driver.loop.PathCheckpoint`: the path is saved at the end of
+        each of its segments and a resumed run goes on from the last one saved (the
+        packing model); otherwise a resumed path runs from its beginning.
     """
 
     model: KinematicModel
     point: Any
     size: str
     series: Callable[..., Any]
-    path: Callable[[Any], Any]
+    path: Callable[..., Any]
     void_ratio: float | None = None
     details: dict = field(default_factory=dict)
     finish: Callable[[list], None] | None = None
@@ -121,6 +127,7 @@ class ModelRun:
     until: Callable[[float, Any], str | None] | None = None
     in_order: bool = False
     planned: Callable[[int], None] | None = None
+    saves_segments: bool = False
 
 
 def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
@@ -196,10 +203,9 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
         r = got[0]
         _say_reused(say, m, None)
     else:
-        say(f"[{method}] path: {len(spec.path)} steps, {model.size}"
-            + (" (from its beginning: a path's segments are not saved, only a finished path)"
-               if records is not None and records.resume else ""))
-        r = model.path(spec.path)
+        cp = _path_checkpoint(model, spec, records)
+        say(f"[{method}] path: {len(spec.path)} steps, {model.size}" + _path_start(model, spec, records, cp))
+        r = model.path(spec.path, checkpoint=cp) if cp is not None else model.path(spec.path)
         if records is not None:
             records.save(method, None, r)
     seconds = time.perf_counter() - t0
@@ -210,6 +216,40 @@ def execute_model(model: ModelRun, spec: RunSpec, say: Callable[[str], None],
                        warnings=_input_warnings(spec, m),
                        envelope=envelope_check(r.stress), method=method, details=model.details,
                        measures=path_measures(r))
+
+
+def _path_checkpoint(model: ModelRun, spec: RunSpec, records: RunRecords | None) -> PathCheckpoint | None:
+    """Where ``model``'s path is saved (the end of each segment but the last) and, resumed, its last save.
+
+    None without records, for a model whose path is not saved at its segments' ends
+    (``ModelRun.saves_segments``), or a path of one segment with nothing to take up.
+    """
+    if records is None or not model.saves_segments:
+        return None
+    name = model.model.name
+    after = tuple(int(k) for k in spec.segment_ends[:-1])
+    resume = records.step(name)
+    if not after and resume is None:
+        return None
+
+    def save(k: int, state: dict) -> None:
+        records.save_step(name, k, state)
+
+    return PathCheckpoint(after=after, save=save, resume=resume)
+
+
+def _path_start(model: ModelRun, spec: RunSpec, records: RunRecords | None, cp: PathCheckpoint | None) -> str:
+    """What the path's progress line adds on a resumed run: where the path goes on from."""
+    if records is None or not records.resume:
+        return ""
+    if cp is not None and cp.resume is not None:
+        k = cp.resume[0]
+        done = sum(1 for e in spec.segment_ends if e <= k)
+        return (f" (going on from step {k + 1}: steps 1-{k}, its first {done} segment(s), taken up from the "
+                "interrupted run)")
+    if model.saves_segments:
+        return " (from its beginning: no segment of it was finished)"
+    return f" (from its beginning: the {model.model.title}'s path is saved only when it is finished)"
 
 
 def _say_reused(say: Callable[[str], None], m: KinematicModel, amplitudes: list[float] | None) -> None:

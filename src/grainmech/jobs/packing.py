@@ -90,7 +90,7 @@ def _execute_packing(spec: RunSpec, say: Callable[[str], None], step: JobStep | 
                      path=partial(PACKING.path, pt, options=opts, on_step=on_step), void_ratio=src.void_ratio,
                      details=details, finish=finish, so_far=so_far,
                      until=series_end(spec, PACKING, to) if spec.one_list and to is not None else None,
-                     planned=on_step.planned)
+                     planned=on_step.planned, saves_segments=True)
     return execute_model(model, spec, say, step)
 
 

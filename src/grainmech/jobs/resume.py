@@ -9,8 +9,10 @@ run): the loops, secant moduli, damping, messages and the end of a series at a h
 (``until``) are those of one uninterrupted series, value for value. :func:`saver` saves
 each amplitude the moment the series reports it.
 
-A path is one run: a model's finished path is taken up whole; one that did not finish
-runs again from its beginning (its segments are not saved).
+A path is one run: a model's finished path is taken up whole. The packing model's path is
+also saved at the end of each segment (:class:`grainmech.driver.loop.PathCheckpoint`,
+:mod:`grainmech.driver.packing.resume`) and goes on from the last one saved; the affine
+and DEM models' unfinished paths run again from their beginning.
 """
 
 from __future__ import annotations

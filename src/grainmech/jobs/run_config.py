@@ -237,8 +237,12 @@ def _names(exc: BaseException, path: Path) -> bool:
     return str(path) in str(exc) or str(getattr(exc, "filename", "")) == str(path)
 
 
-def _segments(sec: Any) -> Any:
-    """``[[test.segments]]`` -> LoadPath (each: control, change | direction+amplitude+cycles)."""
+def _segments(sec: Any) -> tuple[Any, tuple[int, ...]]:
+    """``[[test.segments]]`` -> (LoadPath, the step count at each segment's end).
+
+    Each segment: ``control``, and ``change`` and ``steps`` or ``direction``, ``amplitude``,
+    ``n_cycles`` and ``steps_per_cycle``.
+    """
     raw = sec.raw("segments")
     if not isinstance(raw, list) or not raw:
         raise ConfigError(sec.key("segments"), raw, "must be a non-empty array of tables [[test.segments]]")
@@ -273,7 +277,7 @@ def _segments(sec: Any) -> Any:
             raise ConfigError(sec.key("segments"), f"{total} steps", f"the path has more than {MAX_STATES:.0e} "
                               "steps in all (memory and time)")
         s.finish()
-    return concatenate(parts)
+    return concatenate(parts), tuple(int(n) for n in np.cumsum([len(p) for p in parts]))
 
 
 def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
@@ -403,6 +407,6 @@ def prepare_run(cfg: dict, base_dir: str | Path | None = None) -> RunSpec:
         if model.has(k):
             raise ConfigError(model.key(k), model.raw(k), f"is for test.kind = 'cyclic-simple-shear', not {kind!r}")
     _read_dem_path_keys(spec, model)
-    spec.path = _segments(test)
+    spec.path, spec.segment_ends = _segments(test)
     root.finish()
     return spec

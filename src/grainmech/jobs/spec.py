@@ -88,6 +88,8 @@ class RunSpec:
     constant: str = "stress"
     reference: dict | None = None
     path: Any = None
+    #: a path test: the step count at the end of each of its ``[[test.segments]]``
+    segment_ends: tuple = ()
     void_ratio: float | None = None
     friction: float = float("inf")
     keep_beyond_envelope: bool = False

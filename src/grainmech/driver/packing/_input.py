@@ -61,6 +61,7 @@ def input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool
         Rs = RA * RB / (RA + RB)
         N = state_from_approach(params, np.maximum(alpha, 0.0) * law_scale(params, Rs)).normal_force
         T = np.zeros_like(net.force)
+    N = _tensile_at_zero(N, rows_of=net, notes=notes)
     carrying = N > 0
     if frictional:
         T = _cap_small_excess(net, N, T, params.friction, notes)
@@ -72,6 +73,37 @@ def input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool
         T = np.zeros_like(T)
     T = np.where(carrying[:, None], T, 0.0)
     return N, T
+
+
+#: largest tensile normal force of an input contact, relative to the mean normal force of
+#: the force-carrying contacts, that the input takes at zero force (beyond it the input is
+#: an error): a DEM's normal damping at a contact about to open leaves such forces
+TENSILE_CAP = 1e-3
+
+
+def _tensile_at_zero(N: np.ndarray, rows_of: ContactNetwork, notes: list[str]) -> np.ndarray:
+    """Normal forces with small tensile ones (a DEM's damping, round-off) set to zero; a note says how many.
+
+    A cohesionless contact law carries no tension: a stored normal force below zero is
+    the normal dashpot of a DEM at a contact about to open (LAMMPS reports, e.g.,
+    -5.8e-9 N against a mean of about 1e-2 N on a re-settled sand packing) and is taken
+    at zero force when it is within :data:`TENSILE_CAP` of the mean normal force; a
+    larger one is an error naming the contact.
+    """
+    tensile = N < 0
+    if not tensile.any():
+        return N
+    carrying = N > 0
+    scale = float(np.mean(N[carrying])) if carrying.any() else 0.0
+    k = int(np.argmin(N))
+    if not -N[k] <= TENSILE_CAP * scale:
+        raise GrainmechError(f"{rows_of.source or 'network'}: contact {k} carries a tensile normal force of "
+                             f"{N[k]:.6g} N (mean normal force {scale:.6g} N): a cohesionless contact law carries "
+                             "no tension; use forces='overlap'")
+    notes.append(f"{int(tensile.sum())} input contact(s) with a tensile normal force (largest {-N[k]:.3g} N, "
+                 f"{-N[k] / scale:.2g} of the mean normal force: a DEM's normal damping at a contact about to "
+                 "open) taken at zero force")
+    return np.maximum(N, 0.0)
 
 
 #: largest excess ``|T| - mu N`` of a stored tangential force, relative to the mean normal force of

@@ -35,7 +35,7 @@ from grainmech.contact.rolling import (
 )
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
-from grainmech.driver.loop import follow_path
+from grainmech.driver.loop import PathCheckpoint, follow_path
 from grainmech.driver.packing._input import check_network, gap_pairs, initial_contact_state, input_forces, pin_first
 from grainmech.driver.packing._operators import (
     Kinematics,
@@ -55,6 +55,7 @@ from grainmech.driver.packing.options import (
     law_options,
     law_scale,
 )
+from grainmech.driver.packing.resume import resumed, saving
 from grainmech.driver.packing.step import subdivided
 from grainmech.driver.packing.tangent import relaxed_tangent, unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
@@ -603,7 +604,8 @@ def _treat_imbalance(pt: PackingPoint, imbalance: str, opts: PackingOptions) -> 
 
 
 def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | None = None, *,
-                on_step: Callable[[int, int], None] | None = None, **kwargs: Any) -> PackingResult:
+                on_step: Callable[[int, int], None] | None = None, checkpoint: PathCheckpoint | None = None,
+                **kwargs: Any) -> PackingResult:
     """Drive a packing along a loading path (mixed strain/stress control).
 
     Same path semantics as :func:`grainmech.driver.run`: per step and component a control
@@ -620,6 +622,9 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
     options : PackingOptions, optional
     on_step : callable, optional
         Called as ``on_step(k, n)`` after step ``k`` of ``n`` is done (progress reports).
+    checkpoint : PathCheckpoint, optional
+        Save the run after the steps it names and/or go on from a saved state
+        (:mod:`grainmech.driver.packing.resume`; ``grainmech run --resume``).
     **kwargs : fields of :class:`PackingOptions` as a shortcut.
 
     Returns
@@ -633,7 +638,7 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
     if kwargs:
         opts = replace(opts, **kwargs)
     with openblas_one_thread():
-        return run_resolved(point, path, opts, on_step=on_step)
+        return run_resolved(point, path, opts, on_step=on_step, checkpoint=checkpoint)
 
 
 @dataclass(frozen=True)
@@ -700,22 +705,28 @@ def _resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions) -> Pack
 
 
 def run_resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions, energy: bool = False,
-                 on_step: Callable[[int, int], None] | None = None) -> PackingResult:
+                 on_step: Callable[[int, int], None] | None = None,
+                 checkpoint: PathCheckpoint | None = None) -> PackingResult:
     """:func:`run_packing` with its options resolved (``energy``: potential-energy line search).
 
     The path loop is :func:`grainmech.driver.loop.follow_path` (the semantics every model
     shares) over :class:`_Stepping`; this records each state (start: the point's tangent
     unless ``tangent="none"``; steps: the relaxed tangent as ``opts.tangent`` asks) and
-    words the result.
+    words the result. ``checkpoint``: :func:`run_packing`'s.
     """
+    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
+                                             "stored", "sub", "it", "res", "fl", "cl", "kr", "spent")}
+    acc = {"diss": 0.0, "work": 0.0, "loss": 0.0}
     point = _resolved(point, path, opts)
     m = len(path)
     fresh = "prec" not in point._cache
     ctx = RunContext(point.preconditioner(), opts, factorizations=int(fresh), energy=energy)
+    # resumed: the saved state, with the start's preconditioner as the uninterrupted run has it
+    later, resume, counters = resumed(checkpoint, point, rows, acc)
+    point = _resolved(later, path, opts) if resume is not None else point
+    for name, value in counters.items():  # the factorisation made again is counted
+        setattr(ctx, name, value + int(fresh) if name == "factorizations" else value)
     nan66 = np.full((6, 6), np.nan)
-    rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "loss",
-                                             "stored", "sub", "it", "res", "fl", "cl", "kr", "spent")}
-    acc = {"diss": 0.0, "work": 0.0, "loss": 0.0}
 
     def record(st: _Stepping, k: int) -> None:
         pt = st.point
@@ -740,7 +751,8 @@ def run_resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions, ener
 
     start = _Stepping(point, ctx)
     final, success, status, message = follow_path(start, path, record, on_step=on_step,
-                                                  check_targets=start.check_targets)
+                                                  check_targets=start.check_targets, resume=resume,
+                                                  **saving(checkpoint, rows, acc, ctx))
     point = cast(_Stepping, final).point
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:
