@@ -37,6 +37,7 @@ import argparse
 import functools
 import json
 import math
+import re
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -274,6 +275,13 @@ def _reading(cache: dict, names: list[str]) -> list[str]:
     return out
 
 
+def _stops(message: str, missed: list[float]) -> str:
+    """The parts of a series' message that name the amplitudes in ``missed`` (the whole message if none does)."""
+    parts = [p.split(" (1 of ")[0].split("; done")[0].strip() for p in re.split(r"; (?=amplitude )", message)]
+    said = [p for p in parts if any(p.startswith(f"amplitude {a:g}:") for a in missed)]
+    return "; ".join(said) if said else message
+
+
 def write_page(cache: dict, page: Path) -> None:
     from grainmech.analysis.empirical import BOLTON_PHI_CS_DEG, DOBRY_THRESHOLD_STRAIN, bolton, darendeli, menq_curve
 
@@ -335,11 +343,16 @@ def write_page(cache: dict, page: Path) -> None:
                 lines.append(f"| {n} | {kpa} | | {c.get('error', '—') if c else '—'} | | | | | | |")
                 continue
             gr = _grading(n)
-            for model in ("packing", "dem"):
+            for model, asked in (("packing", CYCLIC_PACKING), ("dem", CYCLIC_DEM)):
                 m = c.get(model, {})
                 if "error" in m or not m.get("amplitude"):
                     lines.append(f"| {n} | {kpa} | | {model}: {m.get('error', m.get('message', '—'))} | | | | | | |")
                     continue
+                done = {float(f"{a:.3g}") for a in m["amplitude"]}
+                missed = [a for a in asked if float(f"{a:.3g}") not in done]
+                if missed:  # the amplitudes the model stopped on, said with its message
+                    lines.append(f"| {n} | {kpa} | {', '.join(f'{a:g}' for a in missed)} | {model} stopped: "
+                                 f"{_stops(m.get('message', ''), missed)} | | | | | | |")
                 amps = np.asarray(m["amplitude"])
                 men = menq_curve(amps, pressure, gr.cu, gr.d50)
                 dar = darendeli(amps, pressure)
