@@ -350,9 +350,6 @@ def write_page(cache: dict, page: Path) -> None:
                     continue
                 done = {float(f"{a:.3g}") for a in m["amplitude"]}
                 missed = [a for a in asked if float(f"{a:.3g}") not in done]
-                if missed:  # the amplitudes the model stopped on, said with its message
-                    lines.append(f"| {n} | {kpa} | {', '.join(f'{a:g}' for a in missed)} | {model} stopped: "
-                                 f"{_stops(m.get('message', ''), missed)} | | | | | | |")
                 amps = np.asarray(m["amplitude"])
                 men = menq_curve(amps, pressure, gr.cu, gr.d50)
                 dar = darendeli(amps, pressure)
@@ -363,6 +360,9 @@ def write_page(cache: dict, page: Path) -> None:
                     lines.append(f"| {n} | {kpa} | {a:g} | {label} | {m['G'][k] / m['G_max']:.3f} | "
                                  f"{100 * m['damping'][k]:.2f} | {men.G_ratio[k]:.3f} | {100 * men.damping[k]:.2f} | "
                                  f"{dar.G_ratio[k]:.3f} | {100 * dar.damping[k]:.2f} |")
+                if missed:  # the amplitudes the model stopped on, said with its message
+                    lines.append(f"| {n} | {kpa} | {', '.join(f'{a:g}' for a in missed)} | {model} stopped: "
+                                 f"{_stops(m.get('message', ''), missed)} | | | | | | |")
     # r_u
     lines += ["", "## Pore pressure of constant-volume cycles against Dobry et al. (1982)", "",
               f"Below a threshold strain of about {DOBRY_THRESHOLD_STRAIN:g} strain-controlled cycles build no "
