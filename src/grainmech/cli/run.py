@@ -37,8 +37,8 @@ def register(sub: Any) -> None:
     p.add_argument("--resume", action="store_true",
                    help="continue the interrupted or killed run in OUTDIR: every amplitude it finished (and a "
                         "model's finished path) is taken up, the rest run; the config must be the same (a changed "
-                        "key is refused, naming it). A path test's unfinished path goes on from the last segment the "
-                        "packing model finished; the affine and DEM models' run again from their beginning")
+                        "key is refused, naming it). A path test's unfinished path goes on from the last of its "
+                        "segments that finished")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     p.set_defaults(func=main)
 

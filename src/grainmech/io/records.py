@@ -13,9 +13,9 @@ SIGTERM and SIGKILL::
                                          model's Gmax
       <model>-path-<key>.npz             one model's finished path
       <model>-path-step<k>-<key>.pkl     a model's path saved after step k, the end of
-                                         one of its segments (the packing model: its
-                                         point and rows, pickled), while the path runs;
-                                         the latest one only
+                                         one of its segments (its point and rows, the DEM
+                                         model's LAMMPS restart file; pickled), while the
+                                         path runs; the latest one only
 
 Every file is written to a temporary name and renamed (:func:`grainmech.io.results.atomic_write`):
 a file that exists is complete. ``key`` (:func:`record_key`) is a hash of everything that

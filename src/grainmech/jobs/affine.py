@@ -41,5 +41,6 @@ def _execute_affine(spec: RunSpec, say: Callable[[str], None], step: JobStep | N
     # the series runs each amplitude with the run this module imported (grainmech.driver.run)
     model = ModelRun(AFFINE, point, f"{len(point.contacts)} directions",
                      series=partial(AFFINE.series, point, runner=run),
-                     path=partial(AFFINE.path, point), void_ratio=spec.void_ratio, details=details, finish=finish)
+                     path=partial(AFFINE.path, point), void_ratio=spec.void_ratio, details=details, finish=finish,
+                     saves_segments=True)
     return execute_model(model, spec, say, step)

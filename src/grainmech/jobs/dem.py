@@ -181,8 +181,9 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
                                   on_stop=kw.get("on_stop"), on_wait=waiting)
         return DEM.series(start, amps, progress=each, on_step=on_step, tick=tick, on_wait=waiting, **kw)
 
-    def path(load_path: Any) -> Any:
-        return DEM.path(start, load_path, on_step=on_step, tick=tick)
+    def path(load_path: Any, checkpoint: Any = None) -> Any:
+        return DEM.path(start, load_path, on_step=on_step, tick=tick,
+                        **({"checkpoint": checkpoint} if checkpoint is not None else {}))
 
     def finish(results: list) -> None:
         if results:
@@ -196,8 +197,10 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
     if step.early is not None and step.handed is not None:  # those saved by an earlier run are taken up instead
         step.early.add([a for a in step.handed.amplitudes
                         if step.records is None or step.records.get(DEM.name, a) is None])
+    ranks = spec.dem_settings.ranks if spec.dem_settings is not None else 1
     model = ModelRun(DEM, None, f"{net.n_particles} grains", series=series, path=path,
-                     void_ratio=src.void_ratio, details=details, finish=finish, in_order=True)
+                     void_ratio=src.void_ratio, details=details, finish=finish, in_order=True,
+                     saves_segments=ranks <= 1)  # a LAMMPS restart file of one process (driver/dem/point.py)
     return execute_model(model, spec, say, step)
 
 

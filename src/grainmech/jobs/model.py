@@ -111,8 +111,9 @@ class ModelRun:
     saves_segments : bool
         ``path(load_path, checkpoint=...)`` takes a
         :class:`~grainmech.driver.loop.PathCheckpoint`: the path is saved at the end of
-        each of its segments and a resumed run goes on from the last one saved (the
-        packing model); otherwise a resumed path runs from its beginning.
+        each of its segments and a resumed run goes on from the last one saved (every
+        model; the DEM model on one process only); otherwise a resumed path runs from its
+        beginning.
     """
 
     model: KinematicModel
@@ -249,7 +250,8 @@ def _path_start(model: ModelRun, spec: RunSpec, records: RunRecords | None, cp: 
                 "interrupted run)")
     if model.saves_segments:
         return " (from its beginning: no segment of it was finished)"
-    return f" (from its beginning: the {model.model.title}'s path is saved only when it is finished)"
+    return (f" (from its beginning: here the {model.model.title}'s path is saved only when it is finished, "
+            "e.g. the DEM model on several MPI ranks)")
 
 
 def _say_reused(say: Callable[[str], None], m: KinematicModel, amplitudes: list[float] | None) -> None:

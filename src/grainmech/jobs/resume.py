@@ -9,10 +9,11 @@ run): the loops, secant moduli, damping, messages and the end of a series at a h
 (``until``) are those of one uninterrupted series, value for value. :func:`saver` saves
 each amplitude the moment the series reports it.
 
-A path is one run: a model's finished path is taken up whole. The packing model's path is
-also saved at the end of each segment (:class:`grainmech.driver.loop.PathCheckpoint`,
-:mod:`grainmech.driver.packing.resume`) and goes on from the last one saved; the affine
-and DEM models' unfinished paths run again from their beginning.
+A path is one run: a model's finished path is taken up whole. Each model's path is also
+saved at the end of each segment (:class:`grainmech.driver.loop.PathCheckpoint`: the
+affine point, :mod:`grainmech.driver.packing.resume`, the DEM model's LAMMPS restart file,
+:meth:`grainmech.driver.dem.DemPoint.saved_state`) and goes on from the last one saved; a
+DEM path on several MPI ranks runs again from its beginning.
 """
 
 from __future__ import annotations

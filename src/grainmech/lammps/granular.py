@@ -23,7 +23,7 @@ from grainmech.contact.rolling import RollingResistance
 from grainmech.errors import GrainmechError
 
 __all__ = ["GrainMaterial", "pair_coeff", "critical_time_step", "SORT_MIN_GRAINS", "atom_modify", "setup_lammps",
-           "measure_moments"]
+           "resume_lammps", "measure_moments"]
 
 
 @dataclass(frozen=True)
@@ -155,6 +155,12 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
     lmp.atom_view("radius")[:] = radii[rows]
     lmp.atom_view("rmass")[:] = mat.density * 4.0 / 3.0 * np.pi * radii[rows] ** 3
     dt = critical_time_step(radii, mat, stress)
+    _model(lmp, mat, mu, rolling, rmin, dt)
+    return {"dt": dt}
+
+
+def _model(lmp: Any, mat: GrainMaterial, mu: float, rolling: str, rmin: float, dt: float) -> None:
+    """The granular model, integrator, time step, pressure and contact computes of a cell with its grains."""
     lmp.commands([
         "pair_style granular", pair_coeff(mat, mu, rolling),
         f"neighbor {0.3 * rmin:.10g} bin", "neigh_modify delay 0 every 1 check yes",
@@ -166,7 +172,19 @@ def setup_lammps(lmp: Any, positions: np.ndarray, radii: np.ndarray, cell: np.nd
     ])
     if rolling:
         measure_moments(lmp)
-    return {"dt": dt}
+
+
+def resume_lammps(lmp: Any, restart: str, mat: GrainMaterial, mu: float, dt: float, rolling: str = "") -> None:
+    """Read a LAMMPS restart file written by :func:`setup_lammps`'s system and set its model up again.
+
+    The restart file keeps the cell, the grains (positions, velocities, spins, radii,
+    masses) and the contacts' spring history (LAMMPS' ``fix NEIGH_HISTORY``, taken up
+    when ``pair_style granular`` is given again); the pair coefficients, neighbor
+    settings, fixes and computes are given again as :func:`setup_lammps` gives them.
+    """
+    lmp.commands(["atom_modify map array", f"read_restart {restart}", "comm_modify vel yes"])
+    lmp.command(atom_modify(lmp.natoms()).replace("atom_modify map array ", "atom_modify "))
+    _model(lmp, mat, mu, rolling, float(np.min(lmp.atom_all("radius"))), dt)
 
 
 def measure_moments(lmp: Any) -> None:

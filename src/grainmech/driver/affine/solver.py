@@ -31,7 +31,7 @@ from grainmech.driver.affine.response import (
     tangent,
 )
 from grainmech.driver.base import DriverResult, PointStepping, StepFailure
-from grainmech.driver.loop import ModulusReduction, cyclic_series, follow_path
+from grainmech.driver.loop import ModulusReduction, PathCheckpoint, cyclic_series, follow_path
 from grainmech.driver.paths import LoadPath
 from grainmech.elasticity import condensed_modulus, engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
@@ -201,7 +201,7 @@ def _subdivided(point, sc, d_strain, t0, t1, depth, opts, counters, fused=False)
 
 
 def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None = None,
-        **kwargs: Any) -> DriverResult:
+        checkpoint: PathCheckpoint | None = None, **kwargs: Any) -> DriverResult:
     """Drive ``point`` along ``path``.
 
     Parameters
@@ -211,6 +211,10 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
     path : LoadPath
         Steps with control masks and increments (:mod:`grainmech.driver.paths`).
     options : SolverOptions, optional
+    checkpoint : PathCheckpoint, optional
+        Save the run after the steps it names (the point, the rows so far and the running
+        targets; a compiled run is split into calls at those steps) and/or go on from such
+        a save (``grainmech run --resume``).
     **kwargs
         Fields of :class:`SolverOptions` (``rtol``, ``max_iter``, ``max_depth``,
         ``engineering``) as a shortcut.
@@ -229,13 +233,16 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
     m = len(path)
     # compiled law evaluations (driver/_fused.py): decided once per run
     fused = options.compiled and not options.finite_deformation and _compiled_law(point)
-    if fused and not path.stress_control.any() and m > 0:
-        res = _run_fused(point, path, options)
+    resume = checkpoint.resume if checkpoint is not None else None
+    if fused and not path.stress_control.any() and m > 0 and (resume is None or resume[1]["loop"] == "fused"):
+        res = _run_fused(point, path, options, checkpoint)
         if res is not None:
             return res
+        if resume is not None:  # the compiled run found too little reversal memory: from the start, step by step
+            checkpoint = PathCheckpoint(checkpoint.after, checkpoint.save) if checkpoint is not None else None
     if fused and path.stress_control.any():
-        return _run_mixed(point, path, options)
-    return _run_steps(point, path, options, fused)
+        return _run_mixed(point, path, options, checkpoint)
+    return _run_steps(point, path, options, fused, checkpoint)
 
 
 @dataclass(frozen=True)
@@ -260,11 +267,28 @@ class _Stepping(PointStepping):
         return replace(self, point=new, counters=tuple(counters))
 
 
-def _run_steps(point: MaterialPoint, path: LoadPath, options: SolverOptions, fused: bool) -> DriverResult:
+def _run_steps(point: MaterialPoint, path: LoadPath, options: SolverOptions, fused: bool,
+               checkpoint: PathCheckpoint | None = None) -> DriverResult:
     """:func:`run` step by step through the one path loop (:func:`grainmech.driver.loop.follow_path`)."""
     rows: dict[str, list] = {k: [] for k in ("strain", "stress", "tangent", "sl", "op", "diss", "work", "stored",
                                              "sub", "it")}
     acc = {"diss": 0.0, "work": 0.0, "loose": 0}
+    resume: tuple[int, Any] | None = None
+    kw: dict[str, Any] = {}
+    if checkpoint is not None and checkpoint.resume is not None and checkpoint.resume[1]["loop"] == "steps":
+        k0, saved = checkpoint.resume
+        for key, v in saved["rows"].items():
+            rows[key][:] = v
+        acc.update(saved["acc"])
+        point, resume = saved["point"], (k0, saved["targets"])
+    if checkpoint is not None and checkpoint.save is not None:
+        save_to = checkpoint.save
+
+        def save(k: int, st: Any, targets: Any) -> None:
+            save_to(k, {"loop": "steps", "point": st.point, "rows": {key: list(v) for key, v in rows.items()},
+                        "acc": dict(acc), "targets": targets})
+
+        kw = {"save_at": tuple(checkpoint.after), "save": save}
 
     def record(st: _Stepping, k: int) -> None:
         pt = st.point
@@ -286,7 +310,7 @@ def _run_steps(point: MaterialPoint, path: LoadPath, options: SolverOptions, fus
 
     final, success, status, message = follow_path(
         _Stepping(point, options, fused), path, record,
-        word_failure=lambda k, exc: f"step {k}: stress target not reachable: {exc.cause}")
+        word_failure=lambda k, exc: f"step {k}: stress target not reachable: {exc.cause}", resume=resume, **kw)
     if acc["loose"]:
         message += (f" ({acc['loose']} (sub)step(s) accepted at the contact law's resolution: stress residual "
                     f"<= {options.rtol_accept:g} x stress scale)")
@@ -350,8 +374,13 @@ def _compiled_law(point: MaterialPoint) -> bool:
     return isinstance(point.law, ContactLaw) and point.law.compiled
 
 
-def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult | None:
-    """:func:`run` for a fully strain-controlled path through :mod:`grainmech.driver.affine._fused`."""
+def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions,
+               checkpoint: PathCheckpoint | None = None) -> DriverResult | None:
+    """:func:`run` for a fully strain-controlled path through :mod:`grainmech.driver.affine._fused`.
+
+    One compiled call per piece of the path between the steps ``checkpoint.after`` (the
+    whole path without a checkpoint), each piece saved at its end.
+    """
     # imported here: needs numba (optional)
     from grainmech.driver.affine._fused import strain_path
 
@@ -365,24 +394,33 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
         target = target + path.increment[k]
         de[k] = target - strain[k]
         strain[k + 1] = strain[k] + de[k]
-    out = strain_path(point, de, fold=options.fold)
-    if out is None:
-        return None
-    stress = np.vstack([point.stress, out["stress"] + point.correction])
+    ends = sorted({int(k) for k in (checkpoint.after if checkpoint is not None else ()) if 0 < k < m} | {m})
     sl0, op0 = point.fractions()
+    rows: dict[str, list] = {"stress": [point.stress[None]], "tangent": [point.tangent[None]], "sl": [[sl0]],
+                             "op": [[op0]], "diss": [[0.0]], "stored": [[point.stored_energy()]]}
+    a = 0
+    if checkpoint is not None and checkpoint.resume is not None:
+        a, saved = checkpoint.resume
+        point, rows = saved["point"], {key: list(v) for key, v in saved["rows"].items()}
+    for b in (e for e in ends if e > a):
+        out = strain_path(point, de[a:b], fold=options.fold)
+        if out is None:
+            return None
+        for key, name in (("stress", "stress"), ("tangent", "tangent"), ("sl", "sliding"), ("op", "open"),
+                          ("stored", "stored")):
+            rows[key].append(out[name] + (point.correction if key == "stress" else 0.0))
+        rows["diss"].append(rows["diss"][-1][-1] + np.cumsum(out["dissipation"]))
+        point = replace(point, state=out["state"], response=out["response"], strain=strain[b].copy(),
+                        stress=rows["stress"][-1][-1].copy())
+        if b < m and checkpoint is not None and checkpoint.save is not None:
+            checkpoint.save(b, {"loop": "fused", "point": point, "rows": {key: list(v) for key, v in rows.items()}})
+        a = b
+    arr = {key: np.concatenate([np.asarray(v, dtype=float) for v in vals]) for key, vals in rows.items()}
+    stress = arr["stress"]
     work = np.zeros(m + 1)
     work[1:] = np.cumsum(np.einsum("ki,ki->k", 0.5 * (stress[:-1] + stress[1:]), de))
-    final = replace(point, state=out["state"], response=out["response"], strain=strain[-1].copy(),
-                    stress=stress[-1].copy())
-    arr = {
-        "strain": strain, "stress": stress,
-        "tangent": np.concatenate([point.tangent[None], out["tangent"]]),
-        "sl": np.concatenate([[sl0], out["sliding"]]), "op": np.concatenate([[op0], out["open"]]),
-        "diss": np.concatenate([[0.0], np.cumsum(out["dissipation"])]), "work": work,
-        "stored": np.concatenate([[point.stored_energy()], out["stored"]]),
-        "sub": np.r_[0, np.ones(m, dtype=int)], "it": np.r_[0, np.ones(m, dtype=int)],
-    }
-    return _result(True, 0, f"completed {m} steps", arr, final, m, options)
+    arr.update(strain=strain, work=work, sub=np.r_[0, np.ones(m, dtype=int)], it=np.r_[0, np.ones(m, dtype=int)])
+    return _result(True, 0, f"completed {m} steps", arr, point, m, options)
 
 
 def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str:
@@ -408,11 +446,13 @@ def _mixed_cause(seg: dict, point: MaterialPoint, options: SolverOptions) -> str
     return f"{cause} (after {options.max_depth} halvings)"
 
 
-def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> DriverResult:
+def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions,
+               checkpoint: PathCheckpoint | None = None) -> DriverResult:
     """:func:`run` with each segment of constant control mask in one compiled call.
 
     :func:`grainmech.driver.affine._mixed.mixed_segment` runs the loop of :func:`run` /
-    :func:`_subdivided` / :func:`_solve`, with the same rules and messages.
+    :func:`_subdivided` / :func:`_solve`, with the same rules and messages. A segment also
+    ends at each step of ``checkpoint.after``, where the run is saved.
     """
     # imported here: needs numba (optional)
     from grainmech.driver.affine._mixed import mixed_segment
@@ -431,10 +471,16 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
     n_loose = 0
     success, status, message = True, 0, f"completed {m} steps"
     a = 0
+    after = set(checkpoint.after) if checkpoint is not None else set()
+    if checkpoint is not None and checkpoint.resume is not None and checkpoint.resume[1]["loop"] == "mixed":
+        a, saved = checkpoint.resume
+        rows = {key: list(v) for key, v in saved["rows"].items()}
+        point, t_stress, t_strain, prev = saved["point"], saved["t_stress"], saved["t_strain"], saved["prev"]
+        diss, work, n_loose = saved["diss"], saved["work"], saved["n_loose"]
     while a < m:
         sc = sc_all[a]
         b = a + 1
-        while b < m and np.array_equal(sc_all[b], sc):
+        while b < m and np.array_equal(sc_all[b], sc) and b not in after:
             b += 1
         if prev is not None:  # a component switching control restarts from the state
             switched = sc != prev
@@ -460,6 +506,10 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions) -> 
             success, status = False, 1
             message = f"step {a + k + 1}: stress target not reachable: {_mixed_cause(seg, point, options)}"
             break
+        if b in after and b < m and checkpoint is not None and checkpoint.save is not None:
+            checkpoint.save(b, {"loop": "mixed", "point": point, "rows": {key: list(v) for key, v in rows.items()},
+                                "t_stress": t_stress, "t_strain": t_strain, "prev": prev, "diss": diss,
+                                "work": work, "n_loose": n_loose})
         a = b
     if n_loose:
         message += (f" ({n_loose} (sub)step(s) accepted at the contact law's resolution: stress residual "

@@ -89,6 +89,12 @@ class FlowState:
         return bool(np.any(self.rate != 0.0))
 
 
+def deform_command(rate: np.ndarray) -> str | None:
+    """LAMMPS' ``fix flow`` of the cell rate ``rate`` (grainmech convention; None: at rest)."""
+    parts = [f"{key} erate {-r:.12g}" for (key, _), r in zip(VOIGT_DEFORM, rate) if r != 0.0]
+    return "fix flow all deform 1 " + " ".join(parts) + " remap v" if parts else None
+
+
 def _set_rate(s, flow: FlowState, rate: np.ndarray) -> None:
     """Change the cell's rate to ``rate`` (grainmech convention) and the grains' affine velocity with it."""
     if np.array_equal(rate, flow.rate):
@@ -97,9 +103,9 @@ def _set_rate(s, flow: FlowState, rate: np.ndarray) -> None:
     if flow.flowing:
         lmp.command("unfix flow")
     add_affine_velocity(s, -(rate - flow.rate), 1.0)  # LAMMPS: tension positive
-    parts = [f"{key} erate {-r:.12g}" for (key, _), r in zip(VOIGT_DEFORM, rate) if r != 0.0]
-    if parts:
-        lmp.command("fix flow all deform 1 " + " ".join(parts) + " remap v")
+    cmd = deform_command(rate)
+    if cmd is not None:
+        lmp.command(cmd)
     flow.rate = np.asarray(rate, float).copy()
 
 

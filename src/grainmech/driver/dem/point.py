@@ -8,20 +8,23 @@ one increment of continuous shearing (:mod:`grainmech.driver.dem.flow`).
 from __future__ import annotations
 
 import math
+import tempfile
+from dataclasses import fields
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from grainmech.contact.rolling import RollingConstants, RollingResistance, moment_energy, rolling_constants
 from grainmech.driver.base import Status, StepFailure
-from grainmech.driver.dem.flow import FlowState, flow_increment, inertial_number, shear_rate
+from grainmech.driver.dem.flow import FlowState, deform_command, flow_increment, inertial_number, shear_rate
 from grainmech.driver.dem.mpi import Tick
 from grainmech.driver.dem.settings import DemSettings, dem_material
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.lammps.engine import Lammps
-from grainmech.lammps.granular import GrainMaterial
+from grainmech.lammps.granular import GrainMaterial, resume_lammps
 from grainmech.lammps.network import network_from_lammps, unbalanced_ratio
-from grainmech.lammps.rolling import ROLLING_DAMPING
+from grainmech.lammps.rolling import ROLLING_DAMPING, rolling_pair_suffix
 from grainmech.lammps.session import RelaxationTimeout, Session, load_network, ramp, relax, voigt
 from grainmech.network import ContactNetwork, network_stress
 from grainmech.network.measures import contact_stiffnesses, coordination
@@ -131,6 +134,56 @@ class DemPoint:
                 pt._restart_here()
                 pt.notes.append(f"brought from p = {p_before:.5g} Pa to {pt.p0:.5g} Pa (isotropic, normal stresses "
                                 f"servo-controlled; volumetric strain {pt._vol_start:.3g})")
+            return pt
+        except BaseException:
+            lmp.close()
+            raise
+
+    # -- saved and taken up (grainmech run --resume) ---------------------------------------
+    def saved_state(self) -> dict:
+        """A picklable copy of this state: LAMMPS' restart file and the point's own state.
+
+        The restart file keeps the cell, the grains and the contacts' spring history;
+        the point keeps its reference network, strain, servo stiffness, flow state and
+        counters, the session its time step, drags and counters. :meth:`resumed` takes it
+        up in a new LAMMPS instance. One process only (not on several MPI ranks).
+        """
+        with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as d:
+            f = Path(d) / "state.restart"
+            self._lmp.command(f"write_restart {f.as_posix()}")
+            data = f.read_bytes()
+        s = self._s
+        return {"restart": data, "point": {k: v for k, v in vars(self).items() if k not in ("_lmp", "_s", "_tick")},
+                "session": {f.name: getattr(s, f.name) for f in fields(s) if f.name != "lmp"},
+                "drags": self._lmp.has_id("fix", "drag"), "flowing": self._lmp.has_id("fix", "flow")}
+
+    @classmethod
+    def resumed(cls, state: dict, settings: DemSettings, tick: Tick | None = None) -> DemPoint:
+        """The point of :meth:`saved_state` in a new LAMMPS instance, going on as the saved one would."""
+        lmp = Lammps(settings.threads)
+        try:
+            sess = dict(state["session"])
+            pt = cls.__new__(cls)
+            vars(pt).update(state["point"])
+            mat = sess["mat"]
+            with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as d:
+                f = Path(d) / "state.restart"
+                f.write_bytes(state["restart"])
+                resume_lammps(lmp, f.as_posix(), mat, mat.friction, sess["dt"],
+                              rolling_pair_suffix(pt.rolling, sess["rbar"], mat.density))
+            lmp.command("thermo 100")
+            power = sess.pop("_power", False)
+            s = Session(lmp, **sess)
+            if power:
+                s.define_power()
+            if state["drags"]:
+                s.drags()
+            if state["flowing"] and pt._flow is not None:
+                cmd = deform_command(pt._flow.rate)
+                if cmd is not None:
+                    lmp.command(cmd)
+            lmp.command("run 0 post no")  # forces and virial of the restored state (read before the next run)
+            pt._lmp, pt._s, pt._tick = lmp, s, tick
             return pt
         except BaseException:
             lmp.close()

@@ -13,7 +13,7 @@ from grainmech.driver.base import DriverResult, Status
 from grainmech.driver.dem.mpi import JobDied, Tick, run_dem_ranks
 from grainmech.driver.dem.point import DemPoint
 from grainmech.driver.dem.settings import DemSettings, dem_material
-from grainmech.driver.loop import follow_path
+from grainmech.driver.loop import PathCheckpoint, follow_path
 from grainmech.driver.paths import LoadPath
 from grainmech.lammps.engine import mpi_world_size
 from grainmech.network import ContactNetwork
@@ -62,7 +62,8 @@ class DemResult(DriverResult):
 
 def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings | None = None, *,
             pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
-            tick: Tick | None = None, rolling: RollingResistance | None = None) -> DemResult:
+            tick: Tick | None = None, rolling: RollingResistance | None = None,
+            checkpoint: PathCheckpoint | None = None) -> DemResult:
     """Run ``path`` with LAMMPS on the packing ``net`` (:mod:`grainmech.driver.dem`).
 
     Parameters
@@ -82,6 +83,10 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     rolling : RollingResistance, optional
         Rolling and twisting resistance of the contacts (:mod:`grainmech.driver.dem`); the notes state
         the constants LAMMPS ran.
+    checkpoint : PathCheckpoint, optional
+        Save the run after the steps it names (LAMMPS' restart file and the point's state,
+        :meth:`DemPoint.saved_state`) and/or go on from such a save (``grainmech run
+        --resume``); one process only (not with ``settings.ranks`` > 1).
 
     Returns
     -------
@@ -125,10 +130,31 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         rows["nc"].append(pt.network.n_contacts)
         rows["I"].append(pt.inertial)
 
-    with DemPoint.start(net, law, st, pressure=pressure, tick=tick, rolling=rolling) as point:
-        notes += point.notes
-        state["steps"] = point.relax_steps
-        final, success, status, message = follow_path(point, path, record, on_step=on_step)
+    resume: tuple[int, Any] | None = None
+    kw: dict[str, Any] = {}
+    if checkpoint is not None and checkpoint.resume is not None:
+        k0, saved = checkpoint.resume
+        for key, v in saved["rows"].items():
+            rows[key][:] = v
+        state.update(saved["counts"])
+        notes = list(saved["notes"])  # the run's notes up to the save
+        opened = DemPoint.resumed(saved["point"], st, tick)
+        resume = (k0, saved["targets"])
+    else:
+        opened = DemPoint.start(net, law, st, pressure=pressure, tick=tick, rolling=rolling)
+    if checkpoint is not None and checkpoint.save is not None:
+        save_to = checkpoint.save
+
+        def save(k: int, pt: DemPoint, targets: Any) -> None:
+            save_to(k, {"point": pt.saved_state(), "rows": {key: list(v) for key, v in rows.items()},
+                        "counts": dict(state), "targets": targets, "notes": list(notes)})
+
+        kw = {"save_at": tuple(checkpoint.after), "save": save}
+    with opened as point:
+        if resume is None:
+            notes += point.notes
+            state["steps"] = point.relax_steps
+        final, success, status, message = follow_path(point, path, record, on_step=on_step, resume=resume, **kw)
         tangent0 = point.elastic_tangent
         if point.fallbacks:
             notes.append(f"{point.fallbacks} relaxation(s) did not reach equilibrium under the {st.damping} "
