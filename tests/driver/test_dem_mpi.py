@@ -90,3 +90,32 @@ def test_ranks_key_sets_the_ranks_and_shares_the_cores(monkeypatch) -> None:
     assert settings.ranks == 2 and workers == 1
     with pytest.raises(GrainmechError, match="model.dem.ranks"):
         jobs._dem_settings(Section({"dem": {"ranks": 0}}, "model"))
+
+
+def test_a_path_on_two_ranks_saved_at_a_segment_end_goes_on_from_it(tmp_path) -> None:
+    """``grainmech run --resume`` on several ranks: rank 0 writes the state LAMMPS' restart
+    file and the point make at step 3 (``DemPoint.saved_state``), this process receives it
+    (``checkpoint.save``), and a new two-rank job started from it (``checkpoint.resume``)
+    gives the uninterrupted job's last 3 steps to round-off (4e-14 of the stress measured)."""
+    import pickle
+
+    from conftest import write_fcc_packing
+    from grainmech.contact import MindlinDeresiewicz
+    from grainmech.driver.loop import PathCheckpoint
+    from grainmech.driver.paths import concatenate, segment
+
+    net = write_fcc_packing(tmp_path)
+    law = MindlinDeresiewicz(29e9, 0.15, 2.5e-4, friction=0.5)
+    path = concatenate([segment("SSSEEE", [0, 0, 0, 0, 1e-4, 0], 3), segment("SSSEEE", [0, 0, 0, 0, -2e-4, 0], 3)])
+    st = DemSettings(ranks=2)
+    saved: list = []
+    whole = run_dem(net, law, path, st, checkpoint=PathCheckpoint(
+        after=(3,), save=lambda k, state: saved.append((k, pickle.dumps(state)))))
+    assert whole.success and [k for k, _ in saved] == [3]
+    state = pickle.loads(saved[0][1])
+    assert len(state["point"]["restart"]) > 0  # rank 0's restart file
+    resumed = run_dem(net, law, path, st, checkpoint=PathCheckpoint(after=(3,), resume=(3, state)))
+    assert resumed.success and resumed.stress.shape == whole.stress.shape == (7, 6)
+    scale = float(np.abs(whole.stress).max())
+    np.testing.assert_allclose(resumed.stress, whole.stress, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(resumed.strain, whole.strain, rtol=0, atol=1e-15)

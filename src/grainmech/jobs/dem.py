@@ -197,10 +197,9 @@ def _execute_dem(spec: RunSpec, say: Callable[[str], None], step: JobStep | None
     if step.early is not None and step.handed is not None:  # those saved by an earlier run are taken up instead
         step.early.add([a for a in step.handed.amplitudes
                         if step.records is None or step.records.get(DEM.name, a) is None])
-    ranks = spec.dem_settings.ranks if spec.dem_settings is not None else 1
     model = ModelRun(DEM, None, f"{net.n_particles} grains", series=series, path=path,
                      void_ratio=src.void_ratio, details=details, finish=finish, in_order=True,
-                     saves_segments=ranks <= 1)  # a LAMMPS restart file of one process (driver/dem/point.py)
+                     saves_segments=True)  # LAMMPS' restart file (driver/dem/point.py)
     return execute_model(model, spec, say, step)
 
 

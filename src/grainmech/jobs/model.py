@@ -112,8 +112,7 @@ class ModelRun:
         ``path(load_path, checkpoint=...)`` takes a
         :class:`~grainmech.driver.loop.PathCheckpoint`: the path is saved at the end of
         each of its segments and a resumed run goes on from the last one saved (every
-        model; the DEM model on one process only); otherwise a resumed path runs from its
-        beginning.
+        model); otherwise a resumed path runs from its beginning.
     """
 
     model: KinematicModel
@@ -250,8 +249,7 @@ def _path_start(model: ModelRun, spec: RunSpec, records: RunRecords | None, cp: 
                 "interrupted run)")
     if model.saves_segments:
         return " (from its beginning: no segment of it was finished)"
-    return (f" (from its beginning: here the {model.model.title}'s path is saved only when it is finished, "
-            "e.g. the DEM model on several MPI ranks)")
+    return f" (from its beginning: the {model.model.title}'s path is saved only when it is finished)"
 
 
 def _say_reused(say: Callable[[str], None], m: KinematicModel, amplitudes: list[float] | None) -> None:

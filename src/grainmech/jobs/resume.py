@@ -12,8 +12,8 @@ each amplitude the moment the series reports it.
 A path is one run: a model's finished path is taken up whole. Each model's path is also
 saved at the end of each segment (:class:`grainmech.driver.loop.PathCheckpoint`: the
 affine point, :mod:`grainmech.driver.packing.resume`, the DEM model's LAMMPS restart file,
-:meth:`grainmech.driver.dem.DemPoint.saved_state`) and goes on from the last one saved; a
-DEM path on several MPI ranks runs again from its beginning.
+:meth:`grainmech.driver.dem.DemPoint.saved_state`, on several MPI ranks too) and goes on
+from the last one saved.
 """
 
 from __future__ import annotations

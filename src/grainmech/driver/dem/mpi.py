@@ -110,8 +110,9 @@ def _kill(proc: subprocess.Popen) -> None:
         proc.wait()
 
 
-def _follow(proc: subprocess.Popen, on_step: Callable[[int, int], None] | None, tick: Tick | None) -> list[str]:
-    """Pass rank 0's progress lines on until the job ends; return the launcher's own lines (its reports).
+def _follow(proc: subprocess.Popen, on_step: Callable[[int, int], None] | None, tick: Tick | None,
+            saved: Callable[[int, dict], None] | None = None) -> list[str]:
+    """Pass rank 0's progress lines (saved states to ``saved``) on until the job ends; return the launcher's lines.
 
     When the launcher has ended, what is left of its process group (a rank it did not end)
     is killed before the launcher is reaped (so that the group's id cannot have been reused).
@@ -128,6 +129,10 @@ def _follow(proc: subprocess.Popen, on_step: Callable[[int, int], None] | None, 
             continue
         if "step" in msg and on_step is not None:
             on_step(int(msg["step"][0]), int(msg["step"][1]))
+        elif "saved" in msg and saved is not None:
+            f = Path(msg["saved"][1])
+            saved(int(msg["saved"][0]), pickle.loads(f.read_bytes()))
+            f.unlink()
         elif "tick" in msg and tick is not None:
             ub = msg["tick"][1]
             tick(int(msg["tick"][0]), float("nan") if ub is None else float(ub))
@@ -171,8 +176,12 @@ def _die_with_parent() -> None:
 
 def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings, *,
                   pressure: float | None = None, on_step: Callable[[int, int], None] | None = None,
-                  tick: Tick | None = None, rolling: Any = None) -> DemResult:
+                  tick: Tick | None = None, rolling: Any = None, checkpoint: Any = None) -> DemResult:
     """:func:`grainmech.driver.dem.run_dem` as an ``mpiexec -n settings.ranks`` job (module notes).
+
+    ``checkpoint`` (:class:`~grainmech.driver.loop.PathCheckpoint`): the ranks save the path
+    at its steps (rank 0 writes each state, this process passes it to ``checkpoint.save``)
+    and go on from ``checkpoint.resume``.
 
     Raises
     ------
@@ -185,7 +194,10 @@ def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSe
     launcher = mpiexec()
     with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as tmp:
         src, out, err = Path(tmp) / "in.pkl", Path(tmp) / "out.pkl", Path(tmp) / "stderr.txt"
-        src.write_bytes(pickle.dumps((net, law, path, settings, pressure, rolling)))
+        after = tuple(checkpoint.after) if checkpoint is not None and checkpoint.save is not None else ()
+        src.write_bytes(pickle.dumps((net, law, path, settings, pressure, rolling, after,
+                                      checkpoint.resume if checkpoint is not None else None)))
+        saved = None if not after else checkpoint.save
         cmd = [launcher, "-n", str(settings.ranks), sys.executable, "-m", "grainmech.driver.dem._rank",
                str(src), str(out)]
         env = dict(os.environ, OMP_NUM_THREADS="1")
@@ -200,7 +212,7 @@ def run_dem_ranks(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSe
             old = signal.signal(signal.SIGTERM, on_term)
         reports: list[str] = []
         try:
-            reports = _follow(proc, on_step, tick)
+            reports = _follow(proc, on_step, tick, saved)
         finally:
             _kill(proc)
             if old is not None:

@@ -146,12 +146,13 @@ class DemPoint:
         The restart file keeps the cell, the grains and the contacts' spring history;
         the point keeps its reference network, strain, servo stiffness, flow state and
         counters, the session its time step, drags and counters. :meth:`resumed` takes it
-        up in a new LAMMPS instance. One process only (not on several MPI ranks).
+        up in a new LAMMPS instance. On several MPI ranks every rank calls it (LAMMPS' rank 0
+        writes the file: only its state holds it, :mod:`grainmech.driver.dem.mpi`).
         """
         with tempfile.TemporaryDirectory(prefix="grainmech-dem-") as d:
             f = Path(d) / "state.restart"
             self._lmp.command(f"write_restart {f.as_posix()}")
-            data = f.read_bytes()
+            data = f.read_bytes() if f.exists() else b""  # on several MPI ranks rank 0 writes the file
         s = self._s
         return {"restart": data, "point": {k: v for k, v in vars(self).items() if k not in ("_lmp", "_s", "_tick")},
                 "session": {f.name: getattr(s, f.name) for f in fields(s) if f.name != "lmp"},

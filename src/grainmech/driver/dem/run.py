@@ -86,7 +86,7 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     checkpoint : PathCheckpoint, optional
         Save the run after the steps it names (LAMMPS' restart file and the point's state,
         :meth:`DemPoint.saved_state`) and/or go on from such a save (``grainmech run
-        --resume``); one process only (not with ``settings.ranks`` > 1).
+        --resume``); on several MPI ranks too (:func:`run_dem_ranks`).
 
     Returns
     -------
@@ -100,7 +100,8 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
     st, why = (settings or DemSettings()).for_path(path)
     if st.ranks > 1 and mpi_world_size() == 1:
         try:
-            return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling)
+            return run_dem_ranks(net, law, path, st, pressure=pressure, on_step=on_step, tick=tick, rolling=rolling,
+                                 checkpoint=checkpoint)
         except JobDied as exc:  # a rank died: this run fails, the caller's other runs go on
             return DemResult.failed(str(exc))
     _, notes = dem_material(law)
