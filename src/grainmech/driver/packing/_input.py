@@ -13,6 +13,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from grainmech.contact import ContactState, state_from_approach, state_from_forces
+from grainmech.contact.rolling import RollingConstants, RollingResistance, rolling_constants
 from grainmech.driver.packing.options import law_scale
 from grainmech.errors import GrainmechError, ParameterError
 from grainmech.network import ContactNetwork
@@ -61,7 +62,7 @@ def input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool
         Rs = RA * RB / (RA + RB)
         N = state_from_approach(params, np.maximum(alpha, 0.0) * law_scale(params, Rs)).normal_force
         T = np.zeros_like(net.force)
-    N = _tensile_at_zero(N, rows_of=net, notes=notes)
+    N = _tensile_at_zero(N, net)
     carrying = N > 0
     if frictional:
         T = _cap_small_excess(net, N, T, params.friction, notes)
@@ -81,29 +82,37 @@ def input_forces(net: ContactNetwork, params: Any, forces: str, frictional: bool
 TENSILE_CAP = 1e-3
 
 
-def _tensile_at_zero(N: np.ndarray, rows_of: ContactNetwork, notes: list[str]) -> np.ndarray:
-    """Normal forces with small tensile ones (a DEM's damping, round-off) set to zero; a note says how many.
+def _tensile_at_zero(N: np.ndarray, net: ContactNetwork) -> np.ndarray:
+    """Normal forces with small tensile ones (a DEM's damping, round-off) set to zero.
 
     A cohesionless contact law carries no tension: a stored normal force below zero is
     the normal dashpot of a DEM at a contact about to open (LAMMPS reports, e.g.,
-    -5.8e-9 N against a mean of about 1e-2 N on a re-settled sand packing) and is taken
-    at zero force when it is within :data:`TENSILE_CAP` of the mean normal force; a
-    larger one is an error naming the contact.
+    -5.8e-9 N against a mean of about 1e-2 N on a re-settled sand packing; the shipped
+    packings hold 0-20 such contacts, at most 5e-6 of their mean normal force) and is
+    taken at zero force when it is within :data:`TENSILE_CAP` of the mean normal force;
+    a larger one is an error naming the contact. :func:`tensile_note` says how many of
+    them the packing model keeps.
     """
-    tensile = N < 0
-    if not tensile.any():
+    if not np.any(N < 0):
         return N
     carrying = N > 0
     scale = float(np.mean(N[carrying])) if carrying.any() else 0.0
     k = int(np.argmin(N))
     if not -N[k] <= TENSILE_CAP * scale:
-        raise GrainmechError(f"{rows_of.source or 'network'}: contact {k} carries a tensile normal force of "
+        raise GrainmechError(f"{net.source or 'network'}: contact {k} carries a tensile normal force of "
                              f"{N[k]:.6g} N (mean normal force {scale:.6g} N): a cohesionless contact law carries "
                              "no tension; use forces='overlap'")
-    notes.append(f"{int(tensile.sum())} input contact(s) with a tensile normal force (largest {-N[k]:.3g} N, "
-                 f"{-N[k] / scale:.2g} of the mean normal force: a DEM's normal damping at a contact about to "
-                 "open) taken at zero force")
     return np.maximum(N, 0.0)
+
+
+def tensile_note(net: ContactNetwork, kept: np.ndarray, N: np.ndarray, notes: list[str]) -> None:
+    """Say how many kept contacts (``kept``: between grains that are not rattlers) came with a tensile force."""
+    raw = np.einsum("ij,ij->i", net.force, net.normals)
+    used = kept & (raw < 0) & (N == 0)
+    if used.any():
+        notes.append(f"{int(used.sum())} input contact(s) between load-bearing grains with a tensile normal force "
+                     f"(largest {-float(raw[used].min()):.3g} N: a DEM's normal damping at a contact about to open) "
+                     "taken at zero force")
 
 
 #: largest excess ``|T| - mu N`` of a stored tangential force, relative to the mean normal force of
@@ -239,3 +248,17 @@ def gap_pairs(net: ContactNetwork, gap: float, alive: np.ndarray) -> tuple[np.nd
     key = np.minimum(I, J) * P + np.maximum(I, J)
     new = np.array([k not in listed for k in key.tolist()], dtype=bool)
     return I[new], J[new], br[new]
+
+
+def input_rolling(rolling: RollingResistance | RollingConstants | None, params: Any, N: np.ndarray,
+                  Rs: np.ndarray) -> RollingConstants | None:
+    """:meth:`PackingPoint.from_network`'s ``rolling``, resolved on the listed contacts (None: off)."""
+    if rolling is None:
+        return None
+    if isinstance(rolling, RollingConstants):
+        return rolling if (rolling.mu_roll > 0 or rolling.twist_cap > 0) else None
+    if not isinstance(rolling, RollingResistance):
+        raise ParameterError("rolling", rolling, "must be a RollingResistance, RollingConstants or None")
+    if not rolling.active:
+        return None
+    return rolling_constants(rolling, params, N, Rs)

@@ -29,14 +29,21 @@ from grainmech.contact.rolling import (
     RollingResistance,
     RollingResponse,
     moment_energy,
-    rolling_constants,
     rolling_elastic_stiffness,
     rolling_update,
 )
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
 from grainmech.driver.loop import PathCheckpoint, follow_path
-from grainmech.driver.packing._input import check_network, gap_pairs, initial_contact_state, input_forces, pin_first
+from grainmech.driver.packing._input import (
+    check_network,
+    gap_pairs,
+    initial_contact_state,
+    input_forces,
+    input_rolling,
+    pin_first,
+    tensile_note,
+)
 from grainmech.driver.packing._operators import (
     Kinematics,
     Preconditioner,
@@ -215,6 +222,7 @@ class PackingPoint:
                      f"force-carrying contacts, {'frictional' if frictional else 'frictionless'} rule, "
                      "removed iteratively)")
         keep_c = alive[net.i] & alive[net.j]
+        tensile_note(net, keep_c, N, notes)
         gi, gj, gbr = gap_pairs(net, gap, alive)
         if gi.size:
             notes.append(f"{gi.size} pairs with a gap below {gap:g} x mean radius tracked (open)")
@@ -233,7 +241,7 @@ class PackingPoint:
         grains = pin_first(np.flatnonzero(alive), net, keep_c & carrying, N)
         newidx = -np.ones(net.n_particles, dtype=int)
         newidx[grains] = np.arange(grains.size)
-        consts = _rolling_constants(rolling, params, Nk, Rs[:Nk.size])
+        consts = input_rolling(rolling, params, Nk, Rs[:Nk.size])
         kin = Kinematics.build(newidx[I], newidx[J], nc, br, Ra, Rb, grains.size, rolling=consts is not None,
                                twisting=consts is not None and consts.twist_cap > 0)
         V = net.volume
@@ -623,8 +631,7 @@ def run_packing(point: PackingPoint, path: LoadPath, options: PackingOptions | N
     on_step : callable, optional
         Called as ``on_step(k, n)`` after step ``k`` of ``n`` is done (progress reports).
     checkpoint : PathCheckpoint, optional
-        Save the run after the steps it names and/or go on from a saved state
-        (:mod:`grainmech.driver.packing.resume`; ``grainmech run --resume``).
+        Save the run at its steps, go on from a saved state (:mod:`grainmech.driver.packing.resume`).
     **kwargs : fields of :class:`PackingOptions` as a shortcut.
 
     Returns
@@ -784,16 +791,3 @@ def _run_notes(ctx: RunContext, opts: PackingOptions) -> tuple[str, ...]:
                 "committed pseudo-time updates: the grains relaxed along a recorded path, as in a "
                 "quasi-static DEM)",) if ctx.relaxations else ()))
 
-
-def _rolling_constants(rolling: RollingResistance | RollingConstants | None, params: Any, N: np.ndarray,
-                       Rs: np.ndarray) -> RollingConstants | None:
-    """:meth:`PackingPoint.from_network`'s ``rolling``, resolved on the listed contacts (None: off)."""
-    if rolling is None:
-        return None
-    if isinstance(rolling, RollingConstants):
-        return rolling if (rolling.mu_roll > 0 or rolling.twist_cap > 0) else None
-    if not isinstance(rolling, RollingResistance):
-        raise ParameterError("rolling", rolling, "must be a RollingResistance, RollingConstants or None")
-    if not rolling.active:
-        return None
-    return rolling_constants(rolling, params, N, Rs)
