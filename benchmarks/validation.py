@@ -330,7 +330,9 @@ def write_page(cache: dict, page: Path) -> None:
     lines += ["", "## Modulus reduction and damping at 50, 100 and 400 kPa against Menq (2003) and Darendeli (2001)", "",
               "Menq with the grains' own grading (Cu, D50 measured on the packing's grains); Darendeli with PI 0, "
               "OCR 1. Each model's G/Gmax is on its own Gmax (the packing model's: the relaxed small-strain modulus; "
-              "the DEM model's: the same of its re-settled start state). The DEM model runs 3e-4 and 1e-3 by step and "
+              "the DEM model's: the same of its re-settled start state). At 50 and 400 kPa the packing model starts "
+              "from the packing brought there by its own stress path or, where that stops, re-settled there by the "
+              "DEM model (`PackingPoint.at_stress`, engine 'auto'). The DEM model runs 3e-4 and 1e-3 by step and "
               "relax and 3e-3, 1e-2 by continuous shearing at I = 1e-3 (`docs/models/dem.md`: there the continuous "
               "loops were 6-16 % stiffer than step and relax on 'dense').", "",
               "| packing | p′ kPa | γ | model | G/Gmax | damping % | Menq G/Gmax | Menq damping % | Darendeli G/Gmax | "
