@@ -40,8 +40,8 @@ from grainmech.driver.base import DriverResult, Status, StepFailure, SteppingPoi
 from grainmech.driver.paths import LoadPath, PathTargets, cyclic_simple_shear
 from grainmech.errors import GrainmechError, ParameterError
 
-__all__ = ["follow_path", "PathCheckpoint", "cyclic_series", "Recorder", "LoopProperties", "loop_properties",
-           "ModulusReduction"]
+__all__ = ["follow_path", "PathCheckpoint", "path_saves", "copied_rows", "restore_rows", "cyclic_series",
+           "Recorder", "LoopProperties", "loop_properties", "ModulusReduction"]
 
 #: ``record(point, step_index)`` -> None: what a model keeps of each state
 Recorder = Callable[[Any, int], None]
@@ -142,6 +142,29 @@ class PathCheckpoint:
     after: tuple[int, ...] = ()
     save: Callable[[int, dict], None] | None = None
     resume: tuple[int, dict] | None = None
+
+
+def path_saves(checkpoint: PathCheckpoint | None, state: Callable[[Any, PathTargets], dict]) -> dict:
+    """:func:`follow_path`'s ``save_at`` and ``save`` for ``checkpoint`` (empty: nothing saved).
+
+    ``state(point, targets)`` is the model's picklable state after a step; it is passed to
+    ``checkpoint.save`` with the step.
+    """
+    if checkpoint is None or checkpoint.save is None:
+        return {}
+    save = checkpoint.save
+    return {"save_at": tuple(checkpoint.after), "save": lambda k, point, targets: save(k, state(point, targets))}
+
+
+def copied_rows(rows: dict[str, list]) -> dict[str, list]:
+    """The rows a model recorded so far, as new lists (for a saved state)."""
+    return {key: list(v) for key, v in rows.items()}
+
+
+def restore_rows(rows: dict[str, list], saved: dict[str, list]) -> None:
+    """Put the rows of a saved state (:func:`copied_rows`) into a run's own ``rows``."""
+    for key, v in saved.items():
+        rows[key][:] = v
 
 
 def follow_path(point: SteppingPoint, path: LoadPath, record: Recorder, *,

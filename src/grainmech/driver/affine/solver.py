@@ -31,7 +31,15 @@ from grainmech.driver.affine.response import (
     tangent,
 )
 from grainmech.driver.base import DriverResult, PointStepping, StepFailure
-from grainmech.driver.loop import ModulusReduction, PathCheckpoint, cyclic_series, follow_path
+from grainmech.driver.loop import (
+    ModulusReduction,
+    PathCheckpoint,
+    copied_rows,
+    cyclic_series,
+    follow_path,
+    path_saves,
+    restore_rows,
+)
 from grainmech.driver.paths import LoadPath
 from grainmech.elasticity import condensed_modulus, engineering_constants
 from grainmech.errors import ConfigError, GrainmechError
@@ -238,8 +246,6 @@ def run(point: MaterialPoint, path: LoadPath, *, options: SolverOptions | None =
         res = _run_fused(point, path, options, checkpoint)
         if res is not None:
             return res
-        if resume is not None:  # the compiled run found too little reversal memory: from the start, step by step
-            checkpoint = PathCheckpoint(checkpoint.after, checkpoint.save) if checkpoint is not None else None
     if fused and path.stress_control.any():
         return _run_mixed(point, path, options, checkpoint)
     return _run_steps(point, path, options, fused, checkpoint)
@@ -274,21 +280,14 @@ def _run_steps(point: MaterialPoint, path: LoadPath, options: SolverOptions, fus
                                              "sub", "it")}
     acc = {"diss": 0.0, "work": 0.0, "loose": 0}
     resume: tuple[int, Any] | None = None
-    kw: dict[str, Any] = {}
+    # a saved state of another loop (a compiled run that fell back to this one) is not taken up
     if checkpoint is not None and checkpoint.resume is not None and checkpoint.resume[1]["loop"] == "steps":
         k0, saved = checkpoint.resume
-        for key, v in saved["rows"].items():
-            rows[key][:] = v
+        restore_rows(rows, saved["rows"])
         acc.update(saved["acc"])
         point, resume = saved["point"], (k0, saved["targets"])
-    if checkpoint is not None and checkpoint.save is not None:
-        save_to = checkpoint.save
-
-        def save(k: int, st: Any, targets: Any) -> None:
-            save_to(k, {"loop": "steps", "point": st.point, "rows": {key: list(v) for key, v in rows.items()},
-                        "acc": dict(acc), "targets": targets})
-
-        kw = {"save_at": tuple(checkpoint.after), "save": save}
+    kw = path_saves(checkpoint, lambda st, targets: {"loop": "steps", "point": st.point, "rows": copied_rows(rows),
+                                                     "acc": dict(acc), "targets": targets})
 
     def record(st: _Stepping, k: int) -> None:
         pt = st.point
@@ -401,7 +400,7 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions,
     a = 0
     if checkpoint is not None and checkpoint.resume is not None:
         a, saved = checkpoint.resume
-        point, rows = saved["point"], {key: list(v) for key, v in saved["rows"].items()}
+        point, rows = saved["point"], copied_rows(saved["rows"])
     for b in (e for e in ends if e > a):
         out = strain_path(point, de[a:b], fold=options.fold)
         if out is None:
@@ -413,7 +412,7 @@ def _run_fused(point: MaterialPoint, path: LoadPath, options: SolverOptions,
         point = replace(point, state=out["state"], response=out["response"], strain=strain[b].copy(),
                         stress=rows["stress"][-1][-1].copy())
         if b < m and checkpoint is not None and checkpoint.save is not None:
-            checkpoint.save(b, {"loop": "fused", "point": point, "rows": {key: list(v) for key, v in rows.items()}})
+            checkpoint.save(b, {"loop": "fused", "point": point, "rows": copied_rows(rows)})
         a = b
     arr = {key: np.concatenate([np.asarray(v, dtype=float) for v in vals]) for key, vals in rows.items()}
     stress = arr["stress"]
@@ -474,7 +473,7 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions,
     after = set(checkpoint.after) if checkpoint is not None else set()
     if checkpoint is not None and checkpoint.resume is not None and checkpoint.resume[1]["loop"] == "mixed":
         a, saved = checkpoint.resume
-        rows = {key: list(v) for key, v in saved["rows"].items()}
+        rows = copied_rows(saved["rows"])
         point, t_stress, t_strain, prev = saved["point"], saved["t_stress"], saved["t_strain"], saved["prev"]
         diss, work, n_loose = saved["diss"], saved["work"], saved["n_loose"]
     while a < m:
@@ -507,7 +506,7 @@ def _run_mixed(point: MaterialPoint, path: LoadPath, options: SolverOptions,
             message = f"step {a + k + 1}: stress target not reachable: {_mixed_cause(seg, point, options)}"
             break
         if b in after and b < m and checkpoint is not None and checkpoint.save is not None:
-            checkpoint.save(b, {"loop": "mixed", "point": point, "rows": {key: list(v) for key, v in rows.items()},
+            checkpoint.save(b, {"loop": "mixed", "point": point, "rows": copied_rows(rows),
                                 "t_stress": t_stress, "t_strain": t_strain, "prev": prev, "diss": diss,
                                 "work": work, "n_loose": n_loose})
         a = b

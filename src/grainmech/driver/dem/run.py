@@ -13,7 +13,7 @@ from grainmech.driver.base import DriverResult, Status
 from grainmech.driver.dem.mpi import JobDied, Tick, run_dem_ranks
 from grainmech.driver.dem.point import DemPoint
 from grainmech.driver.dem.settings import DemSettings, dem_material
-from grainmech.driver.loop import PathCheckpoint, follow_path
+from grainmech.driver.loop import PathCheckpoint, copied_rows, follow_path, path_saves, restore_rows
 from grainmech.driver.paths import LoadPath
 from grainmech.lammps.engine import mpi_world_size
 from grainmech.network import ContactNetwork
@@ -132,25 +132,17 @@ def run_dem(net: ContactNetwork, law: Any, path: LoadPath, settings: DemSettings
         rows["I"].append(pt.inertial)
 
     resume: tuple[int, Any] | None = None
-    kw: dict[str, Any] = {}
     if checkpoint is not None and checkpoint.resume is not None:
         k0, saved = checkpoint.resume
-        for key, v in saved["rows"].items():
-            rows[key][:] = v
+        restore_rows(rows, saved["rows"])
         state.update(saved["counts"])
         notes = list(saved["notes"])  # the run's notes up to the save
         opened = DemPoint.resumed(saved["point"], st, tick)
         resume = (k0, saved["targets"])
     else:
         opened = DemPoint.start(net, law, st, pressure=pressure, tick=tick, rolling=rolling)
-    if checkpoint is not None and checkpoint.save is not None:
-        save_to = checkpoint.save
-
-        def save(k: int, pt: DemPoint, targets: Any) -> None:
-            save_to(k, {"point": pt.saved_state(), "rows": {key: list(v) for key, v in rows.items()},
-                        "counts": dict(state), "targets": targets, "notes": list(notes)})
-
-        kw = {"save_at": tuple(checkpoint.after), "save": save}
+    kw = path_saves(checkpoint, lambda pt, targets: {"point": pt.saved_state(), "rows": copied_rows(rows),
+                                                     "counts": dict(state), "targets": targets, "notes": list(notes)})
     with opened as point:
         if resume is None:
             notes += point.notes

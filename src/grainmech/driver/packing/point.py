@@ -34,7 +34,7 @@ from grainmech.contact.rolling import (
 )
 from grainmech.driver import DriverResult, LoadPath
 from grainmech.driver.base import PointStepping, Status, StepFailure
-from grainmech.driver.loop import PathCheckpoint, follow_path
+from grainmech.driver.loop import PathCheckpoint, follow_path, path_saves
 from grainmech.driver.packing._input import (
     check_network,
     gap_pairs,
@@ -62,7 +62,7 @@ from grainmech.driver.packing.options import (
     law_options,
     law_scale,
 )
-from grainmech.driver.packing.resume import resumed, saving
+from grainmech.driver.packing.resume import resumed, saved_state
 from grainmech.driver.packing.step import subdivided
 from grainmech.driver.packing.tangent import relaxed_tangent, unbalanced_force_ratio
 from grainmech.errors import GrainmechError, ParameterError
@@ -759,7 +759,8 @@ def run_resolved(point: PackingPoint, path: LoadPath, opts: PackingOptions, ener
     start = _Stepping(point, ctx)
     final, success, status, message = follow_path(start, path, record, on_step=on_step,
                                                   check_targets=start.check_targets, resume=resume,
-                                                  **saving(checkpoint, rows, acc, ctx))
+                                                  **path_saves(checkpoint, lambda st, targets: saved_state(
+                                                      st.point, rows, acc, ctx, targets)))
     point = cast(_Stepping, final).point
     arr = {k: np.array(v) for k, v in rows.items()}
     if opts.tangent == "ends" and not success and len(rows["strain"]) > 1:

@@ -5,8 +5,7 @@ through a :class:`~grainmech.driver.loop.PathCheckpoint` after a segment of the 
 the packing point (without its cached factorisation, which is made again from the same
 elastic operator), the rows recorded so far, the path loop's running targets, and the
 run's solver counters and last-step predictor (:class:`RunContext`), so that the run
-goes on as the uninterrupted one does (:func:`saving` gives the path loop its ``save``).
-:func:`resumed` takes such a state up.
+goes on as the uninterrupted one does. :func:`resumed` takes such a state up.
 """
 
 from __future__ import annotations
@@ -14,10 +13,10 @@ from __future__ import annotations
 from dataclasses import fields, replace
 from typing import Any
 
-from grainmech.driver.loop import PathCheckpoint
+from grainmech.driver.loop import PathCheckpoint, copied_rows, restore_rows
 from grainmech.driver.packing.options import RunContext
 
-__all__ = ["saved_state", "saving", "resumed", "CONTEXT_FIELDS"]
+__all__ = ["saved_state", "resumed", "CONTEXT_FIELDS"]
 
 #: the solver context's fields a resumed run takes over (not the preconditioner, the
 #: options or the current step's budget, which the run makes again)
@@ -26,20 +25,8 @@ CONTEXT_FIELDS = tuple(f.name for f in fields(RunContext) if f.name not in ("pre
 
 def saved_state(point: Any, rows: dict, acc: dict, ctx: RunContext, targets: Any) -> dict:
     """The picklable state of a packing model's path run after a step (module notes)."""
-    return {"point": replace(point, _cache={}), "rows": {k: list(v) for k, v in rows.items()}, "acc": dict(acc),
+    return {"point": replace(point, _cache={}), "rows": copied_rows(rows), "acc": dict(acc),
             "context": {name: getattr(ctx, name) for name in CONTEXT_FIELDS}, "targets": targets}
-
-
-def saving(checkpoint: PathCheckpoint | None, rows: dict, acc: dict, ctx: RunContext) -> dict:
-    """The ``save_at`` and ``save`` keywords of :func:`~grainmech.driver.loop.follow_path` for ``checkpoint``."""
-    if checkpoint is None or checkpoint.save is None:
-        return {}
-    save_to = checkpoint.save
-
-    def save(k: int, st: Any, targets: Any) -> None:
-        save_to(k, saved_state(st.point, rows, acc, ctx, targets))
-
-    return {"save_at": tuple(checkpoint.after), "save": save}
 
 
 def resumed(checkpoint: PathCheckpoint | None, point: Any, rows: dict, acc: dict) -> tuple[Any, Any, dict]:
@@ -52,7 +39,6 @@ def resumed(checkpoint: PathCheckpoint | None, point: Any, rows: dict, acc: dict
     if checkpoint is None or checkpoint.resume is None:
         return point, None, {}
     k, state = checkpoint.resume
-    for key, v in state["rows"].items():
-        rows[key][:] = v
+    restore_rows(rows, state["rows"])
     acc.update(state["acc"])
     return state["point"], (k, state["targets"]), dict(state["context"])
