@@ -41,10 +41,8 @@ def _grain_torques(net):
     return T
 
 
-def test_lammps_runs_rolling_and_the_moments_read_back_are_its_torques():
-    """Three spheres in a row, spun differently: LAMMPS accepts ``rolling sds`` and
-    ``twisting sds`` with ``tangential mindlin``, and the network's contact moments (by A
-    on B) with its forces give exactly the torques LAMMPS applies to each grain."""
+def _three_spun_spheres():
+    """LAMMPS on three spheres in a row, spun differently, with rolling and twisting: (network, torques)."""
     R, L = 1e-4, 2e-3
     x = np.array([[5e-4, 5e-4, 5e-4], [5e-4 + 2 * R - 4e-7, 5e-4, 5e-4], [5e-4 + 4 * R - 8e-7, 5e-4, 5e-4]])
     rolling = RollingResistance(0.5)
@@ -60,6 +58,22 @@ def test_lammps_runs_rolling_and_the_moments_read_back_are_its_torques():
                       "set atom 3 omega 0.5 -1.0 0.0", "run 20"])
         net = network_from_lammps(lmp)
         torque = lmp.atom("torque")[np.argsort(lmp.atom("id"))]
+    return net, torque
+
+
+def test_lammps_runs_rolling_and_the_moments_read_back_are_its_torques():
+    """Three spheres in a row, spun differently: LAMMPS accepts ``rolling sds`` and
+    ``twisting sds`` with ``tangential mindlin``, and the network's contact moments (by A
+    on B) with its forces give exactly the torques LAMMPS applies to each grain.
+
+    LAMMPS runs in a fresh process: after many other LAMMPS runs in the suite's process
+    these 20 time steps now and then ended with non-numeric coordinates (the cause, some
+    state those runs leave in the process, is not found); alone it never did."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        net, torque = pool.submit(_three_spun_spheres).result(timeout=300)
     assert net.n_contacts == 2 and net.moment is not None
     M = net.moment
     assert np.abs(M).max() > 0
