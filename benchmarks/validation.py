@@ -3,7 +3,8 @@
 For each packing (the sand packings and the smooth-sphere packings beside them) it runs,
 caching every finished part in ``benchmarks/validation-cache.json`` (kept in the
 repository: the page is remade from it, and a killed or later run goes on where it
-stopped; delete a part's entry to run it again):
+stopped; delete a part's entry to run it again; a cyclic part also keeps its finished
+model and amplitudes in ``benchmarks/validation-cache.partial/`` until it is done):
 
 * ``gmax``: the small-strain shear modulus (the relaxed tensor, every grain in
   equilibrium, with the rolling stiffness where the grains have it) against Hardin &
@@ -37,6 +38,7 @@ import argparse
 import functools
 import json
 import math
+import os
 import re
 import sys
 import time
@@ -119,6 +121,20 @@ def part_triaxial(name: str) -> dict:
             "strength": s.as_dict(), "time_steps": int(np.sum(r.iterations))}
 
 
+def _partial(key: str) -> tuple[Path | None, dict]:
+    """The file where a part keeps what it finished before the part is done, and what it holds.
+
+    Its folder is ``$GRAINMECH_VALIDATION_PARTIAL`` (set by :func:`main` next to the cache):
+    a cyclic part of a slow packing runs for hours, and a killed run then goes on from its
+    last finished model or amplitude instead of from the start.
+    """
+    folder = os.environ.get("GRAINMECH_VALIDATION_PARTIAL")
+    if not folder:
+        return None, {}
+    path = Path(folder) / f"{key}.json"
+    return path, (json.loads(path.read_text()) if path.exists() else {})
+
+
 def part_cyclic(name: str, pressure: float = PRESSURE) -> dict:
     from grainmech.driver.dem import DemSettings, dem_modulus_reduction
     from grainmech.driver.packing import PackingOptions, PackingPoint, packing_modulus_reduction
@@ -127,31 +143,57 @@ def part_cyclic(name: str, pressure: float = PRESSURE) -> dict:
     from grainmech.contact import MindlinDeresiewicz
 
     md = MindlinDeresiewicz(law.shear_modulus, law.poisson, law.radius1, friction=law.friction)
+    keep, saved = _partial(f"cyclic-{name}-{pressure:g}")
+
+    def put() -> None:
+        if keep is not None:
+            keep.parent.mkdir(parents=True, exist_ok=True)
+            keep.write_text(json.dumps(saved))
+
     out: dict = {}
-    t0 = time.perf_counter()
-    try:
-        pt = PackingPoint.at_stress(net, md, pressure, options=PackingOptions(law_backend="auto"), rolling=rolling)
-        mr = packing_modulus_reduction(pt, list(CYCLIC_PACKING), raise_on_failure=False)
-        out["packing"] = {"amplitude": mr.amplitude.tolist(), "G": mr.G.tolist(), "damping": mr.damping.tolist(),
-                          "G_max": float(mr.G_max), "message": mr.message}
-    except Exception as exc:  # noqa: BLE001 - the page says what stopped it
-        out["packing"] = {"error": str(exc)}
-    out["packing_seconds"] = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    dem: dict = {"amplitude": [], "G": [], "damping": [], "protocol": [], "message": []}
+    if "packing" in saved:
+        out["packing"], out["packing_seconds"] = saved["packing"], saved["packing_seconds"]
+    else:
+        t0 = time.perf_counter()
+        try:
+            pt = PackingPoint.at_stress(net, md, pressure, options=PackingOptions(law_backend="auto"),
+                                        rolling=rolling)
+            mr = packing_modulus_reduction(pt, list(CYCLIC_PACKING), raise_on_failure=False)
+            out["packing"] = {"amplitude": mr.amplitude.tolist(), "G": mr.G.tolist(),
+                              "damping": mr.damping.tolist(), "G_max": float(mr.G_max), "message": mr.message}
+        except Exception as exc:  # noqa: BLE001 - the page says what stopped it
+            out["packing"] = {"error": str(exc)}
+        out["packing_seconds"] = time.perf_counter() - t0
+        saved.update(packing=out["packing"], packing_seconds=out["packing_seconds"])
+        put()
+    rows: dict = saved.setdefault("dem_rows", {})  # amplitude -> G, damping, protocol of a finished one
+    messages: list[str] = []
+    seconds = float(saved.get("dem_seconds", 0.0))
     for amps, st in (([a for a in CYCLIC_DEM if a <= 1e-3], DemSettings()),
                      ([a for a in CYCLIC_DEM if a > 1e-3], DemSettings(protocol="continuous", inertial_number=1e-3))):
-        mr = dem_modulus_reduction(net, md, amps, settings=st, pressure=pressure, rolling=rolling, workers=1,
-                                   raise_on_failure=False)
-        dem["amplitude"] += mr.amplitude.tolist()
-        dem["G"] += mr.G.tolist()
-        dem["damping"] += mr.damping.tolist()
-        dem["protocol"] += [st.protocol] * len(mr.amplitude)
-        dem["message"].append(mr.message)
-        dem["G_max"] = float(mr.G_max)
-    dem["message"] = "; ".join(dem["message"])
-    out["dem"] = dem
-    out["dem_seconds"] = time.perf_counter() - t0
+        todo = [a for a in amps if f"{a:g}" not in rows]
+        if not todo:
+            continue
+        t0 = time.perf_counter()
+
+        def finished(mr, st=st, t0=t0) -> None:
+            for a, g, d in zip(mr.amplitude, mr.G, mr.damping):
+                rows[f"{a:g}"] = {"G": float(g), "damping": float(d), "protocol": st.protocol}
+            saved.update(dem_G_max=float(mr.G_max), dem_seconds=seconds + time.perf_counter() - t0)
+            put()
+
+        mr = dem_modulus_reduction(net, md, todo, settings=st, pressure=pressure, rolling=rolling, workers=1,
+                                   raise_on_failure=False, on_amplitude=finished)
+        seconds += time.perf_counter() - t0
+        saved["dem_G_max"] = float(mr.G_max)
+        messages.append(mr.message)
+    done = sorted(rows, key=float)
+    out["dem"] = {"amplitude": [float(a) for a in done], "G": [rows[a]["G"] for a in done],
+                  "damping": [rows[a]["damping"] for a in done], "protocol": [rows[a]["protocol"] for a in done],
+                  "message": "; ".join(messages) or "done", "G_max": saved.get("dem_G_max")}
+    out["dem_seconds"] = seconds
+    if keep is not None and keep.exists():
+        keep.unlink()  # the part is done: the cache keeps it
     return out
 
 
@@ -398,6 +440,8 @@ def main(argv: list[str]) -> int:
     cache_file = Path(a.cache)
     cache_file.parent.mkdir(parents=True, exist_ok=True)
     cache = json.loads(cache_file.read_text()) if cache_file.exists() else {}
+    # what a part finished before it is done (_partial), next to the cache, inherited by the workers
+    os.environ.setdefault("GRAINMECH_VALIDATION_PARTIAL", str(cache_file.with_suffix(".partial")))
     from grainmech.packing.shipped import PACKINGS
 
     have = set(PACKINGS)
