@@ -31,6 +31,7 @@ Usage: ``python benchmarks/dem_protocol_table.py [PACKING] [--amplitudes 1e-4,1e
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
 import time
@@ -45,19 +46,13 @@ LIMIT_G, LIMIT_D = 0.02, 0.005
 
 
 def _law(name: str):
-    """The packing, its grains' Mindlin-Deresiewicz law and rolling resistance (as benchmarks/validation.py)."""
-    from grainmech.contact import MindlinDeresiewicz, RollingResistance
-    from grainmech.packing import load_packing, packing_info
+    """The packing, its grains' Mindlin-Deresiewicz law and rolling resistance, as benchmarks/validation.py's cycles."""
+    from validation import _law as grains
 
-    mat = packing_info(name)["material"]
-    net = load_packing(name)
-    law = MindlinDeresiewicz(mat["shear_modulus_Pa"], mat["poisson"], float(net.radii.mean()),
-                             friction=mat["friction"])
-    rolling = None
-    if mat.get("rolling_friction"):
-        rolling = RollingResistance(mat["rolling_friction"], mat.get("rolling_stiffness_N_m"),
-                                    mat.get("twisting_friction"))
-    return net, law, rolling
+    from grainmech.contact import MindlinDeresiewicz
+
+    net, hm, rolling, _ = grains(name)
+    return net, MindlinDeresiewicz(hm.shear_modulus, hm.poisson, hm.radius1, friction=hm.friction), rolling
 
 
 def _spec(inertial: str) -> tuple[float, float | None, float | None]:
@@ -68,25 +63,39 @@ def _spec(inertial: str) -> tuple[float, float | None, float | None]:
 
 
 def _settings(protocol: str, inertial: str):
-    """Step and relax, or continuous at ``inertial`` (:func:`_spec`); a restitution other than 0.1 is patched in."""
-    import dataclasses
-
-    import grainmech.driver.dem.point as point
+    """Step and relax, or continuous at ``inertial`` (:func:`_spec`)."""
     from grainmech.driver.dem import DemSettings
 
     if protocol == "relax":
         return DemSettings(protocol="relax")
-    i, w, r = _spec(inertial)
-    if r is not None:
-        # an experiment, not a setting of the model: the contacts' restitution (LAMMPS' damping) replaced
-        plain = point.dem_material
-
-        def with_restitution(law):
-            mat, notes = plain(law)
-            return dataclasses.replace(mat, restitution=r), notes
-
-        point.dem_material = with_restitution
+    i, w, _ = _spec(inertial)
     return DemSettings(protocol="continuous", inertial_number=i, **({"wave_crossings": w} if w else {}))
+
+
+@contextlib.contextmanager
+def _restitution(inertial: str):
+    """Within the block, the DEM model's grains have the restitution of ``inertial`` (:func:`_spec`), if it names one.
+
+    An experiment, not a setting of the model: the contacts' restitution (LAMMPS' damping)
+    replaced for one run; a pool worker's later runs have the model's own again.
+    """
+    import dataclasses
+
+    import grainmech.driver.dem.point as point
+
+    r = _spec(inertial)[2] if inertial != "-" else None
+    plain = point.dem_material
+
+    def with_restitution(law):
+        mat, notes = plain(law)
+        return dataclasses.replace(mat, restitution=r), notes
+
+    if r is not None:
+        point.dem_material = with_restitution
+    try:
+        yield
+    finally:
+        point.dem_material = plain
 
 
 def run_cyclic(name: str, amp: float, protocol: str, inertial: str) -> dict:
@@ -132,9 +141,10 @@ def run_triaxial(name: str, protocol: str, inertial: str) -> dict:
 def _job(key: str, name: str) -> tuple[str, dict]:
     test, protocol, amp, inertial = key.split("|")
     try:
-        if test == "cyclic":
-            return key, run_cyclic(name, float(amp), protocol, inertial)
-        return key, run_triaxial(name, protocol, inertial)
+        with _restitution(inertial):
+            if test == "cyclic":
+                return key, run_cyclic(name, float(amp), protocol, inertial)
+            return key, run_triaxial(name, protocol, inertial)
     except Exception as exc:  # noqa: BLE001 - recorded in the table, the others go on
         return key, {"error": f"{type(exc).__name__}: {exc}"}
 
